@@ -1,0 +1,17 @@
+//! The one error type of the core; the binding maps each variant to a Python exception.
+
+/// Errors the core reports instead of panicking. Messages are shown to Blender users
+/// as they are, so they say what is wrong and, where possible, what to do.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum Error {
+    #[error("the mesh is empty: it has no faces")]
+    EmptyMesh,
+    #[error("invalid mesh: {0}")]
+    InvalidMesh(String),
+    #[error("vertex {index} has a non-finite coordinate ({value:?}); fix or delete it before building a shell")]
+    NonFinite { index: usize, value: [f32; 3] },
+    #[error("invalid parameter: {0}")]
+    InvalidParameter(String),
+}
+
+pub type Result<T> = std::result::Result<T, Error>;

@@ -1,0 +1,54 @@
+//! Vertex normals weighted by corner angle (Thürmer & Wüthrich), the same weighting
+//! Blender uses, so an offset along them matches Solidify's "Simple" direction.
+
+use super::Mesh;
+use glam::Vec3;
+
+/// Unit angle-weighted vertex normals. Vertices without a non-degenerate adjacent
+/// face (loose vertices, vertices of zero-area faces only) get `Vec3::ZERO`.
+pub fn vertex_normals(mesh: &Mesh) -> Vec<Vec3> {
+    let p = mesh.positions();
+    let mut n = vec![Vec3::ZERO; p.len()];
+    for face in mesh.faces() {
+        let pts: Vec<Vec3> = face.iter().map(|&i| p[i as usize]).collect();
+        let fnorm = super::triangulate::newell_normal(&pts).normalize_or_zero();
+        if fnorm == Vec3::ZERO {
+            continue;
+        }
+        let k = face.len();
+        for i in 0..k {
+            let prev = pts[(i + k - 1) % k] - pts[i];
+            let next = pts[(i + 1) % k] - pts[i];
+            let angle = prev.angle_between(next);
+            if angle.is_finite() {
+                n[face[i] as usize] += fnorm * angle;
+            }
+        }
+    }
+    n.iter_mut().for_each(|v| *v = v.normalize_or_zero());
+    n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::fixtures;
+
+    #[test]
+    fn cube_corner_normals_point_along_diagonals() {
+        let m = fixtures::cube();
+        for (p, n) in m.positions().iter().zip(vertex_normals(&m)) {
+            assert!((n - p.normalize()).length() < 1e-5, "{p} {n}");
+        }
+    }
+
+    #[test]
+    fn loose_vertex_gets_zero_normal() {
+        let mut p = fixtures::grid(1).positions().to_vec();
+        p.push(Vec3::splat(9.0));
+        let m = Mesh::new(p, &[4], vec![0, 1, 3, 2], None).unwrap();
+        let n = vertex_normals(&m);
+        assert_eq!(n[4], Vec3::ZERO);
+        assert!((n[0] - Vec3::Z).length() < 1e-6);
+    }
+}

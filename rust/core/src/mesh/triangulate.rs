@@ -1,0 +1,131 @@
+//! Triangulation view of a polygon mesh: ear clipping in each face's best-fit plane
+//! (Newell normal), so concave n-gons triangulate correctly; fans as the fallback.
+
+use super::Mesh;
+use glam::{Vec2, Vec3};
+
+/// Triangles of a mesh, each remembering the face it came from.
+#[derive(Debug, Clone, Default)]
+pub struct Triangulation {
+    pub triangles: Vec<[u32; 3]>,
+    pub face_of_triangle: Vec<u32>,
+}
+
+impl Triangulation {
+    pub fn of(mesh: &Mesh) -> Self {
+        let mut out = Self {
+            triangles: Vec::with_capacity(mesh.corners().len().saturating_sub(2 * mesh.face_count())),
+            face_of_triangle: Vec::new(),
+        };
+        let mut scratch = Vec::new();
+        for (f, face) in mesh.faces().enumerate() {
+            let before = out.triangles.len();
+            match face.len() {
+                3 => out.triangles.push([face[0], face[1], face[2]]),
+                4 => out.triangles.extend(split_quad(mesh.positions(), face)),
+                _ => ear_clip(mesh.positions(), face, &mut scratch, &mut out.triangles),
+            }
+            out.face_of_triangle.extend(std::iter::repeat_n(f as u32, out.triangles.len() - before));
+        }
+        out
+    }
+}
+
+/// Splits a quad along the diagonal that keeps both halves consistently oriented
+/// (the shorter diagonal when both do).
+fn split_quad(p: &[Vec3], q: &[u32]) -> [[u32; 3]; 2] {
+    let [a, b, c, d] = [q[0], q[1], q[2], q[3]].map(|i| p[i as usize]);
+    let n = newell_normal(&[a, b, c, d]);
+    let ok_ac = (b - a).cross(c - a).dot(n) > 0.0 && (c - a).cross(d - a).dot(n) > 0.0;
+    let ok_bd = (c - b).cross(d - b).dot(n) > 0.0 && (d - b).cross(a - b).dot(n) > 0.0;
+    let use_ac = match (ok_ac, ok_bd) {
+        (true, false) => true,
+        (false, true) => false,
+        _ => (c - a).length_squared() <= (d - b).length_squared(),
+    };
+    if use_ac {
+        [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+    } else {
+        [[q[1], q[2], q[3]], [q[1], q[3], q[0]]]
+    }
+}
+
+pub(crate) fn newell_normal(pts: &[Vec3]) -> Vec3 {
+    let mut n = Vec3::ZERO;
+    for i in 0..pts.len() {
+        let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
+        n += Vec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+    }
+    n
+}
+
+fn ear_clip(p: &[Vec3], face: &[u32], ring: &mut Vec<usize>, out: &mut Vec<[u32; 3]>) {
+    let pts: Vec<Vec3> = face.iter().map(|&i| p[i as usize]).collect();
+    let n = newell_normal(&pts);
+    if n.length_squared() == 0.0 {
+        return fan(face, out);
+    }
+    let (u, v) = n.normalize().any_orthonormal_pair();
+    let flat: Vec<Vec2> = pts.iter().map(|q| Vec2::new(q.dot(u), q.dot(v))).collect();
+    ring.clear();
+    ring.extend(0..face.len());
+    let cross = |a: Vec2, b: Vec2, c: Vec2| (b - a).perp_dot(c - a);
+    let mut guard = 0;
+    while ring.len() > 3 && guard < 2 * face.len() * face.len() {
+        guard += 1;
+        let m = ring.len();
+        let ear = (0..m).find(|&i| {
+            let (a, b, c) = (flat[ring[(i + m - 1) % m]], flat[ring[i]], flat[ring[(i + 1) % m]]);
+            cross(a, b, c) > 0.0
+                && ring.iter().all(|&k| {
+                    let q = flat[k];
+                    k == ring[(i + m - 1) % m] || k == ring[i] || k == ring[(i + 1) % m]
+                        || !(cross(a, b, q) >= 0.0 && cross(b, c, q) >= 0.0 && cross(c, a, q) >= 0.0)
+                })
+        });
+        let Some(i) = ear else { break };
+        out.push([face[ring[(i + m - 1) % m]], face[ring[i]], face[ring[(i + 1) % m]]]);
+        ring.remove(i);
+    }
+    if ring.len() == 3 {
+        out.push([face[ring[0]], face[ring[1]], face[ring[2]]]);
+    } else {
+        let rest: Vec<u32> = ring.iter().map(|&k| face[k]).collect();
+        fan(&rest, out);
+    }
+}
+
+fn fan(face: &[u32], out: &mut Vec<[u32; 3]>) {
+    out.extend((1..face.len() - 1).map(|i| [face[0], face[i], face[i + 1]]));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn area(p: &[Vec3], t: &[[u32; 3]], n: Vec3) -> f32 {
+        t.iter().map(|t| 0.5 * (p[t[1] as usize] - p[t[0] as usize]).cross(p[t[2] as usize] - p[t[0] as usize]).dot(n)).sum()
+    }
+
+    #[test]
+    fn concave_ngon_keeps_area_and_orientation() {
+        // An L-shaped hexagon of area 3 in the xy plane.
+        let p: Vec<Vec3> = [[0., 0.], [2., 0.], [2., 1.], [1., 1.], [1., 2.], [0., 2.]]
+            .iter().map(|a| Vec3::new(a[0], a[1], 0.)).collect();
+        let m = Mesh::new(p.clone(), &[6], (0..6).collect(), None).unwrap();
+        let t = m.triangulate();
+        assert_eq!(t.triangles.len(), 4);
+        assert!((area(&p, &t.triangles, Vec3::Z) - 3.0).abs() < 1e-5);
+        for tri in &t.triangles {
+            assert!(area(&p, &[*tri], Vec3::Z) > 0.0, "triangle {tri:?} flipped");
+        }
+    }
+
+    #[test]
+    fn quads_map_back_to_faces() {
+        let m = crate::mesh::fixtures::cube();
+        let t = m.triangulate();
+        assert_eq!(t.triangles.len(), 12);
+        assert_eq!(t.face_of_triangle, vec![0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5]);
+    }
+}
