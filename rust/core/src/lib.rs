@@ -7,5 +7,6 @@ pub mod error;
 pub mod mesh;
 pub mod shell;
 
+pub use glam;
 pub use error::{Error, Result};
 pub use mesh::{Mesh, MeshReport};

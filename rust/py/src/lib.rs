@@ -1,1 +1,23 @@
+//! `thicket_native`: the pyo3 adapter over `thicket-core`.
+//!
+//! Only type and error adaptation lives here: numpy arrays in (float32 positions,
+//! int32/uint32 indices, read without copying when contiguous), numpy arrays out (Rust
+//! vectors handed over without copying), core errors as `ThicketError`, Rust panics
+//! caught and reported as `ThicketError` so Blender never goes down. Heavy work runs
+//! with the GIL released.
 
+mod arrays;
+mod errors;
+mod offset;
+mod report;
+
+use pyo3::prelude::*;
+
+#[pymodule]
+fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("ThicketError", m.py().get_type::<errors::ThicketError>())?;
+    m.add_function(wrap_pyfunction!(report::mesh_report, m)?)?;
+    m.add_function(wrap_pyfunction!(offset::offset_shell, m)?)?;
+    Ok(())
+}

@@ -76,6 +76,10 @@ impl Mesh {
         Self::new(positions, &sizes, triangles.iter().flatten().copied().collect(), None)
     }
 
+    /// Takes the mesh apart into positions and flat corner indices.
+    pub fn into_parts(self) -> (Vec<Vec3>, Vec<u32>) {
+        (self.positions, self.corners)
+    }
     pub fn positions(&self) -> &[Vec3] {
         &self.positions
     }

@@ -1,0 +1,141 @@
+"""Thicket's Python API for scripts (headless batch processing and the UI alike).
+
+    import thicket.api as th            # or: from bl_ext.user_default.thicket import api
+    result = th.add_thick_surface(obj, thickness=0.05, output="SOLID")
+    th.regenerate(obj)                   # after editing obj or its stack in a script
+    mesh_obj = th.apply(obj)             # result becomes an ordinary mesh
+    th.remove(obj)                       # stack and result deleted
+    th.process_file("in.blend", out_blend="out.blend", out_glb="out.glb", thickness=0.02)
+
+Every function raises `ThicketError` (from thicket_native, a ValueError) for bad
+geometry or settings, `TypeError` for non-mesh objects and `KeyError` for missing
+vertex groups; the source mesh is never modified by any of them except `apply`,
+which only removes its stack.
+"""
+
+import os
+
+import bpy
+
+from . import native
+from .stack import settings as S
+from .stack.regenerate import regenerate as _regenerate
+
+__all__ = ["add_thick_surface", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]
+
+
+def __getattr__(name):
+    if name == "ThicketError":
+        return native.get().ThicketError
+    raise AttributeError(name)
+
+
+def _require_mesh(obj):
+    if obj is None or obj.type != "MESH":
+        kind = "nothing" if obj is None else f"a {obj.type.lower()}"
+        raise TypeError(f"Thicket works on mesh objects; '{getattr(obj, 'name', obj)}' is {kind}")
+    if obj.thicket.source is not None:
+        raise TypeError(f"'{obj.name}' is a Thicket result; add thick surfaces to its source '{obj.thicket.source.name}'")
+
+
+def add_item(obj, kind="OFFSET_SHELL", **settings):
+    """Appends a stack item of `kind` with the given settings (names of `ThicketItem`)."""
+    _require_mesh(obj)
+    cls = S.KINDS[kind]
+    from .stack.auto_update import suspended
+
+    with suspended():
+        item = obj.thicket.items.add()
+        item.kind = kind
+        item.name = cls.label
+        for key, value in settings.items():
+            setattr(item, key, value)
+        obj.thicket.active_index = len(obj.thicket.items) - 1
+    return item
+
+
+def add_thick_surface(obj, thickness=S.OffsetShell.thickness, thickness_mode="RELATIVE", output="OUTER", layers=S.OffsetShell.layers, vertex_group=""):
+    """Gives `obj` a stack with an Offset Shell item (if it has none yet) and generates
+    its result object, which is returned."""
+    _require_mesh(obj)
+    if not obj.thicket.items:
+        add_item(obj, "OFFSET_SHELL", thickness=thickness, thickness_mode=thickness_mode, output=output, layers=layers, vertex_group=vertex_group)
+    return _regenerate(obj)
+
+
+def regenerate(obj, progress=None):
+    """Recomputes `obj`'s result from its current mesh and stack; returns the result."""
+    _require_mesh(obj)
+    return _regenerate(obj, progress=progress)
+
+
+def result_of(obj):
+    """The result object of a source, or None."""
+    result = obj.thicket.result
+    return result if result is not None and result.name in bpy.data.objects else None
+
+
+def apply(obj):
+    """Makes the result an ordinary, independent mesh object (keeping its world
+    transform) and removes the stack from `obj`. Returns the former result."""
+    _require_mesh(obj)
+    result = result_of(obj) or _regenerate(obj)
+    world = result.matrix_world.copy()
+    result.parent = None
+    result.matrix_world = world
+    result.thicket.source = None
+    _clear_stack(obj)
+    return result
+
+
+def remove(obj):
+    """Deletes `obj`'s stack and its result object (and the result's mesh)."""
+    _require_mesh(obj)
+    result = result_of(obj)
+    _clear_stack(obj)
+    if result is not None:
+        mesh = result.data
+        bpy.data.objects.remove(result, do_unlink=True)
+        if mesh is not None and mesh.users == 0:
+            bpy.data.meshes.remove(mesh)
+
+
+def _clear_stack(obj):
+    from .stack.auto_update import suspended
+
+    with suspended():
+        obj.thicket.items.clear()
+        obj.thicket.result = None
+        obj.thicket.last_error = ""
+
+
+def export_glb(objects, path):
+    """Writes `objects` to a binary glTF file with Blender's own exporter."""
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    for obj in bpy.context.view_layer.objects:
+        obj.select_set(obj in objects)
+    bpy.ops.export_scene.gltf(filepath=path, export_format="GLB", use_selection=True, export_apply=True)
+    return path
+
+
+def process_file(path, out_blend=None, out_glb=None, objects=None, **settings):
+    """Opens `path`, adds thick surfaces to every mesh (or those named in `objects`),
+    and saves the .blend and/or .glb. Returns {source name: result name}; objects
+    that fail are reported in the dict as {name: "error: ..."} and skipped."""
+    bpy.ops.wm.open_mainfile(filepath=path)
+    done = {}
+    sources = [o for o in bpy.context.scene.objects if o.type == "MESH" and o.thicket.source is None]
+    if objects is not None:
+        sources = [o for o in sources if o.name in objects]
+    for obj in sources:
+        try:
+            done[obj.name] = add_thick_surface(obj, **settings).name
+        except (TypeError, KeyError, ValueError, *native.error_types()) as exc:
+            done[obj.name] = f"error: {exc}"
+    if out_blend:
+        os.makedirs(os.path.dirname(os.path.abspath(out_blend)), exist_ok=True)
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(out_blend), copy=True)
+    if out_glb:
+        results = [bpy.data.objects[n] for n in done.values() if not n.startswith("error:")]
+        export_glb(results, out_glb)
+    return done

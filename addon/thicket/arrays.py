@@ -1,0 +1,31 @@
+"""Meshes as flat numpy arrays: the form thicket_native takes and returns (no bpy here)."""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def weight_attribute(vertex_group: str) -> str:
+    """Name of the point attribute that carries a vertex group's weights."""
+    return f"thicket_weight:{vertex_group}"
+
+
+@dataclass
+class MeshArrays:
+    vertices: np.ndarray  # (n, 3) float32
+    face_sizes: np.ndarray  # (f,) int32, Blender's loop_total
+    corners: np.ndarray  # (c,) int32, Blender's loop vertex_index
+    point_attributes: dict = field(default_factory=dict)  # name -> (n,) or (n, 3) float32
+
+    @property
+    def vertex_count(self) -> int:
+        return len(self.vertices)
+
+    @property
+    def face_count(self) -> int:
+        return len(self.face_sizes)
+
+    @classmethod
+    def from_native(cls, result: dict) -> "MeshArrays":
+        """A mesh from a thicket_native result dict (vertices, face_sizes, corners)."""
+        return cls(result["vertices"], result["face_sizes"], result["corners"])

@@ -1,0 +1,116 @@
+"""The one module that reads and writes Blender mesh data.
+
+Everything goes through `foreach_get` / `foreach_set` and numpy arrays (float32
+positions, int32 indices): no per-vertex Python loops.
+"""
+
+import bpy
+import numpy as np
+
+from .arrays import MeshArrays, weight_attribute
+
+
+def read_mesh(mesh: bpy.types.Mesh, float_attributes=()) -> MeshArrays:
+    """Positions, faces and the named float point attributes of `mesh`."""
+    n, f, c = len(mesh.vertices), len(mesh.polygons), len(mesh.loops)
+    vertices = np.empty(n * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", vertices)
+    face_sizes = np.empty(f, dtype=np.int32)
+    mesh.polygons.foreach_get("loop_total", face_sizes)
+    corners = np.empty(c, dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", corners)
+    attrs = {}
+    for name in float_attributes:
+        attr = mesh.attributes.get(name)
+        if attr is not None and attr.domain == "POINT" and attr.data_type == "FLOAT":
+            values = np.empty(n, dtype=np.float32)
+            attr.data.foreach_get("value", values)
+            attrs[name] = values
+    return MeshArrays(vertices.reshape(n, 3), face_sizes, corners, attrs)
+
+
+def write_mesh(mesh: bpy.types.Mesh, arrays: MeshArrays) -> None:
+    """Replaces the geometry of `mesh` with `arrays` (and its point attributes)."""
+    mesh.clear_geometry()
+    n, f, c = arrays.vertex_count, arrays.face_count, len(arrays.corners)
+    mesh.vertices.add(n)
+    mesh.vertices.foreach_set("co", np.ascontiguousarray(arrays.vertices, dtype=np.float32).ravel())
+    mesh.loops.add(c)
+    mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(arrays.corners, dtype=np.int32))
+    mesh.polygons.add(f)
+    starts = np.zeros(f, dtype=np.int32)
+    np.cumsum(arrays.face_sizes[:-1], out=starts[1:])
+    mesh.polygons.foreach_set("loop_start", starts)
+    mesh.update(calc_edges=True)
+    for name, values in arrays.point_attributes.items():
+        values = np.ascontiguousarray(values, dtype=np.float32)
+        vector = values.ndim == 2
+        attr = mesh.attributes.new(name, "FLOAT_VECTOR" if vector else "FLOAT", "POINT")
+        attr.data.foreach_set("vector" if vector else "value", values.ravel())
+
+
+def _weight_capture_group(group_names) -> bpy.types.NodeTree:
+    """A throw-away geometry-nodes group storing each vertex group as a float point
+    attribute (see `arrays.weight_attribute`), so weights can be read with foreach_get."""
+    tree = bpy.data.node_groups.new(".thicket weight capture", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = tree.nodes, tree.links
+    socket = nodes.new("NodeGroupInput").outputs[0]
+    for group_name in group_names:
+        named = nodes.new("GeometryNodeInputNamedAttribute")
+        named.data_type = "FLOAT"
+        named.inputs["Name"].default_value = group_name
+        store = nodes.new("GeometryNodeStoreNamedAttribute")
+        store.data_type = "FLOAT"
+        store.domain = "POINT"
+        store.inputs["Name"].default_value = weight_attribute(group_name)
+        links.new(socket, store.inputs["Geometry"])
+        links.new(named.outputs["Attribute"], store.inputs["Value"])
+        socket = store.outputs["Geometry"]
+    links.new(socket, nodes.new("NodeGroupOutput").inputs[0])
+    return tree
+
+
+def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshArrays:
+    """The object's mesh after its own modifiers, in object space.
+
+    Each named vertex group comes back as point attribute `weight_attribute(name)`
+    (0 where a vertex is not in the group). Blender exposes vertex-group weights to
+    Python only per vertex, so they are read through a temporary copy of the object
+    with a geometry-nodes capture appended; the user's object is not modified.
+    """
+    if not vertex_groups:
+        evaluated = obj.evaluated_get(depsgraph)
+        mesh = evaluated.to_mesh()
+        try:
+            return read_mesh(mesh)
+        finally:
+            evaluated.to_mesh_clear()
+
+    missing = [g for g in vertex_groups if obj.vertex_groups.get(g) is None]
+    if missing:
+        raise KeyError(f"Object '{obj.name}' has no vertex group named '{missing[0]}'")
+    tree = _weight_capture_group(vertex_groups)
+    probe = obj.copy()
+    probe.name = f".thicket probe {obj.name}"
+    collection = bpy.context.scene.collection
+    collection.objects.link(probe)
+    try:
+        probe.parent = None
+        probe.thicket.items.clear()
+        probe.thicket.result = None
+        modifier = probe.modifiers.new("thicket weights", "NODES")
+        modifier.node_group = tree
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        depsgraph.update()
+        evaluated = probe.evaluated_get(depsgraph)
+        mesh = evaluated.to_mesh()
+        try:
+            return read_mesh(mesh, [weight_attribute(g) for g in vertex_groups])
+        finally:
+            evaluated.to_mesh_clear()
+    finally:
+        collection.objects.unlink(probe)
+        bpy.data.objects.remove(probe, do_unlink=True)
+        bpy.data.node_groups.remove(tree)

@@ -1,0 +1,19 @@
+"""One operator per module; `CLASSES` is what registration needs."""
+
+from .add_thick_surface import THICKET_OT_add_thick_surface
+from .apply_result import THICKET_OT_apply
+from .item_add import THICKET_OT_item_add
+from .item_move import THICKET_OT_item_move
+from .item_remove import THICKET_OT_item_remove
+from .regenerate import THICKET_OT_regenerate
+from .remove_stack import THICKET_OT_remove
+
+CLASSES = (
+    THICKET_OT_add_thick_surface,
+    THICKET_OT_regenerate,
+    THICKET_OT_apply,
+    THICKET_OT_remove,
+    THICKET_OT_item_add,
+    THICKET_OT_item_remove,
+    THICKET_OT_item_move,
+)

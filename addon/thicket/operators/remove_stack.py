@@ -1,0 +1,23 @@
+import bpy
+
+from .. import api
+from .common import active_stack_source
+
+
+class THICKET_OT_remove(bpy.types.Operator):
+    """Delete the Thicket stack of the active object and its result object"""
+
+    bl_idname = "thicket.remove"
+    bl_label = "Remove Thick Surface"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return active_stack_source(context) is not None
+
+    def execute(self, context):
+        obj = active_stack_source(context)
+        api.remove(obj)
+        if context.view_layer.objects.active is None:
+            context.view_layer.objects.active = obj
+        return {"FINISHED"}

@@ -1,0 +1,113 @@
+"""Regenerates results when a source mesh or a stack setting changes.
+
+Debounced: changes are collected by object name and flushed once things are quiet
+(a timer in UI sessions; at once in background mode, where timers never run).
+Re-entrancy guarded: the writes a regeneration makes never schedule another one.
+"""
+
+from contextlib import contextmanager
+
+import bpy
+from bpy.app.handlers import persistent
+
+from .. import native
+
+DEBOUNCE_SECONDS = 0.15
+
+_pending: set[str] = set()
+_busy = False
+
+
+@contextmanager
+def suspended():
+    """While inside, changes schedule nothing (used around every regeneration)."""
+    global _busy
+    was = _busy
+    _busy = True
+    try:
+        yield
+    finally:
+        _busy = was
+
+
+def _is_source(obj) -> bool:
+    return obj is not None and obj.type == "MESH" and len(obj.thicket.items) > 0 and obj.thicket.auto_update
+
+
+def schedule(obj) -> None:
+    """Asks for `obj`'s result to be regenerated soon."""
+    if _busy or not isinstance(obj, bpy.types.Object) or not _is_source(obj):
+        return
+    _pending.add(obj.name)
+    if bpy.app.background:
+        flush()
+    elif not bpy.app.timers.is_registered(_timer):
+        bpy.app.timers.register(_timer, first_interval=DEBOUNCE_SECONDS)
+
+
+def _timer():
+    flush()
+    return None
+
+
+def flush() -> None:
+    """Regenerates every pending source. Failures are kept on the stack
+    (`last_error`, shown in the panel), never raised into Blender's event loop."""
+    if _busy:
+        return
+    from .regenerate import regenerate
+
+    while _pending:
+        obj = bpy.data.objects.get(_pending.pop())
+        if not _is_source(obj):
+            continue
+        try:
+            regenerate(obj)
+        except (KeyError, TypeError, ValueError, *native.error_types()) as exc:
+            with suspended():
+                obj.thicket.last_error = str(exc)
+
+
+@persistent
+def on_depsgraph_update(scene, depsgraph):
+    if _busy:
+        return
+    for update in depsgraph.updates:
+        if not update.is_updated_geometry:
+            continue
+        original = update.id.original
+        if isinstance(original, bpy.types.Object):
+            schedule(original)
+        elif isinstance(original, bpy.types.Mesh):
+            for obj in scene.objects:
+                if obj.data == original:
+                    schedule(obj)
+
+
+@persistent
+def on_frame_change(scene, depsgraph=None):
+    """Animated sources (shape keys, armatures) regenerate on frame change."""
+    if _busy:
+        return
+    for obj in scene.objects:
+        if _is_source(obj) and obj.animation_data is not None:
+            schedule(obj)
+
+
+HANDLERS = (
+    (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
+    (bpy.app.handlers.frame_change_post, on_frame_change),
+)
+
+
+def register_handlers():
+    for handler_list, fn in HANDLERS:
+        if fn not in handler_list:
+            handler_list.append(fn)
+
+
+def unregister_handlers():
+    for handler_list, fn in reversed(HANDLERS):
+        if fn in handler_list:
+            handler_list.remove(fn)
+    _pending.clear()

@@ -1,0 +1,59 @@
+"""Source object -> result object: the bpy side of `stack.evaluate`."""
+
+import bpy
+
+from .. import mesh_io
+from .auto_update import suspended
+from .evaluate import evaluate_stack
+
+
+def result_name(source: bpy.types.Object) -> str:
+    return f"{source.name}_thicket"
+
+
+def enabled_settings(source):
+    return [item.to_settings() for item in source.thicket.items if item.show_viewport]
+
+
+def ensure_result(source: bpy.types.Object) -> bpy.types.Object:
+    """The companion result object, created next to the source when missing.
+
+    It is parented to the source with an identity parent inverse, so it follows the
+    source's transform; its mesh lives in the source's object space.
+    """
+    stack = source.thicket
+    result = stack.result
+    if result is not None and result.name in bpy.data.objects:
+        return result
+    mesh = bpy.data.meshes.new(result_name(source))
+    result = bpy.data.objects.new(result_name(source), mesh)
+    for collection in source.users_collection or (bpy.context.scene.collection,):
+        collection.objects.link(result)
+    result.parent = source
+    result.matrix_parent_inverse.identity()
+    for material in source.data.materials:
+        mesh.materials.append(material)
+    result.thicket.source = source
+    stack.result = result
+    return result
+
+
+def regenerate(source: bpy.types.Object, depsgraph=None, progress=None) -> bpy.types.Object:
+    """Evaluates the source's stack and writes the result object's mesh.
+
+    The result is written only after the whole stack succeeded: on error the previous
+    result stays, the source is never modified, and the exception propagates.
+    """
+    if source.type != "MESH":
+        raise TypeError(f"'{source.name}' is a {source.type.lower()}, not a mesh")
+    items = enabled_settings(source)
+    groups = sorted({item.vertex_group for item in items if getattr(item, "vertex_group", "")})
+    with suspended():
+        depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+        arrays = mesh_io.read_evaluated(source, depsgraph, groups)
+        result_arrays = evaluate_stack(arrays, items, progress)
+        result = ensure_result(source)
+        mesh_io.write_mesh(result.data, result_arrays)
+        if source.thicket.last_error:
+            source.thicket.last_error = ""
+    return result

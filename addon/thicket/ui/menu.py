@@ -1,0 +1,19 @@
+import bpy
+
+
+class THICKET_MT_object(bpy.types.Menu):
+    """Object > Thicket"""
+
+    bl_idname = "THICKET_MT_object"
+    bl_label = "Thicket"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.operator("thicket.add_thick_surface", icon="MOD_SOLIDIFY")
+        layout.operator("thicket.regenerate", icon="FILE_REFRESH")
+        layout.operator("thicket.apply", icon="CHECKMARK")
+        layout.operator("thicket.remove", icon="X")
+
+
+def menu_entry(self, context):
+    self.layout.menu(THICKET_MT_object.bl_idname)

@@ -1,0 +1,24 @@
+import bpy
+
+from ..operators.common import active_source
+from .item_settings import draw_status
+
+
+class THICKET_PT_sidebar(bpy.types.Panel):
+    """3D View sidebar: the Thicket operators on the selection."""
+
+    bl_label = "Thicket"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Thicket"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.operator("thicket.add_thick_surface", icon="MOD_SOLIDIFY")
+        obj = active_source(context)
+        if obj is not None and obj.thicket.items:
+            col = layout.column(align=True)
+            col.operator("thicket.regenerate", icon="FILE_REFRESH")
+            col.operator("thicket.apply", icon="CHECKMARK")
+            col.operator("thicket.remove", icon="X")
+            draw_status(layout, obj)

@@ -1,0 +1,58 @@
+use numpy::{IntoPyArray, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use thicket_core::shell::{build_geometry, normal_offset_directors, ShellOutput, Thickness};
+
+use crate::arrays;
+use crate::errors::{run_detached, ThicketError};
+
+pub fn parse_output(output: &str, layers: u32) -> PyResult<ShellOutput> {
+    match output {
+        "outer" => Ok(ShellOutput::Outer),
+        "solid" => Ok(ShellOutput::Solid),
+        "layers" => Ok(ShellOutput::Layers(layers)),
+        other => Err(ThicketError::new_err(format!("output must be 'outer', 'solid' or 'layers', not {other:?}"))),
+    }
+}
+
+/// offset_shell(vertices, face_sizes, corners, thickness, relative=False, factors=None,
+///              output="outer", layers=1) -> dict
+///
+/// Offset Shell (normal displacement): each vertex moves along its angle-weighted
+/// normal by `thickness` (a length, or a fraction of the bounding-box diagonal when
+/// `relative`), times its entry of `factors` (float32 (n,), e.g. vertex-group
+/// weights). Negative thickness offsets inward. `output` is "outer" (offset surface),
+/// "solid" (closed: offset + reversed base + rims) or "layers" (`layers` copies).
+///
+/// Returns vertices (m,3) float32, face_sizes and corners int32, source_vertex int32
+/// (base vertex of each output vertex), layer float32 (r in [0,1]) and directors
+/// (n,3) float32 for the base vertices.
+#[pyfunction]
+#[pyo3(signature = (vertices, face_sizes, corners, thickness, relative=false, factors=None, output="outer", layers=1))]
+#[allow(clippy::too_many_arguments)]
+pub fn offset_shell<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+    thickness: f32,
+    relative: bool,
+    factors: Option<&Bound<'py, PyAny>>,
+    output: &str,
+    layers: u32,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
+    let factors = factors.map(|f| arrays::per_vertex_or_scalar(f, mesh.vertex_count(), "factors")).transpose()?;
+    let output = parse_output(output, layers)?;
+    let thickness = if relative { Thickness::relative(thickness) } else { Thickness::absolute(thickness) };
+    let (shell, directors) = run_detached(py, move || {
+        let t = thickness.per_vertex(&mesh, factors.as_deref())?;
+        let directors = normal_offset_directors(&mesh, &t);
+        Ok((build_geometry(&mesh, &directors, output)?, directors))
+    })?;
+    let d = arrays::mesh_dict(py, shell.mesh)?;
+    d.set_item("source_vertex", arrays::u32_as_i32_array(py, shell.source_vertex))?;
+    d.set_item("layer", shell.layer.into_pyarray(py))?;
+    d.set_item("directors", arrays::vec3_array(py, directors)?)?;
+    Ok(d)
+}
