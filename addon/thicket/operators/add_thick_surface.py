@@ -37,8 +37,9 @@ class THICKET_OT_add_thick_surface(bpy.types.Operator):
                 update(i + 1)
         if skipped:
             self.report({"INFO"}, f"Skipped {skipped} selected object(s) that are not source meshes")
-        for message in failed:
-            self.report({"ERROR"}, message)
         if failed and len(failed) == len(meshes):
+            self.report({"ERROR"}, "; ".join(failed))
             return {"CANCELLED"}
+        for message in failed:  # some objects worked: keep them, warn about the rest
+            self.report({"WARNING"}, message)
         return {"FINISHED"}

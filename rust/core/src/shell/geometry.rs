@@ -42,15 +42,13 @@ pub fn build_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput) -> R
             mesh.vertex_count()
         )));
     }
-    // Compact numbering of the vertices that faces use.
+    // Compact numbering of the vertices that faces use, in base-mesh order (so layer
+    // vertex k is base vertex k when there are no loose vertices, as in Solidify).
+    let mut is_used = vec![false; mesh.vertex_count()];
+    mesh.corners().iter().for_each(|&v| is_used[v as usize] = true);
+    let used: Vec<u32> = (0..mesh.vertex_count() as u32).filter(|&v| is_used[v as usize]).collect();
     let mut remap = vec![u32::MAX; mesh.vertex_count()];
-    let mut used = Vec::new();
-    for &v in mesh.corners() {
-        if remap[v as usize] == u32::MAX {
-            remap[v as usize] = used.len() as u32;
-            used.push(v);
-        }
-    }
+    used.iter().enumerate().for_each(|(i, &v)| remap[v as usize] = i as u32);
     let normals = vertex_normals(mesh);
     let outward: f32 = used.iter().map(|&v| directors[v as usize].dot(normals[v as usize])).sum();
     let flip = outward < 0.0;

@@ -1,0 +1,55 @@
+# Thicket: every target sets up what it needs (venv with Blender's bpy module,
+# maturin, the native wheel). Needs only Rust (cargo) and Python 3.11.
+
+PYTHON ?= python3.11
+BPY_VERSION ?= 5.0.1
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.thicket-$(BPY_VERSION)
+RUST_SOURCES := Cargo.toml $(shell find rust -name '*.rs' -o -name Cargo.toml -o -name pyproject.toml 2>/dev/null)
+WHEEL_STAMP := build/site/.stamp
+ADDON_SOURCES := $(shell find addon -type f -not -path '*/__pycache__/*' 2>/dev/null)
+
+.PHONY: setup wheel extension test test-rust test-python demo bench fixtures clean
+
+setup: $(STAMP) $(WHEEL_STAMP)
+
+$(STAMP):
+	$(PYTHON) -m venv $(VENV)
+	$(VENV)/bin/pip install -q --upgrade pip
+	$(VENV)/bin/pip install -q "bpy==$(BPY_VERSION)" "maturin>=1.5,<2" pytest
+	touch $@
+
+# The native module is built once per source change and installed into build/site
+# (not into the venv, so the extension-install test proves the zip's own wheel works).
+$(WHEEL_STAMP): $(STAMP) $(RUST_SOURCES)
+	rm -rf build/wheels build/site
+	$(VENV)/bin/maturin build --release --quiet -m rust/py/Cargo.toml -o build/wheels
+	$(VENV)/bin/pip install -q --no-deps --target build/site build/wheels/thicket_native-*.whl
+	touch $@
+
+wheel: $(WHEEL_STAMP)
+
+extension: $(WHEEL_STAMP) $(ADDON_SOURCES)
+	rm -rf dist
+	$(PY) addon/build_extension.py build/wheels dist
+
+test-rust:
+	cargo test --release -p thicket-core
+
+test-python: setup extension
+	$(PY) -m pytest tests -q -p no:cacheprovider
+
+test: test-rust test-python
+
+fixtures: setup
+	$(PY) blend_fixtures/make_fixtures.py
+
+demo: setup
+	$(PY) blend_fixtures/demo.py blend_fixtures/demo.blend out
+
+bench: setup
+	$(PY) tests/bench/bench_offset.py
+
+clean:
+	rm -rf build dist out target $(VENV)

@@ -1,0 +1,57 @@
+"""Tests run inside real Blender: the `bpy` module from PyPI (see Makefile).
+
+The add-on is imported from addon/ and the native module from build/site (built by
+`make wheel`), exactly the code the extension zip packs.
+"""
+
+import pathlib
+import sys
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path[:0] = [str(ROOT / "addon"), str(ROOT / "build" / "site")]
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import thicket  # noqa: E402
+
+thicket.register()
+
+FIXTURES = ROOT / "blend_fixtures"
+DATA = ROOT / "tests" / "data"
+
+
+@pytest.fixture
+def scene():
+    """An empty scene; Thicket stays registered across factory resets."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return bpy.context.scene
+
+
+def positions(obj_or_mesh):
+    mesh = getattr(obj_or_mesh, "data", obj_or_mesh)
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    return co.reshape(-1, 3)
+
+
+def select_only(*objects):
+    for o in bpy.context.view_layer.objects:
+        o.select_set(False)
+    for o in objects:
+        o.select_set(True)
+    bpy.context.view_layer.objects.active = objects[0] if objects else None
+
+
+def add(primitive, **kw):
+    getattr(bpy.ops.mesh, f"primitive_{primitive}_add")(**kw)
+    return bpy.context.active_object
+
+
+def mesh_object(name, vertices, faces):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices, [], faces)
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
