@@ -3,9 +3,15 @@
 
 PYTHON ?= python3.11
 BPY_VERSION ?= 5.0.1
+BPY_LTS_VERSION ?= 4.2.0
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.thicket-$(BPY_VERSION)
+# Blender 4.2 LTS, the oldest supported version: the Python suites run on it too, and
+# fixtures are saved with it so every supported Blender can open them.
+VENV_LTS := .venv-lts
+PY_LTS := $(VENV_LTS)/bin/python
+STAMP_LTS := $(VENV_LTS)/.thicket-$(BPY_LTS_VERSION)
 RUST_SOURCES := Cargo.toml $(shell find rust -name '*.rs' -o -name Cargo.toml -o -name pyproject.toml 2>/dev/null)
 WHEEL_STAMP := build/site/.stamp
 ADDON_SOURCES := $(shell find addon -type f -not -path '*/__pycache__/*' 2>/dev/null)
@@ -18,6 +24,12 @@ $(STAMP):
 	$(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/pip install -q --upgrade pip
 	$(VENV)/bin/pip install -q "bpy==$(BPY_VERSION)" "maturin>=1.5,<2" pytest
+	touch $@
+
+$(STAMP_LTS):
+	$(PYTHON) -m venv $(VENV_LTS)
+	$(VENV_LTS)/bin/pip install -q --upgrade pip
+	$(VENV_LTS)/bin/pip install -q "bpy==$(BPY_LTS_VERSION)" pytest
 	touch $@
 
 # The native module is built once per source change and installed into build/site
@@ -37,13 +49,16 @@ extension: $(WHEEL_STAMP) $(ADDON_SOURCES)
 test-rust:
 	cargo test --release -p thicket-core
 
-test-python: setup extension
+test-python: setup extension $(STAMP_LTS)
+	@echo "== Python tests in Blender $(BPY_VERSION)"
 	$(PY) -m pytest tests -q -p no:cacheprovider
+	@echo "== Python tests in Blender $(BPY_LTS_VERSION) LTS"
+	$(PY_LTS) -m pytest tests -q -p no:cacheprovider
 
 test: test-rust test-python
 
-fixtures: setup
-	$(PY) blend_fixtures/make_fixtures.py
+fixtures: setup $(STAMP_LTS)
+	$(PY_LTS) blend_fixtures/make_fixtures.py
 
 demo: setup
 	$(PY) blend_fixtures/demo.py blend_fixtures/demo.blend out
@@ -52,4 +67,4 @@ bench: setup
 	$(PY) tests/bench/bench_offset.py
 
 clean:
-	rm -rf build dist out target $(VENV)
+	rm -rf build dist out target $(VENV) $(VENV_LTS)

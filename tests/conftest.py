@@ -4,6 +4,7 @@ The add-on is imported from addon/ and the native module from build/site (built 
 `make wheel`), exactly the code the extension zip packs.
 """
 
+import os
 import pathlib
 import sys
 
@@ -55,3 +56,21 @@ def mesh_object(name, vertices, faces):
     obj = bpy.data.objects.new(name, mesh)
     bpy.context.scene.collection.objects.link(obj)
     return obj
+
+
+_exit_status = 0
+
+
+def pytest_sessionfinish(session, exitstatus):
+    global _exit_status
+    _exit_status = int(exitstatus)
+
+
+def pytest_unconfigure(config):
+    # The bpy 4.2 module segfaults during interpreter teardown once any Python class
+    # or handler was registered (reproduced without Thicket: registering one operator,
+    # or a glTF export, is enough). Leave before teardown, with pytest's own status.
+    if bpy.app.version < (4, 3, 0):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(_exit_status)
