@@ -8,6 +8,7 @@ sheet's thickness follows its "thickness" vertex group); writes out/demo_thicket
 and out/demo_thicket.glb.
 """
 
+import os
 import pathlib
 import sys
 
@@ -44,10 +45,10 @@ def main(argv):
 if __name__ == "__main__":
     args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
     main(args)
-    if bpy.app.version < (4, 3, 0) and not bpy.app.binary_path:
-        # The bpy 4.2 module (not Blender itself) segfaults at interpreter teardown once
-        # any add-on class was registered; everything is written, so leave now.
+    if not bpy.app.binary_path:
+        # Run as the bpy module (not Blender): its interpreter teardown is fragile (it
+        # segfaults on 4.2 once any add-on class was registered, reproduced without
+        # Thicket, and crashed once under load on 5.0.1). Everything is written: leave.
         sys.stdout.flush()
-        import os
-
+        sys.stderr.flush()
         os._exit(0)

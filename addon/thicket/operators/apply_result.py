@@ -1,20 +1,14 @@
 import bpy
 
 from .. import api
-from .common import active_stack_source, error_text, user_errors
+from .common import StackOperator, active_stack_source, error_text, user_errors
 
 
-class THICKET_OT_apply(bpy.types.Operator):
+class THICKET_OT_apply(StackOperator, bpy.types.Operator):
     """Turn the Thicket result into an ordinary mesh object and remove the stack"""
 
     bl_idname = "thicket.apply"
     bl_label = "Apply"
-    bl_options = {"REGISTER", "UNDO"}
-
-    @classmethod
-    def poll(cls, context):
-        return active_stack_source(context) is not None
-
     def execute(self, context):
         obj = active_stack_source(context)
         try:

@@ -41,3 +41,14 @@ def active_source(context):
 def active_stack_source(context):
     obj = active_source(context)
     return obj if obj is not None and len(obj.thicket.items) > 0 else None
+
+
+class StackOperator:
+    """Mixin for operators on the active object's existing stack: undoable, and
+    available only when the active object (or the source of an active result) has one."""
+
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return active_stack_source(context) is not None

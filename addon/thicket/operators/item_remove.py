@@ -1,20 +1,14 @@
 import bpy
 
 from ..stack import auto_update
-from .common import active_stack_source
+from .common import StackOperator, active_stack_source
 
 
-class THICKET_OT_item_remove(bpy.types.Operator):
+class THICKET_OT_item_remove(StackOperator, bpy.types.Operator):
     """Remove the active item from the Thicket stack"""
 
     bl_idname = "thicket.item_remove"
     bl_label = "Remove Stack Item"
-    bl_options = {"REGISTER", "UNDO"}
-
-    @classmethod
-    def poll(cls, context):
-        return active_stack_source(context) is not None
-
     def execute(self, context):
         obj = active_stack_source(context)
         stack = obj.thicket

@@ -1,20 +1,14 @@
 import bpy
 
 from .. import api
-from .common import active_stack_source, error_text, progress, user_errors
+from .common import StackOperator, active_stack_source, error_text, progress, user_errors
 
 
-class THICKET_OT_regenerate(bpy.types.Operator):
+class THICKET_OT_regenerate(StackOperator, bpy.types.Operator):
     """Recompute the Thicket result of the active object from its mesh and stack"""
 
     bl_idname = "thicket.regenerate"
     bl_label = "Regenerate"
-    bl_options = {"REGISTER", "UNDO"}
-
-    @classmethod
-    def poll(cls, context):
-        return active_stack_source(context) is not None
-
     def execute(self, context):
         obj = active_stack_source(context)
         try:

@@ -1,20 +1,14 @@
 import bpy
 
 from .. import api
-from .common import active_stack_source
+from .common import StackOperator, active_stack_source
 
 
-class THICKET_OT_remove(bpy.types.Operator):
+class THICKET_OT_remove(StackOperator, bpy.types.Operator):
     """Delete the Thicket stack of the active object and its result object"""
 
     bl_idname = "thicket.remove"
     bl_label = "Remove Thick Surface"
-    bl_options = {"REGISTER", "UNDO"}
-
-    @classmethod
-    def poll(cls, context):
-        return active_stack_source(context) is not None
-
     def execute(self, context):
         obj = active_stack_source(context)
         api.remove(obj)
