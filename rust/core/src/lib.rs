@@ -6,6 +6,8 @@
 pub mod error;
 pub mod mesh;
 pub mod shell;
+#[doc(hidden)]
+pub mod testmeshes;
 
 pub use error::{Error, Result};
 pub use mesh::{Mesh, MeshReport};

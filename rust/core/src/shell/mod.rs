@@ -11,10 +11,15 @@
 pub mod directors;
 pub mod field;
 pub mod geometry;
+pub mod incremental;
+pub mod intersect;
+pub mod report;
 pub mod offset;
 pub mod thickness;
 
 pub use directors::{build_shell, ShellParams, Shell, Side};
-pub use geometry::{build_geometry, ShellMesh, ShellOutput};
+pub use geometry::{build_geometry, prisms, shell_geometry, Cell, ShellMesh, ShellOutput};
 pub use offset::normal_offset_directors;
 pub use thickness::{Thickness, ThicknessMode};
+#[cfg(test)]
+mod tests;

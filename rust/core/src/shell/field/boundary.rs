@@ -23,7 +23,18 @@ pub fn boundary_faces(mesh: &Mesh, normals: &[Vec3], reach: &[f32]) -> Vec<[DVec
         across[a] += out;
         across[b] += out;
     }
-    let ext = |v: usize| -> DVec3 { (p[v] + across[v].normalize_or_zero() * reach[v].abs()).as_dvec3() };
+    let mut count = vec![0u32; p.len()];
+    for &(a, b) in &edges {
+        count[a as usize] += 1;
+        count[b as usize] += 1;
+    }
+    // At a corner (two boundary edges) the sum of the two unit perpendiculars is
+    // stretched to the miter length, so the extension quads also fill the corner.
+    let ext = |v: usize| -> DVec3 {
+        let s = across[v];
+        let miter = if count[v] == 2 && s.length() > 0.5 { (2.0 / s.length()).min(3.0) } else { 1.0 };
+        (p[v] + s.normalize_or_zero() * (reach[v].abs() * miter)).as_dvec3()
+    };
     let mut tris = Vec::with_capacity(2 * edges.len());
     for &(a, b) in &edges {
         let (a, b) = (a as usize, b as usize);
