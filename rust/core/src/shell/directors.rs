@@ -73,6 +73,9 @@ pub struct ShellParams {
     pub max_evaluations: u32,
     /// Artificial faces along open boundaries (4.3.2).
     pub boundary_faces: bool,
+    /// Rounds of local director shortening where chords still tangle
+    /// ([`repair::untangle`](super::repair::untangle)); 0 disables it.
+    pub repair_rounds: u32,
 }
 
 impl Default for ShellParams {
@@ -86,6 +89,7 @@ impl Default for ShellParams {
             max_halvings: 5,
             max_evaluations: 120,
             boundary_faces: true,
+            repair_rounds: 20,
         }
     }
 }
@@ -299,7 +303,9 @@ pub fn build_shell(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPar
     let tracer = Tracer::new(mesh, &lengths, params);
     let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
     let traces = trace_vertices(&tracer, mesh, &lengths, side, params, &all);
-    Ok(assemble(mesh, thickness, side, &traces))
+    let mut shell = assemble(mesh, thickness, side, &traces);
+    super::repair::untangle(mesh, &mut shell, params.repair_rounds, 0.85);
+    Ok(shell)
 }
 
 pub(crate) fn assemble(mesh: &Mesh, thickness: &[f32], side: Side, traces: &[(Trace, Trace)]) -> Shell {

@@ -33,7 +33,8 @@ impl IncrementalShell {
         let tris = integration_triangles(&mesh, &tracer.normals, &lengths, &params);
         let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
         let traces = trace_vertices(&tracer, &mesh, &lengths, side, &params, &all);
-        let shell = assemble(&mesh, &thickness, side, &traces);
+        let mut shell = assemble(&mesh, &thickness, side, &traces);
+        super::repair::untangle(&mesh, &mut shell, params.repair_rounds, 0.85);
         Ok(Self { mesh, thickness, lengths, side, params, tracer, tris, traces, shell })
     }
 
@@ -104,6 +105,7 @@ impl IncrementalShell {
             self.traces[v as usize] = t;
         }
         self.shell = assemble(&self.mesh, &self.thickness, self.side, &self.traces);
+        super::repair::untangle(&self.mesh, &mut self.shell, self.params.repair_rounds, 0.85);
         Ok(dirty.len())
     }
 }

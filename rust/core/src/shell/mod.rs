@@ -13,6 +13,7 @@ pub mod field;
 pub mod geometry;
 pub mod incremental;
 pub mod intersect;
+pub mod repair;
 pub mod report;
 pub mod offset;
 pub mod thickness;

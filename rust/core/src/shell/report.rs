@@ -6,7 +6,9 @@
 //! `±target * normal`, envelopes split half/half), (a) no cell around it is inverted,
 //! (b) its own director segment does not cross a base triangle away from it, and
 //! (c) no outer-layer triangle around it intersects another outer-layer triangle or the
-//! base. There the field shell is expected to reach (nearly) the full thickness.
+//! base, and (d) its director segment does not cross the outer layer away from it
+//! (the slabs of facing surface parts would overlap, as between fins closer than
+//! twice the thickness, even where the two outer layers do not intersect). There the field shell is expected to reach (nearly) the full thickness.
 
 use super::geometry::{prisms, Cell};
 use super::intersect::{segment_crosses_triangle, tri_box, triangles_intersect, TriBvh};
@@ -133,17 +135,21 @@ pub fn normal_valid_vertices(mesh: &Mesh, side: Side, target: &[f32]) -> Vec<boo
     // (b) the vertex's own segment crossing the base away from it.
     let base: Vec<[DVec3; 3]> = f.tris.iter().map(|t| t.map(|i| dv(p[i as usize]))).collect();
     let bvh = TriBvh::build(&base);
+    let outer: Vec<[DVec3; 3]> = f.tris.iter().map(|t| t.map(|i| dv(shell.point(p, i as usize, 1.0)))).collect();
+    let outer_bvh = TriBvh::build(&outer);
     let crossing: Vec<bool> = (0..p.len())
         .into_par_iter()
         .map(|v| {
             let (a, b) = (dv(shell.point(p, v, 0.0)), dv(shell.point(p, v, 1.0)));
             let mut hit = false;
-            bvh.query(a.min(b), a.max(b), |j| {
-                let t = &f.tris[j as usize];
-                if !t.contains(&(v as u32)) && segment_crosses_triangle(a, b, &base[j as usize]) {
-                    hit = true;
-                }
-            });
+            for (tree, tris) in [(&bvh, &base), (&outer_bvh, &outer)] {
+                tree.query(a.min(b), a.max(b), |j| {
+                    let t = &f.tris[j as usize];
+                    if !t.contains(&(v as u32)) && segment_crosses_triangle(a, b, &tris[j as usize]) {
+                        hit = true;
+                    }
+                });
+            }
             hit
         })
         .collect();

@@ -60,12 +60,10 @@ fn bumpy_head_is_clean() {
     assert_clean("head", &tm::bumpy_head(4));
 }
 #[test]
-#[ignore = "not yet met; see the report"]
 fn notched_box_is_clean() {
     assert_clean("notch", &tm::notched_box(2));
 }
 #[test]
-#[ignore = "not yet met; see the report"]
 fn comb_is_clean() {
     assert_clean("comb", &tm::comb(2));
 }
