@@ -6,6 +6,8 @@
 pub mod error;
 pub mod mesh;
 pub mod shell;
+#[doc(hidden)]
+pub mod testmeshes;
 
 pub use glam;
 pub use error::{Error, Result};

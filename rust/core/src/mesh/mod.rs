@@ -2,6 +2,7 @@
 //! on-demand triangulation view and structural validation.
 
 mod normals;
+pub mod obj;
 mod topology;
 mod triangulate;
 mod validate;
@@ -141,6 +142,15 @@ impl Mesh {
     }
     pub fn report(&self) -> MeshReport {
         MeshReport::of(self)
+    }
+    /// Moves vertex `v` (for interactive edits); non-finite positions are refused.
+    pub fn set_position(&mut self, v: usize, p: Vec3) -> Result<()> {
+        if !p.is_finite() {
+            return Err(Error::NonFinite { index: v, value: p.to_array() });
+        }
+        let n = self.positions.len();
+        *self.positions.get_mut(v).ok_or_else(|| Error::InvalidParameter(format!("vertex {v} does not exist ({n} vertices)")))? = p;
+        Ok(())
     }
 }
 

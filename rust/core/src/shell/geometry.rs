@@ -2,6 +2,7 @@
 //! the closed solid (outer surface + reversed base + rim quads along boundaries).
 
 use crate::mesh::{boundary_edges, vertex_normals};
+use super::Shell;
 use crate::{Error, Mesh, Result};
 use glam::Vec3;
 
@@ -34,14 +35,30 @@ pub const MAX_LAYERS: u32 = 256;
 /// to the back side of the surface on the whole (inward offset), faces are flipped so
 /// that solids still face outward.
 pub fn build_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput) -> Result<ShellMesh> {
+    check_len(mesh, directors.len(), "directors")?;
+    let p = mesh.positions();
+    layered_geometry(mesh, directors, output, |v, r| p[v] + r * directors[v])
+}
+
+/// Builds the requested geometry of a [`Shell`]: layer r of vertex v at
+/// `position + base_offset + r * director` (so `Solid` spans the whole envelope).
+pub fn shell_geometry(mesh: &Mesh, shell: &Shell, output: ShellOutput) -> Result<ShellMesh> {
+    check_len(mesh, shell.directors.len(), "directors")?;
+    check_len(mesh, shell.base_offset.len(), "base offsets")?;
+    let p = mesh.positions();
+    layered_geometry(mesh, &shell.directors, output, |v, r| shell.point(p, v, r))
+}
+
+fn check_len(mesh: &Mesh, n: usize, what: &str) -> Result<()> {
     mesh.require_faces()?;
-    if directors.len() != mesh.vertex_count() {
-        return Err(Error::InvalidParameter(format!(
-            "{} directors given for {} vertices",
-            directors.len(),
-            mesh.vertex_count()
-        )));
+    if n != mesh.vertex_count() {
+        return Err(Error::InvalidParameter(format!("{n} {what} given for {} vertices", mesh.vertex_count())));
     }
+    Ok(())
+}
+
+/// Shared by [`build_geometry`] and [`shell_geometry`]: `at(v, r)` places layer r of v.
+fn layered_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput, at: impl Fn(usize, f32) -> Vec3) -> Result<ShellMesh> {
     // Compact numbering of the vertices that faces use, in base-mesh order (so layer
     // vertex k is base vertex k when there are no loose vertices, as in Solidify).
     let mut is_used = vec![false; mesh.vertex_count()];
@@ -68,7 +85,7 @@ pub fn build_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput) -> R
     let mut layer = Vec::with_capacity(nv * layers.len());
     for &r in &layers {
         for &v in &used {
-            positions.push(mesh.positions()[v as usize] + r * directors[v as usize]);
+            positions.push(at(v as usize, r));
             source_vertex.push(v);
             layer.push(r);
         }
@@ -105,6 +122,71 @@ pub fn build_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput) -> R
     }
     let mesh = Mesh::new(positions, &sizes, corners, None)?;
     Ok(ShellMesh { mesh, source_vertex, layer })
+}
+
+/// One volumetric cell of a shell: the slab over one base face (chapter 3.1, "each
+/// slab is a deformation of a prism"). `vertices` are base-mesh vertex ids; the cell's
+/// corners are those vertices at r = 0 followed by the same vertices at r = 1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Cell {
+    /// Base face the cell lies over.
+    pub face: u32,
+    /// 3 (triangle prism) or 4 (hexahedron) base vertices; `vertices[3]` unused for prisms.
+    pub vertices: [u32; 4],
+    pub count: u8,
+}
+
+impl Cell {
+    pub fn is_hexahedron(&self) -> bool {
+        self.count == 4
+    }
+    pub fn base(&self) -> &[u32] {
+        &self.vertices[..self.count as usize]
+    }
+    /// Corner positions: r = 0 ring then r = 1 ring.
+    pub fn corners(&self, positions: &[Vec3], shell: &Shell) -> Vec<Vec3> {
+        let b = self.base();
+        b.iter().map(|&v| shell.point(positions, v as usize, 0.0)).chain(b.iter().map(|&v| shell.point(positions, v as usize, 1.0))).collect()
+    }
+    /// Signed volumes of the tetrahedra of a fixed decomposition: each prism
+    /// `(a b c | a' b' c')` into `(a b c a') (b c a' b') (c a' b' c')`; a hexahedron
+    /// `(a b c d)` into the prisms over `(a b c)` and `(a c d)`. Positive for a valid
+    /// cell of an outward shell (base counter-clockwise seen from outside).
+    pub fn tet_volumes(&self, positions: &[Vec3], shell: &Shell) -> Vec<f32> {
+        let c = self.corners(positions, shell);
+        let k = self.count as usize;
+        let prisms: Vec<[usize; 3]> = if k == 4 { vec![[0, 1, 2], [0, 2, 3]] } else { vec![[0, 1, 2]] };
+        let vol = |a: Vec3, b: Vec3, cc: Vec3, d: Vec3| (b - a).cross(cc - a).dot(d - a) / 6.0;
+        let mut out = Vec::with_capacity(3 * prisms.len());
+        for [i, j, l] in prisms {
+            let (a, b, cc, a2, b2, c2) = (c[i], c[j], c[l], c[i + k], c[j + k], c[l + k]);
+            out.extend([vol(a, b, cc, a2), vol(b, cc, a2, b2), vol(cc, a2, b2, c2)]);
+        }
+        out
+    }
+    /// A cell is inverted when any tetrahedron of the fixed decomposition has a
+    /// non-positive volume once oriented by the shell side (interior shells grow inward).
+    pub fn is_inverted(&self, positions: &[Vec3], shell: &Shell) -> bool {
+        let s = shell.side.orientation();
+        self.tet_volumes(positions, shell).iter().any(|v| s * v <= 0.0)
+    }
+}
+
+/// The cells of a shell: triangle prisms over triangles, hexahedra over quads, and
+/// prisms over the triangles of n-gons (split as in [`Mesh::triangulate`]).
+pub fn prisms(mesh: &Mesh) -> Vec<Cell> {
+    let tri = mesh.triangulate();
+    let mut out = Vec::with_capacity(tri.triangles.len());
+    let mut t = 0;
+    for (f, face) in mesh.faces().enumerate() {
+        let n = tri.face_of_triangle[t..].iter().take_while(|&&g| g as usize == f).count();
+        match face.len() {
+            4 => out.push(Cell { face: f as u32, vertices: [face[0], face[1], face[2], face[3]], count: 4 }),
+            _ => out.extend(tri.triangles[t..t + n].iter().map(|x| Cell { face: f as u32, vertices: [x[0], x[1], x[2], 0], count: 3 })),
+        }
+        t += n;
+    }
+    out
 }
 
 #[cfg(test)]

@@ -1,0 +1,237 @@
+//! Barnes–Hut patch tree over the integration triangles (section 4.4.2): a BVH whose
+//! nodes store the patch area, the area-weighted centroid and a bounding sphere. Far
+//! patches are replaced by a point mass at their centroid; near single faces are
+//! integrated exactly (Appendix A, p = 3) or by quadrature (other p). Localization
+//! (section 4.3.1): only faces whose centroid lies within a ball around `x` count.
+
+use super::exact::triangle_p3;
+use super::quadrature::Quadrature;
+use glam::DVec3;
+
+const LEAF: usize = 4;
+
+#[derive(Debug, Clone, Copy, Default)]
+struct Node {
+    centroid: DVec3,
+    area: f64,
+    radius: f64,
+    /// Leaf: first triangle; internal: index of the second child (the first is `self + 1`).
+    index: u32,
+    /// Number of triangles of a leaf; 0 for internal nodes.
+    count: u32,
+}
+
+/// Sum of contributions at one point.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FieldEval {
+    /// `∫ |x-y|^-p dy` over the localized surface.
+    pub value: f64,
+    /// `-∇_x value = p ∫ (x-y)|x-y|^{-p-2} dy`: where the field pushes `x`.
+    pub push: DVec3,
+    /// `Σ |push_i · ref|` over the individual contributions, for the compression ratio.
+    pub abs_along: f64,
+}
+
+/// How a field is integrated.
+#[derive(Debug, Clone)]
+pub struct Kernel {
+    /// Exponent p of the averaged distance (p > 1; 3 uses the exact formulas).
+    pub p: f64,
+    /// Opening criterion: a patch is a point mass when `radius < theta * distance`.
+    pub theta: f64,
+    quad: Quadrature,
+}
+
+impl Kernel {
+    pub fn new(p: f64, theta: f64) -> Self {
+        Self { p, theta, quad: Quadrature::new(6, 1.0, 6) }
+    }
+    fn is_exact(&self) -> bool {
+        self.p == 3.0
+    }
+    #[inline]
+    fn point(&self, area: f64, c: DVec3, x: DVec3) -> (f64, DVec3) {
+        let d = x - c;
+        let r2 = d.length_squared();
+        let k = if self.is_exact() { area / (r2 * r2.sqrt()) } else { area * r2.powf(-0.5 * self.p) };
+        (k, d * (self.p * k / r2))
+    }
+    #[inline]
+    fn face(&self, t: &[DVec3; 3], x: DVec3) -> (f64, DVec3) {
+        if self.is_exact() {
+            let r = triangle_p3(t[0], t[1], t[2], x);
+            (r.value, -r.gradient)
+        } else {
+            self.quad.integrate(*t, x, self.p)
+        }
+    }
+}
+
+/// The tree. Triangles are stored in leaf order.
+#[derive(Debug, Clone, Default)]
+pub struct PatchTree {
+    tris: Vec<[DVec3; 3]>,
+    tri_area: Vec<f64>,
+    tri_centroid: Vec<DVec3>,
+    tri_radius: Vec<f64>,
+    /// Original index of each stored triangle.
+    order: Vec<u32>,
+    nodes: Vec<Node>,
+    total_area: f64,
+}
+
+fn tri_props(t: &[DVec3; 3]) -> (f64, DVec3, f64) {
+    let area = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length();
+    let c = (t[0] + t[1] + t[2]) / 3.0;
+    let r = t.iter().map(|p| (*p - c).length()).fold(0.0, f64::max);
+    (area, c, r)
+}
+
+impl PatchTree {
+    /// Builds the tree; zero-area triangles are dropped (they contribute nothing).
+    pub fn build(tris: &[[DVec3; 3]]) -> Self {
+        let mut idx: Vec<u32> = Vec::with_capacity(tris.len());
+        let mut props = Vec::with_capacity(tris.len());
+        for (i, t) in tris.iter().enumerate() {
+            let pr = tri_props(t);
+            props.push(pr);
+            if pr.0 > 0.0 && pr.0.is_finite() {
+                idx.push(i as u32);
+            }
+        }
+        let mut tree = Self::default();
+        if !idx.is_empty() {
+            tree.nodes.reserve(2 * idx.len() / LEAF + 2);
+            tree.split(&mut idx, &props, 0);
+        }
+        tree.order = idx;
+        tree.tris = tree.order.iter().map(|&i| tris[i as usize]).collect();
+        tree.refit_all();
+        tree
+    }
+
+    fn split(&mut self, idx: &mut [u32], props: &[(f64, DVec3, f64)], first: usize) -> usize {
+        let me = self.nodes.len();
+        self.nodes.push(Node::default());
+        if idx.len() <= LEAF {
+            self.nodes[me].index = first as u32;
+            self.nodes[me].count = idx.len() as u32;
+            return me;
+        }
+        let (lo, hi) = idx.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &i| {
+            let c = props[i as usize].1;
+            (lo.min(c), hi.max(c))
+        });
+        let ext = hi - lo;
+        let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+        let mid = idx.len() / 2;
+        idx.select_nth_unstable_by(mid, |&a, &b| props[a as usize].1[axis].total_cmp(&props[b as usize].1[axis]));
+        let (l, r) = idx.split_at_mut(mid);
+        self.split(l, props, first);
+        let right = self.split(r, props, first + mid);
+        self.nodes[me].index = right as u32;
+        me
+    }
+
+    /// Recomputes areas, centroids and bounding spheres bottom-up (after vertices moved;
+    /// the topology of the tree is kept).
+    fn refit_all(&mut self) {
+        let props: Vec<_> = self.tris.iter().map(tri_props).collect();
+        self.tri_area = props.iter().map(|p| p.0).collect();
+        self.tri_centroid = props.iter().map(|p| p.1).collect();
+        self.tri_radius = props.iter().map(|p| p.2).collect();
+        self.total_area = self.tri_area.iter().sum();
+        // Children have larger indices than parents: refit in reverse order.
+        for n in (0..self.nodes.len()).rev() {
+            let node = self.nodes[n];
+            let (area, centroid, radius) = if node.count > 0 {
+                let r = node.index as usize..(node.index + node.count) as usize;
+                let area: f64 = self.tri_area[r.clone()].iter().sum();
+                let c = if area > 0.0 {
+                    r.clone().map(|i| self.tri_centroid[i] * self.tri_area[i]).sum::<DVec3>() / area
+                } else {
+                    self.tri_centroid[r.start]
+                };
+                let rad = self.tris[r].iter().flatten().map(|p| (*p - c).length()).fold(0.0, f64::max);
+                (area, c, rad)
+            } else {
+                let (a, b) = (self.nodes[n + 1], self.nodes[node.index as usize]);
+                let area = a.area + b.area;
+                let c = if area > 0.0 { (a.centroid * a.area + b.centroid * b.area) / area } else { a.centroid };
+                let rad = (a.radius + (a.centroid - c).length()).max(b.radius + (b.centroid - c).length());
+                (area, c, rad)
+            };
+            self.nodes[n].area = area;
+            self.nodes[n].centroid = centroid;
+            self.nodes[n].radius = radius;
+        }
+    }
+
+    /// Replaces the triangle positions (same count and order as given to [`build`]) and
+    /// refits the tree without rebuilding its topology.
+    ///
+    /// [`build`]: PatchTree::build
+    pub fn refit(&mut self, tris: &[[DVec3; 3]]) {
+        for (k, &i) in self.order.iter().enumerate() {
+            self.tris[k] = tris[i as usize];
+        }
+        self.refit_all();
+    }
+
+    pub fn total_area(&self) -> f64 {
+        self.total_area
+    }
+    pub fn triangle_count(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// Sums the contributions of the surface within `radius` of `x` (all of it for
+    /// `f64::INFINITY`). `reference` is the direction `abs_along` is measured along.
+    pub fn eval(&self, x: DVec3, radius: f64, reference: DVec3, kernel: &Kernel) -> FieldEval {
+        let mut out = FieldEval::default();
+        if self.nodes.is_empty() {
+            return out;
+        }
+        let add = |(v, push): (f64, DVec3), out: &mut FieldEval| {
+            out.value += v;
+            out.push += push;
+            out.abs_along += push.dot(reference).abs();
+        };
+        let theta = kernel.theta;
+        let mut stack = [0u32; 64];
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let ni = stack[sp];
+            let node = &self.nodes[ni as usize];
+            let d = (x - node.centroid).length();
+            if d - node.radius > radius {
+                continue;
+            }
+            if node.radius < theta * d && d + node.radius <= radius {
+                add(kernel.point(node.area, node.centroid, x), &mut out);
+                continue;
+            }
+            if node.count > 0 {
+                for i in node.index as usize..(node.index + node.count) as usize {
+                    let c = self.tri_centroid[i];
+                    let dc = (x - c).length();
+                    if dc > radius {
+                        continue;
+                    }
+                    if self.tri_radius[i] < theta * dc {
+                        add(kernel.point(self.tri_area[i], c, x), &mut out);
+                    } else {
+                        add(kernel.face(&self.tris[i], x), &mut out);
+                    }
+                }
+            } else if sp + 2 <= stack.len() {
+                stack[sp] = node.index;
+                stack[sp + 1] = ni + 1;
+                sp += 2;
+            }
+        }
+        out
+    }
+}
+

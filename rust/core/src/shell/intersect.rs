@@ -1,0 +1,136 @@
+//! Triangle intersection tests for shell reports: an AABB tree over triangles and a
+//! tri–tri test built from orientation determinants in f64 (two triangles intersect
+//! when an edge of one properly crosses the other). Pairs that merely touch, and
+//! coplanar overlaps, are not counted.
+
+use glam::DVec3;
+
+#[inline]
+fn orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
+    (b - a).cross(c - a).dot(d - a)
+}
+
+/// Whether segment `p q` properly crosses triangle `t` (its plane strictly, inside the
+/// closed triangle).
+pub fn segment_crosses_triangle(p: DVec3, q: DVec3, t: &[DVec3; 3]) -> bool {
+    let (dp, dq) = (orient(t[0], t[1], t[2], p), orient(t[0], t[1], t[2], q));
+    if !(dp * dq < 0.0) {
+        return false;
+    }
+    let s1 = orient(p, q, t[0], t[1]);
+    let s2 = orient(p, q, t[1], t[2]);
+    let s3 = orient(p, q, t[2], t[0]);
+    (s1 >= 0.0 && s2 >= 0.0 && s3 >= 0.0) || (s1 <= 0.0 && s2 <= 0.0 && s3 <= 0.0)
+}
+
+/// Whether two triangles intersect (an edge of either properly crosses the other).
+pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
+    (0..3).any(|i| segment_crosses_triangle(a[i], a[(i + 1) % 3], b))
+        || (0..3).any(|i| segment_crosses_triangle(b[i], b[(i + 1) % 3], a))
+}
+
+#[derive(Debug, Clone, Copy)]
+struct BoxNode {
+    lo: DVec3,
+    hi: DVec3,
+    /// Leaf: first item; internal: second child.
+    index: u32,
+    count: u32,
+}
+
+/// AABB tree over triangles for overlap queries.
+#[derive(Debug, Clone, Default)]
+pub struct TriBvh {
+    nodes: Vec<BoxNode>,
+    items: Vec<u32>,
+    boxes: Vec<(DVec3, DVec3)>,
+}
+
+pub fn tri_box(t: &[DVec3; 3]) -> (DVec3, DVec3) {
+    (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))
+}
+
+impl TriBvh {
+    pub fn build(tris: &[[DVec3; 3]]) -> Self {
+        let boxes: Vec<_> = tris.iter().map(tri_box).collect();
+        let mut items: Vec<u32> = (0..tris.len() as u32).collect();
+        let mut me = Self { nodes: Vec::new(), items: Vec::new(), boxes };
+        if !items.is_empty() {
+            me.split(&mut items, 0);
+        }
+        me.items = items;
+        me
+    }
+
+    fn split(&mut self, items: &mut [u32], first: usize) -> usize {
+        let (lo, hi) = items.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), &i| {
+            let b = self.boxes[i as usize];
+            (l.min(b.0), h.max(b.1))
+        });
+        let me = self.nodes.len();
+        self.nodes.push(BoxNode { lo, hi, index: first as u32, count: items.len() as u32 });
+        if items.len() <= 4 {
+            return me;
+        }
+        let e = hi - lo;
+        let axis = if e.x >= e.y && e.x >= e.z { 0 } else if e.y >= e.z { 1 } else { 2 };
+        let mid = items.len() / 2;
+        let key = |i: &u32| {
+            let b = self.boxes[*i as usize];
+            b.0[axis] + b.1[axis]
+        };
+        items.select_nth_unstable_by(mid, |a, b| key(a).total_cmp(&key(b)));
+        let (l, r) = items.split_at_mut(mid);
+        self.split(l, first);
+        let right = self.split(r, first + mid);
+        self.nodes[me].index = right as u32;
+        self.nodes[me].count = 0;
+        me
+    }
+
+    /// Calls `f` with every triangle whose box overlaps `[lo, hi]`.
+    pub fn query(&self, lo: DVec3, hi: DVec3, mut f: impl FnMut(u32)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let mut stack = vec![0u32];
+        while let Some(n) = stack.pop() {
+            let node = self.nodes[n as usize];
+            if node.lo.cmpgt(hi).any() || node.hi.cmplt(lo).any() {
+                continue;
+            }
+            if node.count > 0 {
+                for &i in &self.items[node.index as usize..(node.index + node.count) as usize] {
+                    let b = self.boxes[i as usize];
+                    if !(b.0.cmpgt(hi).any() || b.1.cmplt(lo).any()) {
+                        f(i);
+                    }
+                }
+            } else {
+                stack.push(n + 1);
+                stack.push(node.index);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crossing_touching_and_separate() {
+        let a = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let crossing = [DVec3::new(0.2, 0.2, -1.0), DVec3::new(0.2, 0.2, 1.0), DVec3::new(2.0, 2.0, 0.5)];
+        assert!(triangles_intersect(&a, &crossing));
+        let above = crossing.map(|p| p + DVec3::Z * 1.5);
+        assert!(!triangles_intersect(&a, &above));
+        let touching = [DVec3::new(0.2, 0.2, 0.0), DVec3::new(0.2, 0.2, 1.0), DVec3::new(0.5, 0.0, 1.0)];
+        assert!(!triangles_intersect(&a, &touching));
+        let bvh = TriBvh::build(&[a, above, crossing]);
+        let mut hits = Vec::new();
+        bvh.query(DVec3::new(0.15, 0.15, -0.1), DVec3::new(0.25, 0.25, 0.1), |i| hits.push(i));
+        hits.sort();
+        assert_eq!(hits, vec![0, 2]);
+    }
+}
