@@ -54,12 +54,13 @@ def add_item(obj, kind="OFFSET_SHELL", **settings):
     return item
 
 
-def add_thick_surface(obj, thickness=S.OffsetShell.thickness, thickness_mode="RELATIVE", output="OUTER", layers=S.OffsetShell.layers, vertex_group=""):
-    """Gives `obj` a stack with an Offset Shell item (if it has none yet) and generates
-    its result object, which is returned."""
+def add_thick_surface(obj, thickness=S.OffsetShell.thickness, thickness_mode="RELATIVE", output="OUTER", layers=S.OffsetShell.layers, vertex_group="", kind="OFFSET_SHELL", side="EXTERIOR"):
+    """Gives `obj` a stack with one item of `kind` ("OFFSET_SHELL", or "SHELL" with a
+    `side`) if it has none yet, and generates its result object, which is returned."""
     _require_mesh(obj)
     if not obj.thicket.items:
-        add_item(obj, "OFFSET_SHELL", thickness=thickness, thickness_mode=thickness_mode, output=output, layers=layers, vertex_group=vertex_group)
+        extra = {"side": side} if kind == "SHELL" else {}
+        add_item(obj, kind, thickness=thickness, thickness_mode=thickness_mode, output=output, layers=layers, vertex_group=vertex_group, **extra)
     return _regenerate(obj)
 
 

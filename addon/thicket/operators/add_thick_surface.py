@@ -17,6 +17,8 @@ class THICKET_OT_add_thick_surface(bpy.types.Operator):
                              description=ThicketItem.__annotations__["thickness"].keywords["description"])
     thickness_mode: EnumProperty(name="Mode", items=ThicketItem.__annotations__["thickness_mode"].keywords["items"], default="RELATIVE")
     output: EnumProperty(name="Output", items=ThicketItem.__annotations__["output"].keywords["items"], default="OUTER")
+    kind: EnumProperty(name="Kind", items=ThicketItem.__annotations__["kind"].keywords["items"], default="OFFSET_SHELL")
+    side: EnumProperty(name="Side", items=ThicketItem.__annotations__["side"].keywords["items"], default="EXTERIOR")
 
     @classmethod
     def poll(cls, context):
@@ -30,7 +32,8 @@ class THICKET_OT_add_thick_surface(bpy.types.Operator):
         with progress(context, len(meshes)) as update:
             for i, obj in enumerate(meshes):
                 try:
-                    api.add_thick_surface(obj, thickness=self.thickness, thickness_mode=self.thickness_mode, output=self.output)
+                    api.add_thick_surface(obj, thickness=self.thickness, thickness_mode=self.thickness_mode, output=self.output,
+                                          kind=self.kind, side=self.side)
                 except user_errors() as exc:
                     obj.thicket.last_error = error_text(exc)
                     failed.append(f"{obj.name}: {error_text(exc)}")

@@ -11,29 +11,39 @@ from . import settings as S
 
 DIRECTOR_ATTRIBUTE = "thicket_director"
 LAYER_ATTRIBUTE = "thicket_layer"
+THICKNESS_ATTRIBUTE = "thicket_thickness"
 
 
-def _offset_shell(mesh: MeshArrays, item: S.OffsetShell, factors):
-    out = native.get().offset_shell(
-        mesh.vertices,
-        mesh.face_sizes,
-        mesh.corners,
-        float(item.thickness),
-        relative=item.relative,
-        factors=factors,
-        output=item.output,
-        layers=int(item.layers),
-    )
+def _shell_result(out):
+    """Mesh arrays of a native shell result, with per-vertex shell attributes."""
     result = MeshArrays.from_native(out)
     source = out["source_vertex"]
     result.point_attributes = {
         DIRECTOR_ATTRIBUTE: out["directors"][source],
         LAYER_ATTRIBUTE: out["layer"],
     }
+    if "achieved" in out:
+        result.point_attributes[THICKNESS_ATTRIBUTE] = out["achieved"][source]
     return result, source
 
 
-STEPS = {S.OffsetShell: _offset_shell}
+def _common_args(mesh: MeshArrays, item, factors):
+    args = (mesh.vertices, mesh.face_sizes, mesh.corners, float(item.thickness))
+    kwargs = dict(relative=item.relative, factors=factors, output=item.output, layers=int(item.layers))
+    return args, kwargs
+
+
+def _offset_shell(mesh: MeshArrays, item: S.OffsetShell, factors):
+    args, kwargs = _common_args(mesh, item, factors)
+    return _shell_result(native.get().offset_shell(*args, **kwargs))
+
+
+def _field_shell(mesh: MeshArrays, item: S.FieldShell, factors):
+    args, kwargs = _common_args(mesh, item, factors)
+    return _shell_result(native.get().shell(*args, side=item.side, **kwargs))
+
+
+STEPS = {S.OffsetShell: _offset_shell, S.FieldShell: _field_shell}
 
 
 def evaluate_stack(source: MeshArrays, items, progress=None) -> MeshArrays:

@@ -54,16 +54,29 @@ class ThicketItem(bpy.types.PropertyGroup):
         update=_changed,
     )
     layers: IntProperty(name="Layers", min=1, max=256, soft_max=32, default=S.OffsetShell.layers, update=_changed)
+    side: EnumProperty(
+        name="Side",
+        items=[
+            ("EXTERIOR", "Exterior", "The shell lies outside the surface"),
+            ("INTERIOR", "Interior", "The shell lies inside the surface"),
+            ("ENVELOPE", "Envelope", "The shell lies on both sides, half the thickness each"),
+        ],
+        default="EXTERIOR",
+        update=_changed,
+    )
 
     def to_settings(self):
         """The plain-data settings `stack.evaluate` runs on."""
-        return S.OffsetShell(
+        common = dict(
             thickness=self.thickness,
             relative=self.thickness_mode == "RELATIVE",
             vertex_group=self.vertex_group,
             output=self.output.lower(),
             layers=self.layers,
         )
+        if self.kind == S.FieldShell.kind:
+            return S.FieldShell(side=self.side.lower(), **common)
+        return S.OffsetShell(**common)
 
 
 class ThicketStack(bpy.types.PropertyGroup):

@@ -23,4 +23,25 @@ class OffsetShell:
     label = "Offset Shell"
 
 
-KINDS = {cls.kind: cls for cls in (OffsetShell,)}
+@dataclass(frozen=True)
+class FieldShell:
+    """Shell: directors integrated along the L_p-averaged distance field (chapter 4).
+
+    Unlike the Offset Shell it does not fold over itself in concavities: where the
+    surface is close to itself the thickness is reduced locally instead. side:
+    "exterior", "interior" or "envelope" (both, half each). thickness as for
+    OffsetShell but its magnitude only (the side gives the direction).
+    """
+
+    thickness: float = 0.05
+    relative: bool = True
+    vertex_group: str = ""
+    output: str = "outer"
+    layers: int = 4
+    side: str = "exterior"
+
+    kind = "SHELL"
+    label = "Shell"
+
+
+KINDS = {cls.kind: cls for cls in (OffsetShell, FieldShell)}

@@ -5,6 +5,8 @@ def draw_item_settings(layout, obj, item):
     col = layout.column()
     col.use_property_split = True
     col.use_property_decorate = False
+    if item.kind == "SHELL":
+        col.prop(item, "side")
     col.prop(item, "thickness_mode")
     col.prop(item, "thickness")
     col.prop_search(item, "vertex_group", obj, "vertex_groups")

@@ -10,6 +10,7 @@ mod arrays;
 mod errors;
 mod offset;
 mod report;
+mod shell;
 
 use pyo3::prelude::*;
 
@@ -19,5 +20,8 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ThicketError", m.py().get_type::<errors::ThicketError>())?;
     m.add_function(wrap_pyfunction!(report::mesh_report, m)?)?;
     m.add_function(wrap_pyfunction!(offset::offset_shell, m)?)?;
+    m.add_function(wrap_pyfunction!(shell::build_shell, m)?)?;
+    m.add_function(wrap_pyfunction!(shell::shell, m)?)?;
+    m.add_function(wrap_pyfunction!(shell::shell_report, m)?)?;
     Ok(())
 }

@@ -1,0 +1,135 @@
+use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use thicket_core::glam::Vec3;
+use thicket_core::shell::{self as core, report::shell_report as core_shell_report, shell_geometry, ShellParams, Side, Thickness};
+use thicket_core::Mesh;
+
+use crate::arrays;
+use crate::errors::{run_detached, ThicketError};
+use crate::offset::parse_output;
+
+fn triangle_mesh(vertices: &PyReadonlyArray2<'_, f32>, triangles: &Bound<'_, PyAny>) -> PyResult<Mesh> {
+    let positions = arrays::positions(vertices)?;
+    let corners = arrays::indices(triangles, "triangles")?;
+    if corners.len() % 3 != 0 {
+        return Err(ThicketError::new_err("triangles must have shape (m, 3)"));
+    }
+    Mesh::new(positions, &vec![3; corners.len() / 3], corners, None).map_err(crate::errors::to_py)
+}
+
+fn params(p: f64) -> ShellParams {
+    ShellParams { p, ..ShellParams::default() }
+}
+
+/// build_shell(vertices, triangles, thickness, side) -> directors
+///
+/// The L_p-field shell (thick surfaces, chapter 4): `vertices` float32 (n,3),
+/// `triangles` int32/uint32 (m,3), `thickness` a float or float32 (n,) (absolute
+/// lengths), `side` "exterior" | "interior" | "envelope". Returns float32 (n,3): the
+/// outer shell position of each vertex is `vertex + director`.
+#[pyfunction]
+pub fn build_shell<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    triangles: &Bound<'py, PyAny>,
+    thickness: &Bound<'py, PyAny>,
+    side: &str,
+) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    let mesh = triangle_mesh(&vertices, triangles)?;
+    let thickness = arrays::per_vertex_or_scalar(thickness, mesh.vertex_count(), "thickness")?;
+    let side = Side::parse(side).map_err(crate::errors::to_py)?;
+    let shell = run_detached(py, move || core::build_shell(&mesh, &thickness, side, &ShellParams::default()))?;
+    let outer: Vec<Vec3> = shell.base_offset.iter().zip(&shell.directors).map(|(b, d)| *b + *d).collect();
+    arrays::vec3_array(py, outer)
+}
+
+/// shell(vertices, face_sizes, corners, thickness, side="exterior", relative=False,
+///       factors=None, output="outer", layers=1, p=3.0) -> dict
+///
+/// The L_p-field shell of a polygon mesh with shell geometry, as `offset_shell` but
+/// with field-integrated directors. Returns the geometry arrays plus base_offset and
+/// directors (n,3) (layer r of vertex v at v + base_offset + r * director), achieved
+/// and target thickness (n,), source_vertex and layer per output vertex.
+#[pyfunction]
+#[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", layers=1, p=3.0))]
+#[allow(clippy::too_many_arguments)]
+pub fn shell<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+    thickness: f32,
+    side: &str,
+    relative: bool,
+    factors: Option<&Bound<'py, PyAny>>,
+    output: &str,
+    layers: u32,
+    p: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
+    let factors = factors.map(|f| arrays::per_vertex_or_scalar(f, mesh.vertex_count(), "factors")).transpose()?;
+    let output = parse_output(output, layers)?;
+    let side = Side::parse(side).map_err(crate::errors::to_py)?;
+    let thickness = if relative { Thickness::relative(thickness) } else { Thickness::absolute(thickness) };
+    let (geometry, shell) = run_detached(py, move || {
+        let t = thickness.per_vertex(&mesh, factors.as_deref())?;
+        let shell = core::build_shell(&mesh, &t, side, &params(p))?;
+        Ok((shell_geometry(&mesh, &shell, output)?, shell))
+    })?;
+    let d = arrays::mesh_dict(py, geometry.mesh)?;
+    d.set_item("source_vertex", arrays::u32_as_i32_array(py, geometry.source_vertex))?;
+    d.set_item("layer", geometry.layer.into_pyarray(py))?;
+    d.set_item("base_offset", arrays::vec3_array(py, shell.base_offset)?)?;
+    d.set_item("directors", arrays::vec3_array(py, shell.directors)?)?;
+    d.set_item("achieved", shell.achieved.into_pyarray(py))?;
+    d.set_item("target", shell.target.into_pyarray(py))?;
+    Ok(d)
+}
+
+/// shell_report(vertices, face_sizes, corners, directors, target, base_offset=None,
+///              side="exterior") -> dict
+///
+/// Quality figures of any shell given by its directors (e.g. from Solidify: outer
+/// position minus base): outer_self_intersections, outer_base_intersections,
+/// inverted_cells, min_ratio, mean_ratio, min_ratio_normal_valid, normal_valid_vertices,
+/// considered_vertices.
+#[pyfunction]
+#[pyo3(signature = (vertices, face_sizes, corners, directors, target, base_offset=None, side="exterior"))]
+#[allow(clippy::too_many_arguments)]
+pub fn shell_report<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+    directors: PyReadonlyArray2<'py, f32>,
+    target: &Bound<'py, PyAny>,
+    base_offset: Option<PyReadonlyArray2<'py, f32>>,
+    side: &str,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
+    let n = mesh.vertex_count();
+    let directors = arrays::positions(&directors)?;
+    let base_offset = match base_offset {
+        Some(b) => arrays::positions(&b)?,
+        None => vec![Vec3::ZERO; n],
+    };
+    if directors.len() != n || base_offset.len() != n {
+        return Err(ThicketError::new_err(format!("directors and base_offset need one row per vertex ({n})")));
+    }
+    let target = arrays::per_vertex_or_scalar(target, n, "target")?;
+    let side = Side::parse(side).map_err(crate::errors::to_py)?;
+    let achieved = directors.iter().map(|d| d.length()).collect();
+    let shell = core::Shell { side, base_offset, directors, achieved, target };
+    let r = run_detached(py, move || Ok(core_shell_report(&mesh, &shell)))?;
+    let d = PyDict::new(py);
+    d.set_item("outer_self_intersections", r.outer_self_intersections)?;
+    d.set_item("outer_base_intersections", r.outer_base_intersections)?;
+    d.set_item("inverted_cells", r.inverted_cells)?;
+    d.set_item("min_ratio", r.min_ratio)?;
+    d.set_item("mean_ratio", r.mean_ratio)?;
+    d.set_item("min_ratio_normal_valid", r.min_ratio_normal_valid)?;
+    d.set_item("normal_valid_vertices", r.normal_valid_vertices)?;
+    d.set_item("considered_vertices", r.considered_vertices)?;
+    Ok(d)
+}
