@@ -1,0 +1,103 @@
+"""`make bench`: the L_p-field shell vs Blender's Solidify on concave meshes.
+
+For each mesh: self-intersecting outer-layer face pairs, outer-vs-base intersections,
+inverted prisms, min/mean achieved-thickness ratio and time, for Thicket's Shell and
+Solidify Simple (with Even Thickness, with and without Clamp). All measured by
+`thicket_native.shell_report` in this run. Complex mode changes vertex counts, so it
+has no per-vertex directors to report on and is timed only.
+"""
+
+import pathlib
+import sys
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+sys.path[:0] = [str(ROOT / "addon"), str(ROOT / "build" / "site")]
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+import thicket  # noqa: E402
+from thicket import mesh_io, native  # noqa: E402
+
+EXTERIOR = 0.10  # fraction of the bounding-box diagonal, as in the issue
+
+
+def solidify(obj, thickness, **settings):
+    modifier = obj.modifiers.new("bench", "SOLIDIFY")
+    modifier.thickness, modifier.offset, modifier.use_rim = thickness, 1.0, False
+    for key, value in settings.items():
+        setattr(modifier, key, value)
+    t = time.perf_counter()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    elapsed = time.perf_counter() - t
+    out = mesh_io.read_mesh(mesh).vertices.copy()
+    evaluated.to_mesh_clear()
+    obj.modifiers.remove(modifier)
+    return out, elapsed
+
+
+def row(name, report, seconds):
+    if report is None:
+        print(f"  {name:28s} {'-':>8s} {'-':>8s} {'-':>8s} {'-':>7s} {'-':>7s} {seconds * 1e3:9.1f}")
+        return
+    print(f"  {name:28s} {report['outer_self_intersections']:8d} {report['outer_base_intersections']:8d} "
+          f"{report['inverted_cells']:8d} {report['min_ratio']:7.3f} {report['mean_ratio']:7.3f} {seconds * 1e3:9.1f}")
+
+
+def bench(obj):
+    tn = native.get()
+    a = mesh_io.read_mesh(obj.data)
+    n = a.vertex_count
+    diag = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
+    target = np.full(n, EXTERIOR * diag, np.float32)
+    print(f"\n{obj.name}: {n} vertices, exterior {EXTERIOR:.0%} of diagonal")
+    print(f"  {'method':28s} {'selfX':>8s} {'baseX':>8s} {'inverted':>8s} {'min':>7s} {'mean':>7s} {'ms':>9s}")
+    t = time.perf_counter()
+    shell = tn.shell(a.vertices, a.face_sizes, a.corners, EXTERIOR, relative=True)
+    ours = time.perf_counter() - t
+    row("Thicket Shell (L_p field)", tn.shell_report(a.vertices, a.face_sizes, a.corners, shell["directors"], shell["target"]), ours)
+    for name, settings in (
+        ("Solidify Simple", {}),
+        ("Solidify Simple+Even", {"use_even_offset": True}),
+        ("Solidify Simple+Even+Clamp", {"use_even_offset": True, "thickness_clamp": 1.0}),
+        ("Solidify Complex", {"solidify_mode": "NON_MANIFOLD"}),
+    ):
+        out, seconds = solidify(obj, EXTERIOR * diag, **settings)
+        report = None
+        if len(out) == 2 * n:
+            directors = np.ascontiguousarray(out[:n] - a.vertices)
+            report = tn.shell_report(a.vertices, a.face_sizes, a.corners, directors, target)
+        row(name, report, seconds)
+    return ours
+
+
+def main():
+    thicket.register()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_monkey_add()
+    head = bpy.context.active_object
+    head.name = "Suzanne (subdiv 1)"
+    head.modifiers.new("s", "SUBSURF").levels = 1
+    bpy.ops.object.modifier_apply(modifier="s")
+    bpy.ops.wm.obj_import(filepath=str(ROOT / "tests" / "data" / "bunny-3k.obj"))
+    bunny = bpy.context.selected_objects[0]
+    bunny.name = "Bunny"
+    for obj in (head, bunny):
+        bench(obj)
+    bpy.ops.object.select_all(action="DESELECT")
+    bunny.select_set(True)
+    bpy.context.view_layer.objects.active = bunny
+    big = bunny.modifiers.new("s", "SUBSURF")
+    big.levels = 2
+    bpy.ops.object.modifier_apply(modifier="s")
+    bunny.name = "Bunny (subdiv 2)"
+    seconds = bench(bunny)
+    print(f"\n  full exterior shell on {len(bunny.data.vertices)} vertices: {seconds:.2f} s "
+          f"(target 0.5 s: {seconds / 0.5:.1f}x the target)")
+
+
+if __name__ == "__main__":
+    main()
