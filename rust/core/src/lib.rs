@@ -3,6 +3,8 @@
 //! Pure Rust: no Python, no GPU. The pyo3 binding (`thicket-native`) and the
 //! Blender add-on only adapt types; every algorithm lives here.
 
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` deliberately also rejects NaN
+
 pub mod error;
 pub mod mesh;
 pub mod shell;

@@ -68,11 +68,127 @@ fn comb_is_clean() {
     assert_clean("comb", &tm::comb(2));
 }
 #[test]
-#[ignore = "not yet met; see the report"]
+#[ignore = "not met: 0 defects, but min achieved/target where normal offset is valid is 0.71 (exterior 10%) and 0.83 (interior 5%), not >= 0.95"]
 fn bunny_is_clean() {
     assert_clean("bunny", &tm::bunny());
 }
 #[test]
 fn saddle_is_clean() {
     assert_clean("saddle", &tm::saddle(24));
+}
+
+#[test]
+fn incremental_update_matches_full_rebuild() {
+    let mesh = tm::bumpy_head(3);
+    let t = Thickness::relative(0.03).per_vertex(&mesh, None).unwrap();
+    // theta = 0: every face integrated exactly, so refit and rebuilt trees agree.
+    let params = ShellParams { theta: 0.0, ..Default::default() };
+    let mut inc = incremental::IncrementalShell::new(mesh.clone(), t.clone(), Side::Exterior, params.clone()).unwrap();
+    let normals = crate::mesh::vertex_normals(&mesh);
+    let moved: Vec<(u32, Vec3)> = (0..6u32).map(|v| (v, mesh.positions()[v as usize] + normals[v as usize] * 0.05)).collect();
+    let retraced = inc.move_vertices(&moved).unwrap();
+    assert!(retraced > 0 && retraced < mesh.vertex_count() / 2, "retraced {retraced} of {}", mesh.vertex_count());
+    let full = build_shell(inc.mesh(), &t, Side::Exterior, &params).unwrap();
+    let h = t[0];
+    for (v, (a, b)) in inc.shell().directors.iter().zip(&full.directors).enumerate() {
+        assert!((*a - *b).length() < 1e-4 * h, "vertex {v}: {a} vs {b}");
+    }
+    // With the default Barnes-Hut approximation the two trees differ in shape only.
+    let params = ShellParams::default();
+    let mut inc = incremental::IncrementalShell::new(mesh.clone(), t.clone(), Side::Exterior, params.clone()).unwrap();
+    inc.move_vertices(&moved).unwrap();
+    let full = build_shell(inc.mesh(), &t, Side::Exterior, &params).unwrap();
+    let worst = inc.shell().directors.iter().zip(&full.directors).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max);
+    assert!(worst < 0.05 * h, "worst {worst} vs h {h}");
+}
+
+#[test]
+fn envelope_spans_both_sides() {
+    let m = tm::icosphere(2);
+    let t = Thickness::relative(0.1).per_vertex(&m, None).unwrap();
+    let s = build_shell(&m, &t, Side::Envelope, &ShellParams::default()).unwrap();
+    for (v, p) in m.positions().iter().enumerate() {
+        let inner = s.point(m.positions(), v, 0.0);
+        let outer = s.point(m.positions(), v, 1.0);
+        assert!((inner.length() - (1.0 - t[v] / 2.0)).abs() < 0.01 * t[v], "{}", inner.length());
+        assert!((outer.length() - (1.0 + t[v] / 2.0)).abs() < 0.01 * t[v]);
+        assert!((s.achieved[v] - t[v]).abs() < 0.02 * t[v] && p.dot(s.directors[v]) > 0.0);
+    }
+    let r = report::shell_report(&m, &s);
+    assert_eq!((r.inverted_cells, r.outer_self_intersections, r.outer_base_intersections), (0, 0, 0));
+    let g = shell_geometry(&m, &s, ShellOutput::Solid).unwrap();
+    assert!(g.mesh.report().is_closed_manifold());
+    assert_eq!(prisms(&m).len(), m.face_count());
+    assert_eq!(Side::parse("Envelope").unwrap(), Side::Envelope);
+    assert!(Side::parse("sideways").is_err());
+}
+
+#[test]
+fn quads_give_hexahedra_and_ngons_prisms() {
+    let cube = crate::mesh::fixtures::cube();
+    let cells = prisms(&cube);
+    assert!(cells.len() == 6 && cells.iter().all(|c| c.is_hexahedron()));
+    let t = Thickness::relative(0.05).per_vertex(&cube, None).unwrap();
+    let s = build_shell(&cube, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    assert!(cells.iter().all(|c| !c.is_inverted(cube.positions(), &s)));
+    let hex = Mesh::new((0..6).map(|i| Vec3::new((i as f32).cos(), (i as f32).sin(), 0.0)).collect(), &[6], (0..6).collect(), None).unwrap();
+    assert_eq!(prisms(&hex).len(), 4);
+}
+
+fn bounded<T>(f: impl FnOnce() -> T) -> T {
+    let start = std::time::Instant::now();
+    let out = f();
+    assert!(start.elapsed().as_secs_f64() < 20.0, "took {:?}", start.elapsed());
+    out
+}
+
+#[test]
+fn bad_input_never_panics_or_hangs() {
+    // Non-manifold: three triangles on one edge, plus a loose vertex.
+    let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, -Vec3::Y, Vec3::new(0.5, 0.5, 0.5), Vec3::splat(5.0)];
+    let m = Mesh::new(p, &[3, 3, 3], vec![0, 1, 2, 1, 0, 3, 0, 1, 4], None).unwrap();
+    let t = vec![0.3; m.vertex_count()];
+    let s = bounded(|| build_shell(&m, &t, Side::Exterior, &ShellParams::default())).unwrap();
+    assert_eq!(s.directors[6], Vec3::ZERO, "loose vertex");
+    assert!(s.directors.iter().all(|d| d.is_finite()));
+    // Zero-area faces (repeated and collinear corners) are skipped.
+    let mut sphere = tm::icosphere(2);
+    let n = sphere.vertex_count() as u32;
+    let mut pos = sphere.positions().to_vec();
+    pos.push(pos[0] * 2.0);
+    let mut tris: Vec<[u32; 3]> = sphere.faces().map(|f| [f[0], f[1], f[2]]).collect();
+    tris.push([0, 0, 1]);
+    tris.push([0, n, n]);
+    sphere = Mesh::from_triangles(pos, &tris).unwrap();
+    let t = Thickness::relative(0.1).per_vertex(&sphere, None).unwrap();
+    let s = bounded(|| build_shell(&sphere, &t, Side::Exterior, &ShellParams::default())).unwrap();
+    assert!(s.directors.iter().all(|d| d.is_finite()));
+    // Thickness far larger than the object: compressed, finite, bounded time.
+    let m = tm::comb(1);
+    for side in [Side::Exterior, Side::Interior, Side::Envelope] {
+        let t = Thickness::relative(50.0).per_vertex(&m, None).unwrap();
+        let s = bounded(|| build_shell(&m, &t, side, &ShellParams::default())).unwrap();
+        assert!(s.directors.iter().all(|d| d.is_finite()));
+        assert!(s.achieved.iter().zip(&s.target).all(|(a, t)| *a <= t * 1.01));
+    }
+    // Wrong lengths and non-finite thickness are errors, not panics.
+    assert!(build_shell(&m, &[0.1], Side::Exterior, &ShellParams::default()).is_err());
+    assert!(build_shell(&m, &vec![f32::NAN; m.vertex_count()], Side::Exterior, &ShellParams::default()).is_err());
+    assert!(build_shell(&m, &vec![0.1; m.vertex_count()], Side::Exterior, &ShellParams { p: 1.0, ..Default::default() }).is_err());
+}
+
+#[test]
+fn general_p_uses_quadrature_and_agrees_in_direction() {
+    let m = tm::icosphere(2);
+    let t = Thickness::relative(0.1).per_vertex(&m, None).unwrap();
+    let s = build_shell(&m, &t, Side::Exterior, &ShellParams { p: 4.0, ..Default::default() }).unwrap();
+    for (p, d) in m.positions().iter().zip(&s.directors) {
+        assert!(d.normalize().dot(p.normalize()) > 0.999);
+    }
+    // d_p and g_p (4.3, 4.4) at a distance: the gradient points away and is close to 1.
+    let f = field::AveragedDistance::new(&m, 3.0, 0.3);
+    let x = Vec3::new(0.0, 0.0, 30.0);
+    let g = f.gradient(x);
+    assert!((g.length() - 1.0).abs() < 0.05 && g.z > 0.0, "{g}");
+    assert!((f.distance(x) - 30.0).abs() < 1.5, "{}", f.distance(x));
 }
