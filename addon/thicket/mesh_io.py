@@ -79,6 +79,8 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
     (0 where a vertex is not in the group). Blender exposes vertex-group weights to
     Python only per vertex, so they are read through a temporary copy of the object
     with a geometry-nodes capture appended; the user's object is not modified.
+    Call it with auto-update suspended (`stack.auto_update.suspended`), as
+    `stack.regenerate` does: the probe's own depsgraph updates must not schedule work.
     """
     if not vertex_groups:
         evaluated = obj.evaluated_get(depsgraph)
@@ -114,3 +116,7 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
         collection.objects.unlink(probe)
         bpy.data.objects.remove(probe, do_unlink=True)
         bpy.data.node_groups.remove(tree)
+        # Evaluate now, so the depsgraph updates that name the removed probe are sent
+        # (callers suspend Thicket's handler) instead of reaching the next handler call
+        # as dangling IDs, which crashed Blender when read.
+        bpy.context.view_layer.update()

@@ -6,6 +6,40 @@ use thicket_core::shell::{build_geometry, normal_offset_directors, ShellOutput, 
 use crate::arrays;
 use crate::errors::{run_detached, ThicketError};
 
+/// The inputs every shell-building function shares, converted once: the mesh,
+/// per-vertex factors, requested output and thickness.
+pub struct ShellRequest {
+    pub mesh: thicket_core::Mesh,
+    pub factors: Option<Vec<f32>>,
+    pub output: ShellOutput,
+    pub thickness: Thickness,
+}
+
+impl ShellRequest {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        vertices: &PyReadonlyArray2<'_, f32>,
+        face_sizes: &Bound<'_, PyAny>,
+        corners: &Bound<'_, PyAny>,
+        thickness: f32,
+        relative: bool,
+        factors: Option<&Bound<'_, PyAny>>,
+        output: &str,
+        layers: u32,
+    ) -> PyResult<Self> {
+        let mesh = arrays::mesh(vertices, face_sizes, corners)?;
+        let factors = factors.map(|f| arrays::per_vertex_or_scalar(f, mesh.vertex_count(), "factors")).transpose()?;
+        let output = parse_output(output, layers)?;
+        let thickness = if relative { Thickness::relative(thickness) } else { Thickness::absolute(thickness) };
+        Ok(Self { mesh, factors, output, thickness })
+    }
+
+    /// Signed target thickness per vertex.
+    pub fn per_vertex(&self) -> thicket_core::Result<Vec<f32>> {
+        self.thickness.per_vertex(&self.mesh, self.factors.as_deref())
+    }
+}
+
 pub fn parse_output(output: &str, layers: u32) -> PyResult<ShellOutput> {
     match output {
         "outer" => Ok(ShellOutput::Outer),
@@ -41,14 +75,10 @@ pub fn offset_shell<'py>(
     output: &str,
     layers: u32,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
-    let factors = factors.map(|f| arrays::per_vertex_or_scalar(f, mesh.vertex_count(), "factors")).transpose()?;
-    let output = parse_output(output, layers)?;
-    let thickness = if relative { Thickness::relative(thickness) } else { Thickness::absolute(thickness) };
+    let req = ShellRequest::new(&vertices, face_sizes, corners, thickness, relative, factors, output, layers)?;
     let (shell, directors) = run_detached(py, move || {
-        let t = thickness.per_vertex(&mesh, factors.as_deref())?;
-        let directors = normal_offset_directors(&mesh, &t);
-        Ok((build_geometry(&mesh, &directors, output)?, directors))
+        let directors = normal_offset_directors(&req.mesh, &req.per_vertex()?);
+        Ok((build_geometry(&req.mesh, &directors, req.output)?, directors))
     })?;
     let d = arrays::mesh_dict(py, shell.mesh)?;
     d.set_item("source_vertex", arrays::u32_as_i32_array(py, shell.source_vertex))?;

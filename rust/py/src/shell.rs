@@ -2,12 +2,12 @@ use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use thicket_core::glam::Vec3;
-use thicket_core::shell::{self as core, report::shell_report as core_shell_report, shell_geometry, ShellParams, Side, Thickness};
+use thicket_core::shell::{self as core, report::shell_report as core_shell_report, shell_geometry, ShellParams, Side};
 use thicket_core::Mesh;
 
 use crate::arrays;
 use crate::errors::{run_detached, ThicketError};
-use crate::offset::parse_output;
+use crate::offset::ShellRequest;
 
 fn triangle_mesh(vertices: &PyReadonlyArray2<'_, f32>, triangles: &Bound<'_, PyAny>) -> PyResult<Mesh> {
     let positions = arrays::positions(vertices)?;
@@ -67,15 +67,11 @@ pub fn shell<'py>(
     layers: u32,
     p: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
-    let factors = factors.map(|f| arrays::per_vertex_or_scalar(f, mesh.vertex_count(), "factors")).transpose()?;
-    let output = parse_output(output, layers)?;
+    let req = ShellRequest::new(&vertices, face_sizes, corners, thickness, relative, factors, output, layers)?;
     let side = Side::parse(side).map_err(crate::errors::to_py)?;
-    let thickness = if relative { Thickness::relative(thickness) } else { Thickness::absolute(thickness) };
     let (geometry, shell) = run_detached(py, move || {
-        let t = thickness.per_vertex(&mesh, factors.as_deref())?;
-        let shell = core::build_shell(&mesh, &t, side, &params(p))?;
-        Ok((shell_geometry(&mesh, &shell, output)?, shell))
+        let shell = core::build_shell(&req.mesh, &req.per_vertex()?, side, &params(p))?;
+        Ok((shell_geometry(&req.mesh, &shell, req.output)?, shell))
     })?;
     let d = arrays::mesh_dict(py, geometry.mesh)?;
     d.set_item("source_vertex", arrays::u32_as_i32_array(py, geometry.source_vertex))?;
