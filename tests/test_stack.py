@@ -23,7 +23,8 @@ def test_operator_on_every_selected_mesh_skips_non_meshes(scene):
         assert result.parent == obj
         assert len(result.data.vertices) == 2 * len(obj.data.vertices)
         np.testing.assert_array_equal(positions(obj), before[obj.name])  # source untouched
-    assert len(light.keys()) == 0 or not hasattr(light, "thicket") or len(light.thicket.items) == 0
+    assert len(light.thicket.items) == 0 and light.thicket.result is None
+    assert {o.name for o in bpy.data.objects} == {"Suzanne", "Suzanne_thicket", "Cube", "Cube_thicket", light.name}
 
 
 def test_offset_matches_blender_solidify(scene):
