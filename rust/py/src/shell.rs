@@ -89,6 +89,7 @@ pub fn shell<'py>(
 /// Quality figures of any shell given by its directors (e.g. from Solidify: outer
 /// position minus base): outer_self_intersections, outer_base_intersections,
 /// inverted_cells, min_ratio, mean_ratio, min_ratio_normal_valid, normal_valid_vertices,
+/// normal_valid_at_95,
 /// considered_vertices.
 #[pyfunction]
 #[pyo3(signature = (vertices, face_sizes, corners, directors, target, base_offset=None, side="exterior"))]
@@ -126,6 +127,7 @@ pub fn shell_report<'py>(
     d.set_item("mean_ratio", r.mean_ratio)?;
     d.set_item("min_ratio_normal_valid", r.min_ratio_normal_valid)?;
     d.set_item("normal_valid_vertices", r.normal_valid_vertices)?;
+    d.set_item("normal_valid_at_95", r.normal_valid_at_95)?;
     d.set_item("considered_vertices", r.considered_vertices)?;
     Ok(d)
 }

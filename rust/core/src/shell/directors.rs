@@ -7,10 +7,11 @@
 //!
 //! Speed along the field. The paper integrates `g_p`, whose magnitude "decays close to
 //! the medial axis" (4.3). We move along the unit field direction `ĝ` with speed
-//! `σ = (Σ c_i·ĝ) / (Σ |c_i·ĝ|)` in `[0, 1]`, where `c_i` are the contributions of the
+//! `min(1, σ / onset)` where `σ = (Σ c_i·ĝ) / (Σ |c_i·ĝ|)` in `[0, 1]`, where `c_i` are the contributions of the
 //! individual patches to `-∇∫|x-y|^-p`: σ = 1 where all surface nearby pushes the
 //! same way (planes, convex parts, concave corners up to 90°), and σ → 0 where surface
-//! parts push against each other (near the medial axis). Trajectories therefore slow
+//! parts push against each other (near the medial axis); `onset`
+//! ([`ShellParams::compression_onset`]) lets shallow concavities keep full speed. Trajectories therefore slow
 //! down exponentially instead of crossing the medial axis, which is the compression
 //! behaviour of figures 4.7 and 4.8.
 
@@ -76,20 +77,29 @@ pub struct ShellParams {
     /// Rounds of local director shortening where chords still tangle
     /// ([`repair::untangle`](super::repair::untangle)); 0 disables it.
     pub repair_rounds: u32,
+    /// The shell moves at full speed while the agreement `σ` of the surface pushes
+    /// (module docs) is at least this; below it the speed is `σ / onset`. 1 slows down
+    /// as soon as any surface pushes back; lower values keep the full thickness in
+    /// shallow concavities and compress only nearer the medial axis.
+    pub compression_onset: f64,
 }
+
+/// Per-round shortening of the repair pass.
+pub(crate) const REPAIR_FACTOR: f32 = 0.92;
 
 impl Default for ShellParams {
     fn default() -> Self {
         Self {
             p: 3.0,
-            theta: 0.5,
+            theta: 0.6,
             support: 2.2,
             steps: 6,
             max_turn: 0.15,
             max_halvings: 5,
             max_evaluations: 120,
             boundary_faces: true,
-            repair_rounds: 20,
+            repair_rounds: 40,
+            compression_onset: 0.7,
         }
     }
 }
@@ -105,6 +115,9 @@ impl ShellParams {
         }
         if !(self.support >= 1.0 && self.support.is_finite()) {
             return bad("support must be at least 1 (times the thickness)");
+        }
+        if !(self.compression_onset > 0.0 && self.compression_onset <= 1.0) {
+            return bad("compression_onset must be in (0, 1]");
         }
         if self.steps == 0 || self.max_evaluations == 0 || !(self.max_turn > 0.0) {
             return bad("steps, max_evaluations and max_turn must be positive");
@@ -141,6 +154,8 @@ pub(crate) struct Tracer {
     pub normals: Vec<Vec3>,
     /// Shortest edge at each vertex (first step size).
     pub min_edge: Vec<f32>,
+    /// [`ShellParams::compression_onset`].
+    pub onset: f64,
 }
 
 /// One traced trajectory: its end and the bounding sphere of the points evaluated.
@@ -179,7 +194,7 @@ impl Tracer {
     pub fn new(mesh: &Mesh, reach: &[f32], params: &ShellParams) -> Self {
         let normals = vertex_normals(mesh);
         let tree = PatchTree::build(&integration_triangles(mesh, &normals, reach, params));
-        Self { tree, kernel: Kernel::new(params.p, params.theta), normals, min_edge: min_edges(mesh) }
+        Self { tree, kernel: Kernel::new(params.p, params.theta), normals, min_edge: min_edges(mesh), onset: params.compression_onset }
     }
 
     fn sample(&self, x: DVec3, radius: f64, reference: DVec3) -> Option<(DVec3, f64)> {
@@ -189,7 +204,7 @@ impl Tracer {
             return None;
         }
         let dir = push / len;
-        Some((dir, (push.dot(reference) / abs_along).clamp(0.0, 1.0)))
+        Some((dir, (push.dot(reference) / (abs_along * self.onset)).clamp(0.0, 1.0)))
     }
 
     /// Traces the trajectory of vertex `v` towards side `sign` (+1 outward, -1 inward)
@@ -304,7 +319,7 @@ pub fn build_shell(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPar
     let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
     let traces = trace_vertices(&tracer, mesh, &lengths, side, params, &all);
     let mut shell = assemble(mesh, thickness, side, &traces);
-    super::repair::untangle(mesh, &mut shell, params.repair_rounds, 0.85);
+    super::repair::untangle(mesh, &mut shell, params.repair_rounds, REPAIR_FACTOR);
     Ok(shell)
 }
 

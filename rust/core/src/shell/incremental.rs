@@ -5,6 +5,7 @@
 
 use super::directors::{
     assemble, check_inputs, integration_triangles, min_edges, side_lengths, trace_vertices, Trace, Tracer,
+    REPAIR_FACTOR,
 };
 use super::{Shell, ShellParams, Side};
 use crate::mesh::vertex_normals;
@@ -34,7 +35,7 @@ impl IncrementalShell {
         let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
         let traces = trace_vertices(&tracer, &mesh, &lengths, side, &params, &all);
         let mut shell = assemble(&mesh, &thickness, side, &traces);
-        super::repair::untangle(&mesh, &mut shell, params.repair_rounds, 0.85);
+        super::repair::untangle(&mesh, &mut shell, params.repair_rounds, REPAIR_FACTOR);
         Ok(Self { mesh, thickness, lengths, side, params, tracer, tris, traces, shell })
     }
 
@@ -104,8 +105,16 @@ impl IncrementalShell {
         for (&v, t) in dirty.iter().zip(fresh) {
             self.traces[v as usize] = t;
         }
-        self.shell = assemble(&self.mesh, &self.thickness, self.side, &self.traces);
-        super::repair::untangle(&self.mesh, &mut self.shell, self.params.repair_rounds, 0.85);
+        // Retraced directors start unrepaired; the others keep their repair, and the
+        // repair pass starts from the cells and triangles around the retraced ones.
+        let fresh_shell = assemble(&self.mesh, &self.thickness, self.side, &self.traces);
+        for &v in &dirty {
+            let v = v as usize;
+            self.shell.base_offset[v] = fresh_shell.base_offset[v];
+            self.shell.directors[v] = fresh_shell.directors[v];
+            self.shell.achieved[v] = fresh_shell.achieved[v];
+        }
+        super::repair::untangle_around(&self.mesh, &mut self.shell, self.params.repair_rounds, REPAIR_FACTOR, Some(&dirty));
         Ok(dirty.len())
     }
 }

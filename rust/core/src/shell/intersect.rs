@@ -88,13 +88,41 @@ impl TriBvh {
         me
     }
 
+    /// Moves the triangles (same count and order as built) and recomputes the boxes
+    /// bottom-up, keeping the tree's topology: O(n), for shells whose vertices moved
+    /// a little.
+    pub fn refit(&mut self, tris: &[[DVec3; 3]]) {
+        self.boxes.iter_mut().zip(tris).for_each(|(b, t)| *b = tri_box(t));
+        // Children always follow their parent: refit in reverse order.
+        for n in (0..self.nodes.len()).rev() {
+            let node = self.nodes[n];
+            let (lo, hi) = if node.count > 0 {
+                self.items[node.index as usize..(node.index + node.count) as usize].iter().fold(
+                    (DVec3::INFINITY, DVec3::NEG_INFINITY),
+                    |(l, h), &i| {
+                        let b = self.boxes[i as usize];
+                        (l.min(b.0), h.max(b.1))
+                    },
+                )
+            } else {
+                let (a, b) = (self.nodes[n + 1], self.nodes[node.index as usize]);
+                (a.lo.min(b.lo), a.hi.max(b.hi))
+            };
+            self.nodes[n].lo = lo;
+            self.nodes[n].hi = hi;
+        }
+    }
+
     /// Calls `f` with every triangle whose box overlaps `[lo, hi]`.
     pub fn query(&self, lo: DVec3, hi: DVec3, mut f: impl FnMut(u32)) {
         if self.nodes.is_empty() {
             return;
         }
-        let mut stack = vec![0u32];
-        while let Some(n) = stack.pop() {
+        let mut stack = [0u32; 64];
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let n = stack[sp];
             let node = self.nodes[n as usize];
             if node.lo.cmpgt(hi).any() || node.hi.cmplt(lo).any() {
                 continue;
@@ -106,9 +134,10 @@ impl TriBvh {
                         f(i);
                     }
                 }
-            } else {
-                stack.push(n + 1);
-                stack.push(node.index);
+            } else if sp + 2 <= stack.len() {
+                stack[sp] = n + 1;
+                stack[sp + 1] = node.index;
+                sp += 2;
             }
         }
     }
@@ -127,10 +156,16 @@ mod tests {
         assert!(!triangles_intersect(&a, &above));
         let touching = [DVec3::new(0.2, 0.2, 0.0), DVec3::new(0.2, 0.2, 1.0), DVec3::new(0.5, 0.0, 1.0)];
         assert!(!triangles_intersect(&a, &touching));
-        let bvh = TriBvh::build(&[a, above, crossing]);
-        let mut hits = Vec::new();
-        bvh.query(DVec3::new(0.15, 0.15, -0.1), DVec3::new(0.25, 0.25, 0.1), |i| hits.push(i));
-        hits.sort();
-        assert_eq!(hits, vec![0, 2]);
+        let mut bvh = TriBvh::build(&[a, above, crossing]);
+        let query = |bvh: &TriBvh| {
+            let mut hits = Vec::new();
+            bvh.query(DVec3::new(0.15, 0.15, -0.1), DVec3::new(0.25, 0.25, 0.1), |i| hits.push(i));
+            hits.sort();
+            hits
+        };
+        assert_eq!(query(&bvh), vec![0, 2]);
+        // After moving the crossing triangle away and `above` down, a refit finds `above`.
+        bvh.refit(&[a, above.map(|p| p - DVec3::Z * 1.5), crossing.map(|p| p + DVec3::X * 5.0)]);
+        assert_eq!(query(&bvh), vec![0, 1]);
     }
 }

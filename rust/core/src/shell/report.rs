@@ -35,6 +35,8 @@ pub struct ShellReport {
     /// Number of such vertices, and of vertices considered at all.
     pub normal_valid_vertices: usize,
     pub considered_vertices: usize,
+    /// Share of the normal-valid vertices that reach 95% of their target.
+    pub normal_valid_at_95: f32,
 }
 
 /// Per-element findings of one shell.
@@ -163,6 +165,7 @@ pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
     let valid = normal_valid_vertices(mesh, shell.side, &shell.target);
     let normals = vertex_normals(mesh);
     let (mut min_ratio, mut sum, mut count, mut min_valid, mut n_valid) = (f32::INFINITY, 0.0f64, 0usize, f32::INFINITY, 0);
+    let mut valid_at_95 = 0usize;
     for v in 0..mesh.vertex_count() {
         if !(shell.target[v] > 0.0) || normals[v] == Vec3::ZERO {
             continue;
@@ -174,6 +177,7 @@ pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
         if valid[v] {
             min_valid = min_valid.min(r);
             n_valid += 1;
+            valid_at_95 += usize::from(r >= 0.95);
         }
     }
     ShellReport {
@@ -185,5 +189,6 @@ pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
         min_ratio_normal_valid: if n_valid > 0 { min_valid } else { 1.0 },
         normal_valid_vertices: n_valid,
         considered_vertices: count,
+        normal_valid_at_95: if n_valid > 0 { valid_at_95 as f32 / n_valid as f32 } else { 1.0 },
     }
 }

@@ -10,6 +10,20 @@ use glam::DVec3;
 
 const LEAF: usize = 4;
 
+/// The soft localization ball has full weight up to `TAPER` times its radius.
+pub const TAPER: f64 = 0.8;
+
+/// Localization weight of a patch whose centroid is `d` from the evaluation point:
+/// 1 for `d <= TAPER * radius`, a smoothstep down to 0 at `radius`.
+#[inline]
+pub fn taper(d: f64, radius: f64) -> f64 {
+    if d <= TAPER * radius {
+        return 1.0;
+    }
+    let s = ((radius - d) / ((1.0 - TAPER) * radius)).clamp(0.0, 1.0);
+    s * s * (3.0 - 2.0 * s)
+}
+
 #[derive(Debug, Clone, Copy, Default)]
 struct Node {
     centroid: DVec3,
@@ -187,17 +201,25 @@ impl PatchTree {
 
     /// Sums the contributions of the surface within `radius` of `x` (all of it for
     /// `f64::INFINITY`). `reference` is the direction `abs_along` is measured along.
+    ///
+    /// Localization (4.3.1) is soft: a patch counts with weight [`taper`] of its
+    /// centroid's distance, 1 inside `TAPER * radius` and falling smoothly to 0 at
+    /// `radius`; nothing beyond `radius` contributes. A sharp cut would force every node straddling the ball's
+    /// boundary open down to its faces — most of the work of an evaluation, for
+    /// contributions that are the smallest ones (`|x-y|^{-p-1}` at the ball's rim).
     pub fn eval(&self, x: DVec3, radius: f64, reference: DVec3, kernel: &Kernel) -> FieldEval {
         let mut out = FieldEval::default();
         if self.nodes.is_empty() {
             return out;
         }
-        let add = |(v, push): (f64, DVec3), out: &mut FieldEval| {
-            out.value += v;
+        let add = |w: f64, (v, push): (f64, DVec3), out: &mut FieldEval| {
+            let push = push * w;
+            out.value += v * w;
             out.push += push;
             out.abs_along += push.dot(reference).abs();
         };
         let theta = kernel.theta;
+        let outer = radius;
         let mut stack = [0u32; 64];
         let mut sp = 1;
         while sp > 0 {
@@ -205,24 +227,28 @@ impl PatchTree {
             let ni = stack[sp];
             let node = &self.nodes[ni as usize];
             let d = (x - node.centroid).length();
-            if d - node.radius > radius {
+            if d - node.radius > outer {
                 continue;
             }
-            if node.radius < theta * d && d + node.radius <= radius {
-                add(kernel.point(node.area, node.centroid, x), &mut out);
+            if node.radius < theta * d {
+                let w = taper(d, radius);
+                if w > 0.0 {
+                    add(w, kernel.point(node.area, node.centroid, x), &mut out);
+                }
                 continue;
             }
             if node.count > 0 {
                 for i in node.index as usize..(node.index + node.count) as usize {
                     let c = self.tri_centroid[i];
                     let dc = (x - c).length();
-                    if dc > radius {
+                    let w = taper(dc, radius);
+                    if w <= 0.0 {
                         continue;
                     }
                     if self.tri_radius[i] < theta * dc {
-                        add(kernel.point(self.tri_area[i], c, x), &mut out);
+                        add(w, kernel.point(self.tri_area[i], c, x), &mut out);
                     } else {
-                        add(kernel.face(&self.tris[i], x), &mut out);
+                        add(w, kernel.face(&self.tris[i], x), &mut out);
                     }
                 }
             } else if sp + 2 <= stack.len() {
