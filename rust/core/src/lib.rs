@@ -8,6 +8,7 @@
 pub mod error;
 pub mod mesh;
 pub mod shell;
+pub mod texture;
 #[doc(hidden)]
 pub mod testmeshes;
 

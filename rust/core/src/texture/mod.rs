@@ -1,0 +1,23 @@
+//! Volumetric textures in the shell (thick surfaces, chapters 3 and 7): a tileable 3D
+//! grid of occupancy `alpha` whose third axis runs from the base (`r = 0`) to the
+//! outer layer (`r = 1`); the detailed surface is the iso-surface `alpha = 0.5`.
+//!
+//! - [`volume`]: the grid, trilinear sampling (periodic in `s`, `t`) and gradient.
+//! - [`procedural`]: the generator library (chain mail, weave, rivets, grass, fur,
+//!   bubbles), each tileable, seeded and, where it moves, driven by a time.
+//! - [`mapping`]: texture coordinates of the shell's cells (UVs times tiling, or one
+//!   tile per face) and the cell map between world and texture space.
+//! - [`bake`]: the iso-surface polygonized over the whole shell as one crack-free mesh.
+
+pub mod bake;
+pub mod mapping;
+pub mod procedural;
+pub mod volume;
+
+pub use bake::{bake, BakeParams, BakedMesh};
+pub use mapping::{CellMap, TextureCoordinates};
+pub use procedural::{Generator, Pattern};
+pub use volume::VolumeTexture;
+
+#[cfg(test)]
+mod tests;

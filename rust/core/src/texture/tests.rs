@@ -1,0 +1,151 @@
+//! Bake tests: closed, crack-free results, the shell map, normals, regions, limits.
+
+use super::bake::{bake, estimate_triangles_for, BakeParams, TextureLayer};
+use super::*;
+use crate::shell::{build_shell, ShellParams, Side, Thickness};
+use crate::testmeshes as tm;
+use crate::Mesh;
+use glam::{Vec2, Vec3};
+
+fn shell(mesh: &Mesh, frac: f32) -> crate::shell::Shell {
+    let t = Thickness::relative(frac).per_vertex(mesh, None).unwrap();
+    build_shell(mesh, &t, Side::Exterior, &ShellParams::default()).unwrap()
+}
+
+fn layer(texture: VolumeTexture) -> Vec<TextureLayer> {
+    vec![TextureLayer { texture, offset: Vec2::ZERO }]
+}
+
+fn as_mesh(b: &BakedMesh) -> Mesh {
+    Mesh::from_triangles(b.positions.clone(), &b.triangles).unwrap()
+}
+
+/// Pairs of distinct vertices closer than `eps` (duplicated vertices).
+fn near_duplicates(p: &[Vec3], eps: f32) -> usize {
+    let mut idx: Vec<usize> = (0..p.len()).collect();
+    idx.sort_by(|a, b| p[*a].x.total_cmp(&p[*b].x));
+    let mut count = 0;
+    for (k, &i) in idx.iter().enumerate() {
+        for &j in &idx[k + 1..] {
+            if p[j].x - p[i].x > eps {
+                break;
+            }
+            count += usize::from((p[i] - p[j]).length() < eps);
+        }
+    }
+    count
+}
+
+#[test]
+fn chain_mail_on_the_bunny_bakes_closed_and_crack_free() {
+    let mesh = tm::bunny();
+    let s = shell(&mesh, 0.03);
+    let tex = Generator::new(Pattern::ChainMail).generate([48, 48, 24]).unwrap();
+    let params = BakeParams { resolution: 4, layers: 8, ..Default::default() };
+    let b = bake(&mesh, &s, &layer(tex), &params).unwrap();
+    assert!(b.per_face_tiles, "the bunny has no UVs");
+    assert!(b.triangles.len() > 10_000, "{}", b.triangles.len());
+    let r = as_mesh(&b).report();
+    assert!(r.is_closed_manifold(), "{r:?}");
+    assert_eq!(near_duplicates(&b.positions, 1e-6 * mesh.bbox_diagonal()), 0);
+    // Every vertex lies inside the shell: r in (0, 1).
+    assert!(b.texcoords.iter().all(|c| c.z > 0.0 && c.z < 1.0));
+}
+
+#[test]
+fn every_pattern_bakes_closed_on_an_open_sheet_with_uvs() {
+    // An open saddle with UVs: the side walls are outside, so results close there too.
+    let base = tm::saddle(6);
+    let uvs: Vec<Vec2> = base.corners().iter().map(|&v| base.positions()[v as usize].truncate() * 0.5 + 0.5).collect();
+    let mesh = Mesh::new(base.positions().to_vec(), &base.face_sizes(), base.corners().to_vec(), Some(uvs)).unwrap();
+    let s = shell(&mesh, 0.08);
+    for p in Pattern::ALL {
+        let tex = Generator::new(p).generate([32, 32, 16]).unwrap();
+        let b = bake(&mesh, &s, &layer(tex), &BakeParams { resolution: 6, layers: 12, tiling: 2.0, ..Default::default() }).unwrap();
+        assert!(!b.per_face_tiles);
+        assert!(!b.triangles.is_empty(), "{p:?}");
+        let r = as_mesh(&b).report();
+        assert!(r.is_closed_manifold(), "{p:?}: {r:?}");
+    }
+}
+
+#[test]
+fn a_slab_texture_bakes_to_the_mid_layer_with_radial_normals() {
+    // alpha = 1 below r = 0.5: on a sphere's shell the surface is the sphere of
+    // radius 1 + h/2 (plus the cap near the base), normals pointing out.
+    let mesh = tm::icosphere(2);
+    let s = shell(&mesh, 0.1);
+    let h = 0.1 * mesh.bbox_diagonal();
+    let slab = VolumeTexture::from_fn([4, 4, 33], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap();
+    let b = bake(&mesh, &s, &layer(slab), &BakeParams { resolution: 3, layers: 16, ..Default::default() }).unwrap();
+    let mut outer = 0;
+    for ((p, n), c) in b.positions.iter().zip(&b.normals).zip(&b.texcoords) {
+        if c.z > 0.25 {
+            outer += 1;
+            assert!((c.z - 0.5).abs() < 0.04, "{c}");
+            // Flat triangles between sphere vertices sit up to ~3% inside the radius.
+            assert!((p.length() - (1.0 + 0.5 * h)).abs() < 0.05, "{}", p.length());
+            assert!(n.dot(p.normalize()) > 0.95, "{n} at {p}");
+        }
+    }
+    assert!(outer > 100);
+    assert!(as_mesh(&b).report().is_closed_manifold());
+}
+
+#[test]
+fn normals_agree_with_the_baked_geometry() {
+    let mesh = tm::icosphere(2);
+    let s = shell(&mesh, 0.15);
+    let tex = Generator::new(Pattern::Rivets).generate([48, 48, 24]).unwrap();
+    let b = bake(&mesh, &s, &layer(tex), &BakeParams { resolution: 6, layers: 16, ..Default::default() }).unwrap();
+    let geo = crate::mesh::vertex_normals(&as_mesh(&b));
+    let mean: f32 = b.normals.iter().zip(&geo).map(|(a, g)| a.dot(*g)).sum::<f32>() / geo.len() as f32;
+    assert!(mean > 0.85, "mean agreement {mean}");
+}
+
+#[test]
+fn regions_show_the_base_where_the_texture_is_absent() {
+    let mesh = tm::icosphere(2);
+    let s = shell(&mesh, 0.1);
+    let tex = VolumeTexture::from_fn([4, 4, 17], |c| if c.z < 0.7 { 1.0 } else { 0.0 }).unwrap();
+    // Texture on the upper half only.
+    let region: Vec<f32> = mesh.positions().iter().map(|p| if p.z > 0.0 { 1.0 } else { 0.0 }).collect();
+    let params = BakeParams { resolution: 4, layers: 12, region: Some(region), ..Default::default() };
+    let b = bake(&mesh, &s, &layer(tex), &params).unwrap();
+    assert!(as_mesh(&b).report().is_closed_manifold());
+    // Low on the sphere only the thin base slab remains; the texture rises high at the top.
+    let low = b.positions.iter().zip(&b.texcoords).filter(|(p, _)| p.z < -0.5);
+    assert!(low.clone().count() > 0 && low.clone().all(|(_, c)| c.z < 0.2));
+    assert!(b.positions.iter().zip(&b.texcoords).any(|(p, c)| p.z > 0.5 && c.z > 0.6));
+}
+
+#[test]
+fn combined_textures_are_a_union() {
+    let mesh = tm::icosphere(1);
+    let s = shell(&mesh, 0.1);
+    let a = Generator::new(Pattern::Rivets).generate([32, 32, 16]).unwrap();
+    let g = VolumeTexture::from_fn([4, 4, 17], |c| if c.z < 0.8 && c.x < 0.5 { 1.0 } else { 0.0 }).unwrap();
+    let p = BakeParams { resolution: 4, layers: 12, ..Default::default() };
+    let one = bake(&mesh, &s, &layer(a.clone()), &p).unwrap();
+    let both = bake(&mesh, &s, &[TextureLayer { texture: a, offset: Vec2::ZERO }, TextureLayer { texture: g, offset: Vec2::new(0.3, 0.1) }], &p).unwrap();
+    let top = |b: &BakedMesh| b.texcoords.iter().map(|c| c.z).fold(0.0f32, f32::max);
+    assert!(top(&both) > top(&one) + 0.2, "the second texture rises above the rivets");
+    assert!(both.triangles.len() > one.triangles.len());
+}
+
+#[test]
+fn bad_bakes_are_errors() {
+    let mesh = tm::icosphere(1);
+    let s = shell(&mesh, 0.1);
+    let tex = layer(Generator::new(Pattern::Weave).generate([16, 16, 8]).unwrap());
+    assert!(bake(&mesh, &s, &[], &BakeParams::default()).is_err());
+    assert!(bake(&mesh, &s, &tex, &BakeParams { resolution: 0, ..Default::default() }).is_err());
+    assert!(bake(&mesh, &s, &tex, &BakeParams { tiling: f32::NAN, ..Default::default() }).is_err());
+    assert!(bake(&mesh, &s, &tex, &BakeParams { region: Some(vec![1.0]), ..Default::default() }).is_err());
+    let small = BakeParams { max_triangles: 100, ..Default::default() };
+    let estimate = estimate_triangles_for(&mesh, &tex, &small);
+    let err = bake(&mesh, &s, &tex, &small).unwrap_err().to_string();
+    assert!(estimate > 100 && err.contains(&estimate.to_string()), "{err}");
+    let other = tm::icosphere(2);
+    assert!(bake(&other, &s, &tex, &BakeParams::default()).is_err(), "shell of another mesh");
+}
