@@ -6,6 +6,8 @@
     mesh_obj = th.apply(obj)             # result becomes an ordinary mesh
     th.remove(obj)                       # stack and result deleted
     th.process_file("in.blend", out_blend="out.blend", out_glb="out.glb", thickness=0.02)
+    th.add_volumetric_texture(obj, pattern="chain_mail", tiling=4)   # shell + baked texture
+    th.bake_frames(obj, 1, 48, "//frames")    # animated textures: one .glb per frame
 
 Every function raises `ThicketError` (from thicket_native, a ValueError) for bad
 geometry or settings, `TypeError` for non-mesh objects and `KeyError` for missing
@@ -21,7 +23,7 @@ from . import native
 from .stack import settings as S
 from .stack.regenerate import regenerate as _regenerate
 
-__all__ = ["add_thick_surface", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]
+__all__ = ["add_thick_surface", "add_volumetric_texture", "bake_frames", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]
 
 
 def __getattr__(name):
@@ -62,6 +64,37 @@ def add_thick_surface(obj, thickness=S.OffsetShell.thickness, thickness_mode="RE
         extra = {"side": side} if kind == "SHELL" else {}
         add_item(obj, kind, thickness=thickness, thickness_mode=thickness_mode, output=output, layers=layers, vertex_group=vertex_group, **extra)
     return _regenerate(obj)
+
+
+def add_volumetric_texture(obj, pattern="chain_mail", shell_thickness=0.05, side="EXTERIOR", **texture_settings):
+    """Adds a Volumetric Texture item (names of `ThicketItem`: tiling, resolution,
+    texture_layers, vertex_group, combine, offset, time, follow_frame...) to `obj`'s
+    stack, after a Shell item of `shell_thickness` (relative) that is added first when
+    the stack has no shell yet; regenerates and returns the result object."""
+    _require_mesh(obj)
+    if not any(i.kind in ("SHELL", "OFFSET_SHELL") for i in obj.thicket.items):
+        add_item(obj, "SHELL", thickness=shell_thickness, side=side)
+    add_item(obj, "VOLUMETRIC_TEXTURE", pattern=pattern, **texture_settings)
+    return _regenerate(obj)
+
+
+def bake_frames(obj, frame_start, frame_end, directory, step=1):
+    """Bakes `obj`'s stack at every frame of the range (animated textures follow the
+    frame when their item has `follow_frame`) and writes `<object>_<frame>.glb` files
+    into `directory`; returns the paths. The scene's frame is restored afterwards."""
+    _require_mesh(obj)
+    scene = bpy.context.scene
+    previous = scene.frame_current
+    directory = bpy.path.abspath(directory)
+    paths = []
+    try:
+        for frame in range(int(frame_start), int(frame_end) + 1, max(1, int(step))):
+            scene.frame_set(frame)
+            result = _regenerate(obj)
+            paths.append(export_glb([result], os.path.join(directory, f"{obj.name}_{frame:04d}.glb")))
+    finally:
+        scene.frame_set(previous)
+    return paths
 
 
 def regenerate(obj, progress=None):

@@ -16,6 +16,9 @@ class MeshArrays:
     face_sizes: np.ndarray  # (f,) int32, Blender's loop_total
     corners: np.ndarray  # (c,) int32, Blender's loop vertex_index
     point_attributes: dict = field(default_factory=dict)  # name -> (n,) or (n, 3) float32
+    uvs: np.ndarray | None = None  # (c, 2) float32: the active UV map per corner, or None
+    normals: np.ndarray | None = None  # (n, 3) float32 custom vertex normals to write, or None
+    notes: list = field(default_factory=list)  # things the user should be told about the result
 
     @property
     def vertex_count(self) -> int:

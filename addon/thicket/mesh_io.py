@@ -26,7 +26,12 @@ def read_mesh(mesh: bpy.types.Mesh, float_attributes=()) -> MeshArrays:
             values = np.empty(n, dtype=np.float32)
             attr.data.foreach_get("value", values)
             attrs[name] = values
-    return MeshArrays(vertices.reshape(n, 3), face_sizes, corners, attrs)
+    uvs = None
+    if mesh.uv_layers.active is not None and c > 0:
+        uvs = np.empty(c * 2, dtype=np.float32)
+        mesh.uv_layers.active.data.foreach_get("uv", uvs)
+        uvs = uvs.reshape(c, 2)
+    return MeshArrays(vertices.reshape(n, 3), face_sizes, corners, attrs, uvs)
 
 
 def write_mesh(mesh: bpy.types.Mesh, arrays: MeshArrays) -> None:
@@ -42,6 +47,10 @@ def write_mesh(mesh: bpy.types.Mesh, arrays: MeshArrays) -> None:
     np.cumsum(arrays.face_sizes[:-1], out=starts[1:])
     mesh.polygons.foreach_set("loop_start", starts)
     mesh.update(calc_edges=True)
+    if arrays.normals is not None and n > 0:
+        # Custom normals (Blender 4.1+ needs no auto smooth for them to show).
+        mesh.polygons.foreach_set("use_smooth", np.ones(f, dtype=bool))
+        mesh.normals_split_custom_set_from_vertices(np.ascontiguousarray(arrays.normals, dtype=np.float32))
     for name, values in arrays.point_attributes.items():
         values = np.ascontiguousarray(values, dtype=np.float32)
         vector = values.ndim == 2

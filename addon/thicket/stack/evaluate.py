@@ -10,8 +10,21 @@ from ..arrays import MeshArrays, weight_attribute
 from . import settings as S
 
 DIRECTOR_ATTRIBUTE = "thicket_director"
+TEXCOORD_ATTRIBUTE = "thicket_texcoord"
 LAYER_ATTRIBUTE = "thicket_layer"
 THICKNESS_ATTRIBUTE = "thicket_thickness"
+
+
+class ShellContext:
+    """The shell a later Volumetric Texture maps into: the mesh it was built on and
+    its base offsets and directors (layer r of vertex v at v + base_offset + r * director)."""
+
+    def __init__(self, base: MeshArrays, out, origin):
+        self.base = base
+        self.directors = np.ascontiguousarray(out["directors"], dtype=np.float32)
+        offset = out.get("base_offset")
+        self.base_offset = np.zeros_like(self.directors) if offset is None else np.ascontiguousarray(offset, dtype=np.float32)
+        self.origin = origin  # source vertex of each base vertex
 
 
 def _shell_result(out):
@@ -35,15 +48,44 @@ def _common_args(mesh: MeshArrays, item, factors):
 
 def _offset_shell(mesh: MeshArrays, item: S.OffsetShell, factors):
     args, kwargs = _common_args(mesh, item, factors)
-    return _shell_result(native.get().offset_shell(*args, **kwargs))
+    out = native.get().offset_shell(*args, **kwargs)
+    return (*_shell_result(out), out)
 
 
 def _field_shell(mesh: MeshArrays, item: S.FieldShell, factors):
     args, kwargs = _common_args(mesh, item, factors)
-    return _shell_result(native.get().shell(*args, side=item.side, **kwargs))
+    out = native.get().shell(*args, side=item.side, **kwargs)
+    return (*_shell_result(out), out)
 
 
-STEPS = {S.OffsetShell: _offset_shell, S.FieldShell: _field_shell}
+def _texture(tn, pattern, item: S.VolumetricTexture):
+    size = int(item.texture_size)
+    return tn.texture(pattern, size=(size, size, max(2, size // 2)), seed=int(item.seed), time=float(item.time), thickness=float(item.feature_thickness))
+
+
+def _volumetric_texture(shell: ShellContext, item: S.VolumetricTexture, factors):
+    """Bakes the item's texture(s) over `shell` (thick surfaces, chapter 3)."""
+    tn = native.get()
+    textures = [_texture(tn, item.pattern, item)]
+    if item.combine:
+        textures.append((_texture(tn, item.combine, item), tuple(float(v) for v in item.offset)))
+    base = shell.base
+    out = tn.bake_texture(
+        base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures,
+        uvs=base.uvs, tiling=float(item.tiling), resolution=int(item.resolution), layers=int(item.layers),
+        region=factors, max_triangles=int(item.max_triangles),
+    )
+    result = MeshArrays.from_native(out)
+    result.normals = out["normals"]
+    result.point_attributes = {TEXCOORD_ATTRIBUTE: out["texcoords"]}
+    return result, out["per_face_tiles"]
+
+
+SHELL_STEPS = {S.OffsetShell: _offset_shell, S.FieldShell: _field_shell}
+
+
+class StackError(ValueError):
+    """A stack that cannot be evaluated as ordered (e.g. a texture without a shell)."""
 
 
 def evaluate_stack(source: MeshArrays, items, progress=None) -> MeshArrays:
@@ -55,17 +97,36 @@ def evaluate_stack(source: MeshArrays, items, progress=None) -> MeshArrays:
     """
     current = source
     origin = np.arange(source.vertex_count)  # source vertex of each current vertex
+    shell = None  # the latest shell, for Volumetric Texture items
+    notes = []
     for i, item in enumerate(items):
+        is_texture = isinstance(item, S.VolumetricTexture)
+        if is_texture and shell is None:
+            raise StackError(f"'{item.label}' needs a Shell or Offset Shell above it in the stack")
         factors = None
         if getattr(item, "vertex_group", ""):
             weights = source.point_attributes.get(weight_attribute(item.vertex_group))
             if weights is None:
                 raise KeyError(f"vertex group '{item.vertex_group}' was not read from the source")
-            factors = np.ascontiguousarray(weights[origin], dtype=np.float32)
-        current, provenance = STEPS[type(item)](current, item, factors)
-        origin = origin[provenance]
+            at = shell.origin if is_texture else origin
+            if at is None:
+                raise StackError(f"'{item.label}' cannot use a vertex group after a Volumetric Texture")
+            factors = np.ascontiguousarray(weights[at], dtype=np.float32)
+        if is_texture:
+            current, per_face = _volumetric_texture(shell, item, factors)
+            origin = None  # baked vertices come from no single source vertex
+            if per_face:
+                notes.append("the mesh has no UV map: each face got its own texture tile")
+        else:
+            base, base_origin = current, origin
+            if origin is None:
+                raise StackError(f"'{item.label}' cannot follow a Volumetric Texture")
+            current, provenance, out = SHELL_STEPS[type(item)](current, item, factors)
+            shell = ShellContext(base, out, base_origin)
+            origin = origin[provenance]
         if progress:
             progress(i + 1)
+    current.notes = notes
     if current is source:
         current = MeshArrays(source.vertices, source.face_sizes, source.corners)
     return current

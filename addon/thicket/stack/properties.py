@@ -1,7 +1,7 @@
 """PropertyGroups of the stack, stored on each object (saved in the .blend)."""
 
 import bpy
-from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
+from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty, StringProperty
 
 from . import settings as S
 
@@ -65,6 +65,49 @@ class ThicketItem(bpy.types.PropertyGroup):
         update=_changed,
     )
 
+    # Volumetric Texture
+    pattern: EnumProperty(
+        name="Pattern",
+        items=[
+            ("chain_mail", "Chain Mail", "Interlocking metal rings"),
+            ("weave", "Woven Fabric", "Warp and weft threads over and under each other"),
+            ("rivets", "Rivets", "A plate with domed rivet heads"),
+            ("grass", "Grass", "Bending blades that grow with time"),
+            ("fur", "Fur", "Thin curling strands"),
+            ("bubbles", "Bubbles", "Bubbles rising from a film and bursting (animated)"),
+        ],
+        default="chain_mail",
+        update=_changed,
+    )
+    combine: EnumProperty(
+        name="Combine With",
+        description="A second pattern united with the first (chapter 7.3)",
+        items=[("NONE", "Nothing", "")] + [(k, n, d) for k, n, d in [
+            ("chain_mail", "Chain Mail", ""), ("weave", "Woven Fabric", ""), ("rivets", "Rivets", ""),
+            ("grass", "Grass", ""), ("fur", "Fur", ""), ("bubbles", "Bubbles", ""),
+        ]],
+        default="NONE",
+        update=_changed,
+    )
+    offset: FloatVectorProperty(name="Offset", description="Shift of the combined pattern in texture space (s, t)", size=2, default=(0.0, 0.0), update=_changed)
+    seed: IntProperty(name="Seed", min=0, default=0, update=_changed)
+    feature_thickness: FloatProperty(name="Feature Thickness", description="Scales rings, threads, blades and bubbles", min=0.1, max=4.0, default=1.0, update=_changed)
+    texture_size: IntProperty(name="Texture Size", description="Texels along s and t (half as many across the shell)", min=8, max=256, default=64, update=_changed)
+    tiling: FloatProperty(name="Tiling", description="Texture tiles per UV unit (per face without UVs)", min=0.01, soft_max=64.0, default=1.0, update=_changed)
+    resolution: IntProperty(name="Resolution", description="Samples along each base edge of a cell", min=1, max=64, default=8, update=_changed)
+    texture_layers: IntProperty(name="Layers", description="Samples across the shell", min=2, max=256, default=16, update=_changed)
+    time: FloatProperty(name="Time", description="Time of animated patterns", default=1.0, update=_changed)
+    follow_frame: BoolProperty(name="Follow Frame", description="Time follows the scene frame (seconds times Speed)", default=False, update=_changed)
+    speed: FloatProperty(name="Speed", description="Texture time per second of scene time", default=1.0, update=_changed)
+    max_triangles: IntProperty(name="Triangle Budget", description="Refuse bakes estimated above this many triangles", min=1000, default=5_000_000, update=_changed)
+
+    def texture_time(self, scene=None):
+        """The time the pattern is baked at: the scene's (seconds x speed) when following frames."""
+        scene = scene or bpy.context.scene
+        if self.follow_frame and scene is not None:
+            return scene.frame_current / (scene.render.fps / scene.render.fps_base) * self.speed
+        return self.time
+
     def to_settings(self):
         """The plain-data settings `stack.evaluate` runs on."""
         common = dict(
@@ -76,6 +119,13 @@ class ThicketItem(bpy.types.PropertyGroup):
         )
         if self.kind == S.FieldShell.kind:
             return S.FieldShell(side=self.side.lower(), **common)
+        if self.kind == S.VolumetricTexture.kind:
+            return S.VolumetricTexture(
+                pattern=self.pattern, seed=self.seed, time=self.texture_time(), feature_thickness=self.feature_thickness,
+                texture_size=self.texture_size, tiling=self.tiling, resolution=self.resolution, layers=self.texture_layers,
+                vertex_group=self.vertex_group, combine="" if self.combine == "NONE" else self.combine,
+                offset=tuple(self.offset), max_triangles=self.max_triangles,
+            )
         return S.OffsetShell(**common)
 
 
@@ -86,6 +136,7 @@ class ThicketStack(bpy.types.PropertyGroup):
     source: PointerProperty(type=bpy.types.Object, name="Source", description="Set on a result object: the object it was generated from")
     auto_update: BoolProperty(name="Auto Update", description="Regenerate when the source or a setting changes", default=True)
     last_error: StringProperty(name="Last Error", description="Why the last regeneration failed (empty when it worked)")
+    last_note: StringProperty(name="Note", description="What the user should know about the last result")
 
     @property
     def has_stack(self):

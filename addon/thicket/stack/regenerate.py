@@ -56,4 +56,7 @@ def regenerate(source: bpy.types.Object, depsgraph=None, progress=None) -> bpy.t
         mesh_io.write_mesh(result.data, result_arrays)
         if source.thicket.last_error:
             source.thicket.last_error = ""
+        note = "; ".join(result_arrays.notes)
+        if source.thicket.last_note != note:
+            source.thicket.last_note = note
     return result

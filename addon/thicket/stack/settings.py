@@ -44,4 +44,33 @@ class FieldShell:
     label = "Shell"
 
 
-KINDS = {cls.kind: cls for cls in (OffsetShell, FieldShell)}
+@dataclass(frozen=True)
+class VolumetricTexture:
+    """Volumetric Texture: detail mapped into the shell above it, baked to geometry.
+
+    pattern: "chain_mail", "weave", "rivets", "grass", "fur" or "bubbles" (chapter 3);
+    (s, t) come from the active UV map times `tiling` (one tile per face without UVs),
+    r runs along the shell's directors. resolution: lattice steps per base edge;
+    layers: steps across the shell. vertex_group: where the texture exists (elsewhere a
+    thin base slab, blended smoothly). combine: a second pattern united with the first
+    (chapter 7), shifted by `offset` in (s, t). time: animated patterns' time.
+    """
+
+    pattern: str = "chain_mail"
+    seed: int = 0
+    time: float = 1.0
+    feature_thickness: float = 1.0
+    texture_size: int = 64
+    tiling: float = 1.0
+    resolution: int = 8
+    layers: int = 16
+    vertex_group: str = ""
+    combine: str = ""
+    offset: tuple = (0.0, 0.0)
+    max_triangles: int = 5_000_000
+
+    kind = "VOLUMETRIC_TEXTURE"
+    label = "Volumetric Texture"
+
+
+KINDS = {cls.kind: cls for cls in (OffsetShell, FieldShell, VolumetricTexture)}

@@ -5,6 +5,9 @@ def draw_item_settings(layout, obj, item):
     col = layout.column()
     col.use_property_split = True
     col.use_property_decorate = False
+    if item.kind == "VOLUMETRIC_TEXTURE":
+        _draw_texture_settings(col, obj, item)
+        return
     if item.kind == "SHELL":
         col.prop(item, "side")
     col.prop(item, "thickness_mode")
@@ -15,11 +18,30 @@ def draw_item_settings(layout, obj, item):
         col.prop(item, "layers")
 
 
+def _draw_texture_settings(col, obj, item):
+    col.prop(item, "pattern")
+    col.prop(item, "seed")
+    col.prop(item, "feature_thickness")
+    col.prop(item, "tiling")
+    col.prop(item, "texture_size")
+    col.prop(item, "resolution")
+    col.prop(item, "texture_layers")
+    col.prop_search(item, "vertex_group", obj, "vertex_groups", text="Region")
+    col.prop(item, "combine")
+    if item.combine != "NONE":
+        col.prop(item, "offset")
+    col.prop(item, "follow_frame")
+    col.prop(item, "speed" if item.follow_frame else "time")
+    col.prop(item, "max_triangles")
+
+
 def draw_status(layout, obj):
     stack = obj.thicket
     if stack.last_error:
         box = layout.box()
         box.alert = True
         box.label(text=stack.last_error, icon="ERROR")
+    if stack.last_note:
+        layout.label(text=stack.last_note, icon="INFO")
     if stack.result is not None:
         layout.label(text=f"Result: {stack.result.name}", icon="OUTLINER_OB_MESH")

@@ -11,6 +11,7 @@ mod errors;
 mod offset;
 mod report;
 mod shell;
+mod texture;
 
 use pyo3::prelude::*;
 
@@ -23,5 +24,8 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(shell::build_shell, m)?)?;
     m.add_function(wrap_pyfunction!(shell::shell, m)?)?;
     m.add_function(wrap_pyfunction!(shell::shell_report, m)?)?;
+    m.add_function(wrap_pyfunction!(texture::texture, m)?)?;
+    m.add_function(wrap_pyfunction!(texture::bake_texture, m)?)?;
+    m.add_function(wrap_pyfunction!(texture::estimate_bake, m)?)?;
     Ok(())
 }

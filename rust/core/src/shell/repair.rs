@@ -80,7 +80,7 @@ impl Checker {
         let tris = mesh.triangulate().triangles;
         let base: Vec<[DVec3; 3]> = tris.iter().map(|t| t.map(|i| p[i as usize].as_dvec3())).collect();
         let cells = prisms(mesh);
-        let (tri_start, tri_of) = incidence(p.len(), tris.iter().map(|t| *t));
+        let (tri_start, tri_of) = incidence(p.len(), tris.iter().copied());
         let (cell_start, cell_of) = incidence(p.len(), cells.iter().map(|c| c.base().to_vec()));
         Self { base_bvh: TriBvh::build(&base), base, tris, cells, tri_start, tri_of, cell_start, cell_of }
     }

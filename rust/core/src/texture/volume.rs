@@ -16,7 +16,7 @@ impl VolumeTexture {
     /// A texture from its samples; every dimension must be at least 1 and values are
     /// clamped to `[0, 1]` (NaN is an error).
     pub fn new(dims: [usize; 3], mut alpha: Vec<f32>) -> Result<Self> {
-        if dims.iter().any(|d| *d == 0) {
+        if dims.contains(&0) {
             return Err(Error::InvalidParameter(format!("texture of zero size {dims:?}")));
         }
         let n = dims[0].checked_mul(dims[1]).and_then(|v| v.checked_mul(dims[2]));
@@ -33,7 +33,7 @@ impl VolumeTexture {
     /// Samples a function of texel-centre coordinates `(s, t, r)` in `[0, 1)²×[0, 1]`.
     pub fn from_fn(dims: [usize; 3], f: impl Fn(Vec3) -> f32 + Sync) -> Result<Self> {
         use rayon::prelude::*;
-        if dims.iter().any(|d| *d == 0) {
+        if dims.contains(&0) {
             return Err(Error::InvalidParameter(format!("texture of zero size {dims:?}")));
         }
         let [nx, ny, nz] = dims;

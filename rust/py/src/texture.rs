@@ -1,0 +1,138 @@
+//! Volumetric textures: procedural generation and the bake to geometry.
+
+use numpy::{IntoPyArray, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use thicket_core::glam::{Vec2, Vec3};
+use thicket_core::shell::{Shell, Side};
+use thicket_core::texture::bake::{bake, estimate_triangles_for, TextureLayer};
+use thicket_core::texture::{BakeParams, Generator, Pattern, VolumeTexture};
+
+use crate::arrays;
+use crate::errors::{run_detached, to_py, ThicketError};
+
+/// texture(pattern, size=(64, 64, 32), seed=0, time=1.0, thickness=1.0) -> float32 (nz, ny, nx)
+///
+/// A procedural volumetric texture: "chain_mail", "weave", "rivets", "grass", "fur"
+/// or "bubbles". `size` is (nx, ny, nz); the result is indexed [r, t, s], alpha in [0, 1].
+#[pyfunction]
+#[pyo3(signature = (pattern, size=(64, 64, 32), seed=0, time=1.0, thickness=1.0))]
+pub fn texture<'py>(
+    py: Python<'py>,
+    pattern: &str,
+    size: (usize, usize, usize),
+    seed: u32,
+    time: f32,
+    thickness: f32,
+) -> PyResult<Bound<'py, PyArray3<f32>>> {
+    let pattern = Pattern::parse(pattern).map_err(to_py)?;
+    if size.0 * size.1 * size.2 > 512 * 512 * 256 {
+        return Err(ThicketError::new_err(format!("texture size {size:?} is too large")));
+    }
+    let g = Generator { pattern, seed, time, thickness };
+    let t = run_detached(py, move || g.generate([size.0, size.1, size.2]))?;
+    let [nx, ny, nz] = t.dims();
+    let flat = numpy::ndarray::Array1::from_vec(t.samples().to_vec());
+    let arr = flat.into_shape_with_order((nz, ny, nx)).map_err(|e| ThicketError::new_err(e.to_string()))?;
+    Ok(arr.into_pyarray(py))
+}
+
+fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
+    let a: PyReadonlyArray3<'_, f32> = alpha
+        .extract()
+        .map_err(|_| ThicketError::new_err("a texture must be a float32 array of shape (nz, ny, nx)"))?;
+    let shape = a.shape().to_vec();
+    let data = a.as_array().iter().copied().collect();
+    VolumeTexture::new([shape[2], shape[1], shape[0]], data).map_err(to_py)
+}
+
+/// bake_texture(vertices, face_sizes, corners, base_offset, directors, textures,
+///              uvs=None, tiling=1.0, resolution=8, layers=16, region=None,
+///              base_layer=0.1, max_triangles=20_000_000) -> dict
+///
+/// Bakes the alpha = 0.5 iso-surface of volumetric textures mapped into a shell (layer
+/// r of vertex v at v + base_offset + r * director) into one closed, crack-free mesh.
+/// `textures`: a list of float32 (nz, ny, nx) arrays or (array, (ds, dt)) pairs,
+/// united. `uvs`: float32 (corners, 2) or None (one tile per face). `region`: float32
+/// (n,) where the texture exists (elsewhere a thin base slab). Returns vertices,
+/// face_sizes, corners, normals (n,3), texcoords (n,3) = (s, t, r), per_face_tiles.
+#[pyfunction]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, max_triangles=20_000_000))]
+#[allow(clippy::too_many_arguments)]
+pub fn bake_texture<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+    base_offset: PyReadonlyArray2<'py, f32>,
+    directors: PyReadonlyArray2<'py, f32>,
+    textures: &Bound<'py, PyAny>,
+    uvs: Option<PyReadonlyArray2<'py, f32>>,
+    tiling: f32,
+    resolution: u32,
+    layers: u32,
+    region: Option<&Bound<'py, PyAny>>,
+    base_layer: f32,
+    max_triangles: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mut mesh = arrays::mesh(&vertices, face_sizes, corners)?;
+    let n = mesh.vertex_count();
+    if let Some(uv) = uvs {
+        let uv = uv.as_array();
+        if uv.shape() != [mesh.corners().len(), 2] {
+            return Err(ThicketError::new_err(format!("uvs must have shape ({}, 2)", mesh.corners().len())));
+        }
+        let uv: Vec<Vec2> = uv.rows().into_iter().map(|r| Vec2::new(r[0], r[1])).collect();
+        let (p, c) = mesh.clone().into_parts();
+        mesh = thicket_core::Mesh::new(p, &mesh.face_sizes(), c, Some(uv)).map_err(to_py)?;
+    }
+    let base_offset = arrays::positions(&base_offset)?;
+    let directors = arrays::positions(&directors)?;
+    if base_offset.len() != n || directors.len() != n {
+        return Err(ThicketError::new_err("base_offset and directors need one row per vertex"));
+    }
+    let mut layers_in = Vec::new();
+    for item in textures.try_iter()? {
+        let item = item?;
+        let (alpha, offset) = match item.extract::<(Bound<'_, PyAny>, (f32, f32))>() {
+            Ok((a, o)) => (a, Vec2::new(o.0, o.1)),
+            Err(_) => (item, Vec2::ZERO),
+        };
+        layers_in.push(TextureLayer { texture: volume(&alpha)?, offset });
+    }
+    let region = region.map(|r| arrays::per_vertex_or_scalar(r, n, "region")).transpose()?;
+    let achieved: Vec<f32> = directors.iter().map(|d: &Vec3| d.length()).collect();
+    let shell = Shell { side: Side::Exterior, base_offset, directors, target: achieved.clone(), achieved };
+    let params = BakeParams { resolution, layers, tiling, region, base_layer, max_triangles };
+    let out = run_detached(py, move || bake(&mesh, &shell, &layers_in, &params))?;
+    let d = PyDict::new(py);
+    let count = out.triangles.len();
+    d.set_item("vertices", arrays::vec3_array(py, out.positions)?)?;
+    d.set_item("face_sizes", arrays::u32_as_i32_array(py, vec![3; count]))?;
+    d.set_item("corners", arrays::u32_as_i32_array(py, out.triangles.into_iter().flatten().collect()))?;
+    d.set_item("normals", arrays::vec3_array(py, out.normals)?)?;
+    d.set_item("texcoords", arrays::vec3_array(py, out.texcoords)?)?;
+    d.set_item("per_face_tiles", out.per_face_tiles)?;
+    Ok(d)
+}
+
+/// estimate_bake(vertices, face_sizes, corners, texture, tiling=1.0, resolution=8,
+///               layers=16) -> int
+///
+/// The triangle count a bake of `texture` is expected to make, before baking it.
+#[pyfunction]
+#[pyo3(signature = (vertices, face_sizes, corners, texture, tiling=1.0, resolution=8, layers=16))]
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_bake(
+    vertices: PyReadonlyArray2<'_, f32>,
+    face_sizes: &Bound<'_, PyAny>,
+    corners: &Bound<'_, PyAny>,
+    texture: &Bound<'_, PyAny>,
+    tiling: f32,
+    resolution: u32,
+    layers: u32,
+) -> PyResult<usize> {
+    let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
+    let layer = [TextureLayer { texture: volume(texture)?, offset: Vec2::ZERO }];
+    Ok(estimate_triangles_for(&mesh, &layer, &BakeParams { resolution, layers, tiling, ..Default::default() }))
+}

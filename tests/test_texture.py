@@ -1,0 +1,110 @@
+"""Volumetric textures through thicket_native and the stack (thick surfaces, ch. 3, 7)."""
+
+import bpy
+import numpy as np
+import pytest
+import thicket_native as tn
+from conftest import add, positions
+
+from thicket import api
+from thicket.stack.evaluate import TEXCOORD_ATTRIBUTE
+
+
+def edge_use_counts(obj):
+    """How many faces use each edge of `obj`'s mesh (numpy, no per-edge loop)."""
+    mesh = obj.data
+    loops = len(mesh.loops)
+    edge_of_loop = np.empty(loops, np.int32)
+    mesh.loops.foreach_get("edge_index", edge_of_loop)
+    return np.bincount(edge_of_loop, minlength=len(mesh.edges))
+
+
+def test_procedural_textures_have_their_shape_and_errors_are_clear():
+    for pattern in ("chain_mail", "weave", "rivets", "grass", "fur", "bubbles"):
+        t = tn.texture(pattern, size=(24, 20, 10), seed=3)
+        assert t.shape == (10, 20, 24) and t.dtype == np.float32
+        inside = (t >= 0.5).mean()
+        assert 0.003 < inside < 0.9, (pattern, inside)
+    with pytest.raises(tn.ThicketError, match="unknown texture"):
+        tn.texture("plaid")
+    with pytest.raises(tn.ThicketError, match="zero size"):
+        tn.texture("fur", size=(0, 4, 4))
+
+
+def test_chain_mail_on_a_uv_sphere_bakes_a_closed_mesh_and_leaves_the_source(scene):
+    sphere = add("uv_sphere", segments=24, ring_count=12, radius=1.0)
+    before = positions(sphere).copy()
+    result = api.add_volumetric_texture(sphere, "chain_mail", shell_thickness=0.04, tiling=6.0, resolution=4, texture_layers=8)
+    counts = edge_use_counts(result)
+    assert len(result.data.polygons) > 5000
+    assert (counts == 2).all(), f"{(counts == 1).sum()} boundary and {(counts > 2).sum()} non-manifold edges"
+    tex = np.empty(len(result.data.vertices) * 3, np.float32)
+    result.data.attributes[TEXCOORD_ATTRIBUTE].data.foreach_get("vector", tex)
+    r = tex.reshape(-1, 3)[:, 2]
+    assert 0.0 < r.min() and r.max() < 1.0
+    # Every baked vertex lies in the shell: between radius 1 (minus facets) and 1 + shell.
+    radii = np.linalg.norm(positions(result), axis=1)
+    diag = np.linalg.norm(np.ptp(before, axis=0))
+    assert radii.min() > 0.95 and radii.max() < 1.0 + 0.04 * diag + 1e-3
+    np.testing.assert_array_equal(positions(sphere), before)
+    assert sphere.thicket.last_note == ""  # the UV sphere has UVs
+
+
+def test_without_uvs_each_face_is_a_tile_and_the_user_is_told(scene):
+    cube = add("cube", size=2.0)
+    cube.data.uv_layers.remove(cube.data.uv_layers[0])
+    result = api.add_volumetric_texture(cube, "rivets", shell_thickness=0.05, resolution=8, texture_layers=8)
+    assert len(result.data.polygons) > 0
+    assert "no UV map" in cube.thicket.last_note
+
+
+def test_texture_without_a_shell_is_a_clear_error_and_changes_nothing(scene):
+    sphere = add("ico_sphere", subdivisions=2)
+    api.add_item(sphere, "VOLUMETRIC_TEXTURE", pattern="weave")
+    with pytest.raises(ValueError, match="needs a Shell"):
+        api.regenerate(sphere)
+    assert api.result_of(sphere) is None
+
+
+def test_over_budget_bakes_say_how_big_they_would_be(scene):
+    sphere = add("ico_sphere", subdivisions=3)
+    with pytest.raises(tn.ThicketError, match=r"about \d+ triangles"):
+        api.add_volumetric_texture(sphere, "fur", resolution=16, texture_layers=32, max_triangles=1000)
+    assert api.result_of(sphere) is None
+
+
+def test_region_vertex_group_limits_the_texture(scene):
+    sphere = add("ico_sphere", subdivisions=3, radius=1.0)
+    group = sphere.vertex_groups.new(name="top")
+    top = [v.index for v in sphere.data.vertices if v.co.z > 0.2]
+    group.add(top, 1.0, "REPLACE")
+    result = api.add_volumetric_texture(sphere, "grass", shell_thickness=0.1, resolution=10, texture_layers=12, vertex_group="top", tiling=1.0)
+    p = positions(result)
+    tex = np.empty(len(p) * 3, np.float32)
+    result.data.attributes[TEXCOORD_ATTRIBUTE].data.foreach_get("vector", tex)
+    r = tex.reshape(-1, 3)[:, 2]
+    assert r[p[:, 2] < -0.5].max() < 0.25, "only the base slab below"
+    assert r[p[:, 2] > 0.5].max() > 0.5, "grass on top"
+    counts = edge_use_counts(result)
+    assert (counts == 2).all()
+
+
+def test_animated_texture_follows_the_frame_and_bakes_a_range(scene, tmp_path):
+    plane = add("grid", x_subdivisions=6, y_subdivisions=6, size=2.0)
+    result = api.add_volumetric_texture(plane, "bubbles", shell_thickness=0.1, tiling=2.0, resolution=8, texture_layers=12, follow_frame=True, speed=0.5)
+    first = positions(result).copy()
+    bpy.context.scene.frame_set(12)  # frame_change handler regenerates
+    second = positions(plane.thicket.result)
+    assert first.shape != second.shape or not np.allclose(first, second)
+    paths = api.bake_frames(plane, 1, 3, str(tmp_path))
+    assert [p.endswith(f"_{f:04d}.glb") for p, f in zip(paths, (1, 2, 3))] == [True] * 3
+    assert all((tmp_path / p).stat().st_size > 1000 for p in paths)
+    assert bpy.context.scene.frame_current == 12
+
+
+def test_combined_pattern_adds_to_the_first(scene):
+    sphere = add("uv_sphere", segments=16, ring_count=8)
+    one = len(api.add_volumetric_texture(sphere, "rivets", tiling=4.0, resolution=6, texture_layers=10).data.polygons)
+    sphere.thicket.items[1].combine = "weave"
+    api.regenerate(sphere)
+    assert len(sphere.thicket.result.data.polygons) > one
