@@ -67,6 +67,7 @@ bench: setup
 	$(PY) tests/bench/bench_offset.py
 	$(PY) tests/bench/bench_shell.py
 	cargo run --release -q -p thicket-core --example shell_bench
+	cargo run --release -q -p thicket-core --example bake_bench
 
 clean:
 	rm -rf build dist out target $(VENV) $(VENV_LTS)

@@ -1,0 +1,118 @@
+//! Bake throughput: chain mail over the shell of a ~5k-face closed mesh, against the
+//! `fast-surface-nets` crate polygonizing a grid with the same number of samples
+//! (no shell map, no attributes, no crack handling), measured in the same run.
+//! Also the bake's peak heap memory.
+//!
+//! `cargo run -p thicket-core --release --example bake_bench`
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+use std::time::Instant;
+
+use fast_surface_nets::ndshape::{RuntimeShape, Shape};
+use fast_surface_nets::{surface_nets, SurfaceNetsBuffer};
+use thicket_core::glam::{Vec2, Vec3};
+use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
+use thicket_core::texture::bake::{bake, TextureLayer};
+use thicket_core::texture::{BakeParams, Generator, Pattern};
+use thicket_core::testmeshes;
+
+struct Counting;
+static NOW: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        let now = NOW.fetch_add(l.size(), Relaxed) + l.size();
+        PEAK.fetch_max(now, Relaxed);
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        NOW.fetch_sub(l.size(), Relaxed);
+        unsafe { System.dealloc(p, l) }
+    }
+}
+#[global_allocator]
+static A: Counting = Counting;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let mesh = testmeshes::bumpy_head(4);
+    let t = Thickness::relative(0.03).per_vertex(&mesh, None).unwrap();
+    let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    let texture = Generator::new(Pattern::ChainMail).generate([64, 64, 32]).unwrap();
+    let layers = [TextureLayer { texture: texture.clone(), offset: Vec2::ZERO }];
+    let params = BakeParams { resolution: 8, layers: 16, ..Default::default() };
+    let faces = mesh.face_count();
+    // Lattice samples: vertices, edge points, face points, times layers + 1.
+    let edges = faces * 3 / 2;
+    let (n, m) = (params.resolution as usize, params.layers as usize);
+    let samples = (mesh.vertex_count() + edges * (n - 1) + faces * (n - 1) * (n - 2) / 2) * (m + 1);
+    println!("mesh: {} faces; chain mail 64x64x32; lattice {n} per edge x {m} layers = {samples} samples; {} threads", faces, rayon::current_num_threads());
+
+    let base = NOW.load(Relaxed);
+    PEAK.store(base, Relaxed);
+    let mut ours = Vec::new();
+    let mut tris = 0;
+    for _ in 0..5 {
+        let start = Instant::now();
+        let b = bake(&mesh, &shell, &layers, &params).unwrap();
+        ours.push(start.elapsed().as_secs_f64());
+        tris = b.triangles.len();
+    }
+    let peak = PEAK.load(Relaxed) - base;
+    let ours = median(ours);
+
+    // The same number of samples on a cube grid of the tiled texture.
+    let side = (samples as f64).cbrt().round() as u32;
+    let shape = RuntimeShape::<u32, 3>::new([side, side, side]);
+    let sample_grid = || {
+        let mut sdf = vec![0.0f32; shape.usize()];
+        let tiles = 6.0;
+        for (i, v) in sdf.iter_mut().enumerate() {
+            let [x, y, z] = shape.delinearize(i as u32);
+            let c = Vec3::new(x as f32 / side as f32 * tiles, y as f32 / side as f32 * tiles, z as f32 / (side - 1) as f32);
+            // Outside the boundary layer, like the bake; surface nets wants negative inside.
+            let edge = x == 0 || y == 0 || z == 0 || x == side - 1 || y == side - 1 || z == side - 1;
+            *v = if edge { 0.5 } else { 0.5 - texture.sample(c) };
+        }
+        sdf
+    };
+    let mut fsn_total = Vec::new();
+    let mut fsn_poly = Vec::new();
+    let mut fsn_tris = 0;
+    let mut buffer = SurfaceNetsBuffer::default();
+    for _ in 0..5 {
+        let start = Instant::now();
+        let sdf = sample_grid();
+        let sampled = start.elapsed().as_secs_f64();
+        surface_nets(&sdf, &shape, [0; 3], [side - 1; 3], &mut buffer);
+        let total = start.elapsed().as_secs_f64();
+        fsn_total.push(total);
+        fsn_poly.push(total - sampled);
+        fsn_tris = buffer.indices.len() / 3;
+    }
+    let (fsn_total, fsn_poly) = (median(fsn_total), median(fsn_poly));
+    println!(
+        "Thicket bake:       {:8.1} ms, {tris:>8} triangles, {:6.2} M triangles/s, {:5.1} M samples/s, peak heap {:.0} MiB",
+        ours * 1e3,
+        tris as f64 / ours / 1e6,
+        samples as f64 / ours / 1e6,
+        peak as f64 / (1 << 20) as f64
+    );
+    println!(
+        "fast-surface-nets:  {:8.1} ms ({:.1} ms polygonizing, single thread), {fsn_tris:>8} triangles on a {side}^3 grid, {:6.2} M triangles/s, {:5.1} M samples/s",
+        fsn_total * 1e3,
+        fsn_poly * 1e3,
+        fsn_tris as f64 / fsn_total / 1e6,
+        samples as f64 / fsn_total / 1e6
+    );
+    println!(
+        "ratio (Thicket / fast-surface-nets, time per sample, sampling included): {:.2}x; polygonizing only: {:.2}x",
+        ours / fsn_total,
+        ours / fsn_poly
+    );
+}
