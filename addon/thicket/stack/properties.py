@@ -6,6 +6,16 @@ from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatPrope
 from . import settings as S
 
 
+PATTERNS = [
+    ("chain_mail", "Chain Mail", "Interlocking metal rings"),
+    ("weave", "Woven Fabric", "Warp and weft threads over and under each other"),
+    ("rivets", "Rivets", "A plate with domed rivet heads"),
+    ("grass", "Grass", "Bending blades that grow with time"),
+    ("fur", "Fur", "Thin curling strands"),
+    ("bubbles", "Bubbles", "Bubbles rising from a film and bursting (animated)"),
+]
+
+
 def _changed(self, context):
     from . import auto_update
 
@@ -68,24 +78,14 @@ class ThicketItem(bpy.types.PropertyGroup):
     # Volumetric Texture
     pattern: EnumProperty(
         name="Pattern",
-        items=[
-            ("chain_mail", "Chain Mail", "Interlocking metal rings"),
-            ("weave", "Woven Fabric", "Warp and weft threads over and under each other"),
-            ("rivets", "Rivets", "A plate with domed rivet heads"),
-            ("grass", "Grass", "Bending blades that grow with time"),
-            ("fur", "Fur", "Thin curling strands"),
-            ("bubbles", "Bubbles", "Bubbles rising from a film and bursting (animated)"),
-        ],
+        items=PATTERNS,
         default="chain_mail",
         update=_changed,
     )
     combine: EnumProperty(
         name="Combine With",
         description="A second pattern united with the first (chapter 7.3)",
-        items=[("NONE", "Nothing", "")] + [(k, n, d) for k, n, d in [
-            ("chain_mail", "Chain Mail", ""), ("weave", "Woven Fabric", ""), ("rivets", "Rivets", ""),
-            ("grass", "Grass", ""), ("fur", "Fur", ""), ("bubbles", "Bubbles", ""),
-        ]],
+        items=[("NONE", "Nothing", "")] + PATTERNS,
         default="NONE",
         update=_changed,
     )
