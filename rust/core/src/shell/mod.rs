@@ -7,7 +7,10 @@
 //! - [`field`]: the L_p-averaged distance and its gradient (chapter 4.2).
 //! - [`directors`]: directors by integrating the field (chapter 4.3-4.4).
 //! - [`geometry`]: layers, outer surface and closed solids built from any directors.
+//! - [`defects`], [`repair`], [`report`]: finding folds, shortening directors around
+//!   them, and counting shell quality.
 
+pub mod defects;
 pub mod directors;
 pub mod field;
 pub mod geometry;

@@ -10,8 +10,8 @@
 //! (the slabs of facing surface parts would overlap, as between fins closer than
 //! twice the thickness, even where the two outer layers do not intersect). There the field shell is expected to reach (nearly) the full thickness.
 
-use super::geometry::{prisms, Cell};
-use super::intersect::{segment_crosses_triangle, tri_box, triangles_intersect, TriBvh};
+use super::defects::Checker;
+use super::intersect::segment_crosses_triangle;
 use super::{Shell, Side};
 use crate::mesh::vertex_normals;
 use crate::Mesh;
@@ -39,62 +39,8 @@ pub struct ShellReport {
     pub normal_valid_at_95: f32,
 }
 
-/// Per-element findings of one shell.
-pub(crate) struct Findings {
-    pub self_pairs: Vec<(u32, u32)>,
-    pub base_pairs: Vec<(u32, u32)>,
-    pub inverted: Vec<bool>,
-    pub cells: Vec<Cell>,
-    pub tris: Vec<[u32; 3]>,
-}
-
 fn dv(p: Vec3) -> DVec3 {
     p.as_dvec3()
-}
-
-pub(crate) fn analyze(mesh: &Mesh, shell: &Shell) -> Findings {
-    let p = mesh.positions();
-    let tris = mesh.triangulate().triangles;
-    let top: Vec<DVec3> = (0..p.len()).map(|v| dv(shell.point(p, v, 1.0))).collect();
-    let outer: Vec<[DVec3; 3]> = tris.iter().map(|t| t.map(|i| top[i as usize])).collect();
-    let base: Vec<[DVec3; 3]> = tris.iter().map(|t| t.map(|i| dv(p[i as usize]))).collect();
-    let diag = mesh.bbox_diagonal() as f64;
-    let coincide = |v: u32| (top[v as usize] - dv(p[v as usize])).length() <= 1e-6 * diag;
-    let outer_bvh = TriBvh::build(&outer);
-    let base_bvh = TriBvh::build(&base);
-    let shares = |a: &[u32; 3], b: &[u32; 3]| a.iter().any(|v| b.contains(v));
-    let self_pairs: Vec<(u32, u32)> = (0..outer.len())
-        .into_par_iter()
-        .flat_map_iter(|i| {
-            let (lo, hi) = tri_box(&outer[i]);
-            let mut hits = Vec::new();
-            outer_bvh.query(lo, hi, |j| {
-                let j = j as usize;
-                if j > i && !shares(&tris[i], &tris[j]) && triangles_intersect(&outer[i], &outer[j]) {
-                    hits.push((i as u32, j as u32));
-                }
-            });
-            hits
-        })
-        .collect();
-    let base_pairs: Vec<(u32, u32)> = (0..outer.len())
-        .into_par_iter()
-        .flat_map_iter(|i| {
-            let (lo, hi) = tri_box(&outer[i]);
-            let mut hits = Vec::new();
-            base_bvh.query(lo, hi, |j| {
-                let j = j as usize;
-                let touching = tris[i].iter().any(|v| tris[j].contains(v) && coincide(*v));
-                if !touching && triangles_intersect(&outer[i], &base[j]) {
-                    hits.push((i as u32, j as u32));
-                }
-            });
-            hits
-        })
-        .collect();
-    let cells = prisms(mesh);
-    let inverted = cells.par_iter().map(|c| c.is_inverted(p, shell)).collect();
-    Findings { self_pairs, base_pairs, inverted, cells, tris }
 }
 
 /// The normal-displacement shell of the same side and targets.
@@ -115,54 +61,41 @@ pub fn normal_shell(mesh: &Mesh, side: Side, target: &[f32]) -> Shell {
 
 /// Vertices where the normal-offset shell of the same side and targets is locally valid.
 pub fn normal_valid_vertices(mesh: &Mesh, side: Side, target: &[f32]) -> Vec<bool> {
+    normal_valid_with(&Checker::new(mesh), mesh, side, target)
+}
+
+fn normal_valid_with(checker: &Checker, mesh: &Mesh, side: Side, target: &[f32]) -> Vec<bool> {
     let shell = normal_shell(mesh, side, target);
-    let f = analyze(mesh, &shell);
+    let mut outer_bvh = None;
+    let f = checker.find(mesh, &shell, None, &mut outer_bvh);
     let p = mesh.positions();
-    let mut ok = vec![true; p.len()];
-    for &(i, j) in &f.self_pairs {
-        for v in f.tris[i as usize].iter().chain(&f.tris[j as usize]) {
-            ok[*v as usize] = false;
-        }
-    }
-    for &(i, _) in &f.base_pairs {
-        for v in &f.tris[i as usize] {
-            ok[*v as usize] = false;
-        }
-    }
-    for (c, inv) in f.cells.iter().zip(&f.inverted) {
-        if *inv {
-            c.base().iter().for_each(|v| ok[*v as usize] = false);
-        }
-    }
-    // (b) the vertex's own segment crossing the base away from it.
-    let base: Vec<[DVec3; 3]> = f.tris.iter().map(|t| t.map(|i| dv(p[i as usize]))).collect();
-    let bvh = TriBvh::build(&base);
-    let outer: Vec<[DVec3; 3]> = f.tris.iter().map(|t| t.map(|i| dv(shell.point(p, i as usize, 1.0)))).collect();
-    let outer_bvh = TriBvh::build(&outer);
-    let crossing: Vec<bool> = (0..p.len())
+    let bad = checker.defect_vertices(&f, p.len());
+    // (b), (d): the vertex's own segment crossing the base or the outer layer away from it.
+    let outer_bvh = outer_bvh.expect("built by find");
+    let outer: Vec<[DVec3; 3]> = checker.tris.iter().map(|t| t.map(|i| dv(shell.point(p, i as usize, 1.0)))).collect();
+    (0..p.len())
         .into_par_iter()
         .map(|v| {
             let (a, b) = (dv(shell.point(p, v, 0.0)), dv(shell.point(p, v, 1.0)));
-            let mut hit = false;
-            for (tree, tris) in [(&bvh, &base), (&outer_bvh, &outer)] {
+            let mut hit = bad[v];
+            for (tree, tris) in [(&checker.base_bvh, &checker.base), (&outer_bvh, &outer)] {
                 tree.query(a.min(b), a.max(b), |j| {
-                    let t = &f.tris[j as usize];
+                    let t = &checker.tris[j as usize];
                     if !t.contains(&(v as u32)) && segment_crosses_triangle(a, b, &tris[j as usize]) {
                         hit = true;
                     }
                 });
             }
-            hit
+            !hit
         })
-        .collect();
-    ok.iter_mut().zip(crossing).for_each(|(o, c)| *o &= !c);
-    ok
+        .collect()
 }
 
 /// Counts what is wrong with `shell` and how much thickness it kept.
 pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
-    let f = analyze(mesh, shell);
-    let valid = normal_valid_vertices(mesh, shell.side, &shell.target);
+    let checker = Checker::new(mesh);
+    let f = checker.find(mesh, shell, None, &mut None);
+    let valid = normal_valid_with(&checker, mesh, shell.side, &shell.target);
     let normals = vertex_normals(mesh);
     let (mut min_ratio, mut sum, mut count, mut min_valid, mut n_valid) = (f32::INFINITY, 0.0f64, 0usize, f32::INFINITY, 0);
     let mut valid_at_95 = 0usize;
@@ -183,7 +116,7 @@ pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
     ShellReport {
         outer_self_intersections: f.self_pairs.len(),
         outer_base_intersections: f.base_pairs.len(),
-        inverted_cells: f.inverted.iter().filter(|i| **i).count(),
+        inverted_cells: f.inverted.len(),
         min_ratio: if count > 0 { min_ratio } else { 1.0 },
         mean_ratio: if count > 0 { (sum / count as f64) as f32 } else { 1.0 },
         min_ratio_normal_valid: if n_valid > 0 { min_valid } else { 1.0 },
