@@ -42,6 +42,7 @@ def test_chain_mail_on_a_uv_sphere_bakes_a_closed_mesh_and_leaves_the_source(sce
     result.data.attributes[TEXCOORD_ATTRIBUTE].data.foreach_get("vector", tex)
     r = tex.reshape(-1, 3)[:, 2]
     assert 0.0 < r.min() and r.max() < 1.0
+    assert result.data.has_custom_normals, "normals from the texture gradient"
     # Every baked vertex lies in the shell: between radius 1 (minus facets) and 1 + shell.
     radii = np.linalg.norm(positions(result), axis=1)
     diag = np.linalg.norm(np.ptp(before, axis=0))

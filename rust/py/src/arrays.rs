@@ -3,7 +3,7 @@
 
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use thicket_core::glam::Vec3;
+use thicket_core::glam::{Vec2, Vec3};
 use thicket_core::Mesh;
 
 use crate::errors::ThicketError;
@@ -66,10 +66,30 @@ pub fn mesh(
     face_sizes: &Bound<'_, PyAny>,
     corners: &Bound<'_, PyAny>,
 ) -> PyResult<Mesh> {
+    mesh_with_uvs(vertices, face_sizes, corners, None)
+}
+
+/// [`mesh`] with per-corner UVs, float32 (corners, 2).
+pub fn mesh_with_uvs(
+    vertices: &PyReadonlyArray2<'_, f32>,
+    face_sizes: &Bound<'_, PyAny>,
+    corners: &Bound<'_, PyAny>,
+    uvs: Option<&PyReadonlyArray2<'_, f32>>,
+) -> PyResult<Mesh> {
     let positions = positions(vertices)?;
     let sizes = indices(face_sizes, "face_sizes")?;
     let corners = indices(corners, "corners")?;
-    Mesh::new(positions, &sizes, corners, None).map_err(crate::errors::to_py)
+    let uvs = match uvs {
+        None => None,
+        Some(uv) => {
+            let uv = uv.as_array();
+            if uv.shape() != [corners.len(), 2] {
+                return Err(ThicketError::new_err(format!("uvs must have shape ({}, 2)", corners.len())));
+            }
+            Some(uv.rows().into_iter().map(|r| Vec2::new(r[0], r[1])).collect())
+        }
+    };
+    Mesh::new(positions, &sizes, corners, uvs).map_err(crate::errors::to_py)
 }
 
 /// Moves `Vec<Vec3>` into a float32 (n, 3) array without copying the data.

@@ -32,7 +32,7 @@ pub fn texture<'py>(
     let g = Generator { pattern, seed, time, thickness };
     let t = run_detached(py, move || g.generate([size.0, size.1, size.2]))?;
     let [nx, ny, nz] = t.dims();
-    let flat = numpy::ndarray::Array1::from_vec(t.samples().to_vec());
+    let flat = numpy::ndarray::Array1::from_vec(t.into_samples());
     let arr = flat.into_shape_with_order((nz, ny, nx)).map_err(|e| ThicketError::new_err(e.to_string()))?;
     Ok(arr.into_pyarray(py))
 }
@@ -42,7 +42,11 @@ fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
         .extract()
         .map_err(|_| ThicketError::new_err("a texture must be a float32 array of shape (nz, ny, nx)"))?;
     let shape = a.shape().to_vec();
-    let data = a.as_array().iter().copied().collect();
+    // One copy either way: the texture owns its samples.
+    let data = match a.as_slice() {
+        Ok(s) => s.to_vec(),
+        Err(_) => a.as_array().iter().copied().collect(),
+    };
     VolumeTexture::new([shape[2], shape[1], shape[0]], data).map_err(to_py)
 }
 
@@ -75,17 +79,8 @@ pub fn bake_texture<'py>(
     base_layer: f32,
     max_triangles: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let mut mesh = arrays::mesh(&vertices, face_sizes, corners)?;
+    let mesh = arrays::mesh_with_uvs(&vertices, face_sizes, corners, uvs.as_ref())?;
     let n = mesh.vertex_count();
-    if let Some(uv) = uvs {
-        let uv = uv.as_array();
-        if uv.shape() != [mesh.corners().len(), 2] {
-            return Err(ThicketError::new_err(format!("uvs must have shape ({}, 2)", mesh.corners().len())));
-        }
-        let uv: Vec<Vec2> = uv.rows().into_iter().map(|r| Vec2::new(r[0], r[1])).collect();
-        let (p, c) = mesh.clone().into_parts();
-        mesh = thicket_core::Mesh::new(p, &mesh.face_sizes(), c, Some(uv)).map_err(to_py)?;
-    }
     let base_offset = arrays::positions(&base_offset)?;
     let directors = arrays::positions(&directors)?;
     if base_offset.len() != n || directors.len() != n {

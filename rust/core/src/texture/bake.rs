@@ -156,14 +156,11 @@ impl Lattice {
 /// Occupancy of the placed textures at `c`: the union (max) of the layers, and the
 /// gradient of the one that wins.
 fn occupancy(layers: &[TextureLayer], c: Vec3) -> (f32, usize) {
-    let mut best = (0.0f32, 0usize);
-    for (k, l) in layers.iter().enumerate() {
-        let a = l.texture.sample(c + l.offset.extend(0.0));
-        if a > best.0 || k == 0 {
-            best = if k == 0 || a > best.0 { (a, k) } else { best };
-        }
-    }
-    best
+    layers
+        .iter()
+        .map(|l| l.texture.sample(c + l.offset.extend(0.0)))
+        .enumerate()
+        .fold((f32::NEG_INFINITY, 0), |best, (k, a)| if a > best.0 { (a, k) } else { best })
 }
 
 /// Dompierre's prism split: permutation putting the smallest index first.

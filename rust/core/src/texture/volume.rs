@@ -55,6 +55,10 @@ impl VolumeTexture {
     pub fn samples(&self) -> &[f32] {
         &self.alpha
     }
+    /// The samples, x fastest, without copying.
+    pub fn into_samples(self) -> Vec<f32> {
+        self.alpha
+    }
 
     #[inline]
     fn at(&self, x: usize, y: usize, z: usize) -> f32 {
