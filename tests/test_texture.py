@@ -109,3 +109,90 @@ def test_combined_pattern_adds_to_the_first(scene):
     sphere.thicket.items[1].combine = "weave"
     api.regenerate(sphere)
     assert len(sphere.thicket.result.data.polygons) > one
+
+
+def uv_grid():
+    """A 2x2 grid with a UV map spanning it (u = (x + 1) / 2, v = (y + 1) / 2)."""
+    return add("grid", x_subdivisions=16, y_subdivisions=16, size=2.0)
+
+
+def near(obj, centre, radius):
+    p = positions(obj)
+    return np.linalg.norm(p[:, :2] - np.asarray(centre), axis=1) < radius
+
+
+def shell_r(obj):
+    tex = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.attributes[TEXCOORD_ATTRIBUTE].data.foreach_get("vector", tex)
+    return tex.reshape(-1, 3)[:, 2]
+
+
+def test_holes_from_a_vertex_group_and_a_cutter_object(scene):
+    sheet = uv_grid()
+    group = sheet.vertex_groups.new(name="hole")
+    group.add([v.index for v in sheet.data.vertices if (v.co.x - 0.5) ** 2 + (v.co.y - 0.5) ** 2 < 0.3**2], 1.0, "REPLACE")
+    result = api.add_volumetric_texture(sheet, "rivets", shell_thickness=0.05, tiling=4.0, resolution=6, texture_layers=10)
+    assert near(result, (0.5, 0.5), 0.15).any() and near(result, (-0.5, -0.5), 0.15).any()
+    item = sheet.thicket.items[1]
+    item.hole_group = "hole"
+    api.regenerate(sheet)
+    assert not near(sheet.thicket.result, (0.5, 0.5), 0.15).any(), "nothing left in the hole"
+    assert near(sheet.thicket.result, (-0.5, -0.5), 0.15).any()
+    # A cutter object: a sphere over (-0.5, -0.5); the texture inside it is cut away.
+    cutter = add("uv_sphere", radius=0.3, location=(-0.5, -0.5, 0.0))
+    item.cutter = cutter
+    api.regenerate(sheet)
+    assert not near(sheet.thicket.result, (-0.5, -0.5), 0.2).any()
+    assert (edge_use_counts(sheet.thicket.result) == 2).all(), "cut results stay closed"
+    # Moving the cutter re-cuts through auto-update (background: at once).
+    cutter.location = (0.5, -0.5, 0.0)
+    bpy.context.view_layer.update()
+    assert near(sheet.thicket.result, (-0.5, -0.5), 0.2).any()
+    assert not near(sheet.thicket.result, (0.5, -0.5), 0.2).any()
+
+
+def test_an_open_cutter_is_a_clear_error_and_the_result_stays(scene):
+    sheet = uv_grid()
+    result = api.add_volumetric_texture(sheet, "rivets", shell_thickness=0.05, tiling=4.0, resolution=4, texture_layers=8)
+    before = positions(result).copy()
+    sheet.thicket.items[1].cutter = add("grid", size=0.5)
+    with pytest.raises(tn.ThicketError, match="not closed"):
+        api.regenerate(sheet)
+    np.testing.assert_array_equal(positions(sheet.thicket.result), before)
+
+
+def test_moving_a_texture_region_leaves_the_base_in_its_trace(scene):
+    sheet = uv_grid()
+    group = sheet.vertex_groups.new(name="piece")
+    group.add([v.index for v in sheet.data.vertices if (v.co.x + 0.5) ** 2 + v.co.y**2 < 0.35**2], 1.0, "REPLACE")
+    api.add_volumetric_texture(sheet, "grass", shell_thickness=0.1, tiling=2.0, resolution=8, texture_layers=12, vertex_group="piece", seed=2)
+    r, here = shell_r(sheet.thicket.result), near(sheet.thicket.result, (-0.5, 0.0), 0.2)
+    there = near(sheet.thicket.result, (0.5, 0.0), 0.2)
+    assert r[here].max() > 0.3 and r[there].max() < 0.22, "grass only in the piece"
+    item = sheet.thicket.items[1]
+    item.move_group = "piece"
+    item.move_offset = (0.5, 0.0)  # UV units: the sheet's UVs span 2 units of x
+    api.regenerate(sheet)
+    result = sheet.thicket.result
+    r, here, there = shell_r(result), near(result, (-0.5, 0.0), 0.2), near(result, (0.5, 0.0), 0.2)
+    assert r[here].max() < 0.22, "the trace shows the base"
+    assert r[there].max() > 0.3, "the piece landed"
+    assert (edge_use_counts(result) == 2).all()
+
+
+def test_large_bakes_wait_for_confirmation_in_the_interface(scene):
+    from thicket.stack.evaluate import BakeNeedsConfirmation
+
+    sphere = add("ico_sphere", subdivisions=2)
+    small = api.add_volumetric_texture(sphere, "weave", resolution=4, texture_layers=8)
+    before = len(small.data.polygons)
+    item = sphere.thicket.items[1]
+    sphere.thicket.auto_update = False
+    item.resolution = 12
+    item.confirm_above = 1000
+    with pytest.raises(BakeNeedsConfirmation) as caught:
+        api.regenerate(sphere, ask=True)
+    assert caught.value.estimate > 1000 and f"{caught.value.estimate:,}" in str(caught.value)
+    assert len(sphere.thicket.result.data.polygons) == before, "nothing baked before the OK"
+    api.regenerate(sphere)  # scripts (and the dialog's OK) bake without asking
+    assert len(sphere.thicket.result.data.polygons) > before

@@ -97,10 +97,12 @@ def bake_frames(obj, frame_start, frame_end, directory, step=1):
     return paths
 
 
-def regenerate(obj, progress=None):
-    """Recomputes `obj`'s result from its current mesh and stack; returns the result."""
+def regenerate(obj, progress=None, ask=False):
+    """Recomputes `obj`'s result from its current mesh and stack; returns the result.
+    `ask`: raise `BakeNeedsConfirmation` (with `.estimate`) instead of baking more
+    triangles than a Volumetric Texture item's `confirm_above`."""
     _require_mesh(obj)
-    return _regenerate(obj, progress=progress)
+    return _regenerate(obj, progress=progress, ask=ask)
 
 
 def result_of(obj):

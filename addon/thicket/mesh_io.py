@@ -129,3 +129,23 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
         # (callers suspend Thicket's handler) instead of reaching the next handler call
         # as dangling IDs, which crashed Blender when read.
         bpy.context.view_layer.update()
+
+
+def read_solid(obj: bpy.types.Object, space: bpy.types.Object, depsgraph):
+    """`obj`'s evaluated mesh as (vertices float32 (n,3), triangles int32 (t,3)) in
+    `space`'s object coordinates (a cutter, in its source's space)."""
+    if obj.name not in bpy.data.objects:
+        raise KeyError(f"the cutter object '{obj.name}' no longer exists")
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        vertices = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", vertices)
+        triangles = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("vertices", triangles)
+    finally:
+        evaluated.to_mesh_clear()
+    matrix = np.array(space.matrix_world.inverted() @ obj.matrix_world, dtype=np.float64)
+    vertices = vertices.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+    return np.ascontiguousarray(vertices, dtype=np.float32), triangles.reshape(-1, 3)

@@ -55,6 +55,7 @@ def flush() -> None:
     (`last_error`, shown in the panel), never raised into Blender's event loop."""
     if _busy:
         return
+    from .evaluate import BakeNeedsConfirmation
     from .regenerate import regenerate
 
     while _pending:
@@ -62,8 +63,9 @@ def flush() -> None:
         if not _is_source(obj):
             continue
         try:
-            regenerate(obj)
-        except (KeyError, TypeError, ValueError, *native.error_types()) as exc:
+            # In the interface, very large bakes wait for the user (Regenerate asks).
+            regenerate(obj, ask=not bpy.app.background)
+        except (KeyError, TypeError, ValueError, BakeNeedsConfirmation, *native.error_types()) as exc:
             with suspended():
                 obj.thicket.last_error = str(exc)
 
@@ -73,9 +75,14 @@ def on_depsgraph_update(scene, depsgraph):
     if _busy:
         return
     for update in depsgraph.updates:
+        original = update.id.original
+        if isinstance(original, bpy.types.Object) and (update.is_updated_geometry or update.is_updated_transform):
+            # A cutter moved or changed: its sources cut again.
+            for obj in scene.objects:
+                if obj != original and _is_source(obj) and any(i.cutter == original for i in obj.thicket.items if i.kind == "VOLUMETRIC_TEXTURE"):
+                    schedule(obj)
         if not update.is_updated_geometry:
             continue
-        original = update.id.original
         if isinstance(original, bpy.types.Object):
             schedule(original)
         elif isinstance(original, bpy.types.Mesh):

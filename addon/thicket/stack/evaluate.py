@@ -58,22 +58,56 @@ def _field_shell(mesh: MeshArrays, item: S.FieldShell, factors):
     return (*_shell_result(out), out)
 
 
+_loaded = {}  # (path, modification time) -> texture array: files are read once
+
+
+def _texture_file(tn, path):
+    """A texture file's alpha, cached while the file is unchanged."""
+    import os
+
+    target = path if os.path.isdir(path) else os.path.dirname(path) if path.lower().endswith(".png") else path
+    try:
+        stamp = max([os.path.getmtime(target)] + [os.path.getmtime(os.path.join(target, f)) for f in os.listdir(target)] if os.path.isdir(target) else [os.path.getmtime(target)])
+    except OSError:
+        stamp = None  # let the loader name what is missing
+    key = (path, stamp)
+    if key not in _loaded:
+        _loaded.clear()
+        _loaded[key] = tn.load_texture(path)
+    return _loaded[key]
+
+
 def _texture(tn, pattern, item: S.VolumetricTexture):
     size = int(item.texture_size)
     return tn.texture(pattern, size=(size, size, max(2, size // 2)), seed=int(item.seed), time=float(item.time), thickness=float(item.feature_thickness))
 
 
-def _volumetric_texture(shell: ShellContext, item: S.VolumetricTexture, factors):
-    """Bakes the item's texture(s) over `shell` (thick surfaces, chapter 3)."""
+class BakeNeedsConfirmation(Exception):
+    """A bake estimated above the item's `confirm_above`: the UI asks before baking."""
+
+    def __init__(self, label, estimate, limit):
+        super().__init__(f"'{label}' would make about {estimate:,} triangles (over {limit:,}): click Regenerate to confirm")
+        self.estimate = estimate
+
+
+def _volumetric_texture(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False):
+    """Bakes the item's texture(s) over `shell` (thick surfaces, chapter 3);
+    `weights`: per-vertex region, holes and move arrays (or None) by name."""
     tn = native.get()
-    textures = [_texture(tn, item.pattern, item)]
+    textures = [_texture_file(tn, item.filepath) if item.filepath else _texture(tn, item.pattern, item)]
     if item.combine:
         textures.append((_texture(tn, item.combine, item), tuple(float(v) for v in item.offset)))
     base = shell.base
+    if ask:
+        estimate = tn.estimate_bake(base.vertices, base.face_sizes, base.corners, textures[0], tiling=float(item.tiling), resolution=int(item.resolution), layers=int(item.layers))
+        if estimate > item.confirm_above:
+            raise BakeNeedsConfirmation(item.label, estimate, item.confirm_above)
     out = tn.bake_texture(
         base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures,
         uvs=base.uvs, tiling=float(item.tiling), resolution=int(item.resolution), layers=int(item.layers),
-        region=factors, max_triangles=int(item.max_triangles),
+        region=weights["region"], holes=weights["holes"], cutter=item.cutter,
+        move_region=weights["move"], move_offset=tuple(float(v) for v in item.move_offset),
+        max_triangles=int(item.max_triangles),
     )
     result = MeshArrays.from_native(out)
     result.normals = out["normals"]
@@ -88,12 +122,26 @@ class StackError(ValueError):
     """A stack that cannot be evaluated as ordered (e.g. a texture without a shell)."""
 
 
-def evaluate_stack(source: MeshArrays, items, progress=None) -> MeshArrays:
+def _group_weights(source: MeshArrays, name, at, label):
+    """Vertex group `name`'s weights at the vertices `at` (source indices); None without a name."""
+    if not name:
+        return None
+    weights = source.point_attributes.get(weight_attribute(name))
+    if weights is None:
+        raise KeyError(f"vertex group '{name}' was not read from the source")
+    if at is None:
+        raise StackError(f"'{label}' cannot use a vertex group after a Volumetric Texture")
+    return np.ascontiguousarray(weights[at], dtype=np.float32)
+
+
+def evaluate_stack(source: MeshArrays, items, progress=None, ask=False) -> MeshArrays:
     """Applies `items` in order; each item's input is the previous item's output.
 
     Vertex-group weights are looked up on the source mesh and followed through the
     items by provenance (`source_vertex`), so a group keeps meaning after the first
     item. `progress(i)` is called after each item. An empty list returns the source.
+    `ask`: raise `BakeNeedsConfirmation` before a bake estimated over its item's
+    `confirm_above` (the interface then asks the user).
     """
     current = source
     origin = np.arange(source.vertex_count)  # source vertex of each current vertex
@@ -103,17 +151,11 @@ def evaluate_stack(source: MeshArrays, items, progress=None) -> MeshArrays:
         is_texture = isinstance(item, S.VolumetricTexture)
         if is_texture and shell is None:
             raise StackError(f"'{item.label}' needs a Shell or Offset Shell above it in the stack")
-        factors = None
-        if getattr(item, "vertex_group", ""):
-            weights = source.point_attributes.get(weight_attribute(item.vertex_group))
-            if weights is None:
-                raise KeyError(f"vertex group '{item.vertex_group}' was not read from the source")
-            at = shell.origin if is_texture else origin
-            if at is None:
-                raise StackError(f"'{item.label}' cannot use a vertex group after a Volumetric Texture")
-            factors = np.ascontiguousarray(weights[at], dtype=np.float32)
+        at = shell.origin if is_texture else origin
+        factors = _group_weights(source, item.vertex_group, at, item.label)
         if is_texture:
-            current, per_face = _volumetric_texture(shell, item, factors)
+            weights = {"region": factors, "holes": _group_weights(source, item.hole_group, at, item.label), "move": _group_weights(source, item.move_group, at, item.label)}
+            current, per_face = _volumetric_texture(shell, item, weights, ask)
             origin = None  # baked vertices come from no single source vertex
             if per_face:
                 notes.append("the mesh has no UV map: each face got its own texture tile")

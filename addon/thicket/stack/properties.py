@@ -16,6 +16,10 @@ PATTERNS = [
 ]
 
 
+def _is_mesh(self, obj):
+    return obj.type == "MESH" and obj != self.id_data
+
+
 def _changed(self, context):
     from . import auto_update
 
@@ -99,6 +103,21 @@ class ThicketItem(bpy.types.PropertyGroup):
     time: FloatProperty(name="Time", description="Time of animated patterns", default=1.0, update=_changed)
     follow_frame: BoolProperty(name="Follow Frame", description="Time follows the scene frame (seconds times Speed)", default=False, update=_changed)
     speed: FloatProperty(name="Speed", description="Texture time per second of scene time", default=1.0, update=_changed)
+    source: EnumProperty(
+        name="Source",
+        items=[
+            ("PATTERN", "Pattern", "A procedural pattern from Thicket's library"),
+            ("FILE", "File", "A texture file: a folder of PNG slices (base first) or an OpenEXR volume"),
+        ],
+        default="PATTERN",
+        update=_changed,
+    )
+    filepath: StringProperty(name="Texture File", description="A PNG slice (its folder is the stack) or an .exr volume", subtype="FILE_PATH", update=_changed)
+    hole_group: StringProperty(name="Holes", description="Vertex group where the texture is cut away (by weight)", update=_changed)
+    cutter: PointerProperty(name="Cutter", description="A closed mesh object: the texture is cut away inside it", type=bpy.types.Object, poll=_is_mesh, update=_changed)
+    move_group: StringProperty(name="Move Region", description="Vertex group of the piece of texture to move along the surface (needs a UV map)", update=_changed)
+    move_offset: FloatVectorProperty(name="Move By", description="How far the piece moves, in UV units; its trace shows the base surface", size=2, default=(0.0, 0.0), step=1, update=_changed)
+    confirm_above: IntProperty(name="Ask Above", description="In the interface, ask before baking more than this many (estimated) triangles", min=1000, default=1_000_000, update=_changed)
     max_triangles: IntProperty(name="Triangle Budget", description="Refuse bakes estimated above this many triangles", min=1000, default=5_000_000, update=_changed)
 
     def texture_time(self, scene=None):
@@ -108,8 +127,9 @@ class ThicketItem(bpy.types.PropertyGroup):
             return scene.frame_current / (scene.render.fps / scene.render.fps_base) * self.speed
         return self.time
 
-    def to_settings(self):
-        """The plain-data settings `stack.evaluate` runs on."""
+    def to_settings(self, depsgraph=None):
+        """The plain-data settings `stack.evaluate` runs on (a cutter's mesh is read
+        from `depsgraph`, in the source's object space)."""
         common = dict(
             thickness=self.thickness,
             relative=self.thickness_mode == "RELATIVE",
@@ -124,9 +144,20 @@ class ThicketItem(bpy.types.PropertyGroup):
                 pattern=self.pattern, seed=self.seed, time=self.texture_time(), feature_thickness=self.feature_thickness,
                 texture_size=self.texture_size, tiling=self.tiling, resolution=self.resolution, layers=self.texture_layers,
                 vertex_group=self.vertex_group, combine="" if self.combine == "NONE" else self.combine,
-                offset=tuple(self.offset), max_triangles=self.max_triangles,
+                offset=tuple(self.offset), max_triangles=self.max_triangles, confirm_above=self.confirm_above,
+                filepath=bpy.path.abspath(self.filepath) if self.source == "FILE" else "",
+                hole_group=self.hole_group, move_group=self.move_group, move_offset=tuple(self.move_offset),
+                cutter=self._cutter_arrays(depsgraph),
             )
         return S.OffsetShell(**common)
+
+
+    def _cutter_arrays(self, depsgraph):
+        if self.cutter is None:
+            return None
+        from ..mesh_io import read_solid
+
+        return read_solid(self.cutter, self.id_data, depsgraph or bpy.context.evaluated_depsgraph_get())
 
 
 class ThicketStack(bpy.types.PropertyGroup):

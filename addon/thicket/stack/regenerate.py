@@ -11,8 +11,8 @@ def result_name(source: bpy.types.Object) -> str:
     return f"{source.name}_thicket"
 
 
-def enabled_settings(source):
-    return [item.to_settings() for item in source.thicket.items if item.show_viewport]
+def enabled_settings(source, depsgraph=None):
+    return [item.to_settings(depsgraph) for item in source.thicket.items if item.show_viewport]
 
 
 def ensure_result(source: bpy.types.Object) -> bpy.types.Object:
@@ -38,20 +38,21 @@ def ensure_result(source: bpy.types.Object) -> bpy.types.Object:
     return result
 
 
-def regenerate(source: bpy.types.Object, depsgraph=None, progress=None) -> bpy.types.Object:
+def regenerate(source: bpy.types.Object, depsgraph=None, progress=None, ask=False) -> bpy.types.Object:
     """Evaluates the source's stack and writes the result object's mesh.
 
     The result is written only after the whole stack succeeded: on error the previous
-    result stays, the source is never modified, and the exception propagates.
+    result stays, the source is never modified, and the exception propagates. `ask`:
+    stop with `BakeNeedsConfirmation` before a bake over its item's `confirm_above`.
     """
     if source.type != "MESH":
         raise TypeError(f"'{source.name}' is a {source.type.lower()}, not a mesh")
-    items = enabled_settings(source)
-    groups = sorted({item.vertex_group for item in items if getattr(item, "vertex_group", "")})
     with suspended():
         depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+        items = enabled_settings(source, depsgraph)
+        groups = sorted({g for item in items for g in item.vertex_groups()})
         arrays = mesh_io.read_evaluated(source, depsgraph, groups)
-        result_arrays = evaluate_stack(arrays, items, progress)
+        result_arrays = evaluate_stack(arrays, items, progress, ask)
         result = ensure_result(source)
         mesh_io.write_mesh(result.data, result_arrays)
         if source.thicket.last_error:

@@ -3,8 +3,14 @@
 from dataclasses import dataclass
 
 
+class _Item:
+    def vertex_groups(self):
+        """The vertex groups this item reads from the source."""
+        return [self.vertex_group] if self.vertex_group else []
+
+
 @dataclass(frozen=True)
-class OffsetShell:
+class OffsetShell(_Item):
     """Offset Shell (normal displacement): the baseline shell.
 
     thickness: a length, or a fraction of the bounding-box diagonal when `relative`;
@@ -24,7 +30,7 @@ class OffsetShell:
 
 
 @dataclass(frozen=True)
-class FieldShell:
+class FieldShell(_Item):
     """Shell: directors integrated along the L_p-averaged distance field (chapter 4).
 
     Unlike the Offset Shell it does not fold over itself in concavities: where the
@@ -45,7 +51,7 @@ class FieldShell:
 
 
 @dataclass(frozen=True)
-class VolumetricTexture:
+class VolumetricTexture(_Item):
     """Volumetric Texture: detail mapped into the shell above it, baked to geometry.
 
     pattern: "chain_mail", "weave", "rivets", "grass", "fur" or "bubbles" (chapter 3);
@@ -54,9 +60,16 @@ class VolumetricTexture:
     layers: steps across the shell. vertex_group: where the texture exists (elsewhere a
     thin base slab, blended smoothly). combine: a second pattern united with the first
     (chapter 7), shifted by `offset` in (s, t). time: animated patterns' time.
+    filepath: a texture file instead of the pattern (a folder of PNG slices, or an
+    .exr volume). Editing (chapter 7): hole_group zeroes the texture by weight, cutter
+    (vertices, triangles) of a closed mesh in the source's space zeroes it inside;
+    move_group's piece of texture moves by move_offset (UV units), its trace showing
+    the base. confirm_above: bakes estimated above it raise BakeNeedsConfirmation
+    when the caller asks (the UI); max_triangles: refused outright.
     """
 
     pattern: str = "chain_mail"
+    filepath: str = ""
     seed: int = 0
     time: float = 1.0
     feature_thickness: float = 1.0
@@ -67,7 +80,15 @@ class VolumetricTexture:
     vertex_group: str = ""
     combine: str = ""
     offset: tuple = (0.0, 0.0)
+    hole_group: str = ""
+    cutter: object = None
+    move_group: str = ""
+    move_offset: tuple = (0.0, 0.0)
+    confirm_above: int = 1_000_000
     max_triangles: int = 5_000_000
+
+    def vertex_groups(self):
+        return [g for g in (self.vertex_group, self.hole_group, self.move_group) if g]
 
     kind = "VOLUMETRIC_TEXTURE"
     label = "Volumetric Texture"

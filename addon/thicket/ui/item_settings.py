@@ -19,19 +19,31 @@ def draw_item_settings(layout, obj, item):
 
 
 def _draw_texture_settings(col, obj, item):
-    col.prop(item, "pattern")
-    col.prop(item, "seed")
-    col.prop(item, "feature_thickness")
+    col.prop(item, "source")
+    if item.source == "FILE":
+        col.prop(item, "filepath")
+    else:
+        col.prop(item, "pattern")
+        col.prop(item, "seed")
+        col.prop(item, "feature_thickness")
+        col.prop(item, "texture_size")
     col.prop(item, "tiling")
-    col.prop(item, "texture_size")
     col.prop(item, "resolution")
     col.prop(item, "texture_layers")
     col.prop_search(item, "vertex_group", obj, "vertex_groups", text="Region")
     col.prop(item, "combine")
     if item.combine != "NONE":
         col.prop(item, "offset")
+    col.separator()
+    col.prop_search(item, "hole_group", obj, "vertex_groups")
+    col.prop(item, "cutter")
+    col.prop_search(item, "move_group", obj, "vertex_groups")
+    if item.move_group:
+        col.prop(item, "move_offset")
+    col.separator()
     col.prop(item, "follow_frame")
     col.prop(item, "speed" if item.follow_frame else "time")
+    col.prop(item, "confirm_above")
     col.prop(item, "max_triangles")
 
 

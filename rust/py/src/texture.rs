@@ -5,7 +5,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use thicket_core::glam::{Vec2, Vec3};
 use thicket_core::shell::{Shell, Side};
-use thicket_core::texture::bake::{bake, estimate_triangles_for, TextureLayer};
+use thicket_core::texture::bake::{bake, estimate_triangles_for, Cutter, MovedRegion, TextureLayer};
 use thicket_core::texture::{BakeParams, Generator, Pattern, VolumeTexture};
 
 use crate::arrays;
@@ -52,16 +52,21 @@ fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
 
 /// bake_texture(vertices, face_sizes, corners, base_offset, directors, textures,
 ///              uvs=None, tiling=1.0, resolution=8, layers=16, region=None,
-///              base_layer=0.1, max_triangles=20_000_000) -> dict
+///              base_layer=0.1, holes=None, cutter=None, move_region=None,
+///              move_offset=(0.0, 0.0), max_triangles=20_000_000) -> dict
 ///
 /// Bakes the alpha = 0.5 iso-surface of volumetric textures mapped into a shell (layer
 /// r of vertex v at v + base_offset + r * director) into one closed, crack-free mesh.
 /// `textures`: a list of float32 (nz, ny, nx) arrays or (array, (ds, dt)) pairs,
 /// united. `uvs`: float32 (corners, 2) or None (one tile per face). `region`: float32
-/// (n,) where the texture exists (elsewhere a thin base slab). Returns vertices,
+/// (n,) where the texture exists (elsewhere a thin base slab). `holes`: float32 (n,)
+/// where the texture is cut away. `cutter`: (vertices float32 (k,3), triangles (t,3))
+/// of a closed mesh in the same coordinates; the texture is cut away inside it.
+/// `move_region`: float32 (n,), the piece of texture moved by `move_offset` (UV
+/// units; needs `uvs`), its trace showing the base. Returns vertices,
 /// face_sizes, corners, normals (n,3), texcoords (n,3) = (s, t, r), per_face_tiles.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, max_triangles=20_000_000))]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), max_triangles=20_000_000))]
 #[allow(clippy::too_many_arguments)]
 pub fn bake_texture<'py>(
     py: Python<'py>,
@@ -77,6 +82,10 @@ pub fn bake_texture<'py>(
     layers: u32,
     region: Option<&Bound<'py, PyAny>>,
     base_layer: f32,
+    holes: Option<&Bound<'py, PyAny>>,
+    cutter: Option<(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
+    move_region: Option<&Bound<'py, PyAny>>,
+    move_offset: (f32, f32),
     max_triangles: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh = arrays::mesh_with_uvs(&vertices, face_sizes, corners, uvs.as_ref())?;
@@ -96,10 +105,30 @@ pub fn bake_texture<'py>(
         layers_in.push(TextureLayer { texture: volume(&alpha)?, offset });
     }
     let region = region.map(|r| arrays::per_vertex_or_scalar(r, n, "region")).transpose()?;
+    let holes = holes.map(|r| arrays::per_vertex_or_scalar(r, n, "holes")).transpose()?;
+    let moved = move_region
+        .map(|r| arrays::per_vertex_or_scalar(r, n, "move_region"))
+        .transpose()?
+        .map(|weights| MovedRegion { weights, offset: Vec2::new(move_offset.0, move_offset.1) });
+    let cutter = match &cutter {
+        Some((v, t)) => Some((arrays::positions(v)?, arrays::indices(t, "cutter triangles")?)),
+        None => None,
+    };
     let achieved: Vec<f32> = directors.iter().map(|d: &Vec3| d.length()).collect();
     let shell = Shell { side: Side::Exterior, base_offset, directors, target: achieved.clone(), achieved };
-    let params = BakeParams { resolution, layers, tiling, region, base_layer, max_triangles };
-    let out = run_detached(py, move || bake(&mesh, &shell, &layers_in, &params))?;
+    let out = run_detached(py, move || {
+        let cutter = match cutter {
+            Some((v, t)) => {
+                if t.len() % 3 != 0 {
+                    return Err(thicket_core::Error::InvalidParameter("cutter triangles: three indices per triangle".into()));
+                }
+                Some(Cutter::new(&v, &t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect::<Vec<_>>())?)
+            }
+            None => None,
+        };
+        let params = BakeParams { resolution, layers, tiling, region, base_layer, holes, cutter, moved, max_triangles };
+        bake(&mesh, &shell, &layers_in, &params)
+    })?;
     let d = PyDict::new(py);
     let count = out.triangles.len();
     d.set_item("vertices", arrays::vec3_array(py, out.positions)?)?;

@@ -111,8 +111,14 @@ impl CellMap {
     /// A texture-space gradient (of alpha) carried to world space at `q`: the chain
     /// rule through the parameters, `∇_world = J_world^{-T} J_texture^T ∇_texture`.
     pub fn gradient_to_world(&self, q: Vec3, g: Vec3) -> Vec3 {
-        let (jw, jt) = self.jacobians(q);
-        let gp = jt.transpose() * g;
+        let (_, jt) = self.jacobians(q);
+        self.parameter_gradient_to_world(q, jt.transpose() * g)
+    }
+
+    /// A gradient with respect to the parameters `(u, v, r)` carried to world space at
+    /// `q`: `J_world^{-T} ∇_param`.
+    pub fn parameter_gradient_to_world(&self, q: Vec3, gp: Vec3) -> Vec3 {
+        let (jw, _) = self.jacobians(q);
         let det = jw.determinant();
         if det.abs() < 1e-20 || !det.is_finite() {
             return Vec3::ZERO;

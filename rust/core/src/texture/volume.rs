@@ -60,32 +60,35 @@ impl VolumeTexture {
         self.alpha
     }
 
-    #[inline]
-    fn at(&self, x: usize, y: usize, z: usize) -> f32 {
-        self.alpha[x + self.dims[0] * (y + self.dims[1] * z)]
-    }
-
     /// Trilinear `alpha` at texture coordinates `(s, t, r)`: `s`, `t` wrap around
     /// (tiling), `r` is clamped to the shell. Texel centres sit at `(i + ½)/n` in `s`,
     /// `t` and at `k/(nz-1)` in `r` (the first and last slices lie on the shell's faces).
     pub fn sample(&self, c: Vec3) -> f32 {
         let [nx, ny, nz] = self.dims;
-        let wrap = |u: f32, n: usize| {
+        // Texel index and fraction, wrapped into the tile (no libm floor: hot path).
+        #[inline(always)]
+        fn wrap(u: f32, n: usize) -> (usize, usize, f32) {
             let x = u * n as f32 - 0.5;
-            let f = x.floor();
-            let i = (f as i64).rem_euclid(n as i64) as usize;
-            (i, (i + 1) % n, x - f)
-        };
+            let x = if x.abs() < 1e6 { x } else { 0.0 };
+            let i = x as i32 - i32::from(x < (x as i32) as f32);
+            let f = x - i as f32;
+            let i = i.rem_euclid(n as i32) as usize;
+            (i, if i + 1 == n { 0 } else { i + 1 }, f)
+        }
         let (x0, x1, fx) = wrap(c.x, nx);
         let (y0, y1, fy) = wrap(c.y, ny);
-        let z = c.z.clamp(0.0, 1.0) * (nz - 1) as f32;
-        let z0 = (z.floor() as usize).min(nz - 1);
+        let z = if c.z > 0.0 { c.z.min(1.0) * (nz - 1) as f32 } else { 0.0 };
+        let z0 = (z as usize).min(nz - 1);
         let (z1, fz) = (if z0 + 1 < nz { z0 + 1 } else { z0 }, z - z0 as f32);
-        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+        let (r0, r1) = (nx * y0, nx * y1);
         let plane = |z: usize| {
-            lerp(lerp(self.at(x0, y0, z), self.at(x1, y0, z), fx), lerp(self.at(x0, y1, z), self.at(x1, y1, z), fx), fy)
+            let s = &self.alpha[nx * ny * z..nx * ny * (z + 1)];
+            let a = s[r0 + x0] + (s[r0 + x1] - s[r0 + x0]) * fx;
+            let b = s[r1 + x0] + (s[r1 + x1] - s[r1 + x0]) * fx;
+            a + (b - a) * fy
         };
-        lerp(plane(z0), plane(z1), fz)
+        let (p0, p1) = (plane(z0), plane(z1));
+        p0 + (p1 - p0) * fz
     }
 
     /// `∇alpha` with respect to `(s, t, r)`, by central differences one texel wide.

@@ -1,0 +1,204 @@
+//! Marching tetrahedra over one cell's lattice. Each small prism is split into three
+//! tetrahedra by the rule of Dompierre et al. (each quad's diagonal through its
+//! smallest global index), which agrees on faces shared with neighbouring cells.
+//! Iso-vertices are computed once per lattice edge within the cell (a dense slot table
+//! indexed by the edge's lower endpoint and direction); those on the cell's boundary
+//! carry a global edge key so [`super::merge`] can join them with the neighbour's.
+
+use super::lattice::Lattice;
+use crate::texture::mapping::CellMap;
+use crate::{shell::Shell, Mesh};
+use glam::{IVec3, Vec3};
+
+/// Key of an iso-vertex that no other cell shares.
+pub(super) const UNSHARED: u64 = u64::MAX;
+
+/// One cell's output before the global merge.
+#[derive(Default)]
+pub(super) struct Piece {
+    pub keys: Vec<u64>,
+    pub pos: Vec<Vec3>,
+    pub tex: Vec<Vec3>,
+    pub grad: Vec<Vec3>,
+    /// Cell parameters `(u, v, r)` of each vertex, in lattice steps (for orientation).
+    pub params: Vec<Vec3>,
+    pub tris: Vec<[u32; 3]>,
+}
+
+/// Everything a cell needs, shared by all cells.
+pub(super) struct Cells<'a> {
+    pub mesh: &'a Mesh,
+    pub shell: &'a Shell,
+    pub lattice: &'a Lattice,
+    /// `alpha` per lattice point and layer.
+    pub values: &'a [f32],
+    pub layers: u32,
+}
+
+/// Per-thread buffers, reused from cell to cell.
+#[derive(Default)]
+pub(super) struct Scratch {
+    ids: Vec<u64>,
+    vals: Vec<f32>,
+    slots: Vec<u32>,
+    touched: Vec<usize>,
+    ij: Vec<(u32, u32)>,
+}
+
+/// Dompierre's prism split: permutation putting the smallest index first.
+const PRISM_ROT: [[usize; 6]; 6] =
+    [[0, 1, 2, 3, 4, 5], [1, 2, 0, 4, 5, 3], [2, 0, 1, 5, 3, 4], [3, 5, 4, 0, 2, 1], [4, 3, 5, 1, 0, 2], [5, 4, 3, 2, 1, 0]];
+
+fn split_prism(ids: &[u64; 6]) -> [[usize; 4]; 3] {
+    let k = (0..6).min_by_key(|&i| ids[i]).unwrap_or(0);
+    let p = PRISM_ROT[k];
+    let id = |i: usize| ids[p[i]];
+    let t = if id(1).min(id(5)) < id(2).min(id(4)) {
+        [[0, 1, 2, 5], [0, 1, 5, 4], [0, 4, 5, 3]]
+    } else {
+        [[0, 1, 2, 4], [0, 4, 2, 5], [0, 4, 5, 3]]
+    };
+    t.map(|tet| tet.map(|i| p[i]))
+}
+
+impl Cells<'_> {
+    pub fn polygonize(&self, s: &mut Scratch, t: usize) -> Piece {
+        let (lat, n, m) = (self.lattice, self.lattice.n, self.layers);
+        let lm = m as usize + 1;
+        if s.ij.is_empty() {
+            s.ij = lat.local_points().collect();
+        }
+        let points = s.ij.len() * lm;
+        s.ids.clear();
+        s.vals.clear();
+        for &(i, j) in &s.ij {
+            let g = lat.key(t, i, j) * lm;
+            s.ids.extend((0..lm).map(|l| (g + l) as u64));
+            s.vals.extend_from_slice(&self.values[g..g + lm]);
+        }
+        if s.slots.len() < points * 27 {
+            s.slots = vec![u32::MAX; points * 27];
+        }
+        let cell = CellMap::new(self.mesh, self.shell, &lat.tris[t], &lat.st[t]);
+        let mut piece = Piece::default();
+        // Orientation: triangles face from inside to outside in parameter space, flipped
+        // where the cell map reverses orientation (interior shells).
+        let flip = cell.jacobians(Vec3::new(1.0 / 3.0, 1.0 / 3.0, 0.5)).0.determinant() < 0.0;
+        let total = self.values.len() as u64;
+        let param = |lp: usize| {
+            let (i, j) = s.ij[lp / lm];
+            IVec3::new(i as i32, j as i32, (lp % lm) as i32)
+        };
+        let on_rim = |lp: usize| {
+            let (i, j) = s.ij[lp / lm];
+            i == 0 || j == 0 || i + j == n
+        };
+        let to_q = |p: IVec3| p.as_vec3() / Vec3::new(n as f32, n as f32, m as f32);
+        let (ids, vals, slots, touched) = (&s.ids, &s.vals, &mut s.slots, &mut s.touched);
+        let value = |p: IVec3| -> Option<f32> {
+            let ok = p.x >= 0 && p.y >= 0 && p.x + p.y <= n as i32 && (0..=m as i32).contains(&p.z);
+            ok.then(|| vals[lat.local_index(p.x as u32, p.y as u32) * lm + p.z as usize])
+        };
+        // d alpha / d (i, j, l) at a lattice point, per lattice step.
+        let lattice_gradient = |lp: usize| {
+            let p = param(lp);
+            let d = |e: IVec3| match (value(p + e), value(p - e)) {
+                (Some(a), Some(b)) => (a - b) / 2.0,
+                (Some(a), None) => a - vals[lp],
+                (None, Some(b)) => vals[lp] - b,
+                (None, None) => 0.0,
+            };
+            Vec3::new(d(IVec3::X), d(IVec3::Y), d(IVec3::Z))
+        };
+        let mut iso = |piece: &mut Piece, p: usize, q: usize| -> u32 {
+            let (lo, hi) = if ids[p] < ids[q] { (p, q) } else { (q, p) };
+            let d = param(hi) - param(lo) + IVec3::ONE;
+            let slot = lo * 27 + (d.x * 9 + d.y * 3 + d.z) as usize;
+            if slots[slot] != u32::MAX {
+                return slots[slot];
+            }
+            let f = ((0.5 - vals[lo]) / (vals[hi] - vals[lo])).clamp(0.0, 1.0);
+            let (qa, qb) = (to_q(param(lo)), to_q(param(hi)));
+            let q = qa.lerp(qb, f);
+            // Gradient: the lattice's central differences (one-sided on the cell's rim)
+            // interpolated along the edge, carried to world space by the cell map.
+            let g = lattice_gradient(lo).lerp(lattice_gradient(hi), f) * Vec3::new(n as f32, n as f32, m as f32);
+            let grad = -cell.parameter_gradient_to_world(q, g);
+            let idx = piece.pos.len() as u32;
+            piece.keys.push(if on_rim(lo) && on_rim(hi) { ids[lo] * total + ids[hi] } else { UNSHARED });
+            piece.pos.push(cell.world(q));
+            piece.tex.push(cell.texture(q));
+            piece.grad.push(grad);
+            piece.params.push(param(lo).as_vec3().lerp(param(hi).as_vec3(), f));
+            slots[slot] = idx;
+            touched.push(slot);
+            idx
+        };
+        let mut emit = |piece: &mut Piece, c: [usize; 6]| {
+            let inside = c.map(|k| vals[k] >= 0.5);
+            if inside.iter().all(|b| *b) || !inside.iter().any(|b| *b) {
+                return;
+            }
+            for tet in split_prism(&c.map(|k| ids[k])) {
+                let v = tet.map(|k| c[k]);
+                let ins = tet.map(|k| inside[k]);
+                let count = ins.iter().filter(|b| **b).count();
+                if count == 0 || count == 4 {
+                    continue;
+                }
+                let (mut a, mut b) = ([0usize; 4], [0usize; 4]);
+                let (mut na, mut nb) = (0, 0);
+                for k in 0..4 {
+                    if ins[k] {
+                        a[na] = v[k];
+                        na += 1;
+                    } else {
+                        b[nb] = v[k];
+                        nb += 1;
+                    }
+                }
+                let centre = |ks: &[usize]| ks.iter().map(|k| param(*k).as_vec3()).sum::<Vec3>() / ks.len() as f32;
+                let outward = centre(&b[..nb]) - centre(&a[..na]);
+                let tris: [[u32; 3]; 2];
+                let count_tris = match na {
+                    1 => {
+                        tris = [[iso(piece, a[0], b[0]), iso(piece, a[0], b[1]), iso(piece, a[0], b[2])], [0; 3]];
+                        1
+                    }
+                    3 => {
+                        tris = [[iso(piece, b[0], a[0]), iso(piece, b[0], a[1]), iso(piece, b[0], a[2])], [0; 3]];
+                        1
+                    }
+                    _ => {
+                        let q = [iso(piece, a[0], b[0]), iso(piece, a[0], b[1]), iso(piece, a[1], b[1]), iso(piece, a[1], b[0])];
+                        tris = [[q[0], q[1], q[2]], [q[0], q[2], q[3]]];
+                        2
+                    }
+                };
+                for tri in &tris[..count_tris] {
+                    let p = tri.map(|i| piece.params[i as usize]);
+                    let nrm = (p[1] - p[0]).cross(p[2] - p[0]);
+                    let keep = (nrm.dot(outward) >= 0.0) != flip;
+                    piece.tris.push(if keep { *tri } else { [tri[0], tri[2], tri[1]] });
+                }
+            }
+        };
+        for i in 0..n {
+            for j in 0..(n - i) {
+                let up = [(i, j), (i + 1, j), (i, j + 1)];
+                let down = [(i + 1, j), (i + 1, j + 1), (i, j + 1)];
+                let smalls = if i + j + 2 <= n { &[up, down][..] } else { &[up][..] };
+                for sm in smalls {
+                    let base = sm.map(|(i, j)| lat.local_index(i, j) * lm);
+                    for l in 0..m as usize {
+                        emit(&mut piece, [base[0] + l, base[1] + l, base[2] + l, base[0] + l + 1, base[1] + l + 1, base[2] + l + 1]);
+                    }
+                }
+            }
+        }
+        for slot in touched.drain(..) {
+            slots[slot] = u32::MAX;
+        }
+        piece
+    }
+}
