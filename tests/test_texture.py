@@ -196,3 +196,31 @@ def test_large_bakes_wait_for_confirmation_in_the_interface(scene):
     assert len(sphere.thicket.result.data.polygons) == before, "nothing baked before the OK"
     api.regenerate(sphere)  # scripts (and the dialog's OK) bake without asking
     assert len(sphere.thicket.result.data.polygons) > before
+
+
+def test_a_texture_file_feeds_the_bake_and_a_missing_one_is_named(scene, tmp_path):
+    # A slab (alpha 1 up to r = 0.6, 0 from r = 0.7) saved as EXR and as PNG slices:
+    # both bake to a closed slab whose top lies halfway, at r = 0.65.
+    nz = 11
+    slab = np.zeros((nz, 4, 4), np.float32)
+    slab[: int(0.6 * (nz - 1)) + 1] = 1.0
+    exr = str(tmp_path / "slab.exr")
+    tn.save_texture(exr, slab)
+    tn.save_texture(str(tmp_path / "slices"), slab)
+    sheet = uv_grid()
+    api.add_volumetric_texture(sheet, "weave", shell_thickness=0.05, resolution=2, texture_layers=20)
+    item = sheet.thicket.items[1]
+    for path in (exr, str(tmp_path / "slices" / "slice_000.png")):
+        item.source = "FILE"
+        item.filepath = path
+        api.regenerate(sheet)
+        r = shell_r(sheet.thicket.result)
+        inner = np.abs(positions(sheet.thicket.result)[:, :2]).max(axis=1) < 0.9  # away from the side walls
+        top = r[inner & (r > 0.3)]
+        assert len(top) > 0 and np.all(np.abs(top - 0.65) < 0.02), (path, top.min(), top.max())
+        assert (edge_use_counts(sheet.thicket.result) == 2).all()
+    before = positions(sheet.thicket.result).copy()
+    item.filepath = str(tmp_path / "nowhere.exr")
+    with pytest.raises(tn.ThicketError, match="nowhere.exr"):
+        api.regenerate(sheet)
+    np.testing.assert_array_equal(positions(sheet.thicket.result), before)

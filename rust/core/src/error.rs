@@ -12,6 +12,9 @@ pub enum Error {
     NonFinite { index: usize, value: [f32; 3] },
     #[error("invalid parameter: {0}")]
     InvalidParameter(String),
+    /// A texture file or folder that cannot be read or written; `path` names it.
+    #[error("{path}: {message}")]
+    File { path: String, message: String },
 }
 
 pub type Result<T> = std::result::Result<T, Error>;

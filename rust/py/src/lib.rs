@@ -12,6 +12,7 @@ mod offset;
 mod report;
 mod shell;
 mod texture;
+mod texture_io;
 
 use pyo3::prelude::*;
 
@@ -27,5 +28,7 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(texture::texture, m)?)?;
     m.add_function(wrap_pyfunction!(texture::bake_texture, m)?)?;
     m.add_function(wrap_pyfunction!(texture::estimate_bake, m)?)?;
+    m.add_function(wrap_pyfunction!(texture_io::load_texture, m)?)?;
+    m.add_function(wrap_pyfunction!(texture_io::save_texture, m)?)?;
     Ok(())
 }

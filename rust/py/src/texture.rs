@@ -43,9 +43,10 @@ fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
         .map_err(|_| ThicketError::new_err("a texture must be a float32 array of shape (nz, ny, nx)"))?;
     let shape = a.shape().to_vec();
     // One copy either way: the texture owns its samples.
+    // `as_slice` also accepts Fortran order (memory order): only C order is x fastest.
     let data = match a.as_slice() {
-        Ok(s) => s.to_vec(),
-        Err(_) => a.as_array().iter().copied().collect(),
+        Ok(s) if a.is_c_contiguous() => s.to_vec(),
+        _ => a.as_array().iter().copied().collect(),
     };
     VolumeTexture::new([shape[2], shape[1], shape[0]], data).map_err(to_py)
 }

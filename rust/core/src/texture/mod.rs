@@ -8,8 +8,10 @@
 //! - [`mapping`]: texture coordinates of the shell's cells (UVs times tiling, or one
 //!   tile per face) and the cell map between world and texture space.
 //! - [`bake`]: the iso-surface polygonized over the whole shell as one crack-free mesh.
+//! - [`io`]: textures from and to files (PNG slice stacks, OpenEXR volumes).
 
 pub mod bake;
+pub mod io;
 pub mod mapping;
 pub mod procedural;
 pub mod volume;
