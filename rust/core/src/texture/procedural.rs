@@ -150,16 +150,18 @@ impl Features {
         let st = Vec2::new(c.x, c.y);
         match self.pattern {
             Pattern::ChainMail => {
-                // Shell depth 0.5 tile; rings of radius 0.36, wire 0.05, columns tilted ±30°.
+                // Shell depth 0.5 tile; rings of radius 0.44 and wire 0.04, columns tilted
+                // ±25°: each ring passes through its four diagonal neighbours (linked,
+                // 0.017 tile apart) and clears the ones beside it.
                 let z = (c.z - 0.5) * 0.5;
-                let (big, wire) = (0.36, 0.05 * self.thickness);
+                let (big, wire) = (0.44, 0.04 * self.thickness);
                 let ring = |centre: Vec2, tilt: f32| {
                     let d = wrap(st - centre);
                     let (sn, cs) = tilt.sin_cos();
                     let q = Vec3::new(d.x * cs - z * sn, d.y, d.x * sn + z * cs);
                     Vec2::new(Vec2::new(q.x, q.y).length() - big, q.z).length() - wire
                 };
-                let t = 30f32.to_radians();
+                let t = 25f32.to_radians();
                 ring(Vec2::ZERO, t).min(ring(Vec2::splat(0.5), -t))
             }
             Pattern::Weave => {
@@ -197,15 +199,18 @@ impl Features {
                 })
             }
             Pattern::Bubbles => {
-                let film = c.z - 0.06;
+                // Shell depth 0.5 tile, like the others, so bubbles are round when the
+                // shell is half a tile thick.
+                let z = c.z * 0.5;
+                let film = z - 0.03;
                 self.bubbles.iter().enumerate().fold(film, |d, (i, (p, phase))| {
                     // Life in [0, 1): rise from the film, grow, burst near the top.
                     let life = (phase + self.time * 0.5).rem_euclid(1.0);
-                    let radius = (0.05 + 0.1 * life) * self.thickness * if life > 0.9 { (1.0 - life) * 10.0 } else { 1.0 };
+                    let radius = (0.04 + 0.06 * life) * self.thickness * if life > 0.9 { (1.0 - life) * 10.0 } else { 1.0 };
                     let drift = Vec2::new((life * 5.0 + i as f32).sin(), (life * 4.0 + i as f32).cos()) * 0.03;
-                    let centre = Vec3::new(0.0, 0.0, 0.06 + life * 0.8);
+                    let centre = Vec3::new(0.0, 0.0, 0.03 + life * 0.36);
                     let q = wrap(st - *p - drift);
-                    d.min((Vec3::new(q.x, q.y, c.z) - centre).length() - radius)
+                    d.min((Vec3::new(q.x, q.y, z) - centre).length() - radius)
                 })
             }
         }
@@ -233,6 +238,48 @@ mod tests {
             assert_eq!(Pattern::parse(p.name()).unwrap(), p);
         }
         assert!(Pattern::parse("plaid").is_err());
+    }
+
+    #[test]
+    fn chain_mail_rings_interlock_without_touching() {
+        // Two neighbouring rings of the same texture: no texel inside both (they do not
+        // fuse), and each ring's wire passes through the other's hole (linked): along
+        // the diagonal between their centres the occupancy must go in, out, in, out.
+        let f = Features::new(&Generator::new(Pattern::ChainMail));
+        let t = 25f32.to_radians();
+        let ring = |c: Vec3, centre: Vec2, tilt: f32| {
+            let z = (c.z - 0.5) * 0.5;
+            let d = wrap(c.truncate() - centre);
+            let (sn, cs) = f32::sin_cos(tilt);
+            let q = Vec3::new(d.x * cs - z * sn, d.y, d.x * sn + z * cs);
+            Vec2::new(Vec2::new(q.x, q.y).length() - 0.44, q.z).length() - 0.04
+        };
+        let mut fused = 0;
+        for i in 0..64 {
+            for j in 0..64 {
+                for k in 0..32 {
+                    let c = Vec3::new(i as f32 / 64.0, j as f32 / 64.0, k as f32 / 31.0);
+                    fused += usize::from(ring(c, Vec2::ZERO, t) < 0.0 && ring(c, Vec2::splat(0.5), -t) < 0.0);
+                    assert!((f.distance(c) - ring(c, Vec2::ZERO, t).min(ring(c, Vec2::splat(0.5), -t))).abs() < 1e-6);
+                }
+            }
+        }
+        assert_eq!(fused, 0);
+        // Linked: ring B's centre line crosses ring A's disc an odd number of times.
+        let crossings = (0..720)
+            .map(|k| {
+                let a = k as f32 / 720.0 * std::f32::consts::TAU;
+                let (qx, qy) = (0.44 * a.cos(), 0.44 * a.sin());
+                // B's centre line in world (tilt -t about y), then in A's frame (tilt t).
+                let (sn, cs) = (-t).sin_cos();
+                let p = Vec3::new(0.5 + qx * cs, 0.5 + qy, -qx * sn);
+                let (sa, ca) = t.sin_cos();
+                let q = Vec3::new(p.x * ca - p.z * sa, p.y, p.x * sa + p.z * ca);
+                (q.z > 0.0, Vec2::new(q.x, q.y).length() < 0.44)
+            })
+            .collect::<Vec<_>>();
+        let through = crossings.windows(2).filter(|w| w[0].0 != w[1].0 && w[1].1).count();
+        assert_eq!(through % 2, 1, "{through} crossings");
     }
 
     #[test]

@@ -41,7 +41,7 @@ fn chain_mail_on_the_bunny_bakes_closed_and_crack_free() {
     let mesh = tm::bunny();
     let s = shell(&mesh, 0.03);
     let tex = Generator::new(Pattern::ChainMail).generate([48, 48, 24]).unwrap();
-    let params = BakeParams { resolution: 4, layers: 8, ..Default::default() };
+    let params = BakeParams { resolution: 8, layers: 12, ..Default::default() };
     let b = bake(&mesh, &s, &layer(tex), &params).unwrap();
     assert!(b.per_face_tiles, "the bunny has no UVs");
     assert!(b.triangles.len() > 10_000, "{}", b.triangles.len());
