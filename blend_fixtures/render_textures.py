@@ -24,7 +24,11 @@ world = bpy.data.worlds.new("w"); world.color = (0.3, 0.3, 0.35); scene.world = 
 for pattern, tiling in (("chain_mail", 3), ("weave", 2), ("rivets", 2), ("grass", 2), ("fur", 2), ("bubbles", 2)):
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=4, y_subdivisions=4, size=2)
     plane = bpy.context.object
-    res = api.add_volumetric_texture(plane, pattern, shell_thickness=0.12 if pattern in ("grass", "fur", "bubbles") else 0.06, tiling=tiling, resolution=24, texture_layers=24, texture_size=96)
+    # Patterns are modelled for a shell half a tile deep (tile = 2 / tiling; the grid's
+    # diagonal is 2 * sqrt(2)); grass and fur stand taller.
+    half_tile = 0.5 * (2.0 / tiling) / (2.0 * math.sqrt(2.0))
+    shell = 0.12 if pattern in ("grass", "fur") else half_tile
+    res = api.add_volumetric_texture(plane, pattern, shell_thickness=shell, tiling=tiling, resolution=24, texture_layers=24, texture_size=96)
     plane.hide_render = True
     scene.render.filepath = str(OUT / f"{pattern}.png")
     bpy.ops.render.render(write_still=True)
