@@ -43,6 +43,8 @@ pub(super) struct Scratch {
     slots: Vec<u32>,
     touched: Vec<usize>,
     ij: Vec<(u32, u32)>,
+    /// Per local column: whether any of its samples is inside.
+    occupied: Vec<bool>,
 }
 
 /// Dompierre's prism split: permutation putting the smallest index first.
@@ -76,6 +78,8 @@ impl Cells<'_> {
             s.ids.extend((0..lm).map(|l| (g + l) as u64));
             s.vals.extend_from_slice(&self.values[g..g + lm]);
         }
+        s.occupied.clear();
+        s.occupied.extend(s.vals.chunks_exact(lm).map(|c| c.iter().any(|a| *a >= 0.5)));
         if s.slots.len() < points * 27 {
             s.slots = vec![u32::MAX; points * 27];
         }
@@ -94,7 +98,7 @@ impl Cells<'_> {
             i == 0 || j == 0 || i + j == n
         };
         let to_q = |p: IVec3| p.as_vec3() / Vec3::new(n as f32, n as f32, m as f32);
-        let (ids, vals, slots, touched) = (&s.ids, &s.vals, &mut s.slots, &mut s.touched);
+        let (ids, vals, slots, touched, occupied) = (&s.ids, &s.vals, &mut s.slots, &mut s.touched, &s.occupied);
         let value = |p: IVec3| -> Option<f32> {
             let ok = p.x >= 0 && p.y >= 0 && p.x + p.y <= n as i32 && (0..=m as i32).contains(&p.z);
             ok.then(|| vals[lat.local_index(p.x as u32, p.y as u32) * lm + p.z as usize])
@@ -189,7 +193,13 @@ impl Cells<'_> {
                 let down = [(i + 1, j), (i + 1, j + 1), (i, j + 1)];
                 let smalls = if i + j + 2 <= n { &[up, down][..] } else { &[up][..] };
                 for sm in smalls {
-                    let base = sm.map(|(i, j)| lat.local_index(i, j) * lm);
+                    let columns = sm.map(|(i, j)| lat.local_index(i, j));
+                    // Columns with no inside sample make no surface (the shell's faces
+                    // are outside, so no column is inside throughout).
+                    if !columns.iter().any(|c| occupied[*c]) {
+                        continue;
+                    }
+                    let base = columns.map(|c| c * lm);
                     for l in 0..m as usize {
                         emit(&mut piece, [base[0] + l, base[1] + l, base[2] + l, base[0] + l + 1, base[1] + l + 1, base[2] + l + 1]);
                     }
