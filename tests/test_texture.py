@@ -4,7 +4,7 @@ import bpy
 import numpy as np
 import pytest
 import thicket_native as tn
-from conftest import add, positions
+from conftest import add, positions, select_only
 
 from thicket import api
 from thicket.stack.evaluate import TEXCOORD_ATTRIBUTE
@@ -224,3 +224,18 @@ def test_a_texture_file_feeds_the_bake_and_a_missing_one_is_named(scene, tmp_pat
     with pytest.raises(tn.ThicketError, match="nowhere.exr"):
         api.regenerate(sheet)
     np.testing.assert_array_equal(positions(sheet.thicket.result), before)
+
+
+def test_export_texture_writes_the_items_texture_for_blender_and_thicket(scene, tmp_path):
+    sphere = add("ico_sphere", subdivisions=1)
+    api.add_volumetric_texture(sphere, "rivets", texture_size=16, resolution=2, texture_layers=4)
+    sphere.thicket.active_index = 1
+    select_only(sphere)
+    path = str(tmp_path / "rivets.exr")
+    assert bpy.ops.thicket.export_texture(filepath=path) == {"FINISHED"}
+    written = tn.load_texture(path)
+    np.testing.assert_array_equal(written, tn.texture("rivets", size=(16, 16, 8)))
+    image = bpy.data.images.load(path)
+    assert tuple(image.size) == (16, 16 * 8)
+    with pytest.raises(ValueError, match="not a Volumetric Texture"):
+        api.export_texture(sphere, path, index=0)

@@ -8,6 +8,7 @@
     th.process_file("in.blend", out_blend="out.blend", out_glb="out.glb", thickness=0.02)
     th.add_volumetric_texture(obj, pattern="chain_mail", tiling=4)   # shell + baked texture
     th.bake_frames(obj, 1, 48, "//frames")    # animated textures: one .glb per frame
+    th.export_texture(obj, "//chain_mail.exr")  # the texture as an OpenEXR volume
 
 Every function raises `ThicketError` (from thicket_native, a ValueError) for bad
 geometry or settings, `TypeError` for non-mesh objects and `KeyError` for missing
@@ -23,7 +24,7 @@ from . import native
 from .stack import settings as S
 from .stack.regenerate import regenerate as _regenerate
 
-__all__ = ["add_thick_surface", "add_volumetric_texture", "bake_frames", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]
+__all__ = ["add_thick_surface", "add_volumetric_texture", "bake_frames", "export_texture", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]
 
 
 def __getattr__(name):
@@ -95,6 +96,22 @@ def bake_frames(obj, frame_start, frame_end, directory, step=1):
     finally:
         scene.frame_set(previous)
     return paths
+
+
+def export_texture(obj, path, index=None):
+    """Writes the texture of `obj`'s Volumetric Texture item (`index`, or the last one)
+    to `path`: an OpenEXR volume when it ends in .exr, else PNG slices in that folder.
+    Returns the paths written."""
+    from .stack.evaluate import item_texture
+
+    _require_mesh(obj)
+    items = [i for i in obj.thicket.items if i.kind == "VOLUMETRIC_TEXTURE"]
+    if not items:
+        raise ValueError(f"'{obj.name}' has no Volumetric Texture item")
+    item = obj.thicket.items[index] if index is not None else items[-1]
+    if item.kind != "VOLUMETRIC_TEXTURE":
+        raise ValueError(f"item {index} of '{obj.name}' is a {item.name}, not a Volumetric Texture")
+    return native.get().save_texture(bpy.path.abspath(path), item_texture(item.to_settings()))
 
 
 def regenerate(obj, progress=None, ask=False):

@@ -2,6 +2,7 @@
 
 from .add_thick_surface import THICKET_OT_add_thick_surface
 from .apply_result import THICKET_OT_apply
+from .export_texture import THICKET_OT_export_texture
 from .item_add import THICKET_OT_item_add
 from .item_move import THICKET_OT_item_move
 from .item_remove import THICKET_OT_item_remove
@@ -16,4 +17,5 @@ CLASSES = (
     THICKET_OT_item_add,
     THICKET_OT_item_remove,
     THICKET_OT_item_move,
+    THICKET_OT_export_texture,
 )

@@ -82,6 +82,12 @@ def _texture(tn, pattern, item: S.VolumetricTexture):
     return tn.texture(pattern, size=(size, size, max(2, size // 2)), seed=int(item.seed), time=float(item.time), thickness=float(item.feature_thickness))
 
 
+def item_texture(item: S.VolumetricTexture):
+    """The item's texture as a float32 (nz, ny, nx) alpha array: its file or its pattern."""
+    tn = native.get()
+    return _texture_file(tn, item.filepath) if item.filepath else _texture(tn, item.pattern, item)
+
+
 class BakeNeedsConfirmation(Exception):
     """A bake estimated above the item's `confirm_above`: the UI asks before baking."""
 
@@ -94,7 +100,7 @@ def _volumetric_texture(shell: ShellContext, item: S.VolumetricTexture, weights,
     """Bakes the item's texture(s) over `shell` (thick surfaces, chapter 3);
     `weights`: per-vertex region, holes and move arrays (or None) by name."""
     tn = native.get()
-    textures = [_texture_file(tn, item.filepath) if item.filepath else _texture(tn, item.pattern, item)]
+    textures = [item_texture(item)]
     if item.combine:
         textures.append((_texture(tn, item.combine, item), tuple(float(v) for v in item.offset)))
     base = shell.base

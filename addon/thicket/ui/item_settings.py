@@ -45,6 +45,7 @@ def _draw_texture_settings(col, obj, item):
     col.prop(item, "speed" if item.follow_frame else "time")
     col.prop(item, "confirm_above")
     col.prop(item, "max_triangles")
+    col.operator("thicket.export_texture", icon="EXPORT")
 
 
 def draw_status(layout, obj):
