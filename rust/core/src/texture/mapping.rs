@@ -38,6 +38,32 @@ impl TextureCoordinates {
     }
 }
 
+/// The shell's cells as triangles (quads and n-gons triangulated) with the `(s, t)`
+/// of their corners: what the bake and the renderers map textures through.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TriangleCells {
+    pub triangles: Vec<[u32; 3]>,
+    pub st: Vec<[Vec2; 3]>,
+}
+
+impl TriangleCells {
+    pub fn new(mesh: &Mesh, coords: &TextureCoordinates) -> Self {
+        let tri = mesh.triangulate();
+        let mut st = Vec::with_capacity(tri.triangles.len());
+        for (t, f) in tri.triangles.iter().zip(&tri.face_of_triangle) {
+            let range = mesh.face_corner_range(*f as usize);
+            let face = mesh.face(*f as usize);
+            st.push(t.map(|v| coords.corner_st[range.start + face.iter().position(|c| *c == v).unwrap_or(0)]));
+        }
+        Self { triangles: tri.triangles, st }
+    }
+
+    /// The map of cell `t` of `shell`.
+    pub fn cell(&self, mesh: &Mesh, shell: &Shell, t: usize) -> CellMap {
+        CellMap::new(mesh, shell, &self.triangles[t], &self.st[t])
+    }
+}
+
 /// One cell of the shell: a triangle prism (3 corners) or a quad hexahedron (4), with
 /// its base points, directors and corner `(s, t)`. Parameters are `(u, v, r)`:
 /// barycentric `(1-u-v, u, v)` on a triangle, bilinear on a quad, `r ∈ [0, 1]` along

@@ -17,7 +17,7 @@ pub mod procedural;
 pub mod volume;
 
 pub use bake::{bake, BakeParams, BakedMesh};
-pub use mapping::{CellMap, TextureCoordinates};
+pub use mapping::{CellMap, TextureCoordinates, TriangleCells};
 pub use procedural::{Generator, Pattern};
 pub use volume::VolumeTexture;
 

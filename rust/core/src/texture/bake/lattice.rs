@@ -3,7 +3,7 @@
 //! a point on a mesh edge, or one inside a face — so neighbouring cells share the
 //! samples on their common faces (no cracks).
 
-use super::super::mapping::TextureCoordinates;
+use super::super::mapping::{TextureCoordinates, TriangleCells};
 use crate::Mesh;
 use glam::Vec2;
 use std::collections::HashMap;
@@ -21,16 +21,10 @@ pub(super) struct Lattice {
 
 impl Lattice {
     pub fn new(mesh: &Mesh, coords: &TextureCoordinates, n: u32) -> Self {
-        let tri = mesh.triangulate();
-        let mut st = Vec::with_capacity(tri.triangles.len());
-        for (t, f) in tri.triangles.iter().zip(&tri.face_of_triangle) {
-            let range = mesh.face_corner_range(*f as usize);
-            let face = mesh.face(*f as usize);
-            st.push(t.map(|v| coords.corner_st[range.start + face.iter().position(|c| *c == v).unwrap_or(0)]));
-        }
+        let cells = TriangleCells::new(mesh, coords);
         let mut edges = HashMap::new();
         let mut uses: Vec<u32> = Vec::new();
-        for t in &tri.triangles {
+        for t in &cells.triangles {
             for k in 0..3 {
                 let (a, b) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
                 let next = edges.len() as u32;
@@ -41,7 +35,7 @@ impl Lattice {
                 uses[e as usize] += 1;
             }
         }
-        let mut me = Self { n, tris: tri.triangles, st, edges, vertex_count: mesh.vertex_count() as u32, boundary: Vec::new() };
+        let mut me = Self { n, tris: cells.triangles, st: cells.st, edges, vertex_count: mesh.vertex_count() as u32, boundary: Vec::new() };
         let mut boundary = vec![false; me.key_count()];
         for (&(a, b), &e) in &me.edges {
             if uses[e as usize] == 1 {
