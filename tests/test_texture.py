@@ -239,3 +239,27 @@ def test_export_texture_writes_the_items_texture_for_blender_and_thicket(scene, 
     assert tuple(image.size) == (16, 16 * 8)
     with pytest.raises(ValueError, match="not a Volumetric Texture"):
         api.export_texture(sphere, path, index=0)
+
+
+def test_selected_faces_can_stand_in_for_a_vertex_group(scene):
+    sheet = uv_grid()
+    centres = np.empty(len(sheet.data.polygons) * 3, np.float32)
+    sheet.data.polygons.foreach_get("center", centres)
+    centres = centres.reshape(-1, 3)
+    selected = np.linalg.norm(centres[:, :2] - (0.5, 0.5), axis=1) < 0.3
+    sheet.data.polygons.foreach_set("select", selected)
+    api.add_volumetric_texture(sheet, "rivets", shell_thickness=0.05, tiling=4.0, resolution=6, texture_layers=10, face_selection="HOLES")
+    assert not near(sheet.thicket.result, (0.5, 0.5), 0.15).any(), "the selected faces are a hole"
+    assert near(sheet.thicket.result, (-0.5, -0.5), 0.15).any()
+    # As the region: the texture only on the selected faces, the base slab elsewhere.
+    sheet.thicket.items[1].face_selection = "REGION"
+    api.regenerate(sheet)
+    r = shell_r(sheet.thicket.result)
+    assert r[near(sheet.thicket.result, (0.5, 0.5), 0.15)].max() > 0.3
+    assert r[near(sheet.thicket.result, (-0.5, -0.5), 0.3)].max() < 0.22
+    # A modifier that changes the faces: a clear error, the result kept.
+    sheet.modifiers.new("sub", "SUBSURF")
+    before = positions(sheet.thicket.result).copy()
+    with pytest.raises(ValueError, match="selected faces"):
+        api.regenerate(sheet)
+    np.testing.assert_array_equal(positions(sheet.thicket.result), before)

@@ -5,6 +5,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 
+#: The pseudo vertex group of the source's selected faces (weight 1 on their vertices).
+SELECTED_FACES = "<selected faces>"
+
+
 def weight_attribute(vertex_group: str) -> str:
     """Name of the point attribute that carries a vertex group's weights."""
     return f"thicket_weight:{vertex_group}"

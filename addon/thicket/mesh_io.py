@@ -7,7 +7,7 @@ positions, int32 indices): no per-vertex Python loops.
 import bpy
 import numpy as np
 
-from .arrays import MeshArrays, weight_attribute
+from .arrays import SELECTED_FACES, MeshArrays, weight_attribute
 
 
 def read_mesh(mesh: bpy.types.Mesh, float_attributes=()) -> MeshArrays:
@@ -91,6 +91,10 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
     Call it with auto-update suspended (`stack.auto_update.suspended`), as
     `stack.regenerate` does: the probe's own depsgraph updates must not schedule work.
     """
+    if SELECTED_FACES in vertex_groups:
+        arrays = read_evaluated(obj, depsgraph, [g for g in vertex_groups if g != SELECTED_FACES])
+        arrays.point_attributes[weight_attribute(SELECTED_FACES)] = _selected_face_weights(obj, arrays)
+        return arrays
     if not vertex_groups:
         evaluated = obj.evaluated_get(depsgraph)
         mesh = evaluated.to_mesh()
@@ -129,6 +133,21 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
         # (callers suspend Thicket's handler) instead of reaching the next handler call
         # as dangling IDs, which crashed Blender when read.
         bpy.context.view_layer.update()
+
+
+def _selected_face_weights(obj, arrays: MeshArrays):
+    """1 on the vertices of the source's selected faces, 0 elsewhere. The selection is
+    the original mesh's, so modifiers must keep its faces (checked)."""
+    mesh = obj.data
+    if obj.mode == "EDIT":
+        obj.update_from_editmode()
+    if len(mesh.polygons) != arrays.face_count or len(mesh.loops) != len(arrays.corners):
+        raise ValueError(f"'{obj.name}': selected faces can only be used when its modifiers keep its faces; use a vertex group")
+    selected = np.empty(len(mesh.polygons), dtype=bool)
+    mesh.polygons.foreach_get("select", selected)
+    weights = np.zeros(arrays.vertex_count, dtype=np.float32)
+    weights[arrays.corners[np.repeat(selected, arrays.face_sizes)]] = 1.0
+    return weights
 
 
 def read_solid(obj: bpy.types.Object, space: bpy.types.Object, depsgraph):

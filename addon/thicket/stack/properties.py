@@ -3,6 +3,7 @@
 import bpy
 from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty, StringProperty
 
+from ..arrays import SELECTED_FACES
 from . import settings as S
 
 
@@ -117,6 +118,18 @@ class ThicketItem(bpy.types.PropertyGroup):
     cutter: PointerProperty(name="Cutter", description="A closed mesh object: the texture is cut away inside it", type=bpy.types.Object, poll=_is_mesh, update=_changed)
     move_group: StringProperty(name="Move Region", description="Vertex group of the piece of texture to move along the surface (needs a UV map)", update=_changed)
     move_offset: FloatVectorProperty(name="Move By", description="How far the piece moves, in UV units; its trace shows the base surface", size=2, default=(0.0, 0.0), step=1, update=_changed)
+    face_selection: EnumProperty(
+        name="Selected Faces",
+        description="Use the source's selected faces (instead of a vertex group) for",
+        items=[
+            ("NONE", "Not Used", "Vertex groups only"),
+            ("REGION", "Region", "The texture exists on the selected faces"),
+            ("HOLES", "Holes", "The texture is cut away on the selected faces"),
+            ("MOVE", "Move Region", "The texture on the selected faces moves"),
+        ],
+        default="NONE",
+        update=_changed,
+    )
     confirm_above: IntProperty(name="Ask Above", description="In the interface, ask before baking more than this many (estimated) triangles", min=1000, default=1_000_000, update=_changed)
     max_triangles: IntProperty(name="Triangle Budget", description="Refuse bakes estimated above this many triangles", min=1000, default=5_000_000, update=_changed)
 
@@ -143,10 +156,13 @@ class ThicketItem(bpy.types.PropertyGroup):
             return S.VolumetricTexture(
                 pattern=self.pattern, seed=self.seed, time=self.texture_time(), feature_thickness=self.feature_thickness,
                 texture_size=self.texture_size, tiling=self.tiling, resolution=self.resolution, layers=self.texture_layers,
-                vertex_group=self.vertex_group, combine="" if self.combine == "NONE" else self.combine,
+                vertex_group=SELECTED_FACES if self.face_selection == "REGION" else self.vertex_group,
+                combine="" if self.combine == "NONE" else self.combine,
                 offset=tuple(self.offset), max_triangles=self.max_triangles, confirm_above=self.confirm_above,
                 filepath=bpy.path.abspath(self.filepath) if self.source == "FILE" else "",
-                hole_group=self.hole_group, move_group=self.move_group, move_offset=tuple(self.move_offset),
+                hole_group=SELECTED_FACES if self.face_selection == "HOLES" else self.hole_group,
+                move_group=SELECTED_FACES if self.face_selection == "MOVE" else self.move_group,
+                move_offset=tuple(self.move_offset),
                 cutter=self._cutter_arrays(depsgraph),
             )
         return S.OffsetShell(**common)

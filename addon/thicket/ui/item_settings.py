@@ -30,15 +30,16 @@ def _draw_texture_settings(col, obj, item):
     col.prop(item, "tiling")
     col.prop(item, "resolution")
     col.prop(item, "texture_layers")
-    col.prop_search(item, "vertex_group", obj, "vertex_groups", text="Region")
+    col.prop(item, "face_selection")
+    _group(col, obj, item, "vertex_group", "REGION", "Region")
     col.prop(item, "combine")
     if item.combine != "NONE":
         col.prop(item, "offset")
     col.separator()
-    col.prop_search(item, "hole_group", obj, "vertex_groups")
+    _group(col, obj, item, "hole_group", "HOLES", "Holes")
     col.prop(item, "cutter")
-    col.prop_search(item, "move_group", obj, "vertex_groups")
-    if item.move_group:
+    _group(col, obj, item, "move_group", "MOVE", "Move Region")
+    if item.move_group or item.face_selection == "MOVE":
         col.prop(item, "move_offset")
     col.separator()
     col.prop(item, "follow_frame")
@@ -58,3 +59,10 @@ def draw_status(layout, obj):
         layout.label(text=stack.last_note, icon="INFO")
     if stack.result is not None:
         layout.label(text=f"Result: {stack.result.name}", icon="OUTLINER_OB_MESH")
+
+
+def _group(col, obj, item, prop, selection_role, text):
+    """A vertex-group field, greyed out while the selected faces play its role."""
+    row = col.row()
+    row.active = item.face_selection != selection_role
+    row.prop_search(item, prop, obj, "vertex_groups", text=text)
