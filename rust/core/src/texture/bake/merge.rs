@@ -1,59 +1,102 @@
 //! Joins the cells' pieces into one mesh: iso-vertices on cell boundaries with the same
-//! global lattice-edge key become one vertex; the rest are already unique.
+//! global lattice-edge key become one vertex; the rest are already unique. Pieces are
+//! copied in parallel into their ranges of the output (prefix sums), and only the
+//! boundary vertices go through a global sort.
 
 use super::polygonize::{Piece, UNSHARED};
 use super::BakedMesh;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// Normals: the texture gradients summed over a vertex's copies, normalized; the
-/// area-weighted face normal where the gradient vanishes (cut walls, flat texture).
-pub(super) fn merge(pieces: Vec<Piece>) -> BakedMesh {
-    let mut remap: Vec<Vec<u32>> = pieces.iter().map(|p| vec![u32::MAX; p.keys.len()]).collect();
-    let mut shared: Vec<(u64, u32, u32)> = Vec::new();
-    let mut out = BakedMesh::default();
-    let total: usize = pieces.iter().map(|p| p.keys.len()).sum();
-    out.positions.reserve(total);
-    out.texcoords.reserve(total);
-    out.normals.reserve(total);
-    for (pi, p) in pieces.iter().enumerate() {
-        for (i, &key) in p.keys.iter().enumerate() {
-            if key == UNSHARED {
-                remap[pi][i] = out.positions.len() as u32;
-                out.positions.push(p.pos[i]);
-                out.texcoords.push(p.tex[i]);
-                out.normals.push(p.grad[i]);
-            } else {
-                shared.push((key, pi as u32, i as u32));
-            }
-        }
+/// Splits `v` into consecutive mutable chunks of the given lengths.
+fn chunks_mut<'a, T>(mut v: &'a mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&'a mut [T]> {
+    let mut out = Vec::new();
+    for n in lengths {
+        let (head, tail) = std::mem::take(&mut v).split_at_mut(n);
+        out.push(head);
+        v = tail;
     }
+    out
+}
+
+/// Normals: the texture gradients summed over a vertex's copies, normalized; the
+/// area-weighted face normal where the gradient vanishes.
+pub(super) fn merge(pieces: Vec<Piece>) -> BakedMesh {
+    // Boundary vertices: sorted by key, one output vertex per distinct key.
+    let mut shared: Vec<(u64, u32, u32)> = pieces
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(pi, p)| {
+            p.keys.iter().enumerate().filter(|(_, k)| **k != UNSHARED).map(move |(i, k)| (*k, pi as u32, i as u32))
+        })
+        .collect();
     shared.par_sort_unstable();
-    let mut last = None;
-    for &(key, pi, i) in &shared {
-        let p = &pieces[pi as usize];
-        if last != Some(key) {
-            last = Some(key);
-            out.positions.push(p.pos[i as usize]);
-            out.texcoords.push(p.tex[i as usize]);
-            out.normals.push(Vec3::ZERO);
+
+    let own: Vec<usize> = pieces.iter().map(|p| p.keys.len()).collect::<Vec<_>>();
+    let own_unshared: Vec<usize> = pieces.par_iter().map(|p| p.keys.iter().filter(|k| **k == UNSHARED).count()).collect();
+    let unshared_total: usize = own_unshared.iter().sum();
+    let mut first_of_key = Vec::new();
+    let mut shared_id = vec![0u32; shared.len()];
+    for (s, &(key, _, _)) in shared.iter().enumerate() {
+        if s == 0 || shared[s - 1].0 != key {
+            first_of_key.push(s);
         }
-        let id = out.positions.len() - 1;
+        shared_id[s] = (unshared_total + first_of_key.len() - 1) as u32;
+    }
+    let total = unshared_total + first_of_key.len();
+    let mut out = BakedMesh {
+        positions: vec![Vec3::ZERO; total],
+        texcoords: vec![Vec3::ZERO; total],
+        normals: vec![Vec3::ZERO; total],
+        ..Default::default()
+    };
+    // Per piece: its local -> output index map, and its unshared vertices copied out.
+    let mut remap: Vec<Vec<u32>> = own.iter().map(|n| vec![0u32; *n]).collect();
+    {
+        let mut starts = Vec::with_capacity(pieces.len());
+        let mut acc = 0usize;
+        for n in &own_unshared {
+            starts.push(acc);
+            acc += n;
+        }
+        let pos = chunks_mut(&mut out.positions[..unshared_total], own_unshared.iter().copied());
+        let tex = chunks_mut(&mut out.texcoords[..unshared_total], own_unshared.iter().copied());
+        let nrm = chunks_mut(&mut out.normals[..unshared_total], own_unshared.iter().copied());
+        pieces.par_iter().zip(remap.par_iter_mut()).zip(pos).zip(tex).zip(nrm).zip(starts).for_each(
+            |(((((p, map), pos), tex), nrm), start)| {
+                let mut k = 0;
+                for (i, key) in p.keys.iter().enumerate() {
+                    if *key == UNSHARED {
+                        pos[k] = p.pos[i];
+                        tex[k] = p.tex[i];
+                        nrm[k] = p.grad[i];
+                        map[i] = (start + k) as u32;
+                        k += 1;
+                    }
+                }
+            },
+        );
+    }
+    for (s, &(_, pi, i)) in shared.iter().enumerate() {
+        let (p, id) = (&pieces[pi as usize], shared_id[s] as usize);
+        if s == 0 || shared[s - 1].0 != shared[s].0 {
+            out.positions[id] = p.pos[i as usize];
+            out.texcoords[id] = p.tex[i as usize];
+        }
         out.normals[id] += p.grad[i as usize];
         remap[pi as usize][i as usize] = id as u32;
     }
-    out.triangles.reserve(pieces.iter().map(|p| p.tris.len()).sum());
-    for (p, map) in pieces.iter().zip(&remap) {
-        for t in &p.tris {
-            let t = t.map(|i| map[i as usize]);
-            if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
-                out.triangles.push(t);
-            }
+    let tri_counts: Vec<usize> = pieces.iter().map(|p| p.tris.len()).collect();
+    out.triangles = vec![[0; 3]; tri_counts.iter().sum()];
+    let tris = chunks_mut(&mut out.triangles, tri_counts.into_iter());
+    pieces.par_iter().zip(&remap).zip(tris).for_each(|((p, map), dst)| {
+        for (d, t) in dst.iter_mut().zip(&p.tris) {
+            *d = t.map(|i| map[i as usize]);
         }
-    }
+    });
     drop(pieces);
     let flat = |n: &Vec3| n.length_squared() <= 1e-20;
-    if out.normals.iter().any(flat) {
+    if out.normals.par_iter().any(flat) {
         let mut face = vec![Vec3::ZERO; out.positions.len()];
         for t in &out.triangles {
             let [a, b, c] = t.map(|i| out.positions[i as usize]);

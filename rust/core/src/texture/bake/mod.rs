@@ -151,6 +151,7 @@ pub fn bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &Bake
         layers_r: m as f32,
     };
     let values = sample_lattice(mesh, shell, &lattice, &field, m);
+
     let cells = Cells { mesh, shell, lattice: &lattice, values: &values, layers: m };
     let pieces: Vec<_> =
         (0..lattice.tris.len()).into_par_iter().map_init(Scratch::default, |s, t| cells.polygonize(s, t)).collect();

@@ -43,6 +43,10 @@ pub(super) struct Scratch {
     slots: Vec<u32>,
     touched: Vec<usize>,
     ij: Vec<(u32, u32)>,
+    /// `(i, j, l)` of every local point.
+    ijl: Vec<IVec3>,
+    /// Sizes of the last piece, to reserve the next.
+    last: (usize, usize),
     /// Per local column: whether any of its samples is inside.
     occupied: Vec<bool>,
 }
@@ -63,12 +67,26 @@ fn split_prism(ids: &[u64; 6]) -> [[usize; 4]; 3] {
     t.map(|tet| tet.map(|i| p[i]))
 }
 
+impl Piece {
+    fn with_capacity(vertices: usize, triangles: usize) -> Self {
+        Self {
+            keys: Vec::with_capacity(vertices),
+            pos: Vec::with_capacity(vertices),
+            tex: Vec::with_capacity(vertices),
+            grad: Vec::with_capacity(vertices),
+            params: Vec::with_capacity(vertices),
+            tris: Vec::with_capacity(triangles),
+        }
+    }
+}
+
 impl Cells<'_> {
     pub fn polygonize(&self, s: &mut Scratch, t: usize) -> Piece {
         let (lat, n, m) = (self.lattice, self.lattice.n, self.layers);
         let lm = m as usize + 1;
         if s.ij.is_empty() {
             s.ij = lat.local_points().collect();
+            s.ijl = s.ij.iter().flat_map(|&(i, j)| (0..lm as i32).map(move |l| IVec3::new(i as i32, j as i32, l))).collect();
         }
         let points = s.ij.len() * lm;
         s.ids.clear();
@@ -84,18 +102,16 @@ impl Cells<'_> {
             s.slots = vec![u32::MAX; points * 27];
         }
         let cell = CellMap::new(self.mesh, self.shell, &lat.tris[t], &lat.st[t]);
-        let mut piece = Piece::default();
+        let mut piece = Piece::with_capacity(s.last.0 + s.last.0 / 4, s.last.1 + s.last.1 / 4);
         // Orientation: triangles face from inside to outside in parameter space, flipped
         // where the cell map reverses orientation (interior shells).
         let flip = cell.jacobians(Vec3::new(1.0 / 3.0, 1.0 / 3.0, 0.5)).0.determinant() < 0.0;
         let total = self.values.len() as u64;
-        let param = |lp: usize| {
-            let (i, j) = s.ij[lp / lm];
-            IVec3::new(i as i32, j as i32, (lp % lm) as i32)
-        };
+        let ijl = &s.ijl;
+        let param = |lp: usize| ijl[lp];
         let on_rim = |lp: usize| {
-            let (i, j) = s.ij[lp / lm];
-            i == 0 || j == 0 || i + j == n
+            let p = ijl[lp];
+            p.x == 0 || p.y == 0 || p.x + p.y == n as i32
         };
         let to_q = |p: IVec3| p.as_vec3() / Vec3::new(n as f32, n as f32, m as f32);
         let (ids, vals, slots, touched, occupied) = (&s.ids, &s.vals, &mut s.slots, &mut s.touched, &s.occupied);
@@ -209,6 +225,7 @@ impl Cells<'_> {
         for slot in touched.drain(..) {
             slots[slot] = u32::MAX;
         }
+        s.last = (piece.pos.len(), piece.tris.len());
         piece
     }
 }
