@@ -12,11 +12,11 @@ STAMP := $(VENV)/.thicket-$(BPY_VERSION)
 VENV_LTS := .venv-lts
 PY_LTS := $(VENV_LTS)/bin/python
 STAMP_LTS := $(VENV_LTS)/.thicket-$(BPY_LTS_VERSION)
-RUST_SOURCES := Cargo.toml $(shell find rust -name '*.rs' -o -name Cargo.toml -o -name pyproject.toml 2>/dev/null)
+RUST_SOURCES := Cargo.toml $(shell find rust shaders -name '*.rs' -o -name '*.wgsl' -o -name Cargo.toml -o -name pyproject.toml 2>/dev/null)
 WHEEL_STAMP := build/site/.stamp
 ADDON_SOURCES := $(shell find addon -type f -not -path '*/__pycache__/*' 2>/dev/null)
 
-.PHONY: setup wheel extension test test-rust test-python demo bench fixtures clean
+.PHONY: setup wheel extension test test-rust test-python demo bench fixtures clean vulkan
 
 setup: $(STAMP) $(WHEEL_STAMP)
 
@@ -46,10 +46,21 @@ extension: $(WHEEL_STAMP) $(ADDON_SOURCES)
 	rm -rf dist
 	$(PY) addon/build_extension.py build/wheels dist
 
-test-rust:
-	cargo test --release -p thicket-core
+# A Vulkan driver for the GPU renderer's tests: Mesa's lavapipe (Vulkan on the CPU)
+# where the machine has no Vulkan driver at all.
+vulkan:
+	@if ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json 2>/dev/null | grep -q .; then :; else \
+		echo "== no Vulkan driver: installing Mesa's lavapipe (mesa-vulkan-drivers)"; \
+		SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+		$$SUDO apt-get update -qq && \
+		$$SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq mesa-vulkan-drivers; \
+	fi
 
-test-python: setup extension $(STAMP_LTS)
+test-rust: vulkan
+	cargo test --release -p thicket-core
+	cargo test --release -p thicket-render
+
+test-python: vulkan setup extension $(STAMP_LTS)
 	@echo "== Python tests in Blender $(BPY_VERSION)"
 	$(PY) -m pytest tests -q -p no:cacheprovider
 	@echo "== Python tests in Blender $(BPY_LTS_VERSION) LTS"
@@ -63,11 +74,13 @@ fixtures: setup $(STAMP_LTS)
 demo: setup
 	$(PY) blend_fixtures/demo.py blend_fixtures/demo.blend out
 
-bench: setup
+bench: vulkan setup
 	$(PY) tests/bench/bench_offset.py
 	$(PY) tests/bench/bench_shell.py
+	$(PY) tests/bench/bench_render.py
 	cargo run --release -q -p thicket-core --example shell_bench
 	cargo run --release -q -p thicket-core --example bake_bench
+	cargo run --release -q -p thicket-render --example render_bench
 
 clean:
 	rm -rf build dist out target $(VENV) $(VENV_LTS)

@@ -33,6 +33,9 @@ def register():
 
 def unregister():
     global _cli_handle
+    from .render import overlay
+
+    overlay.disable()
     cli.unregister(_cli_handle)
     _cli_handle = None
     auto_update.unregister_handlers()

@@ -9,6 +9,7 @@
     th.add_volumetric_texture(obj, pattern="chain_mail", tiling=4)   # shell + baked texture
     th.bake_frames(obj, 1, 48, "//frames")    # animated textures: one .glb per frame
     th.export_texture(obj, "//chain_mail.exr")  # the texture as an OpenEXR volume
+    th.render_preview(obj, "//preview.exr")     # render the thick surface without baking
 
 Every function raises `ThicketError` (from thicket_native, a ValueError) for bad
 geometry or settings, `TypeError` for non-mesh objects and `KeyError` for missing
@@ -24,7 +25,7 @@ from . import native
 from .stack import settings as S
 from .stack.regenerate import regenerate as _regenerate
 
-__all__ = ["add_thick_surface", "add_volumetric_texture", "bake_frames", "export_texture", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]
+__all__ = ["add_thick_surface", "add_volumetric_texture", "bake_frames", "export_texture", "render_preview", "render_frames", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]
 
 
 def __getattr__(name):
@@ -112,6 +113,46 @@ def export_texture(obj, path, index=None):
     if item.kind != "VOLUMETRIC_TEXTURE":
         raise ValueError(f"item {index} of '{obj.name}' is a {item.name}, not a Volumetric Texture")
     return native.get().save_texture(bpy.path.abspath(path), item_texture(item.to_settings()))
+
+
+def render_preview(obj, path=None, width=None, height=None, method="auto", slices=16, image="Thicket Preview"):
+    """Renders `obj`'s thick surface (its first Volumetric Texture over its shell, not
+    baked) from the scene camera into the Blender image `image`, which is returned.
+    Size: the scene's output size unless given. `method`: "auto" (GPU slices, or the
+    CPU reference without a GPU), "interpolating", "plain" or "reference". `path`:
+    also written to a file: .exr (colour, alpha, depth and normal layers) or .png."""
+    from .render import camera, preview
+
+    _require_mesh(obj)
+    scene = bpy.context.scene
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    if width is None or height is None:
+        width, height = camera.render_size(scene)
+    view, projection = camera.scene_camera(scene, depsgraph, obj, width, height)
+    out = preview.render_arrays(obj, view, projection, width, height, depsgraph=depsgraph, method=method, slices=slices)
+    result = preview.to_image(out["rgba"], image)
+    if path:
+        native.get().save_render(bpy.path.abspath(path), out["rgba"], out["depth"], out["normal"])
+    return result
+
+
+def render_frames(obj, frame_start, frame_end, directory, step=1, extension=".png", **options):
+    """Renders the preview at every frame of the range (animated textures follow the
+    frame) to `<object>_<frame><extension>` files in `directory`; returns the paths.
+    The scene's frame is restored afterwards."""
+    scene = bpy.context.scene
+    previous = scene.frame_current
+    paths = []
+    try:
+        for frame in range(int(frame_start), int(frame_end) + 1, max(1, int(step))):
+            scene.frame_set(frame)
+            path = os.path.join(bpy.path.abspath(directory), f"{obj.name}_{frame:04d}{extension}")
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+            render_preview(obj, path=path, **options)
+            paths.append(path)
+    finally:
+        scene.frame_set(previous)
+    return paths
 
 
 def regenerate(obj, progress=None, ask=False):

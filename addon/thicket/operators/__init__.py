@@ -7,7 +7,9 @@ from .item_add import THICKET_OT_item_add
 from .item_move import THICKET_OT_item_move
 from .item_remove import THICKET_OT_item_remove
 from .regenerate import THICKET_OT_regenerate
+from .live_preview import THICKET_OT_live_preview
 from .remove_stack import THICKET_OT_remove
+from .render_preview import THICKET_OT_render_preview
 
 CLASSES = (
     THICKET_OT_add_thick_surface,
@@ -18,4 +20,6 @@ CLASSES = (
     THICKET_OT_item_remove,
     THICKET_OT_item_move,
     THICKET_OT_export_texture,
+    THICKET_OT_render_preview,
+    THICKET_OT_live_preview,
 )

@@ -11,7 +11,7 @@ class THICKET_OT_export_texture(bpy.types.Operator, ExportHelper):
 
     bl_idname = "thicket.export_texture"
     bl_label = "Export Texture"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER", "UNDO"}
 
     filename_ext = ".exr"
     filter_glob: StringProperty(default="*.exr", options={"HIDDEN"})

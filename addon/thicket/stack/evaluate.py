@@ -140,7 +140,30 @@ def _group_weights(source: MeshArrays, name, at, label):
     return np.ascontiguousarray(weights[at], dtype=np.float32)
 
 
-def evaluate_stack(source: MeshArrays, items, progress=None, ask=False) -> MeshArrays:
+class _TextureReached(Exception):
+    def __init__(self, found):
+        super().__init__("texture reached")
+        self.found = found
+
+
+def texture_setup(source: MeshArrays, items):
+    """Runs the shell items up to the first Volumetric Texture item and returns
+    (shell, item, textures) without baking: what a renderer draws directly."""
+
+    def reached(shell, item, weights, ask):
+        textures = [item_texture(item)]
+        if item.combine:
+            textures.append((_texture(native.get(), item.combine, item), tuple(float(v) for v in item.offset)))
+        raise _TextureReached((shell, item, textures))
+
+    try:
+        evaluate_stack(source, items, texture_step=reached)
+    except _TextureReached as done:
+        return done.found
+    raise StackError("the stack has no enabled Volumetric Texture item to render")
+
+
+def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_step=None) -> MeshArrays:
     """Applies `items` in order; each item's input is the previous item's output.
 
     Vertex-group weights are looked up on the source mesh and followed through the
@@ -161,7 +184,7 @@ def evaluate_stack(source: MeshArrays, items, progress=None, ask=False) -> MeshA
         factors = _group_weights(source, item.vertex_group, at, item.label)
         if is_texture:
             weights = {"region": factors, "holes": _group_weights(source, item.hole_group, at, item.label), "move": _group_weights(source, item.move_group, at, item.label)}
-            current, per_face = _volumetric_texture(shell, item, weights, ask)
+            current, per_face = (texture_step or _volumetric_texture)(shell, item, weights, ask)
             origin = None  # baked vertices come from no single source vertex
             if per_face:
                 notes.append("the mesh has no UV map: each face got its own texture tile")

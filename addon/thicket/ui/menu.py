@@ -11,6 +11,7 @@ class THICKET_MT_object(bpy.types.Menu):
         layout = self.layout
         layout.operator("thicket.add_thick_surface", icon="MOD_SOLIDIFY")
         layout.operator("thicket.regenerate", icon="FILE_REFRESH")
+        layout.operator("thicket.render_preview", icon="RENDER_STILL")
         layout.operator("thicket.apply", icon="CHECKMARK")
         layout.operator("thicket.remove", icon="X")
 

@@ -43,6 +43,7 @@ class THICKET_PT_stack(bpy.types.Panel):
         row = layout.row(align=True)
         row.prop(stack, "auto_update")
         row.operator("thicket.regenerate", icon="FILE_REFRESH")
+        row.operator("thicket.render_preview", text="Preview", icon="RENDER_STILL")
         row = layout.row(align=True)
         row.operator("thicket.apply", icon="CHECKMARK")
         row.operator("thicket.remove", icon="X")

@@ -19,6 +19,10 @@ class THICKET_PT_sidebar(bpy.types.Panel):
         if obj is not None and obj.thicket.items:
             col = layout.column(align=True)
             col.operator("thicket.regenerate", icon="FILE_REFRESH")
+            col.operator("thicket.render_preview", icon="RENDER_STILL")
+            from ..render import overlay
+
+            col.operator("thicket.live_preview", icon="HIDE_OFF", depress=overlay.is_enabled())
             col.operator("thicket.apply", icon="CHECKMARK")
             col.operator("thicket.remove", icon="X")
             draw_status(layout, obj)

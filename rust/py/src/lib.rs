@@ -9,6 +9,7 @@
 mod arrays;
 mod errors;
 mod offset;
+mod render;
 mod report;
 mod shell;
 mod texture;
@@ -30,5 +31,7 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(texture::estimate_bake, m)?)?;
     m.add_function(wrap_pyfunction!(texture_io::load_texture, m)?)?;
     m.add_function(wrap_pyfunction!(texture_io::save_texture, m)?)?;
+    m.add_function(wrap_pyfunction!(render::render_shell, m)?)?;
+    m.add_function(wrap_pyfunction!(render::save_render, m)?)?;
     Ok(())
 }

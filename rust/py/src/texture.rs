@@ -37,7 +37,7 @@ pub fn texture<'py>(
     Ok(arr.into_pyarray(py))
 }
 
-fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
+pub(crate) fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
     let a: PyReadonlyArray3<'_, f32> = alpha
         .extract()
         .map_err(|_| ThicketError::new_err("a texture must be a float32 array of shape (nz, ny, nx)"))?;
@@ -49,6 +49,33 @@ fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
         _ => a.as_array().iter().copied().collect(),
     };
     VolumeTexture::new([shape[2], shape[1], shape[0]], data).map_err(to_py)
+}
+
+/// The placed textures of a `textures` argument: float32 (nz, ny, nx) arrays or
+/// (array, (ds, dt)) pairs.
+pub(crate) fn layers(textures: &Bound<'_, PyAny>) -> PyResult<Vec<TextureLayer>> {
+    let mut out = Vec::new();
+    for item in textures.try_iter()? {
+        let item = item?;
+        let (alpha, offset) = match item.extract::<(Bound<'_, PyAny>, (f32, f32))>() {
+            Ok((a, o)) => (a, Vec2::new(o.0, o.1)),
+            Err(_) => (item, Vec2::ZERO),
+        };
+        out.push(TextureLayer { texture: volume(&alpha)?, offset });
+    }
+    Ok(out)
+}
+
+/// A shell given by its base offsets and directors (layer r of vertex v at
+/// v + base_offset + r * director), one row per vertex of an `n`-vertex mesh.
+pub(crate) fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyReadonlyArray2<'_, f32>, n: usize) -> PyResult<Shell> {
+    let base_offset = arrays::positions(base_offset)?;
+    let directors = arrays::positions(directors)?;
+    if base_offset.len() != n || directors.len() != n {
+        return Err(ThicketError::new_err("base_offset and directors need one row per vertex"));
+    }
+    let achieved: Vec<f32> = directors.iter().map(|d: &Vec3| d.length()).collect();
+    Ok(Shell { side: Side::Exterior, base_offset, directors, target: achieved.clone(), achieved })
 }
 
 /// bake_texture(vertices, face_sizes, corners, base_offset, directors, textures,
@@ -91,20 +118,8 @@ pub fn bake_texture<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh = arrays::mesh_with_uvs(&vertices, face_sizes, corners, uvs.as_ref())?;
     let n = mesh.vertex_count();
-    let base_offset = arrays::positions(&base_offset)?;
-    let directors = arrays::positions(&directors)?;
-    if base_offset.len() != n || directors.len() != n {
-        return Err(ThicketError::new_err("base_offset and directors need one row per vertex"));
-    }
-    let mut layers_in = Vec::new();
-    for item in textures.try_iter()? {
-        let item = item?;
-        let (alpha, offset) = match item.extract::<(Bound<'_, PyAny>, (f32, f32))>() {
-            Ok((a, o)) => (a, Vec2::new(o.0, o.1)),
-            Err(_) => (item, Vec2::ZERO),
-        };
-        layers_in.push(TextureLayer { texture: volume(&alpha)?, offset });
-    }
+    let shell = shell_of(&base_offset, &directors, n)?;
+    let layers_in = self::layers(textures)?;
     let region = region.map(|r| arrays::per_vertex_or_scalar(r, n, "region")).transpose()?;
     let holes = holes.map(|r| arrays::per_vertex_or_scalar(r, n, "holes")).transpose()?;
     let moved = move_region
@@ -115,8 +130,6 @@ pub fn bake_texture<'py>(
         Some((v, t)) => Some((arrays::positions(v)?, arrays::indices(t, "cutter triangles")?)),
         None => None,
     };
-    let achieved: Vec<f32> = directors.iter().map(|d: &Vec3| d.length()).collect();
-    let shell = Shell { side: Side::Exterior, base_offset, directors, target: achieved.clone(), achieved };
     let out = run_detached(py, move || {
         let cutter = match cutter {
             Some((v, t)) => {

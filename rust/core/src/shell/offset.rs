@@ -30,7 +30,7 @@ mod tests {
     #[test]
     fn cube_corners_move_along_diagonals_inward_for_negative_thickness() {
         let m = cube();
-        let d = normal_offset_directors(&m, &vec![-0.1; 8]);
+        let d = normal_offset_directors(&m, &[-0.1; 8]);
         for (p, d) in m.positions().iter().zip(&d) {
             assert!((*d + p.normalize() * 0.1).length() < 1e-6);
         }

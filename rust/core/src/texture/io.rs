@@ -219,7 +219,7 @@ fn depth(attributes: &LayerAttributes, height: usize) -> std::result::Result<usi
         Some(_) => None,
     };
     match depth {
-        Some(d) if d > 0 && height % d == 0 => Ok(d),
+        Some(d) if d > 0 && height.is_multiple_of(d) => Ok(d),
         _ => Err(format!("{DEPTH_ATTRIBUTE} is not a whole number of slices that divides the height {height}")),
     }
 }

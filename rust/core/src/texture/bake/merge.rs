@@ -9,7 +9,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 /// Splits `v` into consecutive mutable chunks of the given lengths.
-fn chunks_mut<'a, T>(mut v: &'a mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&'a mut [T]> {
+fn chunks_mut<T>(mut v: &mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
     let mut out = Vec::new();
     for n in lengths {
         let (head, tail) = std::mem::take(&mut v).split_at_mut(n);

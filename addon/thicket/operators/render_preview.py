@@ -1,0 +1,60 @@
+import bpy
+from bpy.props import BoolProperty, EnumProperty, IntProperty
+
+from ..render import camera, preview
+from .common import active_stack_source, error_text, user_errors
+
+
+class THICKET_OT_render_preview(bpy.types.Operator):
+    """Render the active object's thick surface (shell and texture, not baked) into the
+    'Thicket Preview' image, from the scene camera or the 3D view"""
+
+    bl_idname = "thicket.render_preview"
+    bl_label = "Render Preview"
+    bl_options = {"REGISTER", "UNDO"}
+
+    use_view: BoolProperty(name="From 3D View", description="Render the 3D view's angle instead of the scene camera", default=False)
+    method: EnumProperty(
+        name="Renderer",
+        items=[
+            ("auto", "Automatic", "The GPU slice renderer, or the CPU reference when no GPU adapter exists"),
+            ("interpolating", "Slices (Interpolating)", "GPU slices with the surface found between slices (chapter 5)"),
+            ("plain", "Slices (Plain)", "GPU slices without interpolation, for comparison"),
+            ("reference", "Reference (CPU)", "Ray marching with exact root bracketing: slow, exact"),
+        ],
+        default="auto",
+    )
+    slices: IntProperty(name="Slices", description="Slices per cell", min=1, max=256, default=16)
+
+    @classmethod
+    def poll(cls, context):
+        return active_stack_source(context) is not None
+
+    def invoke(self, context, event):
+        self.use_view = context.region_data is not None and context.space_data is not None and context.space_data.type == "VIEW_3D"
+        return self.execute(context)
+
+    def execute(self, context):
+        obj = active_stack_source(context)
+        depsgraph = context.evaluated_depsgraph_get()
+        try:
+            if self.use_view and context.region_data is not None:
+                width, height = context.region.width, context.region.height
+                view, projection = camera.viewport_camera(context.region_data, obj)
+            else:
+                width, height = camera.render_size(context.scene)
+                view, projection = camera.scene_camera(context.scene, depsgraph, obj, width, height)
+            image, seconds, renderer, fallback = preview.render_to_image(
+                obj, view, projection, width, height, depsgraph=depsgraph, method=self.method, slices=self.slices
+            )
+        except user_errors() as exc:
+            self.report({"ERROR"}, f"{obj.name}: {error_text(exc)}")
+            return {"CANCELLED"}
+        if fallback:
+            self.report({"WARNING"}, fallback)
+        self.report({"INFO"}, f"'{image.name}': {width}x{height} in {seconds:.2f} s ({renderer})")
+        for area in context.screen.areas if context.screen else ():
+            if area.type == "IMAGE_EDITOR":
+                area.spaces.active.image = image
+                break
+        return {"FINISHED"}

@@ -1,0 +1,157 @@
+"""Live preview in the 3D view: the active source's thick surface, rendered by the
+native renderer from each 3D view's angle and drawn over it (chapter 5: seen without
+baking). A timer watches the views; when one changes, it is rendered again (at most
+every THROTTLE seconds, at half resolution) on a worker thread — the native call
+releases the GIL — so the interface never waits for it."""
+
+import threading
+import time
+
+import bpy
+import numpy as np
+
+from .. import native
+from . import camera
+
+THROTTLE = 0.25
+SCALE = 0.5
+
+_state = {"handle": None, "views": {}, "prepared": None, "error": ""}
+
+
+def is_enabled():
+    return _state["handle"] is not None
+
+
+def enable():
+    if is_enabled() or bpy.app.background:
+        return
+    _state["handle"] = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_PIXEL")
+    bpy.app.timers.register(_tick, first_interval=0.05)
+
+
+def disable():
+    if _state["handle"] is not None:
+        bpy.types.SpaceView3D.draw_handler_remove(_state["handle"], "WINDOW")
+    _state.update(handle=None, views={}, prepared=None, error="")
+    if bpy.app.timers.is_registered(_tick):
+        bpy.app.timers.unregister(_tick)
+    _redraw_all()
+
+
+def _redraw_all():
+    for window in getattr(bpy.context.window_manager, "windows", ()):
+        for area in window.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
+
+
+def _source():
+    from ..operators.common import active_stack_source
+
+    return active_stack_source(bpy.context)
+
+
+def _prepared(obj):
+    """(key, shell, item, textures) of `obj`, rebuilt only when its mesh or stack
+    settings changed (the shell is the expensive part)."""
+    from ..stack.evaluate import texture_setup
+    from ..stack.regenerate import enabled_settings
+    from .. import mesh_io
+    from ..stack.auto_update import suspended
+
+    co = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", co)
+    items = enabled_settings(obj)
+    key = (obj.name, hash(co.tobytes()), repr([(type(i).__name__, {k: v for k, v in vars(i).items() if k != "cutter"}) for i in items]))
+    cached = _state["prepared"]
+    if cached is None or cached[0] != key:
+        with suspended():
+            depsgraph = bpy.context.evaluated_depsgraph_get()
+            groups = sorted({g for item in items for g in item.vertex_groups()})
+            source = mesh_io.read_evaluated(obj, depsgraph, groups)
+        _state["prepared"] = (key, *texture_setup(source, items))
+    return _state["prepared"]
+
+
+def _tick():
+    """Starts a render for every 3D view whose angle changed; returns the next delay."""
+    if not is_enabled():
+        return None
+    obj = _source()
+    if obj is None:
+        return 0.5
+    now = time.monotonic()
+    for window in bpy.context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type != "VIEW_3D":
+                continue
+            region = next((r for r in area.regions if r.type == "WINDOW"), None)
+            r3d = area.spaces.active.region_3d
+            if region is None or r3d is None or region.width < 2 or region.height < 2:
+                continue
+            view = _state["views"].setdefault(area.as_pointer(), {"key": None, "busy": False, "last": 0.0, "result": None, "texture": None})
+            width, height = max(1, int(region.width * SCALE)), max(1, int(region.height * SCALE))
+            key = (tuple(map(tuple, r3d.view_matrix)), tuple(map(tuple, r3d.window_matrix)), width, height, obj.name)
+            if view["result"] is not None:
+                _upload(view)
+                area.tag_redraw()
+            if view["busy"] or (key == view["key"] and _state["prepared"] is not None) or now - view["last"] < THROTTLE:
+                continue
+            try:
+                _, shell, item, textures = _prepared(obj)
+                v, p = camera.viewport_camera(r3d, obj)
+            except Exception as exc:  # shown in the view; never raised into Blender's loop
+                _state["error"] = str(exc)
+                area.tag_redraw()
+                continue
+            view.update(key=key, busy=True, last=now)
+            base = shell.base
+            args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures, v, p, width, height)
+            kwargs = dict(uvs=base.uvs, tiling=float(item.tiling))
+            threading.Thread(target=_work, args=(view, args, kwargs), daemon=True).start()
+    return 0.1
+
+
+def _work(view, args, kwargs):
+    try:
+        out = native.get().render_shell(*args, **kwargs)
+        view["result"] = out["rgba"]
+        _state["error"] = out["fallback"]
+    except Exception as exc:  # reported in the view
+        _state["error"] = str(exc)
+    finally:
+        view["busy"] = False
+
+
+def _upload(view):
+    import gpu
+
+    rgba = view.pop("result")
+    view["result"] = None
+    h, w = rgba.shape[:2]
+    data = np.ascontiguousarray(rgba[::-1], dtype=np.float32).ravel()
+    view["texture"] = gpu.types.GPUTexture((w, h), format="RGBA16F", data=gpu.types.Buffer("FLOAT", data.size, data))
+
+
+def _draw():
+    import blf
+    import gpu
+    from gpu_extras.batch import batch_for_shader
+
+    area = bpy.context.area
+    view = _state["views"].get(area.as_pointer()) if area else None
+    region = bpy.context.region
+    if view is not None and view.get("texture") is not None:
+        shader = gpu.shader.from_builtin("IMAGE")
+        w, h = region.width, region.height
+        batch = batch_for_shader(shader, "TRI_FAN", {"pos": ((0, 0), (w, 0), (w, h), (0, h)), "texCoord": ((0, 0), (1, 0), (1, 1), (0, 1))})
+        gpu.state.blend_set("ALPHA")
+        shader.bind()
+        shader.uniform_sampler("image", view["texture"])
+        batch.draw(shader)
+        gpu.state.blend_set("NONE")
+    if _state["error"]:
+        blf.position(0, 20, 30, 0)
+        blf.size(0, 13)
+        blf.draw(0, f"Thicket preview: {_state['error']}")

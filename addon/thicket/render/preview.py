@@ -1,0 +1,55 @@
+"""Renders a source's thick surface (shell + texture, not baked) into a Blender image."""
+
+import time
+
+import bpy
+import numpy as np
+
+from .. import mesh_io, native
+from ..stack.auto_update import suspended
+from ..stack.evaluate import texture_setup
+from ..stack.regenerate import enabled_settings
+
+PREVIEW_IMAGE = "Thicket Preview"
+
+
+def render_arrays(obj, view, projection, width, height, depsgraph=None, method="auto", slices=16):
+    """The native render of `obj`'s first Volumetric Texture over its shell: a dict
+    with rgba (h, w, 4, row 0 at the top), depth, normal, renderer, fallback."""
+    with suspended():
+        depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+        items = enabled_settings(obj, depsgraph)
+        groups = sorted({g for item in items for g in item.vertex_groups()})
+        source = mesh_io.read_evaluated(obj, depsgraph, groups)
+    shell, item, textures = texture_setup(source, items)
+    base = shell.base
+    return native.get().render_shell(
+        base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures,
+        view, projection, int(width), int(height), uvs=base.uvs, tiling=float(item.tiling), method=method, slices=int(slices),
+    )
+
+
+def to_image(rgba, name=PREVIEW_IMAGE):
+    """Writes a rendered (h, w, 4) linear RGBA array (row 0 at the top) into the float
+    image `name`, created or resized as needed; returns the image."""
+    height, width = rgba.shape[:2]
+    image = bpy.data.images.get(name)
+    if image is None or not image.is_float:
+        if image is not None:
+            bpy.data.images.remove(image)
+        image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True)
+    elif tuple(image.size) != (width, height):
+        image.scale(width, height)
+    # Blender's pixel rows run bottom-up.
+    image.pixels.foreach_set(np.ascontiguousarray(rgba[::-1], dtype=np.float32).ravel())
+    image.update()
+    return image
+
+
+def render_to_image(obj, view, projection, width, height, name=PREVIEW_IMAGE, **options):
+    """Renders and shows the result in image `name`; returns (image, seconds, renderer
+    name, fallback message)."""
+    start = time.perf_counter()
+    out = render_arrays(obj, view, projection, width, height, **options)
+    image = to_image(out["rgba"], name)
+    return image, time.perf_counter() - start, out["renderer"], out["fallback"]

@@ -1,0 +1,212 @@
+//! Rendering volume-textured shells without baking: the GPU slice renderer (one per
+//! process, created on first use) with the CPU reference renderer as ground truth and
+//! fallback, and the rendered frame written to PNG or OpenEXR.
+
+use numpy::{IntoPyArray, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::sync::Mutex;
+use thicket_core::glam::{Mat4, Vec3, Vec4};
+use thicket_render::gpu::{GpuRenderer, SliceMode, SliceParams};
+use thicket_render::reference::{render, RenderParams};
+use thicket_render::{Camera, Frame, ShellScene};
+
+use crate::arrays;
+use crate::errors::{run_detached, ThicketError};
+
+/// Pixels the renderer accepts in one frame (16384 x 16384).
+const MAX_PIXELS: u64 = 1 << 28;
+
+/// A 4x4 matrix given row-major (numpy's layout of a Blender `Matrix`: `m[row][col]`),
+/// as float32 or float64 numpy or nested sequences; glam stores columns.
+fn matrix(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Mat4> {
+    let shape_error =
+        || ThicketError::new_err(format!("{what} must be a 4x4 matrix (numpy float32/float64 or nested lists)"));
+    let rows: Vec<f64> = if let Ok(a) = obj.extract::<PyReadonlyArray2<'_, f64>>() {
+        if a.shape() != [4, 4] {
+            return Err(shape_error());
+        }
+        // Logical (row-major) order, whatever the memory layout.
+        a.as_array().iter().copied().collect()
+    } else if let Ok(a) = obj.extract::<PyReadonlyArray2<'_, f32>>() {
+        if a.shape() != [4, 4] {
+            return Err(shape_error());
+        }
+        a.as_array().iter().map(|v| *v as f64).collect()
+    } else if let Ok(m) = obj.extract::<[[f64; 4]; 4]>() {
+        m.iter().flatten().copied().collect()
+    } else {
+        return Err(shape_error());
+    };
+    if rows.iter().any(|v| !v.is_finite()) {
+        return Err(ThicketError::new_err(format!("{what} has a non-finite entry")));
+    }
+    let mut cols = [0.0f32; 16];
+    for (c, r) in cols.iter_mut().zip(&rows) {
+        *c = *r as f32;
+    }
+    // Row-major data read as columns is the transpose.
+    Ok(Mat4::from_cols_array(&cols).transpose())
+}
+
+/// The process's GPU renderer: created on first use; its creation error is kept (no
+/// adapter does not appear later), a lost device is dropped so the next call retries.
+static GPU: Mutex<Option<std::result::Result<GpuRenderer, String>>> = Mutex::new(None);
+
+/// Renders with the slice renderer, or says why it could not.
+fn render_on_gpu(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> std::result::Result<(Frame, String), String> {
+    let mut gpu = GPU.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    if gpu.is_none() {
+        *gpu = Some(GpuRenderer::new().map_err(|e| e.to_string()));
+    }
+    let renderer = match gpu.as_mut().expect("set above") {
+        Ok(r) => r,
+        Err(e) => return Err(e.clone()),
+    };
+    let name = renderer.adapter_name();
+    match renderer.render(scene, camera, params) {
+        Ok(frame) => Ok((frame, name)),
+        Err(e) => {
+            *gpu = None;
+            Err(e.to_string())
+        }
+    }
+}
+
+/// render_shell(vertices, face_sizes, corners, base_offset, directors, textures,
+///              view, projection, width, height, uvs=None, tiling=1.0,
+///              method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25,
+///              step=0.05) -> dict
+///
+/// Renders the alpha = 0.5 iso-surface of volumetric textures mapped into a shell
+/// (layer r of vertex v at v + base_offset + r * director) without baking it.
+/// `method`: "interpolating" or "plain" (the GPU slice renderer of chapter 5, `slices`
+/// slices per cell), "reference" (CPU ray marching with exact root bracketing; `step`
+/// as a fraction of the mean shell thickness), or "auto" (interpolating slices, the
+/// reference when no GPU adapter exists or the device is lost). `textures`: a list
+/// of float32 (nz, ny, nx) arrays or (array, (ds, dt)) pairs, united. `uvs`: float32
+/// (corners, 2) or None (one tile per face). `view` (world to camera) and
+/// `projection` (camera to OpenGL clip space, as `Object.calc_matrix_camera` gives
+/// it): 4x4, row-major as `numpy.array(matrix)` of a Blender Matrix. `light`:
+/// direction toward the light (world). Returns rgba float32 (height, width, 4)
+/// (linear colour, straight alpha, row 0 at the top), depth float32 (height, width)
+/// (distance along the view axis, inf where empty), normal float32 (height, width,
+/// 3), per_face_tiles, renderer (what drew it) and fallback (why the GPU was not
+/// used, or "").
+#[pyfunction]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, view, projection, width, height, uvs=None, tiling=1.0, method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05))]
+#[allow(clippy::too_many_arguments)]
+pub fn render_shell<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+    base_offset: PyReadonlyArray2<'py, f32>,
+    directors: PyReadonlyArray2<'py, f32>,
+    textures: &Bound<'py, PyAny>,
+    view: &Bound<'py, PyAny>,
+    projection: &Bound<'py, PyAny>,
+    width: u32,
+    height: u32,
+    uvs: Option<PyReadonlyArray2<'py, f32>>,
+    tiling: f32,
+    method: &str,
+    slices: u32,
+    light: (f32, f32, f32),
+    ambient: f32,
+    step: f32,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mode = match method {
+        "auto" | "interpolating" => Some(SliceMode::Interpolating),
+        "plain" => Some(SliceMode::Plain),
+        "reference" => None,
+        other => return Err(ThicketError::new_err(format!("unknown render method {other:?}; one of auto, interpolating, plain, reference"))),
+    };
+    let mesh = arrays::mesh_with_uvs(&vertices, face_sizes, corners, uvs.as_ref())?;
+    let shell = crate::texture::shell_of(&base_offset, &directors, mesh.vertex_count())?;
+    let layers = crate::texture::layers(textures)?;
+    let view = matrix(view, "view")?;
+    let projection = matrix(projection, "projection")?;
+    if width as u64 * height as u64 > MAX_PIXELS {
+        return Err(ThicketError::new_err(format!("{width}x{height} pixels are too many for one frame")));
+    }
+    let light = Vec3::new(light.0, light.1, light.2);
+    let auto = method == "auto";
+    let (frame, per_face_tiles, renderer, fallback) = run_detached(py, move || {
+        let camera = Camera::new(view, projection, width, height)?;
+        let scene = ShellScene::new(&mesh, &shell, layers, tiling)?;
+        let reference = |why: String| -> thicket_core::Result<(Frame, String, String)> {
+            let params = RenderParams { step, light, ambient, ..Default::default() };
+            Ok((render(&scene, &camera, &params)?, "CPU reference renderer".to_string(), why))
+        };
+        let (frame, renderer, fallback) = match mode {
+            None => reference(String::new())?,
+            Some(mode) => {
+                let params = SliceParams { slices, mode, light, ambient, ..Default::default() };
+                match render_on_gpu(&scene, &camera, &params) {
+                    Ok((frame, name)) => (frame, format!("GPU slice renderer on {name}"), String::new()),
+                    Err(why) if auto => reference(format!("the GPU slice renderer is unavailable ({why}); rendered on the CPU instead"))?,
+                    Err(why) => return Err(thicket_core::Error::InvalidParameter(format!("the GPU slice renderer failed: {why}"))),
+                }
+            }
+        };
+        Ok((frame, scene.per_face_tiles, renderer, fallback))
+    })?;
+    let (w, h) = (frame.width as usize, frame.height as usize);
+    let shaped = |data: Vec<f32>, channels: usize| {
+        let flat = numpy::ndarray::Array1::from_vec(data);
+        flat.into_shape_with_order((h, w, channels)).map_err(|e| ThicketError::new_err(e.to_string()))
+    };
+    let rgba = shaped(frame.rgba.iter().flat_map(|c| c.to_array()).collect(), 4)?;
+    let normal = shaped(frame.normal.iter().flat_map(|c| c.to_array()).collect(), 3)?;
+    let depth = numpy::ndarray::Array1::from_vec(frame.depth)
+        .into_shape_with_order((h, w))
+        .map_err(|e| ThicketError::new_err(e.to_string()))?;
+    let d = PyDict::new(py);
+    d.set_item("rgba", rgba.into_pyarray(py))?;
+    d.set_item("depth", depth.into_pyarray(py))?;
+    d.set_item("normal", normal.into_pyarray(py))?;
+    d.set_item("per_face_tiles", per_face_tiles)?;
+    d.set_item("renderer", renderer)?;
+    d.set_item("fallback", fallback)?;
+    Ok(d)
+}
+
+/// save_render(path, rgba, depth=None, normal=None)
+///
+/// Writes a rendered frame (arrays as `render_shell` returns them, row 0 at the top):
+/// an OpenEXR file with R, G, B, A, Z and N.X, N.Y, N.Z channels when `path` ends in
+/// .exr, else an 8-bit sRGB PNG.
+#[pyfunction]
+#[pyo3(signature = (path, rgba, depth=None, normal=None))]
+pub fn save_render(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    rgba: numpy::PyReadonlyArray3<'_, f32>,
+    depth: Option<PyReadonlyArray2<'_, f32>>,
+    normal: Option<numpy::PyReadonlyArray3<'_, f32>>,
+) -> PyResult<()> {
+    let shape = rgba.shape().to_vec();
+    if shape[2] != 4 || shape[0] == 0 || shape[1] == 0 {
+        return Err(ThicketError::new_err("rgba must be a float32 (height, width, 4) array"));
+    }
+    let (h, w) = (shape[0], shape[1]);
+    let mut frame = Frame::empty(w as u32, h as u32);
+    let c: Vec<f32> = rgba.as_array().iter().copied().collect();
+    frame.rgba = c.chunks_exact(4).map(|p| Vec4::new(p[0], p[1], p[2], p[3])).collect();
+    if let Some(d) = depth {
+        if d.shape() != [h, w] {
+            return Err(ThicketError::new_err("depth must be (height, width)"));
+        }
+        frame.depth = d.as_array().iter().copied().collect();
+    }
+    if let Some(n) = normal {
+        if n.shape() != [h, w, 3] {
+            return Err(ThicketError::new_err("normal must be (height, width, 3)"));
+        }
+        let v: Vec<f32> = n.as_array().iter().copied().collect();
+        frame.normal = v.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+    }
+    let exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    run_detached(py, move || if exr { frame.save_exr(&path) } else { frame.save_png(&path) })
+}

@@ -1,0 +1,21 @@
+//! Renderers for volume-textured shells (thick surfaces, chapters 5 and 6).
+//!
+//! - [`camera`]: a pinhole or orthographic camera given by Blender's own view and
+//!   projection matrices, and the rays through its pixels.
+//! - [`scene`]: a shell with its texture, ready to render (cells, bounds).
+//! - [`reference`]: the CPU reference renderer, ray marching through the shell map with
+//!   exact root bracketing of `alpha = 0.5`; ground truth and fallback.
+//! - [`gpu`]: the wgpu slice renderer (chapter 5): plain slicing and the two-pass
+//!   slice interpolation, headless on any Vulkan, Metal or DirectX 12 adapter.
+//! - [`image_out`]: the rendered frame (colour, alpha, depth, normal) and its PNG and
+//!   OpenEXR outputs.
+
+pub mod camera;
+pub mod gpu;
+pub mod image_out;
+pub mod reference;
+pub mod scene;
+
+pub use camera::Camera;
+pub use image_out::Frame;
+pub use scene::ShellScene;

@@ -1,0 +1,904 @@
+//! The CPU reference renderer: ground truth for the GPU slice renderer (thick surfaces,
+//! chapter 5) and its fallback where no GPU exists.
+//!
+//! Every pixel's ray is marched through the shell in world space. The cells whose
+//! bounds the ray meets come from a bounding volume hierarchy over the cells; at each
+//! sample the cell containing the point is found by inverting its map (Newton's
+//! method, warm-started from the parameters of the previous sample in the same cell),
+//! and `alpha` is the texture's there (zero outside every cell). The first crossing of
+//! `alpha = 0.5` from below is then located exactly by safeguarded regula falsi
+//! (Illinois) on the ray parameter, re-inverting the cell map at every evaluation, so
+//! the surface found does not depend on the march step once the step resolves it.
+//!
+//! Shading is Lambert with an ambient term; the normal is the texture's `−∇alpha`
+//! carried to world space through the cell map, or, where `alpha` jumps (the texture
+//! meets a face of the shell), that face's normal.
+
+use glam::{DMat4, DVec3, Mat3, Vec3};
+use rayon::prelude::*;
+use thicket_core::texture::CellMap;
+use thicket_core::{Error, Result};
+
+use crate::camera::Camera;
+use crate::image_out::Frame;
+use crate::scene::ShellScene;
+
+/// Settings of the reference renderer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderParams {
+    /// March step as a fraction of the mean shell thickness, in `[1e-4, 1]`. Features
+    /// thinner than a step may be missed; the crossing itself is exact at any step.
+    pub step: f32,
+    /// Direction toward the light, world space (normalized here; must not be zero).
+    pub light: Vec3,
+    /// Ambient share of the light, in `[0, 1]`.
+    pub ambient: f32,
+    /// Linear surface colour.
+    pub albedo: Vec3,
+}
+
+impl Default for RenderParams {
+    fn default() -> Self {
+        Self { step: 0.05, light: Vec3::new(0.3, -0.5, 0.8), ambient: 0.25, albedo: Vec3::splat(0.8) }
+    }
+}
+
+impl RenderParams {
+    fn validate(&self) -> Result<()> {
+        let bad = |m: &str| Err(Error::InvalidParameter(m.into()));
+        if !(self.step >= 1e-4 && self.step <= 1.0) {
+            return bad("the march step must be between 0.0001 and 1 (a fraction of the shell thickness)");
+        }
+        if !self.light.is_finite() || self.light.length_squared() < 1e-20 {
+            return bad("the light direction must be a finite, non-zero vector");
+        }
+        if !(0.0..=1.0).contains(&self.ambient) {
+            return bad("ambient must be between 0 and 1");
+        }
+        if !self.albedo.is_finite() || self.albedo.min_element() < 0.0 {
+            return bad("the albedo must be finite and not negative");
+        }
+        Ok(())
+    }
+}
+
+/// Renders `scene` seen by `camera`: colour (alpha 1 on the surface, 0 elsewhere),
+/// depth along the view axis and the unit world normal (facing the camera) per pixel.
+/// Rays start on the near plane and end on the far plane, so a camera inside the shell
+/// sees what lies in front of it.
+pub fn render(scene: &ShellScene, camera: &Camera, params: &RenderParams) -> Result<Frame> {
+    params.validate()?;
+    if camera.width == 0 || camera.height == 0 {
+        return Err(Error::InvalidParameter(format!(
+            "the viewport is {}x{}: nothing to render",
+            camera.width, camera.height
+        )));
+    }
+    let marcher = Marcher::new(scene, params)?;
+    let rays = Rays::new(camera)?;
+    let w = camera.width as usize;
+    let mut frame = Frame::empty(camera.width, camera.height);
+    let light = params.light.normalize();
+    frame
+        .rgba
+        .par_chunks_mut(w)
+        .zip(frame.depth.par_chunks_mut(w))
+        .zip(frame.normal.par_chunks_mut(w))
+        .enumerate()
+        .for_each_init(Scratch::default, |scratch, (y, ((rgba, depth), normal))| {
+            for x in 0..w {
+                let Some((origin, dir, t_far)) = rays.ray(x, y) else { continue };
+                let Some(hit) = marcher.trace(origin, dir, t_far, scratch) else { continue };
+                let p = (origin + dir * hit.t).as_vec3();
+                let mut n = hit.normal;
+                if n.dot(dir.as_vec3()) > 0.0 {
+                    n = -n;
+                }
+                let shade = params.ambient + (1.0 - params.ambient) * n.dot(light).max(0.0);
+                rgba[x] = (params.albedo * shade).extend(1.0);
+                depth[x] = camera.depth(p);
+                normal[x] = n;
+            }
+        });
+    Ok(frame)
+}
+
+/// Pixel rays, computed in double precision from the inverse view-projection.
+struct Rays {
+    inverse: DMat4,
+    width: f64,
+    height: f64,
+}
+
+impl Rays {
+    fn new(camera: &Camera) -> Result<Self> {
+        let inverse = (camera.projection.as_dmat4() * camera.view.as_dmat4()).inverse();
+        if !inverse.is_finite() {
+            return Err(Error::InvalidParameter("the camera matrices are not invertible".into()));
+        }
+        Ok(Self { inverse, width: camera.width as f64, height: camera.height as f64 })
+    }
+
+    /// Origin on the near plane, unit direction and distance to the far plane of pixel
+    /// `(x, y)` (row 0 at the top), as [`Camera::ray`] gives them.
+    fn ray(&self, x: usize, y: usize) -> Option<(DVec3, DVec3, f64)> {
+        let nx = 2.0 * (x as f64 + 0.5) / self.width - 1.0;
+        let ny = 1.0 - 2.0 * (y as f64 + 0.5) / self.height;
+        let near = self.inverse.project_point3(DVec3::new(nx, ny, -1.0));
+        let far = self.inverse.project_point3(DVec3::new(nx, ny, 1.0));
+        let d = far - near;
+        let length = d.length();
+        (near.is_finite() && length.is_finite() && length > 0.0).then(|| (near, d / length, length))
+    }
+}
+
+/// A surface point found on a ray.
+struct Hit {
+    t: f64,
+    normal: Vec3,
+}
+
+/// Per-cell data of a triangle prism for fast inversion: the map relative to the
+/// first base corner is `x = r d0 + u (e1 + r f1) + v (e2 + r f2)`.
+#[derive(Debug, Clone, Copy)]
+struct Prism {
+    origin: DVec3,
+    d0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    f1: Vec3,
+    f2: Vec3,
+    /// Residual accepted from Newton's method, world units.
+    tolerance: f32,
+}
+
+impl Prism {
+    fn new(c: &CellMap, size: f32) -> Self {
+        let b0 = c.base[0];
+        Self {
+            origin: b0.as_dvec3(),
+            d0: c.director[0],
+            e1: c.base[1] - b0,
+            e2: c.base[2] - b0,
+            f1: c.director[1] - c.director[0],
+            f2: c.director[2] - c.director[0],
+            tolerance: 1e-5 * size.max(f32::MIN_POSITIVE),
+        }
+    }
+
+    /// Parameters `(u, v, r)` of world point `p` by Newton's method from `q`.
+    #[inline]
+    fn invert(&self, p: DVec3, mut q: Vec3) -> Option<Vec3> {
+        let x = (p - self.origin).as_vec3();
+        for _ in 0..NEWTON_ITERATIONS {
+            let (u, v, r) = (q.x, q.y, q.z);
+            let pu = self.e1 + self.f1 * r;
+            let pv = self.e2 + self.f2 * r;
+            let pr = self.d0 + self.f1 * u + self.f2 * v;
+            let e = self.d0 * r + pu * u + pv * v - x;
+            let j = Mat3::from_cols(pu, pv, pr);
+            let det = j.determinant();
+            if det.abs() <= 1e-30 || !det.is_finite() {
+                return None;
+            }
+            let dq = j.inverse() * e;
+            q -= dq;
+            if !q.is_finite() || q.abs().max_element() > 1e3 {
+                return None;
+            }
+            if dq.abs().max_element() < 1e-6 {
+                break;
+            }
+        }
+        let (u, v, r) = (q.x, q.y, q.z);
+        let e = self.d0 * r + (self.e1 + self.f1 * r) * u + (self.e2 + self.f2 * r) * v - x;
+        (e.length() <= self.tolerance).then_some(q)
+    }
+}
+
+const NEWTON_ITERATIONS: usize = 10;
+/// Slack of the containment test in cell parameters.
+const INSIDE_EPS: f32 = 1e-4;
+
+/// Whether parameters `q` lie in a cell with `count` corners.
+#[inline]
+fn contains(count: usize, q: Vec3) -> bool {
+    let in01 = |a: f32| (-INSIDE_EPS..=1.0 + INSIDE_EPS).contains(&a);
+    in01(q.z)
+        && if count == 4 {
+            in01(q.x) && in01(q.y)
+        } else {
+            q.x >= -INSIDE_EPS && q.y >= -INSIDE_EPS && q.x + q.y <= 1.0 + INSIDE_EPS
+        }
+}
+
+/// Parameters of a cell's centre.
+fn centre(count: usize) -> Vec3 {
+    if count == 4 {
+        Vec3::new(0.5, 0.5, 0.5)
+    } else {
+        Vec3::new(1.0 / 3.0, 1.0 / 3.0, 0.5)
+    }
+}
+
+/// A cell whose bounds a ray crosses between `t0` and `t1`.
+#[derive(Debug, Clone, Copy)]
+struct Interval {
+    t0: f64,
+    t1: f64,
+    cell: u32,
+}
+
+/// A cell the march is inside the bounds of, with its last parameters (warm start).
+#[derive(Debug, Clone, Copy)]
+struct Active {
+    t0: f64,
+    t1: f64,
+    cell: u32,
+    q: Vec3,
+}
+
+/// Per-thread buffers, reused from ray to ray.
+#[derive(Default)]
+struct Scratch {
+    intervals: Vec<Interval>,
+    active: Vec<Active>,
+    stack: Vec<u32>,
+}
+
+/// What a sample found: the cell (index into `cells`), its parameters and `alpha`.
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    alpha: f32,
+    inside: Option<(u32, Vec3)>,
+}
+
+/// The scene prepared for marching: BVH, per-cell inversion data, step and tolerance.
+struct Marcher<'a> {
+    scene: &'a ShellScene,
+    prisms: Vec<Option<Prism>>,
+    bvh: Bvh,
+    /// March step, world units.
+    step: f64,
+    /// Root bracketing tolerance on the ray parameter, world units.
+    tolerance: f64,
+}
+
+impl<'a> Marcher<'a> {
+    fn new(scene: &'a ShellScene, params: &RenderParams) -> Result<Self> {
+        if scene.cells.is_empty() {
+            return Err(Error::InvalidParameter("the shell has no cells: nothing to render".into()));
+        }
+        if scene.bounds.len() != scene.cells.len() {
+            return Err(Error::InvalidParameter("the scene's cell bounds do not match its cells".into()));
+        }
+        if scene.textures.is_empty() {
+            return Err(Error::InvalidParameter("no texture to render".into()));
+        }
+        let (mut sum, mut count) = (0.0f64, 0usize);
+        for c in &scene.cells {
+            for d in &c.director[..c.count.min(4)] {
+                if d.is_finite() {
+                    sum += d.length() as f64;
+                    count += 1;
+                }
+            }
+        }
+        let thickness = sum / count.max(1) as f64;
+        if !(thickness > 0.0 && thickness.is_finite()) {
+            return Err(Error::InvalidParameter("the shell has no thickness: nothing to render".into()));
+        }
+        let finite: Vec<u32> = (0..scene.cells.len() as u32)
+            .filter(|&i| {
+                let (lo, hi) = scene.bounds[i as usize];
+                lo.is_finite() && hi.is_finite() && lo.cmple(hi).all()
+            })
+            .collect();
+        if finite.is_empty() {
+            return Err(Error::InvalidParameter("the shell has no finite cell: nothing to render".into()));
+        }
+        let (lo, hi) = finite.iter().fold((Vec3::MAX, Vec3::MIN), |(a, b), &i| {
+            let (l, h) = scene.bounds[i as usize];
+            (a.min(l), b.max(h))
+        });
+        let size = (hi - lo).length() as f64;
+        let prisms = scene
+            .cells
+            .par_iter()
+            .zip(&scene.bounds)
+            .map(|(c, (l, h))| (c.count == 3).then(|| Prism::new(c, (*h - *l).length())))
+            .collect();
+        let bvh = Bvh::build(&scene.bounds, finite);
+        Ok(Self { scene, prisms, bvh, step: params.step as f64 * thickness, tolerance: 1e-6 * size.max(1e-30) })
+    }
+
+    /// The parameters of `p` in cell `c`, from the warm start `q`.
+    #[inline]
+    fn invert(&self, c: usize, p: DVec3, q: Vec3) -> Option<Vec3> {
+        match &self.prisms[c] {
+            Some(prism) => prism.invert(p, q),
+            None => invert_generic(&self.scene.cells[c], p.as_vec3(), q),
+        }
+    }
+
+    /// `alpha` at `origin + dir * t`, searching the active cells that span `t` (the
+    /// one found last first; it is moved to the front).
+    fn sample(&self, origin: DVec3, dir: DVec3, t: f64, active: &mut [Active]) -> Sample {
+        let p = origin + dir * t;
+        for i in 0..active.len() {
+            let a = active[i];
+            if t < a.t0 || t > a.t1 {
+                continue;
+            }
+            let c = a.cell as usize;
+            let cell = &self.scene.cells[c];
+            let Some(q) = self.invert(c, p, a.q) else {
+                active[i].q = centre(cell.count);
+                continue;
+            };
+            active[i].q = q;
+            if contains(cell.count, q) {
+                active.swap(0, i);
+                let alpha = self.scene.alpha(cell.texture(q)).0;
+                return Sample { alpha, inside: Some((a.cell, q)) };
+            }
+        }
+        Sample { alpha: 0.0, inside: None }
+    }
+
+    /// The first crossing of `alpha = 0.5` from below along the ray, if any.
+    fn trace(&self, origin: DVec3, dir: DVec3, t_far: f64, s: &mut Scratch) -> Option<Hit> {
+        let Scratch { intervals, active, stack } = s;
+        intervals.clear();
+        active.clear();
+        self.bvh.intersect(&self.scene.bounds, origin, dir, t_far, stack, |cell, t0, t1| {
+            intervals.push(Interval { t0, t1, cell });
+        });
+        if intervals.is_empty() {
+            return None;
+        }
+        intervals.sort_unstable_by(|a, b| a.t0.total_cmp(&b.t0));
+        let t_end = intervals.iter().fold(0.0f64, |m, i| m.max(i.t1));
+        let mut next = 0;
+        let mut t = intervals[0].t0;
+        let mut prev_t = t;
+        // The last sample below 0.5 (always the previous sample when a crossing is found).
+        let mut below: Option<Sample> = None;
+        loop {
+            while next < intervals.len() && intervals[next].t0 <= t {
+                let i = intervals[next];
+                let count = self.scene.cells[i.cell as usize].count;
+                active.push(Active { t0: i.t0, t1: i.t1, cell: i.cell, q: centre(count) });
+                next += 1;
+            }
+            active.retain(|a| a.t1 >= prev_t);
+            if active.is_empty() {
+                if next == intervals.len() {
+                    return None;
+                }
+                // A gap between cells: empty space, below the iso-value.
+                t = intervals[next].t0;
+                prev_t = t;
+                below = Some(Sample { alpha: 0.0, inside: None });
+                continue;
+            }
+            let here = self.sample(origin, dir, t, active);
+            if here.alpha >= 0.5 {
+                if let Some(lo) = below {
+                    return Some(self.bracket(origin, dir, (prev_t, lo), (t, here), active));
+                }
+            } else {
+                below = Some(here);
+            }
+            if t >= t_end {
+                return None;
+            }
+            prev_t = t;
+            t = (t + self.step).min(t_end);
+        }
+    }
+
+    /// Locates `alpha = 0.5` between `a` (below) and `b` (at or above) by Illinois
+    /// regula falsi with bisection as a safeguard, to [`Marcher::tolerance`], and
+    /// shades it.
+    fn bracket(&self, origin: DVec3, dir: DVec3, a: (f64, Sample), b: (f64, Sample), active: &mut [Active]) -> Hit {
+        let (mut ta, mut sa) = a;
+        let (mut tb, mut sb) = b;
+        let (mut fa, mut fb) = (sa.alpha as f64 - 0.5, sb.alpha as f64 - 0.5);
+        let mut side = 0i8;
+        // Width before the last step: twice the bracket, so the first step is a secant.
+        let mut width = 2.0 * (tb - ta);
+        for _ in 0..100 {
+            if tb - ta <= self.tolerance {
+                break;
+            }
+            let mid = 0.5 * (ta + tb);
+            if mid <= ta || mid >= tb {
+                break; // At the resolution of the ray parameter.
+            }
+            // Regula falsi, unless the last step did not halve the bracket.
+            let falsi = ta - fa * (tb - ta) / (fb - fa);
+            let tm = if tb - ta <= 0.5 * width && falsi > ta && falsi < tb { falsi } else { mid };
+            width = tb - ta;
+            let sm = self.sample(origin, dir, tm, active);
+            let fm = sm.alpha as f64 - 0.5;
+            if fm >= 0.0 {
+                (tb, sb, fb) = (tm, sm, fm);
+                if side == 1 {
+                    fa *= 0.5;
+                }
+                side = 1;
+            } else {
+                (ta, sa, fa) = (tm, sm, fm);
+                if side == -1 {
+                    fb *= 0.5;
+                }
+                side = -1;
+            }
+        }
+        // `fa`, `fb` may have been halved: compare the samples' own alphas.
+        let jump = sb.alpha - sa.alpha > 0.25;
+        let normal = match sb.inside {
+            Some((c, q)) => self.normal(c as usize, q, jump),
+            None => Vec3::ZERO,
+        };
+        let normal = if normal.is_finite() && normal.length_squared() > 0.0 { normal } else { -dir.as_vec3() };
+        Hit { t: tb, normal }
+    }
+
+    /// The unit normal at parameters `q` of cell `c` (orientation not settled): the
+    /// carried `−∇alpha`, or the nearest face's where `alpha` jumps or has no gradient.
+    fn normal(&self, c: usize, q: Vec3, jump: bool) -> Vec3 {
+        let cell = &self.scene.cells[c];
+        if !jump {
+            let g = self.scene.gradient(cell.texture(q));
+            let n = -cell.gradient_to_world(q, g);
+            if n.is_finite() && n.length_squared() > 1e-24 {
+                return n.normalize();
+            }
+        }
+        // Outward parameter gradients of the faces and the distances to them.
+        let faces: [(f32, Vec3); 6] = if cell.count == 4 {
+            [
+                (q.x, Vec3::NEG_X),
+                (1.0 - q.x, Vec3::X),
+                (q.y, Vec3::NEG_Y),
+                (1.0 - q.y, Vec3::Y),
+                (q.z, Vec3::NEG_Z),
+                (1.0 - q.z, Vec3::Z),
+            ]
+        } else {
+            [
+                (q.x, Vec3::NEG_X),
+                (q.y, Vec3::NEG_Y),
+                (1.0 - q.x - q.y, Vec3::new(1.0, 1.0, 0.0)),
+                (q.z, Vec3::NEG_Z),
+                (1.0 - q.z, Vec3::Z),
+                (f32::INFINITY, Vec3::Z),
+            ]
+        };
+        let (_, g) = faces.iter().fold((f32::INFINITY, Vec3::Z), |best, f| if f.0 < best.0 { *f } else { best });
+        cell.parameter_gradient_to_world(q, g).normalize_or_zero()
+    }
+}
+
+/// Newton's method on any cell map (quads included), from `q`.
+fn invert_generic(cell: &CellMap, x: Vec3, mut q: Vec3) -> Option<Vec3> {
+    for _ in 0..NEWTON_ITERATIONS {
+        let e = cell.world(q) - x;
+        let (jw, _) = cell.jacobians(q);
+        let det = jw.determinant();
+        if det.abs() <= 1e-30 || !det.is_finite() {
+            return None;
+        }
+        let dq = jw.inverse() * e;
+        q -= dq;
+        if !q.is_finite() || q.abs().max_element() > 1e3 {
+            return None;
+        }
+        if dq.abs().max_element() < 1e-6 {
+            break;
+        }
+    }
+    let size = (0..cell.count).map(|k| cell.director[k].length() + (cell.base[k] - cell.base[0]).length()).sum::<f32>();
+    ((cell.world(q) - x).length() <= 1e-5 * size + 4.0 * f32::EPSILON * x.abs().max_element()).then_some(q)
+}
+
+/// A bounding volume hierarchy over the cells' bounds (median splits, small leaves).
+struct Bvh {
+    nodes: Vec<Node>,
+    items: Vec<u32>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    lo: DVec3,
+    hi: DVec3,
+    /// Leaves: first item and count; inner nodes: the left child (the right one follows
+    /// it) and a count of 0.
+    first: u32,
+    count: u32,
+}
+
+const LEAF_SIZE: usize = 4;
+
+impl Bvh {
+    fn build(bounds: &[(Vec3, Vec3)], mut items: Vec<u32>) -> Self {
+        let centroid = |i: u32| {
+            let (lo, hi) = bounds[i as usize];
+            (lo + hi) * 0.5
+        };
+        let mut nodes = Vec::with_capacity(2 * items.len() / LEAF_SIZE + 1);
+        // (node index, range of items) still to split.
+        let mut todo = vec![(0usize, 0usize, items.len())];
+        nodes.push(Node { lo: DVec3::ZERO, hi: DVec3::ZERO, first: 0, count: 0 });
+        while let Some((n, start, end)) = todo.pop() {
+            let slice = &mut items[start..end];
+            let (lo, hi) = slice.iter().fold((Vec3::MAX, Vec3::MIN), |(a, b), &i| {
+                let (l, h) = bounds[i as usize];
+                (a.min(l), b.max(h))
+            });
+            let (clo, chi) =
+                slice.iter().fold((Vec3::MAX, Vec3::MIN), |(a, b), &i| (a.min(centroid(i)), b.max(centroid(i))));
+            nodes[n].lo = lo.as_dvec3();
+            nodes[n].hi = hi.as_dvec3();
+            let extent = chi - clo;
+            if slice.len() <= LEAF_SIZE || extent.max_element() <= 0.0 {
+                nodes[n].first = start as u32;
+                nodes[n].count = slice.len() as u32;
+                continue;
+            }
+            let axis = extent.max_position();
+            let mid = slice.len() / 2;
+            slice.select_nth_unstable_by(mid, |a, b| centroid(*a)[axis].total_cmp(&centroid(*b)[axis]));
+            let left = nodes.len();
+            nodes.push(Node { lo: DVec3::ZERO, hi: DVec3::ZERO, first: 0, count: 0 });
+            let right = nodes.len();
+            nodes.push(Node { lo: DVec3::ZERO, hi: DVec3::ZERO, first: 0, count: 0 });
+            nodes[n].first = left as u32;
+            todo.push((right, start + mid, end));
+            todo.push((left, start, start + mid));
+        }
+        Self { nodes, items }
+    }
+
+    /// Calls `hit(cell, t0, t1)` for every cell whose bounds the ray `origin + t dir`,
+    /// `t ∈ [0, t_far]`, crosses, with the span of `t` inside them.
+    fn intersect(
+        &self,
+        bounds: &[(Vec3, Vec3)],
+        origin: DVec3,
+        dir: DVec3,
+        t_far: f64,
+        stack: &mut Vec<u32>,
+        mut hit: impl FnMut(u32, f64, f64),
+    ) {
+        let inv = dir.recip();
+        let slab = |lo: DVec3, hi: DVec3| -> Option<(f64, f64)> {
+            let a = (lo - origin) * inv;
+            let b = (hi - origin) * inv;
+            let t0 = a.min(b).max_element().max(0.0);
+            let t1 = a.max(b).min_element().min(t_far);
+            (t0 <= t1).then_some((t0, t1))
+        };
+        stack.clear();
+        stack.push(0);
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            if slab(node.lo, node.hi).is_none() {
+                continue;
+            }
+            if node.count == 0 {
+                stack.push(node.first);
+                stack.push(node.first + 1);
+                continue;
+            }
+            for &i in &self.items[node.first as usize..(node.first + node.count) as usize] {
+                let (lo, hi) = bounds[i as usize];
+                if let Some((t0, t1)) = slab(lo.as_dvec3(), hi.as_dvec3()) {
+                    hit(i, t0, t1);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Mat4, Vec2};
+    use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
+    use thicket_core::testmeshes as tm;
+    use thicket_core::texture::bake::TextureLayer;
+    use thicket_core::texture::{Generator, Pattern, VolumeTexture};
+    use thicket_core::Mesh;
+
+    fn layer(texture: VolumeTexture) -> Vec<TextureLayer> {
+        vec![TextureLayer { texture, offset: Vec2::ZERO }]
+    }
+
+    fn slab() -> VolumeTexture {
+        VolumeTexture::from_fn([4, 4, 33], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap()
+    }
+
+    /// The slab texture on an exterior icosphere(3) shell; its surface is the sphere
+    /// of radius `R`. Returns the scene, `R` and the thickness `h`.
+    fn sphere_scene() -> (ShellScene, f32, f32) {
+        let mesh = tm::icosphere(3);
+        let h = 0.1 * mesh.bbox_diagonal();
+        let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+        let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+        // The slab's iso-surface: texel rows 15/32 (alpha 1) and 16/32 (alpha 0).
+        let r = 1.0 + 15.5 / 32.0 * h;
+        (ShellScene::new(&mesh, &shell, layer(slab()), 1.0).unwrap(), r, h)
+    }
+
+    fn perspective(eye: Vec3, target: Vec3, size: u32) -> Camera {
+        let up = if (target - eye).normalize().cross(Vec3::Z).length() < 1e-3 { Vec3::Y } else { Vec3::Z };
+        let view = Mat4::look_at_rh(eye, target, up);
+        Camera::new(view, Mat4::perspective_rh_gl(0.8, 1.0, 0.01, 100.0), size, size).unwrap()
+    }
+
+    /// The analytic sphere of radius `r` at the origin along pixel `(x, y)`'s ray: the
+    /// ray parameter of the nearest crossing in front of the near plane.
+    fn sphere_t(camera: &Camera, x: u32, y: u32, r: f32) -> Option<(Vec3, f32)> {
+        let (o, d) = camera.ray(x as f32, y as f32);
+        let b = o.dot(d);
+        let c = o.length_squared() - r * r;
+        let disc = b * b - c;
+        if disc < 0.0 {
+            return None;
+        }
+        let (t0, t1) = (-b - disc.sqrt(), -b + disc.sqrt());
+        let t = if t0 >= 0.0 { t0 } else { t1 };
+        (t >= 0.0).then_some((o + d * t, t))
+    }
+
+    /// The world point of a rendered pixel from its depth.
+    fn hit_point(camera: &Camera, x: u32, y: u32, depth: f32) -> Vec3 {
+        let (o, d) = camera.ray(x as f32, y as f32);
+        let (d0, d1) = (camera.depth(o), camera.depth(o + d));
+        o + d * ((depth - d0) / (d1 - d0))
+    }
+
+    struct Comparison {
+        iou: f32,
+        /// Mean `n · radial` over pixels well inside the silhouette.
+        radial: f32,
+        /// Largest depth error over pixels covered in both, relative to `R`.
+        depth_error: Vec<f32>,
+    }
+
+    fn compare(frame: &Frame, camera: &Camera, r: f32) -> Comparison {
+        let (mut inter, mut union, mut dots, mut inner) = (0, 0, 0.0, 0);
+        let mut depth_error = Vec::new();
+        for y in 0..frame.height {
+            for x in 0..frame.width {
+                let i = (y * frame.width + x) as usize;
+                let covered = frame.rgba[i].w > 0.5;
+                let analytic = sphere_t(camera, x, y, r);
+                inter += usize::from(covered && analytic.is_some());
+                union += usize::from(covered || analytic.is_some());
+                if let (true, Some((p, _))) = (covered, analytic) {
+                    assert!((frame.normal[i].length() - 1.0).abs() < 1e-3);
+                    depth_error.push((frame.depth[i] - camera.depth(p)).abs() / r);
+                    // Well inside the silhouette: the ray meets the sphere of radius 0.9 R.
+                    if sphere_t(camera, x, y, 0.9 * r).is_some() {
+                        let q = hit_point(camera, x, y, frame.depth[i]);
+                        dots += frame.normal[i].dot(q.normalize());
+                        inner += 1;
+                    }
+                }
+            }
+        }
+        depth_error.sort_by(f32::total_cmp);
+        Comparison { iou: inter as f32 / union.max(1) as f32, radial: dots / inner.max(1) as f32, depth_error }
+    }
+
+    #[test]
+    fn reference_slab_sphere_matches_the_analytic_sphere() {
+        let (scene, r, h) = sphere_scene();
+        assert!(h > 0.3);
+        let params = RenderParams::default();
+        for dir in [Vec3::NEG_Y, Vec3::new(1.0, 1.0, 1.0), Vec3::new(0.3, -0.2, -1.0), Vec3::Z] {
+            let eye = dir.normalize() * 4.0;
+            let camera = perspective(eye, Vec3::ZERO, 96);
+            let frame = render(&scene, &camera, &params).unwrap();
+            let c = compare(&frame, &camera, r);
+            assert!(c.iou >= 0.97, "{dir}: IoU {}", c.iou);
+            assert!(c.radial > 0.98, "{dir}: mean radial agreement {}", c.radial);
+            // The centre pixel: depth = distance − R.
+            let centre = (48 * 96 + 48) as usize;
+            let expected = camera.depth(sphere_t(&camera, 48, 48, r).unwrap().0);
+            assert!((expected - (4.0 - r)).abs() < 1e-3 * r);
+            assert!((frame.depth[centre] - (4.0 - r)).abs() < 0.01 * r, "{dir}: depth {}", frame.depth[centre]);
+            // Colour: lit, opaque; background transparent and infinitely far.
+            assert_eq!(frame.rgba[centre].w, 1.0);
+            assert!(frame.rgba[0].w == 0.0 && frame.depth[0].is_infinite() && frame.normal[0] == Vec3::ZERO);
+        }
+    }
+
+    #[test]
+    fn reference_grazing_view_works() {
+        let (scene, r, h) = sphere_scene();
+        // Just outside the shell, looking along the surface and slightly down at it.
+        let eye = Vec3::new(0.0, 0.0, 1.0 + 1.2 * h);
+        let camera = perspective(eye, Vec3::new(2.0, 0.0, 0.6), 96);
+        let frame = render(&scene, &camera, &RenderParams::default()).unwrap();
+        let c = compare(&frame, &camera, r);
+        assert!(frame.coverage() > 0.1, "coverage {}", frame.coverage());
+        assert!(c.iou >= 0.95, "IoU {}", c.iou);
+        // Grazing rays amplify the polyhedral base's sag; most pixels still agree.
+        let median = c.depth_error[c.depth_error.len() / 2];
+        assert!(median < 0.02, "median depth error {median}");
+    }
+
+    #[test]
+    fn reference_root_bracketing_is_exact() {
+        let (scene, r, _) = sphere_scene();
+        let camera = perspective(Vec3::new(0.5, -4.0, 0.3), Vec3::ZERO, 96);
+        let coarse = render(&scene, &camera, &RenderParams { step: 0.05, ..Default::default() }).unwrap();
+        let fine = render(&scene, &camera, &RenderParams { step: 0.025, ..Default::default() }).unwrap();
+        for (x, y) in [(48, 48), (30, 60), (60, 40)] {
+            let i = y * 96 + x;
+            let (a, b) = (coarse.depth[i], fine.depth[i]);
+            assert!(a.is_finite() && (a - b).abs() <= 1e-4 * r, "({x}, {y}): {a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn reference_orthographic_disc_has_the_right_size() {
+        let (scene, r, _) = sphere_scene();
+        let view = Mat4::look_at_rh(Vec3::new(0.0, -5.0, 0.0), Vec3::ZERO, Vec3::Z);
+        // 4 world units across 100 pixels: the disc's area is π (R · 25)² pixels.
+        let ortho = Mat4::orthographic_rh_gl(-2.0, 2.0, -2.0, 2.0, 0.1, 100.0);
+        let camera = Camera::new(view, ortho, 100, 100).unwrap();
+        let frame = render(&scene, &camera, &RenderParams::default()).unwrap();
+        let covered = frame.rgba.iter().filter(|c| c.w > 0.5).count() as f32;
+        let expected = std::f32::consts::PI * (r * 25.0).powi(2);
+        assert!((covered - expected).abs() < 0.02 * expected, "{covered} pixels, expected {expected}");
+        let c = compare(&frame, &camera, r);
+        assert!(c.iou >= 0.97 && c.radial > 0.98, "IoU {} radial {}", c.iou, c.radial);
+        // Orthographic depth: 5 − R at the centre.
+        assert!((frame.depth[50 * 100 + 50] - (5.0 - r)).abs() < 0.01 * r);
+    }
+
+    #[test]
+    fn reference_camera_inside_the_shell() {
+        let (scene, _, h) = sphere_scene();
+        // In the empty upper part of the shell (r = 0.8), looking along the surface.
+        let eye = Vec3::new(0.0, 0.0, 1.0 + 0.8 * h);
+        let camera = perspective(eye, Vec3::new(1.0, 0.0, 1.0), 64);
+        let frame = render(&scene, &camera, &RenderParams::default()).unwrap();
+        assert!(frame.coverage() > 0.05, "coverage {}", frame.coverage());
+        assert!(frame.depth.iter().all(|d| *d > 0.0));
+        // Inside the solid part (r = 0.2): rays leave the surface, none enters it.
+        let camera = perspective(Vec3::new(0.0, 0.0, 1.0 + 0.2 * h), Vec3::new(1.0, 0.0, 1.0), 32);
+        render(&scene, &camera, &RenderParams::default()).unwrap();
+    }
+
+    #[test]
+    fn reference_bad_input_is_an_error() {
+        let (scene, _, _) = sphere_scene();
+        let camera = perspective(Vec3::new(0.0, -4.0, 0.0), Vec3::ZERO, 16);
+        for p in [
+            RenderParams { step: 0.0, ..Default::default() },
+            RenderParams { step: f32::NAN, ..Default::default() },
+            RenderParams { light: Vec3::ZERO, ..Default::default() },
+            RenderParams { ambient: 2.0, ..Default::default() },
+            RenderParams { albedo: Vec3::splat(f32::INFINITY), ..Default::default() },
+        ] {
+            assert!(render(&scene, &camera, &p).is_err(), "{p:?}");
+        }
+        let empty = ShellScene { cells: vec![], bounds: vec![], textures: layer(slab()), per_face_tiles: true };
+        assert!(render(&empty, &camera, &RenderParams::default()).is_err());
+        let flat = {
+            let mesh = tm::plane(4);
+            let n = mesh.vertex_count();
+            let shell = thicket_core::shell::Shell {
+                side: Side::Exterior,
+                base_offset: vec![Vec3::ZERO; n],
+                directors: vec![Vec3::ZERO; n],
+                achieved: vec![0.0; n],
+                target: vec![0.0; n],
+            };
+            ShellScene::new(&mesh, &shell, layer(slab()), 1.0).unwrap()
+        };
+        assert!(render(&flat, &camera, &RenderParams::default()).is_err());
+        // Zero-size viewports never reach the renderer.
+        let mut tiny = camera;
+        tiny.width = 0;
+        assert!(render(&scene, &tiny, &RenderParams::default()).is_err());
+    }
+
+    #[test]
+    fn reference_uv_sheet_and_quad_cells_render_alike() {
+        // A sheet with UVs, rendered from above: the slab covers the whole sheet.
+        let base = tm::plane(6);
+        let uvs: Vec<Vec2> =
+            base.corners().iter().map(|&v| base.positions()[v as usize].truncate() * 0.5 + 0.5).collect();
+        let mesh =
+            Mesh::new(base.positions().to_vec(), &base.face_sizes(), base.corners().to_vec(), Some(uvs)).unwrap();
+        let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+        let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+        let scene = ShellScene::new(&mesh, &shell, layer(slab()), 2.0).unwrap();
+        assert!(scene.cells.iter().all(|c| c.count == 3));
+        let (lo, hi) = scene.bounds();
+        let centre = (lo + hi) * 0.5;
+        let camera = perspective(centre + Vec3::new(0.3, 0.2, 3.0), centre, 48);
+        let triangles = render(&scene, &camera, &RenderParams::default()).unwrap();
+        assert!(triangles.coverage() > 0.1);
+        let i = 24 * 48 + 24;
+        assert!(triangles.rgba[i].w == 1.0 && triangles.normal[i].z > 0.99, "{}", triangles.normal[i]);
+        // The same sheet as quad cells (the generic inversion path): the same picture.
+        let uv = mesh.uvs().unwrap();
+        let cells: Vec<CellMap> = (0..mesh.face_count())
+            .map(|f| {
+                let st: Vec<Vec2> = uv[mesh.face_corner_range(f)].iter().map(|u| *u * 2.0).collect();
+                CellMap::new(&mesh, &shell, mesh.face(f), &st)
+            })
+            .collect();
+        assert!(cells.iter().all(|c| c.count == 4));
+        let bounds = cells
+            .iter()
+            .map(|c| {
+                let corners = (0..4).flat_map(|k| [c.base[k], c.base[k] + c.director[k]]);
+                corners.fold((Vec3::MAX, Vec3::MIN), |(a, b), p| (a.min(p), b.max(p)))
+            })
+            .collect();
+        let quads = ShellScene { cells, bounds, textures: layer(slab()), per_face_tiles: false };
+        let quads = render(&quads, &camera, &RenderParams::default()).unwrap();
+        let differ = triangles.rgba.iter().zip(&quads.rgba).filter(|(a, b)| (a.w - b.w).abs() > 0.5).count();
+        assert!(differ <= 16, "{differ} pixels differ");
+        assert!((triangles.depth[i] - quads.depth[i]).abs() < 1e-5, "{} vs {}", triangles.depth[i], quads.depth[i]);
+        assert!((triangles.normal[i] - quads.normal[i]).length() < 1e-3);
+    }
+
+    #[test]
+    fn reference_chain_mail_renders_in_reasonable_time() {
+        let mesh = tm::icosphere(3);
+        let t = Thickness::relative(0.05).per_vertex(&mesh, None).unwrap();
+        let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+        let tex = Generator::new(Pattern::ChainMail).generate([64, 64, 32]).unwrap();
+        let scene = ShellScene::new(&mesh, &shell, layer(tex), 1.0).unwrap();
+        let camera = perspective(Vec3::new(1.0, -3.0, 1.5), Vec3::ZERO, 128);
+        let start = std::time::Instant::now();
+        let frame = render(&scene, &camera, &RenderParams::default()).unwrap();
+        let elapsed = start.elapsed();
+        eprintln!("chain mail 128x128 on icosphere(3): {elapsed:?}, coverage {:.3}", frame.coverage());
+        assert!(frame.coverage() > 0.1 && frame.coverage() < 0.6, "coverage {}", frame.coverage());
+        assert!(frame.normal.iter().zip(&frame.rgba).all(|(n, c)| c.w == 0.0 || (n.length() - 1.0).abs() < 1e-3));
+    }
+
+    #[test]
+    fn reference_bvh_finds_every_crossed_box() {
+        // Boxes on a grid; the BVH agrees with brute force.
+        let bounds: Vec<(Vec3, Vec3)> = (0..1000)
+            .map(|i| {
+                let p = Vec3::new((i % 10) as f32, ((i / 10) % 10) as f32, (i / 100) as f32);
+                (p, p + Vec3::splat(0.7))
+            })
+            .collect();
+        let bvh = Bvh::build(&bounds, (0..1000).collect());
+        let mut stack = Vec::new();
+        for (o, d) in [
+            (DVec3::new(-1.0, 0.3, 0.2), DVec3::new(1.0, 0.5, 0.3)),
+            (DVec3::new(4.3, 4.2, -2.0), DVec3::Z),
+            (DVec3::new(12.0, 12.0, 12.0), DVec3::NEG_ONE),
+        ] {
+            let d = d.normalize();
+            let mut found = Vec::new();
+            bvh.intersect(&bounds, o, d, 100.0, &mut stack, |i, _, _| found.push(i));
+            found.sort();
+            let brute: Vec<u32> = (0..1000u32)
+                .filter(|&i| {
+                    let (lo, hi) = bounds[i as usize];
+                    let (a, b) = ((lo.as_dvec3() - o) / d, (hi.as_dvec3() - o) / d);
+                    a.min(b).max_element().max(0.0) <= a.max(b).min_element().min(100.0)
+                })
+                .collect();
+            assert_eq!(found, brute);
+            assert!(!found.is_empty());
+        }
+    }
+}

@@ -1,0 +1,317 @@
+//! The wgpu slice renderer against the CPU reference renderer.
+//!
+//! These tests need a GPU adapter and FAIL without one: `make test-rust` installs
+//! Mesa's lavapipe (a Vulkan driver on the CPU) where no Vulkan driver exists.
+
+use std::sync::{Mutex, MutexGuard, OnceLock};
+
+use glam::{Mat4, Vec2, Vec3};
+use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
+use thicket_core::testmeshes as tm;
+use thicket_core::texture::bake::TextureLayer;
+use thicket_core::texture::{Generator, Pattern, VolumeTexture};
+use thicket_render::gpu::{GpuRenderer, SliceMode, SliceParams};
+use thicket_render::reference::{self, RenderParams};
+use thicket_render::{Camera, Frame, ShellScene};
+
+/// One renderer for all tests (they take turns).
+fn renderer() -> MutexGuard<'static, GpuRenderer> {
+    static R: OnceLock<Mutex<GpuRenderer>> = OnceLock::new();
+    R.get_or_init(|| {
+        let r = GpuRenderer::new().unwrap_or_else(|e| panic!("no GPU adapter (make test-rust installs lavapipe): {e}"));
+        eprintln!("GPU adapter: {}", r.adapter_name());
+        Mutex::new(r)
+    })
+    .lock()
+    .unwrap_or_else(|e| e.into_inner())
+}
+
+fn layer(texture: VolumeTexture) -> Vec<TextureLayer> {
+    vec![TextureLayer { texture, offset: Vec2::ZERO }]
+}
+
+/// An exterior shell of relative thickness `thickness` over `mesh` with `texture`.
+fn scene(mesh: &thicket_core::Mesh, thickness: f32, texture: VolumeTexture) -> ShellScene {
+    let t = Thickness::relative(thickness).per_vertex(mesh, None).unwrap();
+    let shell = build_shell(mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    ShellScene::new(mesh, &shell, layer(texture), 1.0).unwrap()
+}
+
+/// The reference renderer's slab: alpha 1 below r = 0.5, 0 above (a sharp step).
+fn slab_scene() -> ShellScene {
+    let slab = VolumeTexture::from_fn([4, 4, 33], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap();
+    scene(&tm::icosphere(3), 0.1, slab)
+}
+
+fn chain_mail_scene() -> ShellScene {
+    let tex = Generator::new(Pattern::ChainMail).generate([64, 64, 32]).unwrap();
+    scene(&tm::icosphere(3), 0.05, tex)
+}
+
+fn perspective(eye: Vec3, target: Vec3, fov: f32, size: u32) -> Camera {
+    let up = if (target - eye).normalize().cross(Vec3::Z).length() < 1e-3 { Vec3::Y } else { Vec3::Z };
+    Camera::new(Mat4::look_at_rh(eye, target, up), Mat4::perspective_rh_gl(fov, 1.0, 0.01, 100.0), size, size).unwrap()
+}
+
+/// The whole sphere, three quarters from above.
+fn front_view(size: u32) -> Camera {
+    perspective(Vec3::new(1.2, -3.0, 1.5), Vec3::ZERO, 0.8, size)
+}
+
+/// A narrow view of the sphere's limb: the surface seen at grazing angles, slices
+/// across the shell (sections) in most cells.
+fn grazing_view(size: u32) -> Camera {
+    perspective(Vec3::new(0.0, -4.0, 0.3), Vec3::new(1.0, -0.05, 0.1), 0.12, size)
+}
+
+/// A close view of the surface facing the camera (chain mail rings a few pixels thick).
+fn close_view(size: u32) -> Camera {
+    perspective(Vec3::new(1.2, -3.0, 1.5), Vec3::new(0.35, -0.85, 0.45), 0.25, size)
+}
+
+fn slice_params(slices: u32, mode: SliceMode) -> SliceParams {
+    let p = RenderParams::default();
+    SliceParams { slices, mode, light: p.light, ambient: p.ambient, albedo: p.albedo }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Score {
+    /// Intersection over union of the covered pixels.
+    iou: f32,
+    /// PSNR of the colour over the whole image (background black), dB.
+    psnr: f32,
+    /// Mean absolute colour error over the pixels covered in both.
+    mae: f32,
+    /// Median relative depth error over the pixels covered in both.
+    depth: f32,
+}
+
+fn score(gpu: &Frame, cpu: &Frame) -> Score {
+    assert_eq!((gpu.width, gpu.height), (cpu.width, cpu.height));
+    let (mut inter, mut union, mut se, mut ae) = (0usize, 0usize, 0.0f64, 0.0f64);
+    let mut depth = Vec::new();
+    for i in 0..gpu.rgba.len() {
+        let (a, b) = (gpu.rgba[i], cpu.rgba[i]);
+        let (ca, cb) = (a.w > 0.5, b.w > 0.5);
+        inter += usize::from(ca && cb);
+        union += usize::from(ca || cb);
+        let d = a.truncate() * a.w - b.truncate() * b.w;
+        se += d.length_squared() as f64 / 3.0;
+        if ca && cb {
+            ae += (d.abs().element_sum() / 3.0) as f64;
+            depth.push((gpu.depth[i] - cpu.depth[i]).abs() / cpu.depth[i]);
+            assert!((gpu.normal[i].length() - 1.0).abs() < 1e-3, "normal {}", gpu.normal[i]);
+        }
+    }
+    depth.sort_by(f32::total_cmp);
+    let mse = se / gpu.rgba.len() as f64;
+    Score {
+        iou: inter as f32 / union.max(1) as f32,
+        psnr: (10.0 * (1.0 / mse.max(1e-12)).log10()) as f32,
+        mae: (ae / inter.max(1) as f64) as f32,
+        depth: depth.get(depth.len() / 2).copied().unwrap_or(0.0),
+    }
+}
+
+/// Renders `scene` with both modes at 8, 16 and 32 slices, scores each against the
+/// reference and checks: coverage within `min_iou[k]`, the interpolating mode's colour
+/// within `min_psnr[k]`, and the interpolating mode closer to the reference than
+/// plain slicing (figure 5.2): a better colour, or (where plain slicing already
+/// matches the colour: a slice on the iso-surface) the same colour and a better depth.
+fn compare_with_reference(name: &str, scene: &ShellScene, camera: &Camera, min_iou: [f32; 3], min_psnr: [f32; 3]) {
+    let reference = reference::render(scene, camera, &RenderParams { step: 0.02, ..Default::default() }).unwrap();
+    assert!(reference.coverage() > 0.05, "{name}: the reference sees nothing");
+    let mut r = renderer();
+    for (k, slices) in [8, 16, 32].into_iter().enumerate() {
+        let mut scores = Vec::new();
+        for mode in [SliceMode::Plain, SliceMode::Interpolating] {
+            let frame = r.render(scene, camera, &slice_params(slices, mode)).unwrap();
+            let s = score(&frame, &reference);
+            eprintln!(
+                "| {name:<20} | {:<13} | {slices:>2} | {:.4} | {:5.2} | {:.4} | {:.5} |",
+                format!("{mode:?}"),
+                s.iou,
+                s.psnr,
+                s.mae,
+                s.depth
+            );
+            assert!(s.iou >= min_iou[k], "{name} {mode:?} {slices}: IoU {}", s.iou);
+            if mode == SliceMode::Interpolating {
+                assert!(s.psnr >= min_psnr[k], "{name} {mode:?} {slices}: PSNR {}", s.psnr);
+            }
+            scores.push(s);
+        }
+        let (plain, interp) = (scores[0], scores[1]);
+        let better_colour = interp.psnr > plain.psnr + 0.01 && interp.mae < plain.mae;
+        let same_colour_better_depth = interp.psnr >= plain.psnr - 0.05 && interp.depth < 0.5 * plain.depth;
+        assert!(
+            better_colour || same_colour_better_depth,
+            "{name}, {slices} slices: interpolating ({interp:?}) is not closer to the reference than plain ({plain:?})"
+        );
+    }
+}
+
+// Columns of the printed table: scene and view, mode, slices, coverage IoU, colour
+// PSNR (dB), mean absolute colour error, median relative depth error.
+
+#[test]
+fn slab_sphere_matches_the_reference() {
+    compare_with_reference("slab, front", &slab_scene(), &front_view(128), [0.995; 3], [35.0, 38.0, 38.0]);
+}
+
+#[test]
+fn slab_sphere_grazing_view_matches_the_reference() {
+    compare_with_reference("slab, grazing", &slab_scene(), &grazing_view(128), [0.99; 3], [30.0, 33.0, 33.0]);
+}
+
+#[test]
+fn chain_mail_matches_the_reference() {
+    compare_with_reference(
+        "chain mail, close",
+        &chain_mail_scene(),
+        &close_view(128),
+        [0.8, 0.95, 0.985],
+        [13.5, 20.0, 26.0],
+    );
+}
+
+#[test]
+fn chain_mail_grazing_view_matches_the_reference() {
+    compare_with_reference(
+        "chain mail, grazing",
+        &chain_mail_scene(),
+        &grazing_view(128),
+        [0.8, 0.95, 0.985],
+        [12.0, 17.0, 21.5],
+    );
+}
+
+#[test]
+fn orthographic_view_matches_the_reference() {
+    let scene = slab_scene();
+    let view = Mat4::look_at_rh(Vec3::new(0.0, -5.0, 0.0), Vec3::ZERO, Vec3::Z);
+    let camera = Camera::new(view, Mat4::orthographic_rh_gl(-2.0, 2.0, -2.0, 2.0, 0.1, 100.0), 96, 96).unwrap();
+    let reference = reference::render(&scene, &camera, &RenderParams::default()).unwrap();
+    let frame = renderer().render(&scene, &camera, &slice_params(16, SliceMode::Interpolating)).unwrap();
+    let s = score(&frame, &reference);
+    eprintln!("orthographic slab, 16 slices, interpolating: {s:?}");
+    assert!(s.iou > 0.99 && s.psnr > 35.0, "{s:?}");
+}
+
+#[test]
+fn camera_inside_the_shell() {
+    let scene = slab_scene();
+    let h = 0.1 * tm::icosphere(3).bbox_diagonal();
+    let p = slice_params(16, SliceMode::Interpolating);
+    // In the empty upper part of the shell (r = 0.8), looking along the surface: the
+    // slices behind the near plane are clipped away; the image matches the reference.
+    let camera = perspective(Vec3::new(0.0, 0.0, 1.0 + 0.8 * h), Vec3::new(1.0, 0.0, 1.0), 0.8, 64);
+    let reference = reference::render(&scene, &camera, &RenderParams::default()).unwrap();
+    let frame = renderer().render(&scene, &camera, &p).unwrap();
+    let s = score(&frame, &reference);
+    eprintln!("camera inside the shell (r = 0.8): {s:?}, coverage {}", frame.coverage());
+    assert!(frame.coverage() > 0.05 && s.iou > 0.97 && s.psnr > 25.0, "{s:?}");
+    assert!(frame.depth.iter().all(|d| *d > 0.0));
+    // Inside the solid part (r = 0.2): an image, no panic (the slice renderer shows the
+    // solid around the camera; the reference only surfaces entered from outside).
+    let camera = perspective(Vec3::new(0.0, 0.0, 1.0 + 0.2 * h), Vec3::new(1.0, 0.0, 1.0), 0.8, 32);
+    let frame = renderer().render(&scene, &camera, &p).unwrap();
+    assert!(frame.normal.iter().zip(&frame.rgba).all(|(n, c)| c.w == 0.0 || (n.length() - 1.0).abs() < 1e-3));
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let scene = slab_scene();
+    let camera = perspective(Vec3::new(0.0, -4.0, 0.0), Vec3::ZERO, 0.8, 16);
+    let mut r = renderer();
+    let good = slice_params(8, SliceMode::Interpolating);
+    for p in [
+        SliceParams { slices: 0, ..good },
+        SliceParams { slices: 1, ..good },
+        SliceParams { slices: 100_000, ..good },
+        SliceParams { light: Vec3::ZERO, ..good },
+        SliceParams { light: Vec3::NAN, ..good },
+        SliceParams { ambient: 2.0, ..good },
+        SliceParams { albedo: Vec3::splat(f32::INFINITY), ..good },
+    ] {
+        assert!(r.render(&scene, &camera, &p).is_err(), "{p:?}");
+    }
+    // An empty shell, a shell without texture, a shell of zero thickness.
+    let slab = || VolumeTexture::from_fn([4, 4, 33], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap();
+    let empty = ShellScene { cells: vec![], bounds: vec![], textures: layer(slab()), per_face_tiles: true };
+    let e = r.render(&empty, &camera, &good).unwrap_err();
+    eprintln!("empty shell: {e}");
+    let bare =
+        ShellScene { cells: scene.cells.clone(), bounds: scene.bounds.clone(), textures: vec![], per_face_tiles: true };
+    assert!(r.render(&bare, &camera, &good).is_err());
+    let flat = {
+        let mesh = tm::plane(4);
+        let n = mesh.vertex_count();
+        let shell = thicket_core::shell::Shell {
+            side: Side::Exterior,
+            base_offset: vec![Vec3::ZERO; n],
+            directors: vec![Vec3::ZERO; n],
+            achieved: vec![0.0; n],
+            target: vec![0.0; n],
+        };
+        ShellScene::new(&mesh, &shell, layer(slab()), 1.0).unwrap()
+    };
+    assert!(r.render(&flat, &camera, &good).is_err());
+    // Zero-size viewports: Camera::new refuses them, the renderer too.
+    assert!(Camera::new(camera.view, camera.projection, 0, 16).is_err());
+    let mut tiny = camera;
+    tiny.width = 0;
+    assert!(r.render(&scene, &tiny, &good).is_err());
+    // A viewport larger than any GPU image.
+    let mut huge = camera;
+    huge.width = 1 << 20;
+    assert!(r.render(&scene, &huge, &good).is_err());
+    // Non-finite cells render (garbage in, an image out), without panicking.
+    let mut broken = ShellScene {
+        cells: scene.cells.clone(),
+        bounds: scene.bounds.clone(),
+        textures: layer(slab()),
+        per_face_tiles: true,
+    };
+    broken.cells[0].base[1] = Vec3::NAN;
+    broken.cells[1].director[2] = Vec3::splat(f32::INFINITY);
+    let _ = r.render(&broken, &camera, &good);
+    // The renderer still works.
+    let frame = r.render(&scene, &camera, &good).unwrap();
+    assert!(frame.coverage() > 0.1);
+}
+
+#[test]
+fn frames_are_deterministic() {
+    let scene = slab_scene();
+    let camera = front_view(48);
+    let mut r = renderer();
+    let p = slice_params(12, SliceMode::Interpolating);
+    let a = r.render(&scene, &camera, &p).unwrap();
+    let first = r.last_timings().unwrap();
+    let b = r.render(&scene, &camera, &p).unwrap();
+    let again = r.last_timings().unwrap();
+    assert_eq!(a, b, "the same frame twice");
+    // The first frame of a scene uploads it; the second reuses it.
+    eprintln!("first frame {first:?}, again {again:?}");
+    assert!(again.total() > std::time::Duration::ZERO);
+}
+
+#[test]
+fn shaders_validate() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
+    let mut count = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "wgsl") {
+            let source = std::fs::read_to_string(&path).unwrap();
+            let module = naga::front::wgsl::parse_str(&source)
+                .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&source)));
+            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&source)));
+            count += 1;
+        }
+    }
+    assert!(count > 0, "no shader in {}", dir.display());
+}

@@ -1,0 +1,344 @@
+// Thicket's slice renderer for volume-textured shells (Peng & Zorin 2004, thick
+// surfaces, chapter 5), in three passes over the same slice geometry:
+//
+//   1. `vs_slice` + `fs_inside`: every slice fragment samples alpha at its texture
+//      coordinates and is kept where alpha >= 0.5 (the alpha test); the depth test
+//      keeps the nearest. Output T1: the fragment's cell parameters (u, v, r), its
+//      cell and face code; and Z1: its depth along the view axis (full precision).
+//   2. `vs_slice` + `fs_outside` (interpolating mode only): the fragments with
+//      alpha < 0.5 of the same cell as T1 and in front of Z1; the reversed depth test
+//      keeps the farthest, i.e. the last outside slice before the surface. Output T2.
+//   3. `vs_fullscreen` + `fs_shade`: interpolates T1 and T2 by their alphas (the
+//      linear root of alpha = 0.5), looks up the gradient there, carries it to world
+//      space through the interpolated per-corner transform and lights it.
+//
+// The slice geometry is a template in cell parameters (u, v, r) (barycentric
+// (1-u-v, u, v) on the base triangle, r along the directors), instanced per cell
+// and mapped through the cell in `vs_slice` (see rust/render/src/gpu/slices.rs):
+// layers r = const or sections across the prism, whichever the view ray crosses
+// most often, plus the prism's faces, all drawn a little inside the cell so that the
+// two copies of a face shared by two cells are met in order. Texture coordinates
+// (s, t, r) are affine in (u, v, r) within a cell, so interpolating one interpolates
+// the other; T1 and T2 hold (u, v, r) and the tag of their cell, and pass 2 keeps
+// T1's cell only, so both ends of an interpolation come from the same texture.
+
+struct Globals {
+    // World to clip space, depth reversed (1 on the near plane, 0 on the far one).
+    view_proj: mat4x4<f32>,
+    // Clip space to world, for the pixel rays of the final pass.
+    inv_view_proj: mat4x4<f32>,
+    // Depth along the view axis: -(dot(view_z.xyz, x) + view_z.w).
+    view_z: vec4<f32>,
+    // Unit direction toward the light, world space; w: ambient share.
+    light: vec4<f32>,
+    // Linear albedo; w: 1 for the interpolating mode, 0 for plain slicing.
+    albedo: vec4<f32>,
+    // Tile offset (s, t) of the texture; z: its texel rows nz across the shell.
+    texture_info: vec4<f32>,
+    // Viewport width, height and their reciprocals.
+    viewport: vec4<f32>,
+};
+
+// A triangle prism: base corners with their s in w, directors with their t in w.
+struct Cell {
+    corner: array<vec4<f32>, 3>,
+    director: array<vec4<f32>, 3>,
+};
+
+// Per cell, J_world^{-T} (parameter gradient to world gradient) at the six corners:
+// index 2k is corner k on the base (r = 0), 2k+1 on the outer layer (r = 1).
+struct CellFrames {
+    corner: array<mat3x3<f32>, 6>,
+};
+
+@group(0) @binding(0) var<uniform> globals: Globals;
+@group(0) @binding(1) var<storage, read> cells: array<Cell>;
+@group(0) @binding(2) var<storage, read> frames: array<CellFrames>;
+// rgb: d alpha / d(s, t, r) at texel centres; a: alpha. Repeat in s, t, clamp in r.
+@group(0) @binding(3) var volume_texture: texture_3d<f32>;
+@group(0) @binding(4) var volume_sampler: sampler;
+
+// Per cell and side face (u = 0, v = 0, w = 0), the (s, t) the neighbouring cell has
+// at the face's two corners: (s_a, t_a, s_b, t_b); s_a = NO_NEIGHBOUR on the shell's
+// boundary.
+struct Neighbours {
+    face: array<vec4<f32>, 3>,
+};
+const NO_NEIGHBOUR: f32 = 3.0e38;
+
+@group(0) @binding(5) var<storage, read> neighbours: array<Neighbours>;
+
+// T1: bitcast (u, v, r) of the nearest inside fragment, w = (cell + 1) * 8 + face
+// (0: empty pixel). Z1: its depth along the view axis.
+@group(1) @binding(0) var first_hit: texture_2d<u32>;
+@group(1) @binding(1) var first_depth: texture_2d<f32>;
+// T2: (u, v, r) of the last outside fragment before T1 in T1's cell, w = its depth
+// (0: none).
+@group(2) @binding(0) var second_hit: texture_2d<f32>;
+
+// Face codes of the template (0: an interior slice).
+const FACE_U0: u32 = 1u; // u = 0 (edge from corner 2 to corner 0)
+const FACE_V0: u32 = 2u; // v = 0 (edge from corner 0 to corner 1)
+const FACE_W0: u32 = 3u; // 1 - u - v = 0 (edge from corner 1 to corner 2)
+const FACE_BASE: u32 = 4u; // r = 0
+const FACE_TOP: u32 = 5u; // r = 1
+
+fn barycentric(q: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(1.0 - q.x - q.y, q.x, q.y);
+}
+
+fn cell_world(c: Cell, q: vec3<f32>) -> vec3<f32> {
+    let w = barycentric(q);
+    return w.x * (c.corner[0].xyz + q.z * c.director[0].xyz)
+        + w.y * (c.corner[1].xyz + q.z * c.director[1].xyz)
+        + w.z * (c.corner[2].xyz + q.z * c.director[2].xyz);
+}
+
+// Texture coordinates (s, t, r) at cell parameters q.
+fn cell_texture(c: Cell, q: vec3<f32>) -> vec3<f32> {
+    let w = barycentric(q);
+    let s = w.x * c.corner[0].w + w.y * c.corner[1].w + w.z * c.corner[2].w;
+    let t = w.x * c.director[0].w + w.y * c.director[1].w + w.z * c.director[2].w;
+    return vec3<f32>(s, t, q.z);
+}
+
+// The volume texture (gradient, alpha) at texture coordinates (s, t, r). Texel
+// centres lie at (i + 1/2) / n in s and t and at k / (nz - 1) in r, as on the CPU.
+fn volume(tex: vec3<f32>) -> vec4<f32> {
+    let nz = globals.texture_info.z;
+    let w = (clamp(tex.z, 0.0, 1.0) * (nz - 1.0) + 0.5) / nz;
+    return textureSampleLevel(volume_texture, volume_sampler, vec3<f32>(tex.xy + globals.texture_info.xy, w), 0.0);
+}
+
+// d world / d(u, v, r) at q.
+fn cell_jacobian(c: Cell, q: vec3<f32>) -> mat3x3<f32> {
+    let w = barycentric(q);
+    let x0 = c.corner[0].xyz + q.z * c.director[0].xyz;
+    let x1 = c.corner[1].xyz + q.z * c.director[1].xyz;
+    let x2 = c.corner[2].xyz + q.z * c.director[2].xyz;
+    let pr = w.x * c.director[0].xyz + w.y * c.director[1].xyz + w.z * c.director[2].xyz;
+    return mat3x3<f32>(x1 - x0, x2 - x0, pr);
+}
+
+// The exact parameters of world point x, by Newton's method from q (close already).
+// Needed on the sections and side faces: the cell map is bilinear in their plane
+// (the directors fan out), so the parameters the rasterizer interpolates linearly
+// across their triangles are off by a share of the cell that more slices do not
+// shrink. The layers r = const are exact (the map is affine on them).
+fn refine(c: Cell, q0: vec3<f32>, x: vec3<f32>) -> vec3<f32> {
+    var q = q0;
+    for (var i = 0; i < 2; i++) {
+        let j = cell_jacobian(c, q);
+        let e = cell_world(c, q) - x;
+        // Rows of J^{-1}: cross products of J's columns over the determinant.
+        let c0 = cross(j[1], j[2]);
+        let c1 = cross(j[2], j[0]);
+        let c2 = cross(j[0], j[1]);
+        let det = dot(j[0], c0);
+        if !(abs(det) > 1e-30) {
+            break;
+        }
+        q -= vec3<f32>(dot(c0, e), dot(c1, e), dot(c2, e)) / det;
+    }
+    return q;
+}
+
+struct SliceVarying {
+    @builtin(position) position: vec4<f32>,
+    @location(0) param: vec3<f32>,
+    @location(1) world: vec3<f32>,
+    @location(2) view_depth: f32,
+    // (cell + 1) * 8 + face.
+    @location(3) @interpolate(flat) code: u32,
+    // 1 where the parameters need refining (sections and side faces).
+    @location(4) @interpolate(flat) refine: u32,
+};
+
+// A slice fragment's exact cell parameters.
+fn fragment_param(v: SliceVarying) -> vec3<f32> {
+    if v.refine == 0u {
+        return v.param;
+    }
+    return refine(cells[v.code / 8u - 1u], v.param, v.world);
+}
+
+// `slice`: a template vertex (u, v, r, face + 8 family); `cell`: the instance's cell.
+@vertex
+fn vs_slice(@location(0) slice: vec4<f32>, @location(1) cell: u32) -> SliceVarying {
+    let c = cells[cell];
+    let q = slice.xyz;
+    let x = cell_world(c, q);
+    let tag = u32(slice.w);
+    let face = tag % 8u;
+    var out: SliceVarying;
+    out.position = globals.view_proj * vec4<f32>(x, 1.0);
+    out.param = q;
+    out.world = x;
+    out.view_depth = -(dot(globals.view_z.xyz, x) + globals.view_z.w);
+    out.code = (cell + 1u) * 8u + face;
+    out.refine = select(0u, 1u, tag >= 8u || (face >= FACE_U0 && face <= FACE_W0));
+    return out;
+}
+
+struct FirstHit {
+    @location(0) hit: vec4<u32>,
+    @location(1) depth: f32,
+};
+
+// Pass 1: the alpha test keeps the inside (alpha >= 0.5); the depth test the nearest.
+@fragment
+fn fs_inside(v: SliceVarying) -> FirstHit {
+    let q = fragment_param(v);
+    if volume(cell_texture(cells[v.code / 8u - 1u], q)).a < 0.5 {
+        discard;
+    }
+    return FirstHit(vec4<u32>(bitcast<vec3<u32>>(q), v.code), v.view_depth);
+}
+
+// Pass 2: the outside (alpha < 0.5) fragments of T1's cell in front of Z1; the
+// reversed depth test keeps the farthest of them.
+@fragment
+fn fs_outside(v: SliceVarying) -> @location(0) vec4<f32> {
+    let q = fragment_param(v);
+    if volume(cell_texture(cells[v.code / 8u - 1u], q)).a >= 0.5 {
+        discard;
+    }
+    let px = vec2<i32>(floor(v.position.xy));
+    let first = textureLoad(first_hit, px, 0);
+    if first.w / 8u != v.code / 8u || v.view_depth >= textureLoad(first_depth, px, 0).r {
+        discard;
+    }
+    return vec4<f32>(q, v.view_depth);
+}
+
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let p = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(p * 2.0 - 1.0, 0.0, 1.0);
+}
+
+struct Shaded {
+    // Linear colour, alpha 1 on the surface and 0 elsewhere.
+    @location(0) color: vec4<f32>,
+    // Unit world normal facing the camera; w: depth along the view axis.
+    @location(1) normal_depth: vec4<f32>,
+};
+
+// J_world^{-T} at q, interpolated from the cell's corners (barycentric in (u, v),
+// linear in r), as the paper does instead of recomputing it per fragment.
+fn cell_frame(cell: u32, q: vec3<f32>) -> mat3x3<f32> {
+    let w = barycentric(q);
+    let f = frames[cell].corner;
+    let base = f[0] * w.x + f[2] * w.y + f[4] * w.z;
+    let top = f[1] * w.x + f[3] * w.y + f[5] * w.z;
+    return base * (1.0 - q.z) + top * q.z;
+}
+
+// Outward parameter gradient of a face.
+fn face_gradient(face: u32) -> vec3<f32> {
+    switch face {
+        case FACE_U0: { return vec3<f32>(-1.0, 0.0, 0.0); }
+        case FACE_V0: { return vec3<f32>(0.0, -1.0, 0.0); }
+        case FACE_W0: { return vec3<f32>(1.0, 1.0, 0.0); }
+        case FACE_BASE: { return vec3<f32>(0.0, 0.0, -1.0); }
+        default: { return vec3<f32>(0.0, 0.0, 1.0); } // FACE_TOP
+    }
+}
+
+// Alpha just across `face` of `cell` at parameters q on it: in the neighbour's own
+// texture coordinates (they may jump: a UV seam, one tile per face), or 0 outside
+// the shell.
+fn alpha_across(cell: u32, face: u32, q: vec3<f32>) -> f32 {
+    if face == 0u || face > FACE_W0 {
+        return 0.0;
+    }
+    let n = neighbours[cell].face[face - 1u];
+    if n.x >= NO_NEIGHBOUR {
+        return 0.0;
+    }
+    // Where q lies along the face's edge, from its corner a to its corner b.
+    let w = barycentric(q);
+    var t: f32;
+    switch face {
+        case FACE_U0: { t = w.x / (w.z + w.x); } // corner 2 to corner 0
+        case FACE_V0: { t = w.y / (w.x + w.y); } // corner 0 to corner 1
+        default: { t = w.z / (w.y + w.z); } // FACE_W0: corner 1 to corner 2
+    }
+    return volume(vec3<f32>(mix(n.xy, n.zw, t), q.z)).a;
+}
+
+// Unit direction of the ray through the pixel centre at `frag` (window coordinates).
+fn pixel_ray(frag: vec2<f32>) -> vec3<f32> {
+    let ndc = vec2<f32>(frag.x * 2.0 * globals.viewport.z - 1.0, 1.0 - frag.y * 2.0 * globals.viewport.w);
+    // Reversed depth: 1 on the near plane; 0.5 is farther (and finite, unlike 0 for
+    // an infinite far plane).
+    let near = globals.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
+    let far = globals.inv_view_proj * vec4<f32>(ndc, 0.5, 1.0);
+    return normalize(far.xyz / far.w - near.xyz / near.w);
+}
+
+// Pass 3: surface point, normal and lighting per pixel.
+@fragment
+fn fs_shade(@builtin(position) position: vec4<f32>) -> Shaded {
+    let px = vec2<i32>(floor(position.xy));
+    let first = textureLoad(first_hit, px, 0);
+    if first.w == 0u {
+        return Shaded(vec4<f32>(0.0), vec4<f32>(0.0));
+    }
+    let cell = first.w / 8u - 1u;
+    let face = first.w % 8u;
+    let c = cells[cell];
+    let dir = pixel_ray(position.xy);
+    var q = bitcast<vec3<f32>>(first.xyz);
+    var depth = textureLoad(first_depth, px, 0).r;
+    var n = vec3<f32>(0.0);
+    // The first inside sample on a face the ray enters the cell through: the
+    // neighbour's copy of the face, just in front, was outside. Where alpha jumps
+    // across the face (by more than 1/4, as the reference renderer decides), the face
+    // itself is the surface, with the face's normal; otherwise the surface crossed
+    // between the two copies and the gradient here gives its normal.
+    var on_face = false;
+    if face != 0u {
+        let nf = cell_frame(cell, q) * face_gradient(face);
+        if dot(nf, dir) < 0.0 && volume(cell_texture(c, q)).a - alpha_across(cell, face, q) > 0.25 {
+            on_face = true;
+            n = nf;
+        }
+    }
+    if !on_face {
+        if globals.albedo.w > 0.5 {
+            let second = textureLoad(second_hit, px, 0);
+            if second.w > 0.0 {
+                // t3 = ((a1 - 1/2) t2 - (a2 - 1/2) t1) / (a1 - a2), chapter 5.3.2.
+                let a1 = volume(cell_texture(c, q)).a;
+                let a2 = volume(cell_texture(c, second.xyz)).a;
+                if a1 > a2 {
+                    let l = clamp((a1 - 0.5) / (a1 - a2), 0.0, 1.0);
+                    q = mix(q, second.xyz, l);
+                    depth = mix(depth, second.w, l);
+                }
+            }
+        }
+        // d alpha / d(s, t, r) to d alpha / d(u, v, r): the transpose of the cell's
+        // constant texture Jacobian.
+        let g = volume(cell_texture(c, q)).xyz;
+        let su = c.corner[1].w - c.corner[0].w;
+        let sv = c.corner[2].w - c.corner[0].w;
+        let tu = c.director[1].w - c.director[0].w;
+        let tv = c.director[2].w - c.director[0].w;
+        let gp = vec3<f32>(su * g.x + tu * g.y, sv * g.x + tv * g.y, g.z);
+        n = -(cell_frame(cell, q) * gp);
+    }
+    let len = length(n);
+    if len > 1e-20 && len < 3.0e38 {
+        n = n / len;
+    } else {
+        n = -dir;
+    }
+    if dot(n, dir) > 0.0 {
+        n = -n;
+    }
+    let ambient = globals.light.w;
+    let shade = ambient + (1.0 - ambient) * max(dot(n, globals.light.xyz), 0.0);
+    return Shaded(vec4<f32>(globals.albedo.rgb * shade, 1.0), vec4<f32>(n, depth));
+}

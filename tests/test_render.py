@@ -1,0 +1,159 @@
+"""Rendering thick surfaces without baking (thick surfaces, chapters 5-6), checked
+against Blender's own renderer (Cycles on the CPU) from the same cameras."""
+
+import math
+
+import bpy
+import numpy as np
+import pytest
+import thicket_native as tn
+from conftest import add
+
+from thicket import api
+from thicket.render import camera, preview
+
+
+def slab_sphere(tmp_path, radius=1.0):
+    """A UV sphere with a shell and a slab texture (alpha 1 up to r = 0.5): its
+    thick surface is a closed surface halfway through the shell."""
+    nz = 21
+    slab = np.zeros((nz, 4, 4), np.float32)
+    slab[: nz // 2] = 1.0
+    path = str(tmp_path / "slab.exr")
+    tn.save_texture(path, slab)
+    sphere = add("uv_sphere", segments=48, ring_count=24, radius=radius)
+    api.add_volumetric_texture(sphere, "weave", shell_thickness=0.05, resolution=6, texture_layers=40, source="FILE", filepath=path)
+    return sphere
+
+
+def cycles_alpha(scene, path):
+    """Cycles' alpha of the scene from its camera (film transparent, few samples)."""
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 4
+    scene.render.film_transparent = True
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.image_settings.color_mode = "RGBA"
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(path)
+    w, h = image.size
+    pixels = np.empty(w * h * 4, np.float32)
+    image.pixels.foreach_get(pixels)
+    return pixels.reshape(h, w, 4)[::-1, :, 3]  # row 0 at the top
+
+
+def iou(a, b):
+    return np.logical_and(a, b).sum() / max(1, np.logical_or(a, b).sum())
+
+
+CAMERAS = {
+    "perspective, shifted": dict(type="PERSP", lens=40.0, shift_x=0.08, shift_y=-0.05, sensor_fit="AUTO", size=(160, 120)),
+    "perspective, vertical fit": dict(type="PERSP", lens=55.0, sensor_fit="VERTICAL", size=(96, 144)),
+    "orthographic": dict(type="ORTHO", ortho_scale=4.0, size=(128, 96)),
+}
+
+
+@pytest.mark.parametrize("name", list(CAMERAS))
+def test_silhouettes_agree_with_cycles_from_the_same_camera(scene, tmp_path, name):
+    spec = dict(CAMERAS[name])
+    width, height = spec.pop("size")
+    sphere = slab_sphere(tmp_path)
+    sphere.location = (0.3, 0.1, -0.2)
+    sphere.hide_render = True  # Cycles draws the baked thick surface (the result)
+    bpy.ops.object.camera_add(location=(0.5, -6.0, 1.5), rotation=(math.radians(78), 0.0, math.radians(4)))
+    cam = bpy.context.object
+    for key, value in spec.items():
+        setattr(cam.data, key, value)
+    scene.camera = cam
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
+    bpy.context.view_layer.update()
+    reference = cycles_alpha(scene, str(tmp_path / "cycles.png")) > 0.5
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    view, projection = camera.scene_camera(scene, depsgraph, sphere, width, height)
+    out = preview.render_arrays(sphere, view, projection, width, height, method="reference")
+    ours = out["rgba"][:, :, 3] > 0.5
+    assert out["rgba"].shape == (height, width, 4)
+    assert 0.05 < reference.mean() < 0.9, "the sphere is in view"
+    score = iou(ours, reference)
+    assert score >= 0.98, f"{name}: IoU {score:.4f}"
+
+
+def test_render_preview_makes_an_image_and_files(scene, tmp_path):
+    sphere = slab_sphere(tmp_path)
+    bpy.ops.object.camera_add(location=(0.0, -6.0, 0.0), rotation=(math.radians(90), 0.0, 0.0))
+    scene.camera = bpy.context.object
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+    exr = str(tmp_path / "preview.exr")
+    image = api.render_preview(sphere, path=exr, method="reference")
+    assert tuple(image.size) == (64, 48) and image.name == "Thicket Preview"
+    pixels = np.empty(64 * 48 * 4, np.float32)
+    image.pixels.foreach_get(pixels)
+    alpha = pixels.reshape(48, 64, 4)[:, :, 3]
+    assert 0.1 < (alpha > 0.5).mean() < 0.9
+    # The EXR's A channel, read back by Thicket's own EXR reader (one slice, bottom row
+    # first like Blender's images).
+    written = tn.load_texture(exr)
+    assert written.shape == (1, 48, 64)
+    np.testing.assert_allclose(written[0], alpha, atol=1e-6)
+    png = api.render_frames(sphere, 1, 2, str(tmp_path / "frames"), method="reference")
+    assert len(png) == 2
+    for path in png:
+        frame = bpy.data.images.load(path)
+        assert tuple(frame.size) == (64, 48)
+
+
+def test_render_errors_are_clear(scene, tmp_path):
+    sphere = add("ico_sphere", subdivisions=2)
+    api.add_thick_surface(sphere, kind="SHELL")
+    bpy.ops.object.camera_add(location=(0.0, -6.0, 0.0), rotation=(math.radians(90), 0.0, 0.0))
+    with pytest.raises(ValueError, match="no camera"):
+        api.render_preview(sphere)
+    scene.camera = bpy.context.object
+    with pytest.raises(ValueError, match="no enabled Volumetric Texture"):
+        api.render_preview(sphere, width=8, height=8)
+    api.add_item(sphere, "VOLUMETRIC_TEXTURE", pattern="rivets")
+    with pytest.raises(tn.ThicketError, match="0x8"):
+        api.render_preview(sphere, width=0, height=8)
+
+
+def test_live_preview_worker_renders_off_the_main_thread(scene, tmp_path):
+    # The overlay's own pieces (drawing needs a window): the cached preparation and
+    # the worker that calls the renderer with the GIL released.
+    import threading
+
+    from thicket.render import overlay
+
+    sphere = slab_sphere(tmp_path)
+    bpy.context.view_layer.objects.active = sphere
+    key, shell, item, textures = overlay._prepared(sphere)
+    assert overlay._prepared(sphere)[0] == key, "unchanged source: cached"
+    view = np.array(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, -6), (0, 0, 0, 1)), np.float32)  # looking along +y from y = -6
+    projection = np.array(((2, 0, 0, 0), (0, 2, 0, 0), (0, 0, -1.02, -0.2), (0, 0, -1, 0)), np.float32)
+    base = shell.base
+    args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures, view, projection, 40, 30)
+    state = {"busy": True, "result": None}
+    worker = threading.Thread(target=overlay._work, args=(state, args, dict(uvs=base.uvs, tiling=float(item.tiling))))
+    worker.start()
+    worker.join(60)
+    assert not state["busy"] and state["result"].shape == (30, 40, 4)
+    assert (state["result"][:, :, 3] > 0.5).mean() > 0.1
+
+
+def test_gpu_slices_agree_with_the_reference_in_blender(scene, tmp_path):
+    # The slice renderer on whatever adapter is present (Mesa's lavapipe in CI, which
+    # the Makefile installs); the reference is the ground truth.
+    sphere = slab_sphere(tmp_path)
+    view = np.array(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, -6), (0, 0, 0, 1)), np.float32)
+    projection = np.array(((2, 0, 0, 0), (0, 2.6667, 0, 0), (0, 0, -1.02, -0.2), (0, 0, -1, 0)), np.float32)
+    reference = preview.render_arrays(sphere, view, projection, 80, 60, method="reference")
+    for method in ("interpolating", "plain"):
+        out = preview.render_arrays(sphere, view, projection, 80, 60, method=method, slices=16)
+        assert out["renderer"].startswith("GPU slice renderer on"), out["renderer"]
+        assert out["fallback"] == ""
+        score = iou(out["rgba"][:, :, 3] > 0.5, reference["rgba"][:, :, 3] > 0.5)
+        assert score >= 0.98, (method, score)
+        both = (out["rgba"][:, :, 3] > 0.5) & (reference["rgba"][:, :, 3] > 0.5)
+        assert np.abs(out["rgba"][both, :3] - reference["rgba"][both, :3]).mean() < 0.05, method
+    with pytest.raises(tn.ThicketError, match="unknown render method"):
+        preview.render_arrays(sphere, view, projection, 8, 8, method="raytrace")
