@@ -45,6 +45,8 @@ pub(super) struct Scratch {
     ij: Vec<(u32, u32)>,
     /// `(i, j, l)` of every local point.
     ijl: Vec<IVec3>,
+    /// Lattice gradient per local point, computed on first use (NaN: not yet).
+    grads: Vec<std::cell::Cell<Vec3>>,
     /// Sizes of the last piece, to reserve the next.
     last: (usize, usize),
     /// Per local column: whether any of its samples is inside.
@@ -114,6 +116,9 @@ impl Cells<'_> {
             p.x == 0 || p.y == 0 || p.x + p.y == n as i32
         };
         let to_q = |p: IVec3| p.as_vec3() / Vec3::new(n as f32, n as f32, m as f32);
+        s.grads.clear();
+        s.grads.resize(points, std::cell::Cell::new(Vec3::NAN));
+        let grads = &s.grads;
         let (ids, vals, slots, touched, occupied) = (&s.ids, &s.vals, &mut s.slots, &mut s.touched, &s.occupied);
         let value = |p: IVec3| -> Option<f32> {
             let ok = p.x >= 0 && p.y >= 0 && p.x + p.y <= n as i32 && (0..=m as i32).contains(&p.z);
@@ -121,6 +126,10 @@ impl Cells<'_> {
         };
         // d alpha / d (i, j, l) at a lattice point, per lattice step.
         let lattice_gradient = |lp: usize| {
+            let cached = grads[lp].get();
+            if !cached.x.is_nan() {
+                return cached;
+            }
             let p = param(lp);
             let d = |e: IVec3| match (value(p + e), value(p - e)) {
                 (Some(a), Some(b)) => (a - b) / 2.0,
@@ -128,7 +137,9 @@ impl Cells<'_> {
                 (None, Some(b)) => vals[lp] - b,
                 (None, None) => 0.0,
             };
-            Vec3::new(d(IVec3::X), d(IVec3::Y), d(IVec3::Z))
+            let g = Vec3::new(d(IVec3::X), d(IVec3::Y), d(IVec3::Z));
+            grads[lp].set(g);
+            g
         };
         let mut iso = |piece: &mut Piece, p: usize, q: usize| -> u32 {
             let (lo, hi) = if ids[p] < ids[q] { (p, q) } else { (q, p) };
