@@ -21,6 +21,10 @@
 // (s, t, r) are affine in (u, v, r) within a cell, so interpolating one interpolates
 // the other; T1 and T2 hold (u, v, r) and the tag of their cell, and pass 2 keeps
 // T1's cell only, so both ends of an interpolation come from the same texture.
+//
+// The texture is the union of up to four layers, each shifted by its (s, t) offset:
+// alpha is the largest of theirs, the gradient that of the layer it comes from
+// (`sample_union`), wherever the shaders sample it.
 
 struct Globals {
     // World to clip space, depth reversed (1 on the near plane, 0 on the far one).
@@ -33,8 +37,11 @@ struct Globals {
     light: vec4<f32>,
     // Linear albedo; w: 1 for the interpolating mode, 0 for plain slicing.
     albedo: vec4<f32>,
-    // Tile offset (s, t) of the texture; z: its texel rows nz across the shell.
-    texture_info: vec4<f32>,
+    // Per texture layer: its tile offset (s, t); z: its texel rows nz across the
+    // shell. Layers from `layer_count.x` on are unused.
+    layers: array<vec4<f32>, 4>,
+    // x: the number of texture layers (1 to 4), united (max alpha).
+    layer_count: vec4<u32>,
     // Viewport width, height and their reciprocals.
     viewport: vec4<f32>,
 };
@@ -54,9 +61,13 @@ struct CellFrames {
 @group(0) @binding(0) var<uniform> globals: Globals;
 @group(0) @binding(1) var<storage, read> cells: array<Cell>;
 @group(0) @binding(2) var<storage, read> frames: array<CellFrames>;
-// rgb: d alpha / d(s, t, r) at texel centres; a: alpha. Repeat in s, t, clamp in r.
-@group(0) @binding(3) var volume_texture: texture_3d<f32>;
+// The texture layers, rgb: d alpha / d(s, t, r) at texel centres; a: alpha. Repeat
+// in s, t, clamp in r. Slots past the layer count hold layer 0 again (never sampled).
+@group(0) @binding(3) var volume_texture_0: texture_3d<f32>;
 @group(0) @binding(4) var volume_sampler: sampler;
+@group(0) @binding(6) var volume_texture_1: texture_3d<f32>;
+@group(0) @binding(7) var volume_texture_2: texture_3d<f32>;
+@group(0) @binding(8) var volume_texture_3: texture_3d<f32>;
 
 // Per cell and side face (u = 0, v = 0, w = 0), the (s, t) the neighbouring cell has
 // at the face's two corners: (s_a, t_a, s_b, t_b); s_a = NO_NEIGHBOUR on the shell's
@@ -102,12 +113,35 @@ fn cell_texture(c: Cell, q: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(s, t, q.z);
 }
 
-// The volume texture (gradient, alpha) at texture coordinates (s, t, r). Texel
-// centres lie at (i + 1/2) / n in s and t and at k / (nz - 1) in r, as on the CPU.
-fn volume(tex: vec3<f32>) -> vec4<f32> {
-    let nz = globals.texture_info.z;
+// Texture layer k (gradient, alpha) at texture coordinates (s, t, r) shifted by the
+// layer's offset. Texel centres lie at (i + 1/2) / n in s and t and at k / (nz - 1)
+// in r, as on the CPU.
+fn sample_layer(k: u32, tex: vec3<f32>) -> vec4<f32> {
+    let info = globals.layers[k];
+    let nz = info.z;
     let w = (clamp(tex.z, 0.0, 1.0) * (nz - 1.0) + 0.5) / nz;
-    return textureSampleLevel(volume_texture, volume_sampler, vec3<f32>(tex.xy + globals.texture_info.xy, w), 0.0);
+    let p = vec3<f32>(tex.xy + info.xy, w);
+    switch k {
+        case 1u: { return textureSampleLevel(volume_texture_1, volume_sampler, p, 0.0); }
+        case 2u: { return textureSampleLevel(volume_texture_2, volume_sampler, p, 0.0); }
+        case 3u: { return textureSampleLevel(volume_texture_3, volume_sampler, p, 0.0); }
+        default: { return textureSampleLevel(volume_texture_0, volume_sampler, p, 0.0); }
+    }
+}
+
+// The union of the texture layers at texture coordinates (s, t, r): the largest alpha
+// with the gradient of the layer it comes from (the first of equals), as
+// `ShellScene::alpha` and `ShellScene::gradient` on the CPU.
+fn sample_union(tex: vec3<f32>) -> vec4<f32> {
+    var best = sample_layer(0u, tex);
+    let count = min(globals.layer_count.x, 4u);
+    for (var k = 1u; k < count; k++) {
+        let v = sample_layer(k, tex);
+        if v.a > best.a {
+            best = v;
+        }
+    }
+    return best;
 }
 
 // d world / d(u, v, r) at q.
@@ -189,7 +223,7 @@ struct FirstHit {
 @fragment
 fn fs_inside(v: SliceVarying) -> FirstHit {
     let q = fragment_param(v);
-    if volume(cell_texture(cells[v.code / 8u - 1u], q)).a < 0.5 {
+    if sample_union(cell_texture(cells[v.code / 8u - 1u], q)).a < 0.5 {
         discard;
     }
     return FirstHit(vec4<u32>(bitcast<vec3<u32>>(q), v.code), v.view_depth);
@@ -200,7 +234,7 @@ fn fs_inside(v: SliceVarying) -> FirstHit {
 @fragment
 fn fs_outside(v: SliceVarying) -> @location(0) vec4<f32> {
     let q = fragment_param(v);
-    if volume(cell_texture(cells[v.code / 8u - 1u], q)).a >= 0.5 {
+    if sample_union(cell_texture(cells[v.code / 8u - 1u], q)).a >= 0.5 {
         discard;
     }
     let px = vec2<i32>(floor(v.position.xy));
@@ -264,7 +298,7 @@ fn alpha_across(cell: u32, face: u32, q: vec3<f32>) -> f32 {
         case FACE_V0: { t = w.y / (w.x + w.y); } // corner 0 to corner 1
         default: { t = w.z / (w.y + w.z); } // FACE_W0: corner 1 to corner 2
     }
-    return volume(vec3<f32>(mix(n.xy, n.zw, t), q.z)).a;
+    return sample_union(vec3<f32>(mix(n.xy, n.zw, t), q.z)).a;
 }
 
 // Unit direction of the ray through the pixel centre at `frag` (window coordinates).
@@ -300,7 +334,7 @@ fn fs_shade(@builtin(position) position: vec4<f32>) -> Shaded {
     var on_face = false;
     if face != 0u {
         let nf = cell_frame(cell, q) * face_gradient(face);
-        if dot(nf, dir) < 0.0 && volume(cell_texture(c, q)).a - alpha_across(cell, face, q) > 0.25 {
+        if dot(nf, dir) < 0.0 && sample_union(cell_texture(c, q)).a - alpha_across(cell, face, q) > 0.25 {
             on_face = true;
             n = nf;
         }
@@ -310,8 +344,8 @@ fn fs_shade(@builtin(position) position: vec4<f32>) -> Shaded {
             let second = textureLoad(second_hit, px, 0);
             if second.w > 0.0 {
                 // t3 = ((a1 - 1/2) t2 - (a2 - 1/2) t1) / (a1 - a2), chapter 5.3.2.
-                let a1 = volume(cell_texture(c, q)).a;
-                let a2 = volume(cell_texture(c, second.xyz)).a;
+                let a1 = sample_union(cell_texture(c, q)).a;
+                let a2 = sample_union(cell_texture(c, second.xyz)).a;
                 if a1 > a2 {
                     let l = clamp((a1 - 0.5) / (a1 - a2), 0.0, 1.0);
                     q = mix(q, second.xyz, l);
@@ -321,7 +355,7 @@ fn fs_shade(@builtin(position) position: vec4<f32>) -> Shaded {
         }
         // d alpha / d(s, t, r) to d alpha / d(u, v, r): the transpose of the cell's
         // constant texture Jacobian.
-        let g = volume(cell_texture(c, q)).xyz;
+        let g = sample_union(cell_texture(c, q)).xyz;
         let su = c.corner[1].w - c.corner[0].w;
         let sv = c.corner[2].w - c.corner[0].w;
         let tu = c.director[1].w - c.director[0].w;

@@ -186,6 +186,94 @@ fn chain_mail_grazing_view_matches_the_reference() {
     );
 }
 
+/// Chain mail (64 x 64 x 32) united with a second layer shifted by (0.3, 0.1) in (s, t).
+fn chain_mail_and(texture: VolumeTexture) -> ShellScene {
+    let mut scene = chain_mail_scene();
+    scene.textures.push(TextureLayer { texture, offset: Vec2::new(0.3, 0.1) });
+    scene
+}
+
+/// Bars along t, a quarter of the tile wide, solid up to r = 0.7 (a slab in strips):
+/// they cover part of what the chain mail leaves open, not all of it.
+fn bars() -> VolumeTexture {
+    VolumeTexture::from_fn([32, 32, 17], |c| if c.x.rem_euclid(1.0) < 0.25 && c.z < 0.7 { 1.0 } else { 0.0 }).unwrap()
+}
+
+/// Renders the union and the first layer alone (interpolating, 32 slices) and checks
+/// the union against the reference; returns the coverages (union, first layer).
+fn check_union(name: &str, united: &ShellScene) -> (f32, f32) {
+    let first = ShellScene {
+        cells: united.cells.clone(),
+        bounds: united.bounds.clone(),
+        textures: united.textures[..1].to_vec(),
+        per_face_tiles: united.per_face_tiles,
+    };
+    let camera = close_view(128);
+    let p = slice_params(32, SliceMode::Interpolating);
+    let reference = reference::render(united, &camera, &RenderParams { step: 0.02, ..Default::default() }).unwrap();
+    let mut r = renderer();
+    // The first layer alone, then the union over the same cells: the scene is uploaded
+    // again when a layer is added.
+    let alone = r.render(&first, &camera, &p).unwrap();
+    let frame = r.render(united, &camera, &p).unwrap();
+    let s = score(&frame, &reference);
+    eprintln!(
+        "{name}, close, 32 slices, interpolating: {s:?}; coverage {} (first layer alone {}, reference {})",
+        frame.coverage(),
+        alone.coverage(),
+        reference.coverage()
+    );
+    // The thresholds of chain mail alone at 32 slices.
+    assert!(s.iou >= 0.97 && s.psnr >= 26.0, "{name}: {s:?}");
+    (frame.coverage(), alone.coverage())
+}
+
+#[test]
+fn united_layers_match_the_reference() {
+    let (united, alone) = check_union("chain mail + bars (0.3, 0.1)", &chain_mail_and(bars()));
+    assert!(united > alone + 0.01 && united < 0.99, "{united} vs {alone}");
+    let rivets = Generator::new(Pattern::Rivets).generate([32, 32, 16]).unwrap();
+    let (united, alone) = check_union("chain mail + rivets (0.3, 0.1)", &chain_mail_and(rivets));
+    assert!(united > alone + 0.01, "{united} vs {alone}");
+}
+
+#[test]
+fn moving_a_layer_changes_the_image() {
+    let camera = close_view(64);
+    let p = slice_params(16, SliceMode::Interpolating);
+    let mut scene = chain_mail_and(bars());
+    let mut r = renderer();
+    let a = r.render(&scene, &camera, &p).unwrap();
+    // Same cells, the second layer moved: uploaded again, a different image.
+    scene.textures[1].offset = Vec2::new(0.55, 0.35);
+    let b = r.render(&scene, &camera, &p).unwrap();
+    assert_ne!(a, b);
+    let reference = reference::render(&scene, &camera, &RenderParams { step: 0.02, ..Default::default() }).unwrap();
+    let s = score(&b, &reference);
+    eprintln!("bars moved to (0.55, 0.35), 16 slices: {s:?}");
+    assert!(s.iou >= 0.95, "{s:?}");
+}
+
+#[test]
+fn too_many_layers_is_an_error() {
+    let mut scene = slab_scene();
+    let camera = front_view(32);
+    let p = slice_params(8, SliceMode::Interpolating);
+    let mut r = renderer();
+    let slab = scene.textures[0].texture.clone();
+    for k in 1..4 {
+        scene.textures.push(TextureLayer { texture: slab.clone(), offset: Vec2::new(0.1 * k as f32, 0.0) });
+    }
+    // Four layers render; five are refused, without breaking the renderer.
+    let four = r.render(&scene, &camera, &p).unwrap();
+    assert!(four.coverage() > 0.1);
+    scene.textures.push(TextureLayer { texture: slab, offset: Vec2::ZERO });
+    let e = r.render(&scene, &camera, &p).unwrap_err();
+    eprintln!("five layers: {e}");
+    scene.textures.truncate(1);
+    assert!(r.render(&scene, &camera, &p).unwrap().coverage() > 0.1);
+}
+
 #[test]
 fn orthographic_view_matches_the_reference() {
     let scene = slab_scene();

@@ -5,7 +5,7 @@
 //! - [`slices`]: the slice templates of a triangle prism and the per-cell choice of
 //!   the family of slices facing the view.
 //! - [`scene_data`]: cells, per-corner gradient transforms, the neighbours' texture
-//!   coordinates across each side face and the volume texture (alpha and its
+//!   coordinates across each side face and the volume textures (alpha and its
 //!   gradient) as the shaders read them.
 //! - [`pipeline`]: the shader (`shaders/slices.wgsl`), bind group layouts, pipelines.
 //! - [`passes`]: render targets and the three passes.
@@ -29,7 +29,7 @@ use std::time::{Duration, Instant};
 
 use glam::{DMat4, DVec4, Vec3};
 use thicket_core::texture::bake::TextureLayer;
-use thicket_core::texture::CellMap;
+use thicket_core::texture::{CellMap, VolumeTexture};
 use thicket_core::{Error, Result};
 use wgpu::util::DeviceExt;
 
@@ -38,7 +38,7 @@ use crate::image_out::Frame;
 use crate::scene::ShellScene;
 use device::Gpu;
 use passes::{Draws, Targets};
-use pipeline::{Globals, Pipelines};
+use pipeline::{Globals, Pipelines, LAYER_BINDINGS, MAX_LAYERS};
 use scene_data::{GpuCell, GpuFrames};
 use slices::{Eye, Family, Templates};
 
@@ -120,11 +120,11 @@ impl FrameTimings {
 /// The scene on the GPU, with what it was made from (to tell when it changed).
 struct SceneResources {
     cells: Vec<CellMap>,
-    layer: TextureLayer,
+    layers: Vec<TextureLayer>,
     group: wgpu::BindGroup,
     // Kept alive for the bind group.
     _buffers: [wgpu::Buffer; 3],
-    _volume: wgpu::Texture,
+    _volumes: Vec<wgpu::Texture>,
 }
 
 /// The slice renderer. Create it once ([`GpuRenderer::new`]) and render many frames:
@@ -184,9 +184,10 @@ impl GpuRenderer {
     }
 
     /// Renders `scene` seen by `camera`: colour (alpha 1 on the surface), depth along
-    /// the view axis and the unit world normal facing the camera, per pixel. Only the
-    /// scene's first texture is drawn. Errors (bad input, no memory, a lost device)
-    /// are returned, never panicked on.
+    /// the view axis and the unit world normal facing the camera, per pixel. The
+    /// scene's textures are united, as [`ShellScene::alpha`] does: up to
+    /// [`MAX_LAYERS`] of them (more are an error). Errors (bad input, no memory, a lost
+    /// device) are returned, never panicked on.
     pub fn render(&mut self, scene: &ShellScene, camera: &Camera, params: &SliceParams) -> Result<Frame> {
         if self.broken {
             return Err(Error::InvalidParameter("the GPU renderer failed earlier; render on the CPU".into()));
@@ -259,12 +260,13 @@ impl GpuRenderer {
         Ok(frame)
     }
 
-    /// Uploads the cells, their frames and the first texture, unless they are the
+    /// Uploads the cells, their frames and the texture layers, unless they are the
     /// ones uploaded last.
     fn upload_scene(&mut self, scene: &ShellScene) {
-        let layer = &scene.textures[0];
         if let Some(s) = &self.scene {
-            if s.cells == scene.cells && s.layer.offset == layer.offset && s.layer.texture == layer.texture {
+            let same_layers = s.layers.len() == scene.textures.len()
+                && s.layers.iter().zip(&scene.textures).all(|(a, b)| a.offset == b.offset && a.texture == b.texture);
+            if same_layers && s.cells == scene.cells {
                 return;
             }
         }
@@ -282,9 +284,40 @@ impl GpuRenderer {
         let cell_buffer = storage("cells", bytemuck::cast_slice(&cells));
         let frame_buffer = storage("cell frames", bytemuck::cast_slice(&frames));
         let neighbour_buffer = storage("neighbours", bytemuck::cast_slice(&scene_data::neighbours(&scene.cells)));
-        let [nx, ny, nz] = layer.texture.dims().map(|n| n as u32);
+        let volumes: Vec<wgpu::Texture> = scene.textures.iter().map(|l| self.upload_volume(&l.texture)).collect();
+        let views: Vec<wgpu::TextureView> = volumes.iter().map(|v| v.create_view(&Default::default())).collect();
+        let mut entries = vec![
+            wgpu::BindGroupEntry { binding: 0, resource: self.globals.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: cell_buffer.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: frame_buffer.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&self.pipelines.sampler) },
+            wgpu::BindGroupEntry { binding: 5, resource: neighbour_buffer.as_entire_binding() },
+        ];
+        // The slots past the last layer hold layer 0 again; the shaders skip them.
+        for (k, binding) in LAYER_BINDINGS.iter().enumerate() {
+            let view = views.get(k).unwrap_or(&views[0]);
+            entries
+                .push(wgpu::BindGroupEntry { binding: *binding, resource: wgpu::BindingResource::TextureView(view) });
+        }
+        let group = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("scene"),
+            layout: &self.pipelines.scene_layout,
+            entries: &entries,
+        });
+        self.scene = Some(SceneResources {
+            cells: scene.cells.clone(),
+            layers: scene.textures.clone(),
+            group,
+            _buffers: [cell_buffer, frame_buffer, neighbour_buffer],
+            _volumes: volumes,
+        });
+    }
+
+    /// A volume texture with its gradient, on the GPU.
+    fn upload_volume(&self, texture: &VolumeTexture) -> wgpu::Texture {
+        let [nx, ny, nz] = texture.dims().map(|n| n as u32);
         let size = wgpu::Extent3d { width: nx, height: ny, depth_or_array_layers: nz };
-        let volume = device.create_texture(&wgpu::TextureDescriptor {
+        let volume = self.gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("volume texture"),
             size,
             mip_level_count: 1,
@@ -294,7 +327,7 @@ impl GpuRenderer {
             usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
-        let texels = scene_data::volume_texels(&layer.texture);
+        let texels = scene_data::volume_texels(texture);
         self.gpu.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &volume,
@@ -306,26 +339,7 @@ impl GpuRenderer {
             wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(8 * nx), rows_per_image: Some(ny) },
             size,
         );
-        let volume_view = volume.create_view(&Default::default());
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("scene"),
-            layout: &self.pipelines.scene_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.globals.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: cell_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: frame_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&volume_view) },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&self.pipelines.sampler) },
-                wgpu::BindGroupEntry { binding: 5, resource: neighbour_buffer.as_entire_binding() },
-            ],
-        });
-        self.scene = Some(SceneResources {
-            cells: scene.cells.clone(),
-            layer: layer.clone(),
-            group,
-            _buffers: [cell_buffer, frame_buffer, neighbour_buffer],
-            _volume: volume,
-        });
+        volume
     }
 
     fn prepare_templates(&mut self, slices: u32) {
@@ -400,22 +414,30 @@ fn validate(scene: &ShellScene, camera: &Camera, limits: &wgpu::Limits) -> Resul
     if scene.cells.iter().any(|c| c.count != 3) {
         return bad("the GPU renderer draws triangle cells only; this scene has quad cells".into());
     }
-    let Some(layer) = scene.textures.first() else {
+    if scene.textures.is_empty() {
         return bad("no texture to render".into());
-    };
+    }
+    if scene.textures.len() > MAX_LAYERS {
+        return bad(format!(
+            "{} texture layers are more than the GPU renderer unites ({MAX_LAYERS}); merge some first",
+            scene.textures.len()
+        ));
+    }
     let frames = scene.cells.len() as u64 * std::mem::size_of::<GpuFrames>() as u64;
     if frames > limits.max_storage_buffer_binding_size || frames > limits.max_buffer_size {
         return bad(format!("{} cells do not fit in this GPU's storage buffers", scene.cells.len()));
     }
-    let dims = layer.texture.dims();
-    if dims.iter().any(|&n| n > limits.max_texture_dimension_3d as usize) {
-        return bad(format!(
-            "the texture {dims:?} is larger than this GPU's largest 3D texture ({} a side)",
-            limits.max_texture_dimension_3d
-        ));
-    }
-    if !layer.offset.is_finite() {
-        return bad("the texture offset is not finite".into());
+    for layer in &scene.textures {
+        let dims = layer.texture.dims();
+        if dims.iter().any(|&n| n > limits.max_texture_dimension_3d as usize) {
+            return bad(format!(
+                "the texture {dims:?} is larger than this GPU's largest 3D texture ({} a side)",
+                limits.max_texture_dimension_3d
+            ));
+        }
+        if !layer.offset.is_finite() {
+            return bad("the texture offset is not finite".into());
+        }
     }
     Ok(())
 }
@@ -444,8 +466,10 @@ const GL_TO_WGPU: DMat4 = DMat4::from_cols(
 fn globals(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> Globals {
     let view = camera.view.as_dmat4();
     let view_proj = GL_TO_WGPU * camera.projection.as_dmat4() * view;
-    let layer = &scene.textures[0];
-    let nz = layer.texture.dims()[2] as f32;
+    let mut layers = [[0.0; 4]; MAX_LAYERS];
+    for (info, layer) in layers.iter_mut().zip(&scene.textures) {
+        *info = [layer.offset.x, layer.offset.y, layer.texture.dims()[2] as f32, 0.0];
+    }
     let light = params.light.normalize();
     let mode = if params.mode == SliceMode::Interpolating { 1.0 } else { 0.0 };
     let (w, h) = (camera.width as f32, camera.height as f32);
@@ -455,7 +479,8 @@ fn globals(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> Globals
         view_z: view.row(2).as_vec4().to_array(),
         light: light.extend(params.ambient).to_array(),
         albedo: params.albedo.extend(mode).to_array(),
-        texture_info: [layer.offset.x, layer.offset.y, nz, 0.0],
+        layers,
+        layer_count: [scene.textures.len().min(MAX_LAYERS) as u32, 0, 0, 0],
         viewport: [w, h, 1.0 / w, 1.0 / h],
     }
 }

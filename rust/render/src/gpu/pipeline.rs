@@ -17,6 +17,13 @@ pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 pub const VOLUME_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
+/// The most texture layers the shaders unite (`Globals::layers`, one 3D texture
+/// binding each).
+pub const MAX_LAYERS: usize = 4;
+
+/// The bindings of the texture layers in group 0, layer 0 first.
+pub const LAYER_BINDINGS: [u32; MAX_LAYERS] = [3, 6, 7, 8];
+
 /// `Globals` in the shader.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
@@ -26,12 +33,16 @@ pub struct Globals {
     pub view_z: [f32; 4],
     pub light: [f32; 4],
     pub albedo: [f32; 4],
-    pub texture_info: [f32; 4],
+    /// Per texture layer: offset `(s, t)`, texel rows `nz` across the shell, 0.
+    pub layers: [[f32; 4]; MAX_LAYERS],
+    /// The number of texture layers in `x`.
+    pub layer_count: [u32; 4],
     pub viewport: [f32; 4],
 }
 
 pub struct Pipelines {
-    /// Group 0: globals, cells, frames, volume texture, sampler, neighbours.
+    /// Group 0: globals, cells, frames, volume textures (one per layer), sampler,
+    /// neighbours.
     pub scene_layout: wgpu::BindGroupLayout,
     /// Group 1: T1 and Z1 of the inside pass.
     pub first_layout: wgpu::BindGroupLayout,
@@ -59,6 +70,19 @@ fn texture_2d(sample_type: wgpu::TextureSampleType) -> wgpu::BindingType {
     wgpu::BindingType::Texture { sample_type, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false }
 }
 
+/// A volume texture layer, sampled in the fragment shaders.
+fn volume(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    entry(
+        binding,
+        wgpu::ShaderStages::FRAGMENT,
+        wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+            view_dimension: wgpu::TextureViewDimension::D3,
+            multisampled: false,
+        },
+    )
+}
+
 fn target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })
 }
@@ -84,17 +108,12 @@ impl Pipelines {
                 ),
                 entry(1, vf, storage()),
                 entry(2, wgpu::ShaderStages::FRAGMENT, storage()),
-                entry(
-                    3,
-                    wgpu::ShaderStages::FRAGMENT,
-                    wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D3,
-                        multisampled: false,
-                    },
-                ),
                 entry(4, wgpu::ShaderStages::FRAGMENT, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
                 entry(5, wgpu::ShaderStages::FRAGMENT, storage()),
+                volume(LAYER_BINDINGS[0]),
+                volume(LAYER_BINDINGS[1]),
+                volume(LAYER_BINDINGS[2]),
+                volume(LAYER_BINDINGS[3]),
             ],
         });
         let first_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
