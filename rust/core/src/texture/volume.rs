@@ -4,6 +4,15 @@
 use crate::{Error, Result};
 use glam::Vec3;
 
+/// A texel footprint in `(s, t)`: the four texel indices within a slice and the
+/// bilinear fractions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Column {
+    i: [usize; 4],
+    fx: f32,
+    fy: f32,
+}
+
 /// `alpha` in `[0, 1]` on an `nx × ny × nz` grid, x fastest; `z` runs from the base
 /// (`r = 0`) to the outer layer (`r = 1`).
 #[derive(Debug, Clone, PartialEq)]
@@ -64,7 +73,13 @@ impl VolumeTexture {
     /// (tiling), `r` is clamped to the shell. Texel centres sit at `(i + ½)/n` in `s`,
     /// `t` and at `k/(nz-1)` in `r` (the first and last slices lie on the shell's faces).
     pub fn sample(&self, c: Vec3) -> f32 {
-        let [nx, ny, nz] = self.dims;
+        self.sample_column(&self.column(c.truncate()), c.z)
+    }
+
+    /// The bilinear footprint of `(s, t)`, shared by every `r` along it (a column of
+    /// the bake's lattice samples one footprint at many heights).
+    pub fn column(&self, st: glam::Vec2) -> Column {
+        let [nx, ny, _] = self.dims;
         // Texel index and fraction, wrapped into the tile (no libm floor: hot path).
         #[inline(always)]
         fn wrap(u: f32, n: usize) -> (usize, usize, f32) {
@@ -75,16 +90,24 @@ impl VolumeTexture {
             let i = i.rem_euclid(n as i32) as usize;
             (i, if i + 1 == n { 0 } else { i + 1 }, f)
         }
-        let (x0, x1, fx) = wrap(c.x, nx);
-        let (y0, y1, fy) = wrap(c.y, ny);
-        let z = if c.z > 0.0 { c.z.min(1.0) * (nz - 1) as f32 } else { 0.0 };
+        let (x0, x1, fx) = wrap(st.x, nx);
+        let (y0, y1, fy) = wrap(st.y, ny);
+        Column { i: [nx * y0 + x0, nx * y0 + x1, nx * y1 + x0, nx * y1 + x1], fx, fy }
+    }
+
+    /// Trilinear `alpha` at height `r` over a [`Self::column`] footprint.
+    #[inline]
+    pub fn sample_column(&self, col: &Column, r: f32) -> f32 {
+        let [nx, ny, nz] = self.dims;
+        let z = if r > 0.0 { r.min(1.0) * (nz - 1) as f32 } else { 0.0 };
         let z0 = (z as usize).min(nz - 1);
         let (z1, fz) = (if z0 + 1 < nz { z0 + 1 } else { z0 }, z - z0 as f32);
-        let (r0, r1) = (nx * y0, nx * y1);
+        let (fx, fy) = (col.fx, col.fy);
         let plane = |z: usize| {
             let s = &self.alpha[nx * ny * z..nx * ny * (z + 1)];
-            let a = s[r0 + x0] + (s[r0 + x1] - s[r0 + x0]) * fx;
-            let b = s[r1 + x0] + (s[r1 + x1] - s[r1 + x0]) * fx;
+            let [i00, i01, i10, i11] = col.i;
+            let a = s[i00] + (s[i01] - s[i00]) * fx;
+            let b = s[i10] + (s[i11] - s[i10]) * fx;
             a + (b - a) * fy
         };
         let (p0, p1) = (plane(z0), plane(z1));

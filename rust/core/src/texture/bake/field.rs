@@ -23,6 +23,16 @@ pub(super) struct Field<'a> {
 }
 
 impl Field<'_> {
+    /// One texture and no region, holes, move or cutter: alpha is the texture itself,
+    /// so a lattice column can be sampled along one footprint.
+    pub fn single_texture(&self) -> Option<&TextureLayer> {
+        let plain = self.region.is_none() && self.holes.is_none() && self.cutter.is_none() && self.moved.is_none();
+        match self.layers {
+            [layer] if plain => Some(layer),
+            _ => None,
+        }
+    }
+
     /// Union of the placed textures at texture point `c` (max alpha, chapter 7.3).
     #[inline]
     fn texture(&self, c: Vec3) -> f32 {

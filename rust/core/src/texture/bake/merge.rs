@@ -21,7 +21,7 @@ fn chunks_mut<T>(mut v: &mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&
 
 /// Normals: the texture gradients summed over a vertex's copies, normalized; the
 /// area-weighted face normal where the gradient vanishes.
-pub(super) fn merge(pieces: Vec<Piece>) -> BakedMesh {
+pub(super) fn merge(mut pieces: Vec<Piece>) -> BakedMesh {
     // Boundary vertices: sorted by key, one output vertex per distinct key.
     let mut shared: Vec<(u64, u32, u32)> = pieces
         .par_iter()
@@ -32,7 +32,6 @@ pub(super) fn merge(pieces: Vec<Piece>) -> BakedMesh {
         .collect();
     shared.par_sort_unstable();
 
-    let own: Vec<usize> = pieces.iter().map(|p| p.keys.len()).collect::<Vec<_>>();
     let own_unshared: Vec<usize> = pieces.par_iter().map(|p| p.keys.iter().filter(|k| **k == UNSHARED).count()).collect();
     let unshared_total: usize = own_unshared.iter().sum();
     let mut first_of_key = Vec::new();
@@ -50,8 +49,8 @@ pub(super) fn merge(pieces: Vec<Piece>) -> BakedMesh {
         normals: vec![Vec3::ZERO; total],
         ..Default::default()
     };
-    // Per piece: its local -> output index map, and its unshared vertices copied out.
-    let mut remap: Vec<Vec<u32>> = own.iter().map(|n| vec![0u32; *n]).collect();
+    // Per piece: its unshared vertices copied out; each vertex's key is replaced by its
+    // output index once read (the keys are not needed after that).
     {
         let mut starts = Vec::with_capacity(pieces.len());
         let mut acc = 0usize;
@@ -62,39 +61,38 @@ pub(super) fn merge(pieces: Vec<Piece>) -> BakedMesh {
         let pos = chunks_mut(&mut out.positions[..unshared_total], own_unshared.iter().copied());
         let tex = chunks_mut(&mut out.texcoords[..unshared_total], own_unshared.iter().copied());
         let nrm = chunks_mut(&mut out.normals[..unshared_total], own_unshared.iter().copied());
-        pieces.par_iter().zip(remap.par_iter_mut()).zip(pos).zip(tex).zip(nrm).zip(starts).for_each(
-            |(((((p, map), pos), tex), nrm), start)| {
-                let mut k = 0;
-                for (i, key) in p.keys.iter().enumerate() {
-                    if *key == UNSHARED {
-                        pos[k] = p.pos[i];
-                        tex[k] = p.tex[i];
-                        nrm[k] = p.grad[i];
-                        map[i] = (start + k) as u32;
-                        k += 1;
-                    }
+        pieces.par_iter_mut().zip(pos).zip(tex).zip(nrm).zip(starts).for_each(|((((p, pos), tex), nrm), start)| {
+            let mut k = 0;
+            for i in 0..p.keys.len() {
+                if p.keys[i] == UNSHARED {
+                    pos[k] = p.pos[i];
+                    tex[k] = p.tex[i];
+                    nrm[k] = p.grad[i];
+                    p.keys[i] = (start + k) as u64;
+                    k += 1;
                 }
-            },
-        );
+            }
+        });
     }
     for (s, &(_, pi, i)) in shared.iter().enumerate() {
-        let (p, id) = (&pieces[pi as usize], shared_id[s] as usize);
+        let (p, id) = (&mut pieces[pi as usize], shared_id[s] as usize);
         if s == 0 || shared[s - 1].0 != shared[s].0 {
             out.positions[id] = p.pos[i as usize];
             out.texcoords[id] = p.tex[i as usize];
         }
         out.normals[id] += p.grad[i as usize];
-        remap[pi as usize][i as usize] = id as u32;
+        p.keys[i as usize] = id as u64;
     }
     let tri_counts: Vec<usize> = pieces.iter().map(|p| p.tris.len()).collect();
     out.triangles = vec![[0; 3]; tri_counts.iter().sum()];
     let tris = chunks_mut(&mut out.triangles, tri_counts.into_iter());
-    pieces.par_iter().zip(&remap).zip(tris).for_each(|((p, map), dst)| {
+    pieces.par_iter().zip(tris).for_each(|(p, dst)| {
         for (d, t) in dst.iter_mut().zip(&p.tris) {
-            *d = t.map(|i| map[i as usize]);
+            *d = t.map(|i| p.keys[i as usize] as u32);
         }
     });
-    drop(pieces);
+    // Freeing thousands of pieces takes a while; the caller need not wait for it.
+    rayon::spawn(move || drop(pieces));
     let flat = |n: &Vec3| n.length_squared() <= 1e-20;
     if out.normals.par_iter().any(flat) {
         let mut face = vec![Vec3::ZERO; out.positions.len()];

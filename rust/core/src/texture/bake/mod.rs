@@ -152,6 +152,7 @@ pub fn bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &Bake
     };
     let values = sample_lattice(mesh, shell, &lattice, &field, m);
 
+
     let cells = Cells { mesh, shell, lattice: &lattice, values: &values, layers: m };
     let pieces: Vec<_> =
         (0..lattice.tris.len()).into_par_iter().map_init(Scratch::default, |s, t| cells.polygonize(s, t)).collect();
@@ -203,8 +204,16 @@ fn sample_lattice(mesh: &Mesh, shell: &Shell, lattice: &Lattice, field: &Field, 
         let t = t as usize;
         let cell = CellMap::new(mesh, shell, &lattice.tris[t], &lattice.st[t]);
         let (u, v) = (i as f32 / n, j as f32 / n);
+        let single = field.single_texture().map(|layer| {
+            let st = cell.texture(Vec3::new(u, v, 0.0)).truncate() + layer.offset;
+            (&layer.texture, layer.texture.column(st))
+        });
         for (l, a) in column.iter_mut().enumerate().take(m as usize).skip(1) {
-            let x = field.alpha(t, &cell, Vec3::new(u, v, l as f32 / m as f32));
+            let r = l as f32 / m as f32;
+            let x = match &single {
+                Some((texture, footprint)) => texture.sample_column(footprint, r),
+                None => field.alpha(t, &cell, Vec3::new(u, v, r)),
+            };
             *a = if (x - 0.5).abs() < 1e-6 { 0.5 + 1e-6 } else { x };
         }
     });
