@@ -228,3 +228,18 @@ fn the_single_texture_fast_path_matches_the_general_field() {
     let worst = fast.positions.iter().zip(&general.positions).map(|(a, b)| (*a - *b).length()).fold(0.0f32, f32::max);
     assert!(worst < 1e-5, "{worst}");
 }
+
+#[test]
+fn more_than_sixty_four_layers_bake_the_same_surface() {
+    // Columns of over 64 samples skip the per-layer bit masks; the surface is the same
+    // slab either way.
+    let mesh = tm::icosphere(1);
+    let s = shell(&mesh, 0.1);
+    let slab = VolumeTexture::from_fn([4, 4, 33], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap();
+    for layers in [40, 80] {
+        let b = bake(&mesh, &s, &layer(slab.clone()), &BakeParams { resolution: 2, layers, ..Default::default() }).unwrap();
+        assert!(as_mesh(&b).report().is_closed_manifold(), "{layers}");
+        let top: Vec<f32> = b.texcoords.iter().map(|c| c.z).filter(|r| *r > 0.25).collect();
+        assert!(!top.is_empty() && top.iter().all(|r| (r - 0.5).abs() < 0.03), "{layers}: {top:?}");
+    }
+}

@@ -49,8 +49,9 @@ pub(super) struct Scratch {
     grads: Vec<std::cell::Cell<Vec3>>,
     /// Sizes of the last piece, to reserve the next.
     last: (usize, usize),
-    /// Per local column: whether any of its samples is inside.
-    occupied: Vec<bool>,
+    /// Per local column: bit `l` set when layer `l` is inside (columns of at most 64
+    /// layers); else 1 when any layer is.
+    masks: Vec<u64>,
 }
 
 /// Dompierre's prism split: permutation putting the smallest index first.
@@ -98,8 +99,15 @@ impl Cells<'_> {
             s.ids.extend((0..lm).map(|l| (g + l) as u64));
             s.vals.extend_from_slice(&self.values[g..g + lm]);
         }
-        s.occupied.clear();
-        s.occupied.extend(s.vals.chunks_exact(lm).map(|c| c.iter().any(|a| *a >= 0.5)));
+        let bitwise = lm <= 64;
+        s.masks.clear();
+        s.masks.extend(s.vals.chunks_exact(lm).map(|c| {
+            if bitwise {
+                c.iter().enumerate().fold(0u64, |bits, (l, a)| bits | (u64::from(*a >= 0.5) << l))
+            } else {
+                u64::from(c.iter().any(|a| *a >= 0.5))
+            }
+        }));
         if s.slots.len() < points * 27 {
             s.slots = vec![u32::MAX; points * 27];
         }
@@ -119,7 +127,7 @@ impl Cells<'_> {
         s.grads.clear();
         s.grads.resize(points, std::cell::Cell::new(Vec3::NAN));
         let grads = &s.grads;
-        let (ids, vals, slots, touched, occupied) = (&s.ids, &s.vals, &mut s.slots, &mut s.touched, &s.occupied);
+        let (ids, vals, slots, touched, masks) = (&s.ids, &s.vals, &mut s.slots, &mut s.touched, &s.masks);
         let value = |p: IVec3| -> Option<f32> {
             let ok = p.x >= 0 && p.y >= 0 && p.x + p.y <= n as i32 && (0..=m as i32).contains(&p.z);
             ok.then(|| vals[lat.local_index(p.x as u32, p.y as u32) * lm + p.z as usize])
@@ -221,14 +229,23 @@ impl Cells<'_> {
                 let smalls = if i + j + 2 <= n { &[up, down][..] } else { &[up][..] };
                 for sm in smalls {
                     let columns = sm.map(|(i, j)| lat.local_index(i, j));
-                    // Columns with no inside sample make no surface (the shell's faces
-                    // are outside, so no column is inside throughout).
-                    if !columns.iter().any(|c| occupied[*c]) {
-                        continue;
-                    }
                     let base = columns.map(|c| c * lm);
-                    for l in 0..m as usize {
-                        emit(&mut piece, [base[0] + l, base[1] + l, base[2] + l, base[0] + l + 1, base[1] + l + 1, base[2] + l + 1]);
+                    let mut prism = |l: usize| {
+                        emit(&mut piece, [base[0] + l, base[1] + l, base[2] + l, base[0] + l + 1, base[1] + l + 1, base[2] + l + 1])
+                    };
+                    let [a, b, c] = columns.map(|c| masks[c]);
+                    if bitwise {
+                        // Only the layers whose six corners are not all on one side.
+                        let (all, any) = (a & b & c, a | b | c);
+                        let uniform = (all & (all >> 1)) | !(any | (any >> 1));
+                        let mut mixed = !uniform & ((1u64 << m) - 1);
+                        while mixed != 0 {
+                            prism(mixed.trailing_zeros() as usize);
+                            mixed &= mixed - 1;
+                        }
+                    } else if a | b | c != 0 {
+                        // Columns with no inside sample make no surface.
+                        (0..m as usize).for_each(&mut prism);
                     }
                 }
             }
