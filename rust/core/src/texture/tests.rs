@@ -215,9 +215,8 @@ fn a_moved_region_lands_elsewhere_and_leaves_the_base_behind() {
 }
 
 #[test]
-fn the_single_texture_fast_path_matches_the_general_field() {
-    // A region of weight 1 everywhere takes the general per-sample path; without one
-    // the lattice columns are sampled along one footprint. Same surface either way.
+fn a_full_region_bakes_the_same_surface_as_none() {
+    // A region of weight 1 everywhere blends nothing in: the same surface as without.
     let mesh = tm::icosphere(2);
     let s = shell(&mesh, 0.1);
     let tex = layer(Generator::new(Pattern::Rivets).generate([32, 32, 16]).unwrap());

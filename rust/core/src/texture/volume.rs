@@ -2,7 +2,7 @@
 //! periodic in the two surface directions and clamped across the shell.
 
 use crate::{Error, Result};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// A texel footprint in `(s, t)`: the four texel indices within a slice and the
 /// bilinear fractions.
@@ -78,7 +78,7 @@ impl VolumeTexture {
 
     /// The bilinear footprint of `(s, t)`, shared by every `r` along it (a column of
     /// the bake's lattice samples one footprint at many heights).
-    pub fn column(&self, st: glam::Vec2) -> Column {
+    pub fn column(&self, st: Vec2) -> Column {
         let [nx, ny, _] = self.dims;
         // Texel index and fraction, wrapped into the tile (no libm floor: hot path).
         #[inline(always)]

@@ -1,11 +1,14 @@
 //! The occupancy field the bake polygonizes: the placed textures (united), the partial
 //! texture region blended with a base slab (figure 3.3), a moved region (chapter 7.2)
-//! and holes (chapter 7.3), evaluated at a cell's parameters `(u, v, r)`.
+//! and holes (chapter 7.3), evaluated along a lattice column: everything but the
+//! height `r` is fixed on a column, so each texture's `(s, t)` footprint, the region,
+//! move and hole weights are found once and only the heights vary.
 
 use super::cutter::Cutter;
 use super::uv_mask::UvMask;
 use super::TextureLayer;
 use crate::texture::mapping::CellMap;
+use crate::texture::volume::Column;
 use glam::{Vec2, Vec3};
 
 pub(super) struct Field<'a> {
@@ -23,22 +26,6 @@ pub(super) struct Field<'a> {
 }
 
 impl Field<'_> {
-    /// One texture and no region, holes, move or cutter: alpha is the texture itself,
-    /// so a lattice column can be sampled along one footprint.
-    pub fn single_texture(&self) -> Option<&TextureLayer> {
-        let plain = self.region.is_none() && self.holes.is_none() && self.cutter.is_none() && self.moved.is_none();
-        match self.layers {
-            [layer] if plain => Some(layer),
-            _ => None,
-        }
-    }
-
-    /// Union of the placed textures at texture point `c` (max alpha, chapter 7.3).
-    #[inline]
-    fn texture(&self, c: Vec3) -> f32 {
-        self.layers.iter().map(|l| l.texture.sample(c + l.offset.extend(0.0))).fold(0.0, f32::max)
-    }
-
     /// A per-vertex weight interpolated at barycentric weights `w` of cell `t`.
     #[inline]
     fn per_vertex(&self, values: Option<&[f32]>, t: usize, w: &[f32; 4]) -> Option<f32> {
@@ -46,29 +33,49 @@ impl Field<'_> {
         values.map(|v| (0..3).map(|k| v[c[k] as usize].clamp(0.0, 1.0) * w[k]).sum())
     }
 
-    /// Occupancy at parameters `q` of cell `t` (`cell` is its map).
-    pub fn alpha(&self, t: usize, cell: &CellMap, q: Vec3) -> f32 {
-        if self.cutter.is_some_and(|c| c.contains(cell.world(q))) {
-            return 0.0;
-        }
-        let w = cell.weights(q.x, q.y);
-        let c = cell.texture(q);
-        let base = ((self.base_layer - q.z) * self.layers_r + 0.5).clamp(0.0, 1.0);
-        // Presence of the texture in place (1: texture, 0: base slab).
+    /// Each texture's footprint at `st` (its offset added), appended to `out`.
+    fn footprints(&self, st: Vec2, out: &mut Vec<Column>) {
+        out.extend(self.layers.iter().map(|l| l.texture.column(st + l.offset)));
+    }
+
+    /// Union of the placed textures (max alpha, chapter 7.3) at height `r` over
+    /// `footprints` (one per layer).
+    #[inline]
+    fn union(&self, footprints: &[Column], r: f32) -> f32 {
+        self.layers.iter().zip(footprints).map(|(l, f)| l.texture.sample_column(f, r)).fold(0.0, f32::max)
+    }
+
+    /// Occupancy at the heights `r = l / (out.len() - 1)` of the column at `(u, v)` of
+    /// cell `t` (`cell` is its map), into `out`; `scratch` holds footprints.
+    pub fn column(&self, t: usize, cell: &CellMap, (u, v): (f32, f32), out: &mut [f32], scratch: &mut Vec<Column>) {
+        let w = cell.weights(u, v);
+        let st = cell.texture(Vec3::new(u, v, 0.0)).truncate();
+        // Presence of the texture in place (1: texture, 0: base slab); a moved piece
+        // leaves the base in its trace and shows where it landed.
         let mut presence = self.per_vertex(self.region, t, &w).unwrap_or(1.0);
         let mut arrived = 0.0;
-        let mut moved = 0.0;
+        scratch.clear();
+        self.footprints(st, scratch);
         if let Some((mask, d)) = &self.moved {
-            let st = c.truncate();
-            // The trace left behind shows the base; the piece shows where it landed.
             presence *= 1.0 - mask.sample(st);
             arrived = mask.sample(st - *d);
             if arrived > 0.0 {
-                moved = self.texture(c - d.extend(0.0));
+                self.footprints(st - *d, scratch);
             }
         }
-        let here = if presence > 0.0 { self.texture(c) } else { 0.0 };
-        let alpha = arrived * moved + (1.0 - arrived) * (presence * here + (1.0 - presence) * base);
-        alpha * (1.0 - self.per_vertex(self.holes, t, &w).unwrap_or(0.0))
+        let kept = 1.0 - self.per_vertex(self.holes, t, &w).unwrap_or(0.0);
+        let (here, there) = scratch.split_at(self.layers.len());
+        let last = (out.len() - 1) as f32;
+        for (l, a) in out.iter_mut().enumerate() {
+            let r = l as f32 / last;
+            if self.cutter.is_some_and(|c| c.contains(cell.world(Vec3::new(u, v, r)))) {
+                *a = 0.0;
+                continue;
+            }
+            let base = ((self.base_layer - r) * self.layers_r + 0.5).clamp(0.0, 1.0);
+            let tex = if presence > 0.0 { self.union(here, r) } else { 0.0 };
+            let moved = if arrived > 0.0 { self.union(there, r) } else { 0.0 };
+            *a = kept * (arrived * moved + (1.0 - arrived) * (presence * tex + (1.0 - presence) * base));
+        }
     }
 }

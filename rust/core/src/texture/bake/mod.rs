@@ -196,25 +196,21 @@ fn sample_lattice(mesh: &Mesh, shell: &Shell, lattice: &Lattice, field: &Field, 
     let n = lattice.n as f32;
     let layers = m as usize + 1;
     let mut values = vec![0.0f32; lattice.key_count() * layers];
-    values.par_chunks_mut(layers).enumerate().for_each(|(k, column)| {
+    values.par_chunks_mut(layers).enumerate().for_each_init(Vec::new, |scratch, (k, column)| {
         let (t, i, j) = owner[k];
         if t == u32::MAX || lattice.boundary[k] {
             return;
         }
         let t = t as usize;
         let cell = CellMap::new(mesh, shell, &lattice.tris[t], &lattice.st[t]);
-        let (u, v) = (i as f32 / n, j as f32 / n);
-        let single = field.single_texture().map(|layer| {
-            let st = cell.texture(Vec3::new(u, v, 0.0)).truncate() + layer.offset;
-            (&layer.texture, layer.texture.column(st))
-        });
-        for (l, a) in column.iter_mut().enumerate().take(m as usize).skip(1) {
-            let r = l as f32 / m as f32;
-            let x = match &single {
-                Some((texture, footprint)) => texture.sample_column(footprint, r),
-                None => field.alpha(t, &cell, Vec3::new(u, v, r)),
-            };
-            *a = if (x - 0.5).abs() < 1e-6 { 0.5 + 1e-6 } else { x };
+        field.column(t, &cell, (i as f32 / n, j as f32 / n), column, scratch);
+        // The shell's base and outer layer are outside.
+        column[0] = 0.0;
+        column[m as usize] = 0.0;
+        for a in column.iter_mut() {
+            if (*a - 0.5).abs() < 1e-6 {
+                *a = 0.5 + 1e-6;
+            }
         }
     });
     values
