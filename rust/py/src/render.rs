@@ -192,8 +192,8 @@ pub fn save_render(
     }
     let (h, w) = (shape[0], shape[1]);
     let mut frame = Frame::empty(w as u32, h as u32);
-    let c: Vec<f32> = rgba.as_array().iter().copied().collect();
-    frame.rgba = c.chunks_exact(4).map(|p| Vec4::new(p[0], p[1], p[2], p[3])).collect();
+    // Read in logical order straight into the frame (one pass, no intermediate copy).
+    frame.rgba = rgba.as_array().rows().into_iter().map(|p| Vec4::new(p[0], p[1], p[2], p[3])).collect();
     if let Some(d) = depth {
         if d.shape() != [h, w] {
             return Err(ThicketError::new_err("depth must be (height, width)"));
@@ -204,8 +204,7 @@ pub fn save_render(
         if n.shape() != [h, w, 3] {
             return Err(ThicketError::new_err("normal must be (height, width, 3)"));
         }
-        let v: Vec<f32> = n.as_array().iter().copied().collect();
-        frame.normal = v.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+        frame.normal = n.as_array().rows().into_iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
     }
     let exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
     run_detached(py, move || if exr { frame.save_exr(&path) } else { frame.save_png(&path) })

@@ -26,6 +26,34 @@ impl Frame {
         Self { width, height, rgba: vec![Vec4::ZERO; n], depth: vec![f32::INFINITY; n], normal: vec![Vec3::ZERO; n] }
     }
 
+    /// A frame whose pixel `(x, y)` (row 0 at the top) is `pixel(state, x, y)`: colour,
+    /// depth and normal where a surface is hit, nothing (empty) elsewhere. Rows are
+    /// filled in parallel, each worker with its own `init()` state.
+    pub fn from_pixels<S>(
+        width: u32,
+        height: u32,
+        init: impl Fn() -> S + Sync + Send,
+        pixel: impl Fn(&mut S, usize, usize) -> Option<(Vec4, f32, Vec3)> + Sync + Send,
+    ) -> Self {
+        use rayon::prelude::*;
+        let mut frame = Self::empty(width, height);
+        let w = (width as usize).max(1);
+        frame
+            .rgba
+            .par_chunks_mut(w)
+            .zip(frame.depth.par_chunks_mut(w))
+            .zip(frame.normal.par_chunks_mut(w))
+            .enumerate()
+            .for_each_init(init, |state, (y, ((rgba, depth), normal))| {
+                for x in 0..rgba.len() {
+                    if let Some((c, d, n)) = pixel(state, x, y) {
+                        (rgba[x], depth[x], normal[x]) = (c, d, n);
+                    }
+                }
+            });
+        frame
+    }
+
     /// Share of pixels covered by a surface.
     pub fn coverage(&self) -> f32 {
         self.rgba.iter().filter(|c| c.w > 0.5).count() as f32 / self.rgba.len().max(1) as f32

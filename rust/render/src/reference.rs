@@ -76,31 +76,15 @@ pub fn render(scene: &ShellScene, camera: &Camera, params: &RenderParams) -> Res
     }
     let marcher = Marcher::new(scene, params)?;
     let rays = Rays::new(camera)?;
-    let w = camera.width as usize;
-    let mut frame = Frame::empty(camera.width, camera.height);
     let light = params.light.normalize();
-    frame
-        .rgba
-        .par_chunks_mut(w)
-        .zip(frame.depth.par_chunks_mut(w))
-        .zip(frame.normal.par_chunks_mut(w))
-        .enumerate()
-        .for_each_init(Scratch::default, |scratch, (y, ((rgba, depth), normal))| {
-            for x in 0..w {
-                let Some((origin, dir, t_far)) = rays.ray(x, y) else { continue };
-                let Some(hit) = marcher.trace(origin, dir, t_far, scratch) else { continue };
-                let p = (origin + dir * hit.t).as_vec3();
-                let mut n = hit.normal;
-                if n.dot(dir.as_vec3()) > 0.0 {
-                    n = -n;
-                }
-                let shade = params.ambient + (1.0 - params.ambient) * n.dot(light).max(0.0);
-                rgba[x] = (params.albedo * shade).extend(1.0);
-                depth[x] = camera.depth(p);
-                normal[x] = n;
-            }
-        });
-    Ok(frame)
+    Ok(Frame::from_pixels(camera.width, camera.height, Scratch::default, |scratch, x, y| {
+        let (origin, dir, t_far) = rays.ray(x, y)?;
+        let hit = marcher.trace(origin, dir, t_far, scratch)?;
+        let p = (origin + dir * hit.t).as_vec3();
+        let n = if hit.normal.dot(dir.as_vec3()) > 0.0 { -hit.normal } else { hit.normal };
+        let shade = params.ambient + (1.0 - params.ambient) * n.dot(light).max(0.0);
+        Some(((params.albedo * shade).extend(1.0), camera.depth(p), n))
+    }))
 }
 
 /// Pixel rays, computed in double precision from the inverse view-projection.

@@ -81,31 +81,15 @@ pub fn read(gpu: &Gpu, buffer: &wgpu::Buffer, width: u32, height: u32) -> Result
 
 /// The frame from the two padded images (colour, then normal and depth) in `bytes`.
 pub fn unpack(bytes: &[u8], width: u32, height: u32) -> Frame {
-    use rayon::prelude::*;
-    let (w, row) = (width as usize, padded_row(width) as usize);
+    let row = padded_row(width) as usize;
     let image = row * height as usize;
     let texel = |at: usize| Vec4::from_array(bytemuck::pod_read_unaligned::<[f32; 4]>(&bytes[at..at + TEXEL as usize]));
-    let mut frame = Frame::empty(width, height);
-    frame
-        .rgba
-        .par_chunks_mut(w)
-        .zip(frame.normal.par_chunks_mut(w))
-        .zip(frame.depth.par_chunks_mut(w))
-        .enumerate()
-        .for_each(|(y, ((rgba, normal), depth))| {
-            for x in 0..w {
-                let at = y * row + x * TEXEL as usize;
-                let color = texel(at);
-                if color.w < 0.5 {
-                    continue;
-                }
-                let nd = texel(image + at);
-                rgba[x] = color;
-                normal[x] = Vec3::new(nd.x, nd.y, nd.z);
-                depth[x] = nd.w;
-            }
-        });
-    frame
+    Frame::from_pixels(width, height, || (), |_, x, y| {
+        let at = y * row + x * TEXEL as usize;
+        let color = texel(at);
+        let nd = texel(image + at);
+        (color.w >= 0.5).then(|| (color, nd.w, Vec3::new(nd.x, nd.y, nd.z)))
+    })
 }
 
 #[cfg(test)]
