@@ -1,5 +1,7 @@
 """Volumetric textures through thicket_native and the stack (thick surfaces, ch. 3, 7)."""
 
+import os
+
 import bpy
 import numpy as np
 import pytest
@@ -219,6 +221,15 @@ def test_a_texture_file_feeds_the_bake_and_a_missing_one_is_named(scene, tmp_pat
         top = r[inner & (r > 0.3)]
         assert len(top) > 0 and np.all(np.abs(top - 0.65) < 0.02), (path, top.min(), top.max())
         assert (edge_use_counts(sheet.thicket.result) == 2).all()
+    # Rewriting the file is seen (cached textures are keyed by modification time).
+    thinner = np.zeros_like(slab)
+    thinner[: nz // 4] = 1.0
+    tn.save_texture(exr, thinner)
+    os.utime(exr, (os.path.getatime(exr), os.path.getmtime(exr) + 10))
+    item.filepath = exr
+    api.regenerate(sheet)
+    inner = np.abs(positions(sheet.thicket.result)[:, :2]).max(axis=1) < 0.9
+    assert shell_r(sheet.thicket.result)[inner].max() < 0.4, "the rewritten, thinner slab"
     before = positions(sheet.thicket.result).copy()
     item.filepath = str(tmp_path / "nowhere.exr")
     with pytest.raises(tn.ThicketError, match="nowhere.exr"):

@@ -3,6 +3,8 @@
 No bpy here: the same function serves operators, the headless API and tests.
 """
 
+import os
+
 import numpy as np
 
 from .. import native
@@ -59,20 +61,26 @@ def _field_shell(mesh: MeshArrays, item: S.FieldShell, factors):
 
 
 _loaded = {}  # (path, modification time) -> texture array: files are read once
+_LOADED_KEEP = 8
+
+
+def _modified(path):
+    """Newest modification time of a texture file, or of a PNG stack's folder and
+    slices (a .png path stands for its folder, as `load_texture` reads it)."""
+    folder = path if os.path.isdir(path) else os.path.dirname(path) if path.lower().endswith(".png") else None
+    files = [path] if folder is None else [folder] + [os.path.join(folder, f) for f in os.listdir(folder)]
+    return max(map(os.path.getmtime, files))
 
 
 def _texture_file(tn, path):
     """A texture file's alpha, cached while the file is unchanged."""
-    import os
-
-    target = path if os.path.isdir(path) else os.path.dirname(path) if path.lower().endswith(".png") else path
     try:
-        stamp = max([os.path.getmtime(target)] + [os.path.getmtime(os.path.join(target, f)) for f in os.listdir(target)] if os.path.isdir(target) else [os.path.getmtime(target)])
+        key = (path, _modified(path))
     except OSError:
-        stamp = None  # let the loader name what is missing
-    key = (path, stamp)
+        return tn.load_texture(path)  # the loader names what is missing
     if key not in _loaded:
-        _loaded.clear()
+        if len(_loaded) >= _LOADED_KEEP:
+            _loaded.pop(next(iter(_loaded)))
         _loaded[key] = tn.load_texture(path)
     return _loaded[key]
 
