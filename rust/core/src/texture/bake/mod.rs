@@ -6,7 +6,7 @@
 //!   the directors, numbered globally so neighbouring cells share samples.
 //! - [`field`]: the occupancy sampled there: textures united, partial regions blended
 //!   with a base slab (figure 3.3), a moved region and holes (chapter 7).
-//! - [`polygonize`]: marching tetrahedra on conforming prism splits, one cell at a time.
+//! - [`polygonize`]: marching prisms ([`prism_table`]), one cell at a time.
 //! - [`merge`]: iso-vertices shared by cells joined through their lattice-edge keys.
 //! - [`cutter`] and [`uv_mask`]: a closed mesh's inside, and a vertex group in `(s, t)`.
 //!
@@ -16,10 +16,12 @@
 //! come from the field's gradient carried to world space by each cell's map.
 
 pub mod cutter;
+mod estimate;
 mod field;
 mod lattice;
 mod merge;
 mod polygonize;
+mod prism_table;
 mod uv_mask;
 
 use super::mapping::{CellMap, TextureCoordinates};
@@ -117,7 +119,8 @@ pub fn bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &Bake
         return Err(Error::InvalidParameter("tiling must be a positive number".into()));
     }
     let n_vertices = mesh.vertex_count();
-    let weights = [("region", &params.region), ("holes", &params.holes), ("moved region", &params.moved.as_ref().map(|m| m.weights.clone()))];
+    let weights =
+        [("region", &params.region), ("holes", &params.holes), ("moved region", &params.moved.as_ref().map(|m| m.weights.clone()))];
     for (what, w) in weights {
         if w.as_ref().is_some_and(|w| w.len() != n_vertices || w.iter().any(|x| !x.is_finite())) {
             return Err(Error::InvalidParameter(format!("{what} weights: one finite value per vertex")));
@@ -129,7 +132,7 @@ pub fn bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &Bake
     }
     let (n, m) = (params.resolution, params.layers);
     let lattice = Lattice::new(mesh, &coords, n);
-    let estimate = estimate_triangles(&lattice, textures, m);
+    let estimate = estimate::estimate_triangles(&lattice, textures, m);
     if estimate > params.max_triangles {
         return Err(Error::InvalidParameter(format!(
             "this bake would make about {estimate} triangles, over the limit of {}; lower the resolution or layers",
@@ -152,41 +155,19 @@ pub fn bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &Bake
     };
     let values = sample_lattice(mesh, shell, &lattice, &field, m);
 
-
     let cells = Cells { mesh, shell, lattice: &lattice, values: &values, layers: m };
-    let pieces: Vec<_> =
-        (0..lattice.tris.len()).into_par_iter().map_init(Scratch::default, |s, t| cells.polygonize(s, t)).collect();
+    let pieces: Vec<_> = (0..lattice.tris.len()).into_par_iter().map_init(Scratch::default, |s, t| cells.polygonize(s, t)).collect();
     drop(values);
     let mut out = merge::merge(pieces);
     out.per_face_tiles = coords.per_face_tiles;
     Ok(out)
 }
 
-/// A rough triangle count before baking: lattice cells times the share of texel
-/// edges of the texture that cross the iso-level (about two triangles per crossing
-/// cell).
+/// The triangle count a bake is expected to make ([`estimate`]).
 pub fn estimate_triangles_for(mesh: &Mesh, textures: &[TextureLayer], params: &BakeParams) -> usize {
     let coords = TextureCoordinates::of(mesh, params.tiling);
-    estimate_triangles(&Lattice::new(mesh, &coords, params.resolution), textures, params.layers)
+    estimate::estimate_triangles(&Lattice::new(mesh, &coords, params.resolution), textures, params.layers)
 }
-
-fn estimate_triangles(lattice: &Lattice, textures: &[TextureLayer], m: u32) -> usize {
-    let Some(first) = textures.first() else { return 0 };
-    let t = &first.texture;
-    let [nx, ny, nz] = t.dims();
-    let s = t.samples();
-    let mut crossing = 0usize;
-    for i in 0..s.len() {
-        let x = i % nx;
-        if x + 1 < nx && ((s[i] >= 0.5) != (s[i + 1] >= 0.5)) {
-            crossing += 1;
-        }
-    }
-    let share = crossing as f64 / (((nx.max(2) - 1) * ny * nz) as f64);
-    let cells = lattice.tris.len() as f64 * (lattice.n as f64).powi(2) * m as f64;
-    (cells * 3.0 * share * 2.0).ceil() as usize
-}
-
 
 /// `alpha` at every lattice point (point key × (layers + 1)), each computed in the
 /// cell that owns the point so shared points get one value. Values are kept off

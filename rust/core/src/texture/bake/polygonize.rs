@@ -1,11 +1,11 @@
-//! Marching tetrahedra over one cell's lattice. Each small prism is split into three
-//! tetrahedra by the rule of Dompierre et al. (each quad's diagonal through its
-//! smallest global index), which agrees on faces shared with neighbouring cells.
-//! Iso-vertices are computed once per lattice edge within the cell (a dense slot table
-//! indexed by the edge's lower endpoint and direction); those on the cell's boundary
-//! carry a global edge key so [`super::merge`] can join them with the neighbour's.
+//! Marching prisms over one cell's lattice (the triangles per case come from
+//! [`super::prism_table`]). Iso-vertices are computed once per lattice edge within the
+//! cell (a dense slot table indexed by the edge's lower endpoint and direction); those
+//! on the cell's boundary carry a global edge key so [`super::merge`] can join them
+//! with the neighbour's.
 
 use super::lattice::Lattice;
+use super::prism_table::{self, EDGES};
 use crate::texture::mapping::CellMap;
 use crate::{shell::Shell, Mesh};
 use glam::{IVec3, Vec3};
@@ -20,8 +20,6 @@ pub(super) struct Piece {
     pub pos: Vec<Vec3>,
     pub tex: Vec<Vec3>,
     pub grad: Vec<Vec3>,
-    /// Cell parameters `(u, v, r)` of each vertex, in lattice steps (for orientation).
-    pub params: Vec<Vec3>,
     pub tris: Vec<[u32; 3]>,
 }
 
@@ -54,22 +52,6 @@ pub(super) struct Scratch {
     masks: Vec<u64>,
 }
 
-/// Dompierre's prism split: permutation putting the smallest index first.
-const PRISM_ROT: [[usize; 6]; 6] =
-    [[0, 1, 2, 3, 4, 5], [1, 2, 0, 4, 5, 3], [2, 0, 1, 5, 3, 4], [3, 5, 4, 0, 2, 1], [4, 3, 5, 1, 0, 2], [5, 4, 3, 2, 1, 0]];
-
-fn split_prism(ids: &[u64; 6]) -> [[usize; 4]; 3] {
-    let k = (0..6).min_by_key(|&i| ids[i]).unwrap_or(0);
-    let p = PRISM_ROT[k];
-    let id = |i: usize| ids[p[i]];
-    let t = if id(1).min(id(5)) < id(2).min(id(4)) {
-        [[0, 1, 2, 5], [0, 1, 5, 4], [0, 4, 5, 3]]
-    } else {
-        [[0, 1, 2, 4], [0, 4, 2, 5], [0, 4, 5, 3]]
-    };
-    t.map(|tet| tet.map(|i| p[i]))
-}
-
 impl Piece {
     fn with_capacity(vertices: usize, triangles: usize) -> Self {
         Self {
@@ -77,7 +59,6 @@ impl Piece {
             pos: Vec::with_capacity(vertices),
             tex: Vec::with_capacity(vertices),
             grad: Vec::with_capacity(vertices),
-            params: Vec::with_capacity(vertices),
             tris: Vec::with_capacity(triangles),
         }
     }
@@ -168,58 +149,25 @@ impl Cells<'_> {
             piece.pos.push(cell.world(q));
             piece.tex.push(cell.texture(q));
             piece.grad.push(grad);
-            piece.params.push(param(lo).as_vec3().lerp(param(hi).as_vec3(), f));
             slots[slot] = idx;
             touched.push(slot);
             idx
         };
         let mut emit = |piece: &mut Piece, c: [usize; 6]| {
-            let inside = c.map(|k| vals[k] >= 0.5);
-            if inside.iter().all(|b| *b) || !inside.iter().any(|b| *b) {
+            let case = prism_table::classify(&c.map(|k| vals[k]));
+            if case.count == 0 {
                 return;
             }
-            for tet in split_prism(&c.map(|k| ids[k])) {
-                let v = tet.map(|k| c[k]);
-                let ins = tet.map(|k| inside[k]);
-                let count = ins.iter().filter(|b| **b).count();
-                if count == 0 || count == 4 {
-                    continue;
-                }
-                let (mut a, mut b) = ([0usize; 4], [0usize; 4]);
-                let (mut na, mut nb) = (0, 0);
-                for k in 0..4 {
-                    if ins[k] {
-                        a[na] = v[k];
-                        na += 1;
-                    } else {
-                        b[nb] = v[k];
-                        nb += 1;
+            let mut verts = [u32::MAX; 9];
+            for tri in &case.tris[..case.count as usize] {
+                let t = tri.map(|e| {
+                    let e = e as usize;
+                    if verts[e] == u32::MAX {
+                        verts[e] = iso(piece, c[EDGES[e][0]], c[EDGES[e][1]]);
                     }
-                }
-                let centre = |ks: &[usize]| ks.iter().map(|k| param(*k).as_vec3()).sum::<Vec3>() / ks.len() as f32;
-                let outward = centre(&b[..nb]) - centre(&a[..na]);
-                let tris: [[u32; 3]; 2];
-                let count_tris = match na {
-                    1 => {
-                        tris = [[iso(piece, a[0], b[0]), iso(piece, a[0], b[1]), iso(piece, a[0], b[2])], [0; 3]];
-                        1
-                    }
-                    3 => {
-                        tris = [[iso(piece, b[0], a[0]), iso(piece, b[0], a[1]), iso(piece, b[0], a[2])], [0; 3]];
-                        1
-                    }
-                    _ => {
-                        let q = [iso(piece, a[0], b[0]), iso(piece, a[0], b[1]), iso(piece, a[1], b[1]), iso(piece, a[1], b[0])];
-                        tris = [[q[0], q[1], q[2]], [q[0], q[2], q[3]]];
-                        2
-                    }
-                };
-                for tri in &tris[..count_tris] {
-                    let p = tri.map(|i| piece.params[i as usize]);
-                    let nrm = (p[1] - p[0]).cross(p[2] - p[0]);
-                    let keep = (nrm.dot(outward) >= 0.0) != flip;
-                    piece.tris.push(if keep { *tri } else { [tri[0], tri[2], tri[1]] });
-                }
+                    verts[e]
+                });
+                piece.tris.push(if flip { [t[0], t[2], t[1]] } else { t });
             }
         };
         for i in 0..n {
