@@ -25,6 +25,14 @@
 // The texture is the union of up to four layers, each shifted by its (s, t) offset:
 // alpha is the largest of theirs, the gradient that of the layer it comes from
 // (`sample_union`), wherever the shaders sample it.
+//
+// Distant views (chapter 6): every sample reads the mip level whose texels match the
+// pixel's footprint (`cell_lod`). With double mipmaps the layers' chains are empty
+// below the transition level, so the alpha test clips the far surface there, and
+//   4. `vs_slice` + `fs_haze` draws the transparency chain of the united layers over
+//      it: layers r = const of every cell, from the base outward, alpha-blended
+//      (directional alpha, normal-distribution ellipsoids shaded with nine samples),
+//      behind nothing nearer than Z1; `fs_shade` composites it over the surface.
 
 struct Globals {
     // World to clip space, depth reversed (1 on the near plane, 0 on the far one).
@@ -38,12 +46,19 @@ struct Globals {
     // Linear albedo; w: 1 for the interpolating mode, 0 for plain slicing.
     albedo: vec4<f32>,
     // Per texture layer: its tile offset (s, t); z: its texel rows nz across the
-    // shell. Layers from `layer_count.x` on are unused.
+    // shell; w: sqrt(nx ny), its texels per tile side. Layers from `layer_count.x` on
+    // are unused.
     layers: array<vec4<f32>, 4>,
     // x: the number of texture layers (1 to 4), united (max alpha).
     layer_count: vec4<u32>,
     // Viewport width, height and their reciprocals.
     viewport: vec4<f32>,
+    // x: world size of a pixel at unit depth (perspective) or everywhere
+    // (orthographic); y: 1 for perspective; z: mipmaps (0 off, 1 linear, 2 double);
+    // w: the number of transparency layers.
+    mip: vec4<f32>,
+    // The transparency chain's finest size (nx, ny, nz); w: the transition level.
+    haze: vec4<f32>,
 };
 
 // A triangle prism: base corners with their s in w, directors with their t in w.
@@ -68,6 +83,11 @@ struct CellFrames {
 @group(0) @binding(6) var volume_texture_1: texture_3d<f32>;
 @group(0) @binding(7) var volume_texture_2: texture_3d<f32>;
 @group(0) @binding(8) var volume_texture_3: texture_3d<f32>;
+// The transparency chain (double mipmaps): directional alpha along (s, t, r), and the
+// ellipsoid Q^-1 as its diagonal and its off-diagonal (01, 02, 12) entries.
+@group(0) @binding(9) var haze_alpha: texture_3d<f32>;
+@group(0) @binding(10) var haze_ndf_diagonal: texture_3d<f32>;
+@group(0) @binding(11) var haze_ndf_off_diagonal: texture_3d<f32>;
 
 // Per cell and side face (u = 0, v = 0, w = 0), the (s, t) the neighbouring cell has
 // at the face's two corners: (s_a, t_a, s_b, t_b); s_a = NO_NEIGHBOUR on the shell's
@@ -86,6 +106,8 @@ const NO_NEIGHBOUR: f32 = 3.0e38;
 // T2: (u, v, r) of the last outside fragment before T1 in T1's cell, w = its depth
 // (0: none).
 @group(2) @binding(0) var second_hit: texture_2d<f32>;
+// The transparency pass's result, premultiplied colour and alpha.
+@group(2) @binding(1) var haze_image: texture_2d<f32>;
 
 // Face codes of the template (0: an interior slice).
 const FACE_U0: u32 = 1u; // u = 0 (edge from corner 2 to corner 0)
@@ -113,30 +135,53 @@ fn cell_texture(c: Cell, q: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(s, t, q.z);
 }
 
+// The (s, t, w) a 3D texture of nz rows across the shell is sampled at for texture
+// coordinates (s, t, r): texel centres lie at (i + 1/2) / n in s and t and at
+// k / (nz - 1) in r, as on the CPU.
+fn volume_coords(tex: vec3<f32>, nz: f32) -> vec3<f32> {
+    return vec3<f32>(tex.xy, (clamp(tex.z, 0.0, 1.0) * (nz - 1.0) + 0.5) / nz);
+}
+
+// log2 of the tiles a pixel spans at view depth `depth` in cell `c` (chapter 6); a
+// texture of n texels per tile side is read at level lod + log2(n). Very low with
+// mipmaps off (level 0 everywhere).
+fn cell_lod(c: Cell, depth: f32) -> f32 {
+    if globals.mip.z < 0.5 {
+        return -64.0;
+    }
+    let m0 = c.corner[0].xyz + 0.5 * c.director[0].xyz;
+    let m1 = c.corner[1].xyz + 0.5 * c.director[1].xyz;
+    let m2 = c.corner[2].xyz + 0.5 * c.director[2].xyz;
+    let world = length(cross(m1 - m0, m2 - m0));
+    let ds = vec2<f32>(c.corner[1].w - c.corner[0].w, c.corner[2].w - c.corner[0].w);
+    let dt = vec2<f32>(c.director[1].w - c.director[0].w, c.director[2].w - c.director[0].w);
+    let tiles = abs(ds.x * dt.y - ds.y * dt.x);
+    let pixel = globals.mip.x * select(1.0, max(depth, 0.0), globals.mip.y > 0.5);
+    return log2(max(pixel * sqrt(tiles / max(world, 1e-30)), 1e-30));
+}
+
 // Texture layer k (gradient, alpha) at texture coordinates (s, t, r) shifted by the
-// layer's offset. Texel centres lie at (i + 1/2) / n in s and t and at k / (nz - 1)
-// in r, as on the CPU.
-fn sample_layer(k: u32, tex: vec3<f32>) -> vec4<f32> {
+// layer's offset, at the level for `lod` (see `cell_lod`).
+fn sample_layer(k: u32, tex: vec3<f32>, lod: f32) -> vec4<f32> {
     let info = globals.layers[k];
-    let nz = info.z;
-    let w = (clamp(tex.z, 0.0, 1.0) * (nz - 1.0) + 0.5) / nz;
-    let p = vec3<f32>(tex.xy + info.xy, w);
+    let p = volume_coords(vec3<f32>(tex.xy + info.xy, tex.z), info.z);
+    let level = max(lod + log2(info.w), 0.0);
     switch k {
-        case 1u: { return textureSampleLevel(volume_texture_1, volume_sampler, p, 0.0); }
-        case 2u: { return textureSampleLevel(volume_texture_2, volume_sampler, p, 0.0); }
-        case 3u: { return textureSampleLevel(volume_texture_3, volume_sampler, p, 0.0); }
-        default: { return textureSampleLevel(volume_texture_0, volume_sampler, p, 0.0); }
+        case 1u: { return textureSampleLevel(volume_texture_1, volume_sampler, p, level); }
+        case 2u: { return textureSampleLevel(volume_texture_2, volume_sampler, p, level); }
+        case 3u: { return textureSampleLevel(volume_texture_3, volume_sampler, p, level); }
+        default: { return textureSampleLevel(volume_texture_0, volume_sampler, p, level); }
     }
 }
 
 // The union of the texture layers at texture coordinates (s, t, r): the largest alpha
 // with the gradient of the layer it comes from (the first of equals), as
 // `ShellScene::alpha` and `ShellScene::gradient` on the CPU.
-fn sample_union(tex: vec3<f32>) -> vec4<f32> {
-    var best = sample_layer(0u, tex);
+fn sample_union(tex: vec3<f32>, lod: f32) -> vec4<f32> {
+    var best = sample_layer(0u, tex, lod);
     let count = min(globals.layer_count.x, 4u);
     for (var k = 1u; k < count; k++) {
-        let v = sample_layer(k, tex);
+        let v = sample_layer(k, tex, lod);
         if v.a > best.a {
             best = v;
         }
@@ -223,7 +268,8 @@ struct FirstHit {
 @fragment
 fn fs_inside(v: SliceVarying) -> FirstHit {
     let q = fragment_param(v);
-    if sample_union(cell_texture(cells[v.code / 8u - 1u], q)).a < 0.5 {
+    let c = cells[v.code / 8u - 1u];
+    if sample_union(cell_texture(c, q), cell_lod(c, v.view_depth)).a < 0.5 {
         discard;
     }
     return FirstHit(vec4<u32>(bitcast<vec3<u32>>(q), v.code), v.view_depth);
@@ -234,7 +280,8 @@ fn fs_inside(v: SliceVarying) -> FirstHit {
 @fragment
 fn fs_outside(v: SliceVarying) -> @location(0) vec4<f32> {
     let q = fragment_param(v);
-    if sample_union(cell_texture(cells[v.code / 8u - 1u], q)).a >= 0.5 {
+    let c = cells[v.code / 8u - 1u];
+    if sample_union(cell_texture(c, q), cell_lod(c, v.view_depth)).a >= 0.5 {
         discard;
     }
     let px = vec2<i32>(floor(v.position.xy));
@@ -282,7 +329,7 @@ fn face_gradient(face: u32) -> vec3<f32> {
 // Alpha just across `face` of `cell` at parameters q on it: in the neighbour's own
 // texture coordinates (they may jump: a UV seam, one tile per face), or 0 outside
 // the shell.
-fn alpha_across(cell: u32, face: u32, q: vec3<f32>) -> f32 {
+fn alpha_across(cell: u32, face: u32, q: vec3<f32>, lod: f32) -> f32 {
     if face == 0u || face > FACE_W0 {
         return 0.0;
     }
@@ -298,7 +345,7 @@ fn alpha_across(cell: u32, face: u32, q: vec3<f32>) -> f32 {
         case FACE_V0: { t = w.y / (w.x + w.y); } // corner 0 to corner 1
         default: { t = w.z / (w.y + w.z); } // FACE_W0: corner 1 to corner 2
     }
-    return sample_union(vec3<f32>(mix(n.xy, n.zw, t), q.z)).a;
+    return sample_union(vec3<f32>(mix(n.xy, n.zw, t), q.z), lod).a;
 }
 
 // Unit direction of the ray through the pixel centre at `frag` (window coordinates).
@@ -311,9 +358,20 @@ fn pixel_ray(frag: vec2<f32>) -> vec3<f32> {
     return normalize(far.xyz / far.w - near.xyz / near.w);
 }
 
-// Pass 3: surface point, normal and lighting per pixel.
+// Pass 3: surface point, normal and lighting per pixel, under the transparency
+// pass's result (premultiplied; the output has straight alpha).
 @fragment
 fn fs_shade(@builtin(position) position: vec4<f32>) -> Shaded {
+    var out = shade_surface(position);
+    let haze = textureLoad(haze_image, vec2<i32>(floor(position.xy)), 0);
+    let a = haze.a + (1.0 - haze.a) * out.color.a;
+    let rgb = haze.rgb + (1.0 - haze.a) * out.color.a * out.color.rgb;
+    out.color = vec4<f32>(select(vec3<f32>(0.0), rgb / a, a > 0.0), a);
+    return out;
+}
+
+// The surface seen at a pixel, from T1 (and T2 when interpolating).
+fn shade_surface(position: vec4<f32>) -> Shaded {
     let px = vec2<i32>(floor(position.xy));
     let first = textureLoad(first_hit, px, 0);
     if first.w == 0u {
@@ -325,6 +383,7 @@ fn fs_shade(@builtin(position) position: vec4<f32>) -> Shaded {
     let dir = pixel_ray(position.xy);
     var q = bitcast<vec3<f32>>(first.xyz);
     var depth = textureLoad(first_depth, px, 0).r;
+    let lod = cell_lod(c, depth);
     var n = vec3<f32>(0.0);
     // The first inside sample on a face the ray enters the cell through: the
     // neighbour's copy of the face, just in front, was outside. Where alpha jumps
@@ -334,7 +393,7 @@ fn fs_shade(@builtin(position) position: vec4<f32>) -> Shaded {
     var on_face = false;
     if face != 0u {
         let nf = cell_frame(cell, q) * face_gradient(face);
-        if dot(nf, dir) < 0.0 && sample_union(cell_texture(c, q)).a - alpha_across(cell, face, q) > 0.25 {
+        if dot(nf, dir) < 0.0 && sample_union(cell_texture(c, q), lod).a - alpha_across(cell, face, q, lod) > 0.25 {
             on_face = true;
             n = nf;
         }
@@ -344,8 +403,8 @@ fn fs_shade(@builtin(position) position: vec4<f32>) -> Shaded {
             let second = textureLoad(second_hit, px, 0);
             if second.w > 0.0 {
                 // t3 = ((a1 - 1/2) t2 - (a2 - 1/2) t1) / (a1 - a2), chapter 5.3.2.
-                let a1 = sample_union(cell_texture(c, q)).a;
-                let a2 = sample_union(cell_texture(c, second.xyz)).a;
+                let a1 = sample_union(cell_texture(c, q), lod).a;
+                let a2 = sample_union(cell_texture(c, second.xyz), lod).a;
                 if a1 > a2 {
                     let l = clamp((a1 - 0.5) / (a1 - a2), 0.0, 1.0);
                     q = mix(q, second.xyz, l);
@@ -355,13 +414,8 @@ fn fs_shade(@builtin(position) position: vec4<f32>) -> Shaded {
         }
         // d alpha / d(s, t, r) to d alpha / d(u, v, r): the transpose of the cell's
         // constant texture Jacobian.
-        let g = sample_union(cell_texture(c, q)).xyz;
-        let su = c.corner[1].w - c.corner[0].w;
-        let sv = c.corner[2].w - c.corner[0].w;
-        let tu = c.director[1].w - c.director[0].w;
-        let tv = c.director[2].w - c.director[0].w;
-        let gp = vec3<f32>(su * g.x + tu * g.y, sv * g.x + tv * g.y, g.z);
-        n = -(cell_frame(cell, q) * gp);
+        let g = sample_union(cell_texture(c, q), lod).xyz;
+        n = -(cell_frame(cell, q) * texture_to_cell(c, g));
     }
     let len = length(n);
     if len > 1e-20 && len < 3.0e38 {
@@ -372,7 +426,130 @@ fn fs_shade(@builtin(position) position: vec4<f32>) -> Shaded {
     if dot(n, dir) > 0.0 {
         n = -n;
     }
+    return Shaded(vec4<f32>(globals.albedo.rgb * lighting(n), 1.0), vec4<f32>(n, depth));
+}
+
+// Ambient plus diffuse light on a normal of length at most 1 (shorter where the
+// normals it stands for spread, which darkens rough far surfaces, chapter 6.4.4).
+fn lighting(n: vec3<f32>) -> f32 {
     let ambient = globals.light.w;
-    let shade = ambient + (1.0 - ambient) * max(dot(n, globals.light.xyz), 0.0);
-    return Shaded(vec4<f32>(globals.albedo.rgb * shade, 1.0), vec4<f32>(n, depth));
+    return ambient + (1.0 - ambient) * max(dot(n, globals.light.xyz), 0.0);
+}
+
+// d(s, t, r) / d(u, v, r): constant in a cell (s and t are affine in u, v; r is r).
+fn texture_jacobian(c: Cell) -> mat3x3<f32> {
+    return mat3x3<f32>(
+        vec3<f32>(c.corner[1].w - c.corner[0].w, c.director[1].w - c.director[0].w, 0.0),
+        vec3<f32>(c.corner[2].w - c.corner[0].w, c.director[2].w - c.director[0].w, 0.0),
+        vec3<f32>(0.0, 0.0, 1.0),
+    );
+}
+
+// A gradient in texture coordinates (s, t, r) to cell parameters (u, v, r).
+fn texture_to_cell(c: Cell, g: vec3<f32>) -> vec3<f32> {
+    return transpose(texture_jacobian(c)) * g;
+}
+
+// A direction in cell parameters (u, v, r) to texture coordinates (s, t, r).
+fn cell_to_texture(c: Cell, d: vec3<f32>) -> vec3<f32> {
+    return texture_jacobian(c) * d;
+}
+
+// The inverse of a symmetric matrix, regularized (the flattest stored ellipsoids
+// are thin, never singular).
+fn inverse_symmetric(m: mat3x3<f32>) -> mat3x3<f32> {
+    let a = m + mat3x3<f32>(1e-3, 0.0, 0.0, 0.0, 1e-3, 0.0, 0.0, 0.0, 1e-3);
+    let c0 = cross(a[1], a[2]);
+    let c1 = cross(a[2], a[0]);
+    let c2 = cross(a[0], a[1]);
+    let det = dot(a[0], c0);
+    return transpose(mat3x3<f32>(c0, c1, c2)) * (1.0 / det);
+}
+
+// The mean normal of the ellipsoid with Q^-1 = `s` (texture space) seen along the
+// unit texture-space direction `d` (chapter 6.4.4, figure 6.4): the ellipsoid is
+// projected along d, nine points on a 3x3 grid inside the projected ellipse are
+// lifted back onto its near side, and their unit normals, carried to world space as
+// gradients (`c`, `cell`, `q`: where), are averaged without normalizing.
+fn ndf_normal(s: mat3x3<f32>, d: vec3<f32>, c: Cell, cell: u32, q: vec3<f32>, view: vec3<f32>) -> vec3<f32> {
+    let helper = select(vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(1.0, 0.0, 0.0), abs(d.z) > 0.9);
+    let e1 = normalize(cross(d, helper));
+    let e2 = cross(d, e1);
+    // The projected ellipse: y^T (B^T Q^-1 B)^-1 y <= 1, B = (e1, e2).
+    let p = vec3<f32>(dot(e1, s * e1), dot(e1, s * e2), dot(e2, s * e2));
+    let mean = 0.5 * (p.x + p.z);
+    let radius = sqrt(0.25 * (p.x - p.z) * (p.x - p.z) + p.y * p.y);
+    let angle = 0.5 * atan2(2.0 * p.y, p.x - p.z);
+    let axis1 = (cos(angle) * e1 + sin(angle) * e2) * sqrt(max(mean + radius, 0.0));
+    let axis2 = (cos(angle) * e2 - sin(angle) * e1) * sqrt(max(mean - radius, 0.0));
+    let qm = inverse_symmetric(s);
+    let frame = cell_frame(cell, q);
+    let qd = qm * d;
+    let dqd = dot(d, qd);
+    var sum = vec3<f32>(0.0);
+    for (var i = -1; i <= 1; i++) {
+        for (var j = -1; j <= 1; j++) {
+            let y = 0.5 * (f32(i) * axis1 + f32(j) * axis2);
+            // (y + tau d)^T Q (y + tau d) = 1, the root nearer the eye.
+            let b = dot(y, qd);
+            let k = dot(y, qm * y) - 1.0;
+            let tau = (-b - sqrt(max(b * b - dqd * k, 0.0))) / dqd;
+            var n = frame * texture_to_cell(c, qm * (y + tau * d));
+            let len = length(n);
+            if len > 1e-20 && len < 3.0e38 {
+                n = n / len;
+                if dot(n, view) > 0.0 {
+                    n = -n;
+                }
+                sum += n;
+            }
+        }
+    }
+    return sum / 9.0;
+}
+
+// Pass 4 (double mipmaps): one transparency layer of every cell, alpha-blended over
+// what the layers nearer the base left (premultiplied colour). Empty at the levels
+// above the transition level, so near parts add nothing.
+@fragment
+fn fs_haze(v: SliceVarying) -> @location(0) vec4<f32> {
+    let px = vec2<i32>(floor(v.position.xy));
+    if textureLoad(first_hit, px, 0).w != 0u && v.view_depth >= textureLoad(first_depth, px, 0).r {
+        discard;
+    }
+    let cell = v.code / 8u - 1u;
+    let c = cells[cell];
+    let q = v.param;
+    let dims = globals.haze.xyz;
+    let lod = cell_lod(c, v.view_depth) + 0.5 * log2(dims.x * dims.y);
+    let level = max(lod, 0.0);
+    let p = volume_coords(cell_texture(c, q), dims.z);
+    let alpha = textureSampleLevel(haze_alpha, volume_sampler, p, level).xyz;
+    if max(alpha.x, max(alpha.y, alpha.z)) < 1.0 / 256.0 {
+        discard;
+    }
+    // The view ray in texture coordinates: J^-1 = frame^T carries world directions to
+    // cell parameters.
+    let view = pixel_ray(v.position.xy);
+    let frame = cell_frame(cell, q);
+    let d = cell_to_texture(c, transpose(frame) * view);
+    // Between two layers the ray crosses |d_i| dims_i texels along each axis (dims at
+    // this level); each crossing lets 1 - alpha_i through.
+    let level_dims = max(dims * exp2(-level), vec3<f32>(1.0));
+    let between = (1.0 / globals.mip.w) / max(abs(d.z), 1e-6);
+    let crossings = min(abs(d) * level_dims * between, vec3<f32>(64.0));
+    let through = exp2(crossings * log2(max(vec3<f32>(1.0) - alpha, vec3<f32>(1e-6))));
+    let opacity = clamp(1.0 - through.x * through.y * through.z, 0.0, 1.0);
+    if opacity < 1.0 / 512.0 {
+        discard;
+    }
+    let diagonal = textureSampleLevel(haze_ndf_diagonal, volume_sampler, p, level).xyz;
+    let off = textureSampleLevel(haze_ndf_off_diagonal, volume_sampler, p, level).xyz;
+    let s = mat3x3<f32>(
+        vec3<f32>(diagonal.x, off.x, off.y),
+        vec3<f32>(off.x, diagonal.y, off.z),
+        vec3<f32>(off.y, off.z, diagonal.z),
+    );
+    let n = ndf_normal(s, normalize(d), c, cell, q, view);
+    return vec4<f32>(globals.albedo.rgb * lighting(n) * opacity, opacity);
 }

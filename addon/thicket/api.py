@@ -115,11 +115,13 @@ def export_texture(obj, path, index=None):
     return native.get().save_texture(bpy.path.abspath(path), item_texture(item.to_settings()))
 
 
-def render_preview(obj, path=None, width=None, height=None, method="auto", slices=16, image="Thicket Preview"):
+def render_preview(obj, path=None, width=None, height=None, method="auto", slices=16, image="Thicket Preview", mipmaps="double"):
     """Renders `obj`'s thick surface (its first Volumetric Texture over its shell, not
     baked) from the scene camera into the Blender image `image`, which is returned.
     Size: the scene's output size unless given. `method`: "auto" (GPU slices, or the
-    CPU reference without a GPU), "interpolating", "plain" or "reference". `path`:
+    CPU reference without a GPU), "interpolating", "plain" or "reference".
+    `mipmaps`: "double" (far detail turns semi-transparent instead of vanishing),
+    "linear" or "off". `path`:
     also written to a file: .exr (colour, alpha, depth and normal layers) or .png."""
     from .render import camera, preview
 
@@ -129,7 +131,7 @@ def render_preview(obj, path=None, width=None, height=None, method="auto", slice
     if width is None or height is None:
         width, height = camera.render_size(scene)
     view, projection = camera.scene_camera(scene, depsgraph, obj, width, height)
-    out = preview.render_arrays(obj, view, projection, width, height, depsgraph=depsgraph, method=method, slices=slices)
+    out = preview.render_arrays(obj, view, projection, width, height, depsgraph=depsgraph, method=method, slices=slices, mipmaps=mipmaps)
     result = preview.to_image(out["rgba"], image)
     if path:
         native.get().save_render(bpy.path.abspath(path), out["rgba"], out["depth"], out["normal"])

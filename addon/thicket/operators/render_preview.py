@@ -25,6 +25,16 @@ class THICKET_OT_render_preview(bpy.types.Operator):
         default="auto",
     )
     slices: IntProperty(name="Slices", description="Slices per cell", min=1, max=256, default=16)
+    mipmaps: EnumProperty(
+        name="Mipmaps",
+        description="How textures finer than the pixels are filtered (slice renderers)",
+        items=[
+            ("double", "Double", "Geometry up close, a semi-transparent medium far away, so fine detail never vanishes (chapter 6)"),
+            ("linear", "Averaged", "Plain averaged mipmaps: fine detail thins out and vanishes far away"),
+            ("off", "Off", "The full texture everywhere: far views alias"),
+        ],
+        default="double",
+    )
 
     @classmethod
     def poll(cls, context):
@@ -45,7 +55,8 @@ class THICKET_OT_render_preview(bpy.types.Operator):
                 width, height = camera.render_size(context.scene)
                 view, projection = camera.scene_camera(context.scene, depsgraph, obj, width, height)
             image, seconds, renderer, fallback = preview.render_to_image(
-                obj, view, projection, width, height, depsgraph=depsgraph, method=self.method, slices=self.slices
+                obj, view, projection, width, height, depsgraph=depsgraph, method=self.method, slices=self.slices,
+                mipmaps=self.mipmaps,
             )
         except user_errors() as exc:
             self.report({"ERROR"}, f"{obj.name}: {error_text(exc)}")

@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 
 from .. import native
-from . import camera
+from . import camera, lights
 
 THROTTLE = 0.25
 SCALE = 0.5
@@ -101,6 +101,7 @@ def _tick():
             try:
                 _, shell, item, textures = _prepared(obj)
                 v, p = camera.viewport_camera(r3d, obj)
+                light = lights.scene_light(bpy.context.evaluated_depsgraph_get(), obj)
             except Exception as exc:  # shown in the view; never raised into Blender's loop
                 _state["error"] = str(exc)
                 area.tag_redraw()
@@ -108,7 +109,7 @@ def _tick():
             view.update(key=key, busy=True, last=now)
             base = shell.base
             args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures, v, p, width, height)
-            kwargs = dict(uvs=base.uvs, tiling=float(item.tiling))
+            kwargs = dict(uvs=base.uvs, tiling=float(item.tiling), light=light)
             threading.Thread(target=_work, args=(view, args, kwargs), daemon=True).start()
     return 0.1
 

@@ -6,6 +6,7 @@ import bpy
 import numpy as np
 
 from .. import mesh_io, native
+from . import lights
 from ..stack.auto_update import suspended
 from ..stack.evaluate import texture_setup
 from ..stack.regenerate import enabled_settings
@@ -13,19 +14,25 @@ from ..stack.regenerate import enabled_settings
 PREVIEW_IMAGE = "Thicket Preview"
 
 
-def render_arrays(obj, view, projection, width, height, depsgraph=None, method="auto", slices=16):
+def render_arrays(obj, view, projection, width, height, depsgraph=None, method="auto", slices=16, mipmaps="double", light=None):
     """The native render of `obj`'s first Volumetric Texture over its shell: a dict
-    with rgba (h, w, 4, row 0 at the top), depth, normal, renderer, fallback."""
+    with rgba (h, w, 4, row 0 at the top), depth, normal, renderer, fallback.
+    `mipmaps`: "double", "linear" or "off" (see `thicket_native.render_shell`).
+    `light`: direction toward the light in `obj`'s space; the scene's main light
+    (`lights.scene_light`) unless given."""
     with suspended():
         depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
         items = enabled_settings(obj, depsgraph)
         groups = sorted({g for item in items for g in item.vertex_groups()})
         source = mesh_io.read_evaluated(obj, depsgraph, groups)
+        if light is None:
+            light = lights.scene_light(depsgraph, obj)
     shell, item, textures = texture_setup(source, items)
     base = shell.base
     return native.get().render_shell(
         base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures,
         view, projection, int(width), int(height), uvs=base.uvs, tiling=float(item.tiling), method=method, slices=int(slices),
+        mipmaps=mipmaps, light=tuple(float(v) for v in light),
     )
 
 

@@ -8,6 +8,7 @@ use pyo3::types::PyDict;
 use std::sync::Mutex;
 use thicket_core::glam::{Mat4, Vec3, Vec4};
 use thicket_render::gpu::{GpuRenderer, SliceMode, SliceParams};
+use thicket_render::mipmap::Mipmaps;
 use thicket_render::reference::{render, RenderParams};
 use thicket_render::{Camera, Frame, ShellScene};
 
@@ -76,14 +77,17 @@ fn render_on_gpu(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> s
 /// render_shell(vertices, face_sizes, corners, base_offset, directors, textures,
 ///              view, projection, width, height, uvs=None, tiling=1.0,
 ///              method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25,
-///              step=0.05) -> dict
+///              step=0.05, mipmaps="double") -> dict
 ///
 /// Renders the alpha = 0.5 iso-surface of volumetric textures mapped into a shell
 /// (layer r of vertex v at v + base_offset + r * director) without baking it.
 /// `method`: "interpolating" or "plain" (the GPU slice renderer of chapter 5, `slices`
 /// slices per cell), "reference" (CPU ray marching with exact root bracketing; `step`
 /// as a fraction of the mean shell thickness), or "auto" (interpolating slices, the
-/// reference when no GPU adapter exists or the device is lost). `textures`: a list
+/// reference when no GPU adapter exists or the device is lost). `mipmaps` (slices
+/// only): "double" (chapter 6: far textures become semi-transparent instead of
+/// vanishing), "linear" (averaged mipmaps, for comparison) or "off" (the full
+/// texture everywhere; the reference always uses it). `textures`: a list
 /// of float32 (nz, ny, nx) arrays or (array, (ds, dt)) pairs, united. `uvs`: float32
 /// (corners, 2) or None (one tile per face). `view` (world to camera) and
 /// `projection` (camera to OpenGL clip space, as `Object.calc_matrix_camera` gives
@@ -94,7 +98,7 @@ fn render_on_gpu(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> s
 /// 3), per_face_tiles, renderer (what drew it) and fallback (why the GPU was not
 /// used, or "").
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, view, projection, width, height, uvs=None, tiling=1.0, method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05))]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, view, projection, width, height, uvs=None, tiling=1.0, method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05, mipmaps="double"))]
 #[allow(clippy::too_many_arguments)]
 pub fn render_shell<'py>(
     py: Python<'py>,
@@ -115,7 +119,14 @@ pub fn render_shell<'py>(
     light: (f32, f32, f32),
     ambient: f32,
     step: f32,
+    mipmaps: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let mipmaps = match mipmaps {
+        "double" => Mipmaps::Double,
+        "linear" => Mipmaps::Linear,
+        "off" => Mipmaps::Off,
+        other => return Err(ThicketError::new_err(format!("unknown mipmaps {other:?}; one of double, linear, off"))),
+    };
     let mode = match method {
         "auto" | "interpolating" => Some(SliceMode::Interpolating),
         "plain" => Some(SliceMode::Plain),
@@ -142,7 +153,7 @@ pub fn render_shell<'py>(
         let (frame, renderer, fallback) = match mode {
             None => reference(String::new())?,
             Some(mode) => {
-                let params = SliceParams { slices, mode, light, ambient, ..Default::default() };
+                let params = SliceParams { slices, mode, light, ambient, mipmaps, ..Default::default() };
                 match render_on_gpu(&scene, &camera, &params) {
                     Ok((frame, name)) => (frame, format!("GPU slice renderer on {name}"), String::new()),
                     Err(why) if auto => reference(format!("the GPU slice renderer is unavailable ({why}); rendered on the CPU instead"))?,

@@ -1,5 +1,6 @@
 //! Frame times of the GPU slice renderer at 1024x1024 (8, 16 and 32 slices per cell,
-//! plain and interpolating) on a ~5k-face and a ~59k-face shell textured with chain
+//! plain and interpolating without mipmaps, and interpolating with double mipmaps,
+//! which adds the transparency pass wherever texels are smaller than pixels) on a ~5k-face and a ~59k-face shell textured with chain
 //! mail, side by side with the CPU reference renderer on the same scene and camera.
 //! The reference is rendered at 256x256 and its time multiplied by 16 (it is linear
 //! in the pixel count) to estimate 1024x1024.
@@ -15,6 +16,7 @@ use thicket_core::texture::bake::TextureLayer;
 use thicket_core::texture::{Generator, Pattern};
 use thicket_core::Mesh;
 use thicket_render::gpu::{FrameTimings, GpuRenderer, SliceMode, SliceParams};
+use thicket_render::mipmap::{MipmapSet, Mipmaps};
 use thicket_render::reference::{self, RenderParams};
 use thicket_render::{Camera, ShellScene};
 
@@ -62,6 +64,9 @@ fn main() {
         println!();
         println!("## {name}: {} cells, chain mail 64x64x32, {SIZE}x{SIZE}", scene.cells.len());
 
+        let start = Instant::now();
+        let set = MipmapSet::build(&scene.textures, Mipmaps::Double);
+        println!("double mipmap built on the CPU in {:.1} ms (transition level {})", ms(start.elapsed()), set.transition);
         // The first frame uploads the scene.
         let start = Instant::now();
         gpu.render(&scene, &cam, &SliceParams::default()).unwrap();
@@ -70,8 +75,13 @@ fn main() {
         println!("| renderer | slices | frame ms (median of {FRAMES}) | prepare ms | GPU passes ms | readback ms | coverage |");
         println!("|---|---|---|---|---|---|---|");
         for slices in [8, 16, 32] {
-            for mode in [SliceMode::Plain, SliceMode::Interpolating] {
-                let p = SliceParams { slices, mode, ..SliceParams::default() };
+            let modes = [
+                (SliceMode::Plain, Mipmaps::Off),
+                (SliceMode::Interpolating, Mipmaps::Off),
+                (SliceMode::Interpolating, Mipmaps::Double),
+            ];
+            for (mode, mipmaps) in modes {
+                let p = SliceParams { slices, mode, mipmaps, ..SliceParams::default() };
                 let mut times = Vec::new();
                 let mut coverage = 0.0;
                 gpu.render(&scene, &cam, &p).unwrap();
@@ -81,7 +91,7 @@ fn main() {
                 }
                 let t = median(times);
                 println!(
-                    "| GPU {mode:?} | {slices} | {:.2} | {:.2} | {:.2} | {:.2} | {coverage:.3} |",
+                    "| GPU {mode:?}, mipmaps {mipmaps:?} | {slices} | {:.2} | {:.2} | {:.2} | {:.2} | {coverage:.3} |",
                     ms(t.total()),
                     ms(t.prepare),
                     ms(t.draw),

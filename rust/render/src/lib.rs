@@ -7,12 +7,15 @@
 //!   exact root bracketing of `alpha = 0.5`; ground truth and fallback.
 //! - [`gpu`]: the wgpu slice renderer (chapter 5): plain slicing and the two-pass
 //!   slice interpolation, headless on any Vulkan, Metal or DirectX 12 adapter.
+//! - [`mipmap`]: double mipmaps for distant views (chapter 6): occupancy levels, then
+//!   transparency levels with directional alpha and normal-distribution ellipsoids.
 //! - [`image_out`]: the rendered frame (colour, alpha, depth, normal) and its PNG and
 //!   OpenEXR outputs.
 
 pub mod camera;
 pub mod gpu;
 pub mod image_out;
+pub mod mipmap;
 pub mod reference;
 pub mod scene;
 

@@ -11,6 +11,7 @@ use thicket_core::testmeshes as tm;
 use thicket_core::texture::bake::TextureLayer;
 use thicket_core::texture::{Generator, Pattern, VolumeTexture};
 use thicket_render::gpu::{GpuRenderer, SliceMode, SliceParams};
+use thicket_render::mipmap::Mipmaps;
 use thicket_render::reference::{self, RenderParams};
 use thicket_render::{Camera, Frame, ShellScene};
 
@@ -69,9 +70,11 @@ fn close_view(size: u32) -> Camera {
     perspective(Vec3::new(1.2, -3.0, 1.5), Vec3::new(0.35, -0.85, 0.45), 0.25, size)
 }
 
+/// Chapter 5's renderer as the reference renderer sees the texture: full resolution
+/// everywhere (no mipmaps; they are tested against supersampled references below).
 fn slice_params(slices: u32, mode: SliceMode) -> SliceParams {
     let p = RenderParams::default();
-    SliceParams { slices, mode, light: p.light, ambient: p.ambient, albedo: p.albedo }
+    SliceParams { slices, mode, light: p.light, ambient: p.ambient, albedo: p.albedo, mipmaps: Mipmaps::Off }
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -402,4 +405,92 @@ fn shaders_validate() {
         }
     }
     assert!(count > 0, "no shader in {}", dir.display());
+}
+
+/// Mean alpha of `frame` over `k x k` blocks: the coverage of each pixel of an image
+/// `k` times smaller.
+fn downsample_alpha(frame: &Frame, k: u32) -> Vec<f32> {
+    let (w, h) = (frame.width / k, frame.height / k);
+    let mut out = vec![0.0; (w * h) as usize];
+    for y in 0..frame.height {
+        for x in 0..frame.width {
+            out[((y / k) * w + x / k) as usize] += frame.rgba[(y * frame.width + x) as usize].w / (k * k) as f32;
+        }
+    }
+    out
+}
+
+/// Coverage of a far view per mipmap mode, against the reference renderer at
+/// `supersampling` times the resolution averaged down (the true share of each pixel the object covers):
+/// (truth, [off, linear, double]) mean coverage and, per mode, the mean absolute
+/// per-pixel coverage error.
+fn far_view_coverage(
+    scene: &ShellScene,
+    camera: impl Fn(u32) -> Camera,
+    size: u32,
+    supersampling: u32,
+) -> (f32, [f32; 3], [f32; 3]) {
+    let fine = reference::render(scene, &camera(size * supersampling), &RenderParams { step: 0.02, ..Default::default() })
+        .unwrap();
+    let truth = downsample_alpha(&fine, supersampling);
+    let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
+    let mut r = renderer();
+    let mut coverage = [0.0; 3];
+    let mut error = [0.0; 3];
+    for (k, mipmaps) in [Mipmaps::Off, Mipmaps::Linear, Mipmaps::Double].into_iter().enumerate() {
+        let params = SliceParams { mipmaps, ..slice_params(16, SliceMode::Interpolating) };
+        let frame = r.render(scene, &camera(size), &params).unwrap();
+        let alpha: Vec<f32> = frame.rgba.iter().map(|c| c.w).collect();
+        coverage[k] = mean(&alpha);
+        error[k] = mean(&alpha.iter().zip(&truth).map(|(a, b)| (a - b).abs()).collect::<Vec<_>>());
+    }
+    (mean(&truth), coverage, error)
+}
+
+#[test]
+fn double_mipmaps_keep_far_views_from_vanishing() {
+    // Figure 6.1: chain mail on a sphere filling the view, rendered smaller and
+    // smaller (a tile, 64 texels a side, spans from about 25 pixels down to 3).
+    // Averaged mipmaps drop below alpha = 0.5 and the rings fade away; double
+    // mipmaps turn the far texture into a semi-transparent medium that covers about
+    // as much as the object really does, at every size, the transitional zone
+    // included (figure 6.5). The truth: the reference renderer at 512 x 512 averaged
+    // down.
+    let tex = Generator::new(Pattern::ChainMail).generate([64, 64, 32]).unwrap();
+    let scene = scene(&tm::icosphere(2), 0.05, tex);
+    let view = |size: u32| perspective(Vec3::new(0.35, -0.85, 0.4).normalize() * 4.0, Vec3::ZERO, 0.55, size);
+    eprintln!("| pixels | truth | off | linear | double | pixel error off | linear | double |");
+    for size in [256u32, 128, 64, 32] {
+        let (truth, coverage, error) = far_view_coverage(&scene, view, size, 512 / size);
+        eprintln!(
+            "| {size:>4} | {truth:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
+            coverage[0], coverage[1], coverage[2], error[0], error[1], error[2]
+        );
+        let [_, linear, double] = coverage;
+        // Layers blended as independent voxels stop a little more light than the
+        // correlated rings do (chapter 6.6.2): a margin of a quarter.
+        assert!((double - truth).abs() < 0.25 * truth, "{size} px: double mipmaps should keep the coverage: {double} vs {truth}");
+        assert!(error[2] <= error[1] + 0.01, "{size} px: double mipmaps as close per pixel as averaged ones: {error:?}");
+        if size <= 64 {
+            assert!(linear < 0.5 * truth, "{size} px: averaged mipmaps should make the rings vanish: {linear} vs {truth}");
+            assert!(error[2] < error[0], "{size} px: double mipmaps should alias less than the full texture: {error:?}");
+        }
+    }
+}
+
+#[test]
+fn close_views_are_the_full_resolution_renderer() {
+    // Where a texel covers more than a pixel every mipmap mode reads the finest level
+    // and the transparency chain is empty there: the same image as without mipmaps.
+    let tex = Generator::new(Pattern::ChainMail).generate([64, 64, 32]).unwrap();
+    let scene = scene(&tm::icosphere(2), 0.05, tex);
+    let close = perspective(Vec3::new(1.2, -3.0, 1.5), Vec3::new(0.35, -0.85, 0.45), 0.05, 96);
+    let mut r = renderer();
+    let off = r.render(&scene, &close, &slice_params(16, SliceMode::Interpolating)).unwrap();
+    assert!(off.coverage() > 0.1);
+    for mipmaps in [Mipmaps::Linear, Mipmaps::Double] {
+        let params = SliceParams { mipmaps, ..slice_params(16, SliceMode::Interpolating) };
+        let frame = r.render(&scene, &close, &params).unwrap();
+        assert!(frame.rgba == off.rgba && frame.depth == off.depth, "{mipmaps:?} differs from the full-resolution image");
+    }
 }

@@ -19,6 +19,7 @@
 //! boundaries and places the surface between the slices.
 
 pub mod device;
+pub mod haze;
 pub mod passes;
 pub mod pipeline;
 pub mod readback;
@@ -29,16 +30,17 @@ use std::time::{Duration, Instant};
 
 use glam::{DMat4, DVec4, Vec3};
 use thicket_core::texture::bake::TextureLayer;
-use thicket_core::texture::{CellMap, VolumeTexture};
+use thicket_core::texture::CellMap;
 use thicket_core::{Error, Result};
 use wgpu::util::DeviceExt;
 
 use crate::camera::Camera;
 use crate::image_out::Frame;
+use crate::mipmap::{Level, MipmapSet, Mipmaps};
 use crate::scene::ShellScene;
 use device::Gpu;
-use passes::{Draws, Targets};
-use pipeline::{Globals, Pipelines, LAYER_BINDINGS, MAX_LAYERS};
+use passes::{Draws, HazeDraws, Targets};
+use pipeline::{Globals, Pipelines, HAZE_BINDINGS, LAYER_BINDINGS, MAX_LAYERS};
 use scene_data::{GpuCell, GpuFrames};
 use slices::{Eye, Family, Templates};
 
@@ -62,6 +64,8 @@ pub struct SliceParams {
     pub ambient: f32,
     /// Linear surface colour.
     pub albedo: Vec3,
+    /// Filtering for distant views (chapter 6); double mipmaps by default.
+    pub mipmaps: Mipmaps,
 }
 
 impl Default for SliceParams {
@@ -72,6 +76,7 @@ impl Default for SliceParams {
             light: Vec3::new(0.3, -0.5, 0.8),
             ambient: 0.25,
             albedo: Vec3::splat(0.8),
+            mipmaps: Mipmaps::Double,
         }
     }
 }
@@ -121,6 +126,11 @@ impl FrameTimings {
 struct SceneResources {
     cells: Vec<CellMap>,
     layers: Vec<TextureLayer>,
+    mipmaps: Mipmaps,
+    /// Transparency chain: finest size, transition level and layers drawn (§6.5.2).
+    haze_dims: [usize; 3],
+    transition: u32,
+    haze_layers: u32,
     group: wgpu::BindGroup,
     // Kept alive for the bind group.
     _buffers: [wgpu::Buffer; 3],
@@ -137,6 +147,8 @@ pub struct GpuRenderer {
     templates: Option<(Templates, wgpu::Buffer)>,
     targets: Option<(Targets, wgpu::Buffer)>,
     instances: Option<(wgpu::Buffer, u64)>,
+    /// The transparency pass's layer template and its layer count.
+    haze_template: Option<(u32, wgpu::Buffer)>,
     timings: Option<FrameTimings>,
     /// Set when a render panicked inside wgpu: the renderer is not used again.
     broken: bool,
@@ -163,6 +175,7 @@ impl GpuRenderer {
             templates: None,
             targets: None,
             instances: None,
+            haze_template: None,
             timings: None,
             broken: false,
         })
@@ -220,17 +233,42 @@ impl GpuRenderer {
 
     fn render_checked(&mut self, scene: &ShellScene, camera: &Camera, params: &SliceParams) -> Result<Frame> {
         let start = Instant::now();
-        self.upload_scene(scene);
+        self.upload_scene(scene, params.mipmaps);
         self.prepare_templates(params.slices);
+        let haze_layers = self.scene.as_ref().map_or(0, |s| s.haze_layers);
+        let double = params.mipmaps == Mipmaps::Double && haze_layers > 0;
+        if double {
+            self.prepare_haze_template(haze_layers);
+        }
         self.prepare_targets(camera.width, camera.height);
         let grouping = slices::group_cells(&scene.cells, eye(camera));
-        self.upload_instances(&grouping.order);
-        self.gpu.queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals(scene, camera, params)));
+        // The transparency pass's cells follow the slice passes' in the instances.
+        let haze_cells = match &self.scene {
+            Some(s) if double => {
+                let texels = ((s.haze_dims[0] * s.haze_dims[1]) as f32).sqrt();
+                haze::cells_reaching(&scene.cells, &scene.bounds, camera, texels, s.transition as f32 - 1.0)
+            }
+            _ => Vec::new(),
+        };
+        let slice_instances = grouping.order.len() as u32;
+        self.upload_instances(&[grouping.order.as_slice(), haze_cells.as_slice()].concat());
+        let (haze_dims, transition) = self.scene.as_ref().map_or(([1; 3], 0), |s| (s.haze_dims, s.transition));
+        let g = globals(scene, camera, params, haze_dims, transition, haze_layers);
+        self.gpu.queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&g));
 
         let (Some(scene_res), Some((templates, template_buffer)), Some((targets, readback)), Some((instances, _))) =
             (&self.scene, &self.templates, &self.targets, &self.instances)
         else {
             return Err(Error::InvalidParameter("the GPU renderer is not set up".into()));
+        };
+        let haze = match (&self.haze_template, double && !haze_cells.is_empty()) {
+            (Some((count, layers)), true) => Some(HazeDraws {
+                layers,
+                layer_count: *count,
+                instances,
+                cells: slice_instances..slice_instances + haze_cells.len() as u32,
+            }),
+            _ => None,
         };
         let draws = Draws {
             templates: template_buffer,
@@ -245,6 +283,7 @@ impl GpuRenderer {
             &scene_res.group,
             &draws,
             params.mode == SliceMode::Interpolating,
+            haze.as_ref(),
         );
         self.gpu.queue.submit([encoder.finish()]);
         let prepare = start.elapsed();
@@ -260,13 +299,13 @@ impl GpuRenderer {
         Ok(frame)
     }
 
-    /// Uploads the cells, their frames and the texture layers, unless they are the
-    /// ones uploaded last.
-    fn upload_scene(&mut self, scene: &ShellScene) {
+    /// Uploads the cells, their frames and the texture layers' mipmaps, unless they
+    /// are the ones uploaded last.
+    fn upload_scene(&mut self, scene: &ShellScene, mipmaps: Mipmaps) {
         if let Some(s) = &self.scene {
             let same_layers = s.layers.len() == scene.textures.len()
                 && s.layers.iter().zip(&scene.textures).all(|(a, b)| a.offset == b.offset && a.texture == b.texture);
-            if same_layers && s.cells == scene.cells {
+            if same_layers && s.cells == scene.cells && s.mipmaps == mipmaps {
                 return;
             }
         }
@@ -284,8 +323,15 @@ impl GpuRenderer {
         let cell_buffer = storage("cells", bytemuck::cast_slice(&cells));
         let frame_buffer = storage("cell frames", bytemuck::cast_slice(&frames));
         let neighbour_buffer = storage("neighbours", bytemuck::cast_slice(&scene_data::neighbours(&scene.cells)));
-        let volumes: Vec<wgpu::Texture> = scene.textures.iter().map(|l| self.upload_volume(&l.texture)).collect();
+        let set = MipmapSet::build(&scene.textures, mipmaps);
+        let mut volumes: Vec<wgpu::Texture> = set
+            .occupancy
+            .iter()
+            .map(|chain| self.upload_chain("volume texture", chain.iter().map(|l| (l.dims, l.texels.iter().copied()))))
+            .collect();
+        let haze = self.upload_haze(&set);
         let views: Vec<wgpu::TextureView> = volumes.iter().map(|v| v.create_view(&Default::default())).collect();
+        let haze_views: Vec<wgpu::TextureView> = haze.iter().map(|v| v.create_view(&Default::default())).collect();
         let mut entries = vec![
             wgpu::BindGroupEntry { binding: 0, resource: self.globals.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 1, resource: cell_buffer.as_entire_binding() },
@@ -299,47 +345,91 @@ impl GpuRenderer {
             entries
                 .push(wgpu::BindGroupEntry { binding: *binding, resource: wgpu::BindingResource::TextureView(view) });
         }
+        for (view, binding) in haze_views.iter().zip(HAZE_BINDINGS) {
+            entries.push(wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) });
+        }
         let group = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("scene"),
             layout: &self.pipelines.scene_layout,
             entries: &entries,
         });
+        let haze_dims = set.transparency_dims();
+        let haze_layers = if set.transparency.is_empty() { 0 } else { haze_layer_count(haze_dims[2], set.transition) };
+        volumes.extend(haze);
         self.scene = Some(SceneResources {
             cells: scene.cells.clone(),
             layers: scene.textures.clone(),
+            mipmaps,
+            haze_dims,
+            transition: set.transition,
+            haze_layers,
             group,
             _buffers: [cell_buffer, frame_buffer, neighbour_buffer],
             _volumes: volumes,
         });
     }
 
-    /// A volume texture with its gradient, on the GPU.
-    fn upload_volume(&self, texture: &VolumeTexture) -> wgpu::Texture {
-        let [nx, ny, nz] = texture.dims().map(|n| n as u32);
-        let size = wgpu::Extent3d { width: nx, height: ny, depth_or_array_layers: nz };
+    /// A 3D texture with the given mip levels (size and RGBA texels each).
+    fn upload_chain<I: Iterator<Item = [f32; 4]>>(
+        &self,
+        label: &str,
+        levels: impl ExactSizeIterator<Item = ([usize; 3], I)>,
+    ) -> wgpu::Texture {
+        let mut levels = levels.peekable();
+        let [nx, ny, nz] = levels.peek().map_or([1; 3], |l| l.0).map(|n| n as u32);
         let volume = self.gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("volume texture"),
-            size,
-            mip_level_count: 1,
+            label: Some(label),
+            size: wgpu::Extent3d { width: nx, height: ny, depth_or_array_layers: nz },
+            mip_level_count: levels.len().max(1) as u32,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D3,
             format: pipeline::VOLUME_FORMAT,
             usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
-        let texels = scene_data::volume_texels(texture);
-        self.gpu.queue.write_texture(
-            wgpu::TexelCopyTextureInfo {
-                texture: &volume,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            bytemuck::cast_slice(&texels),
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(8 * nx), rows_per_image: Some(ny) },
-            size,
-        );
+        for (level, (dims, texels)) in levels.enumerate() {
+            let [w, h, d] = dims.map(|n| n as u32);
+            let halves: Vec<u16> = texels.flat_map(|t| t.map(scene_data::f16_bits)).collect();
+            self.gpu.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &volume,
+                    mip_level: level as u32,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                bytemuck::cast_slice(&halves),
+                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(8 * w), rows_per_image: Some(h) },
+                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: d },
+            );
+        }
         volume
+    }
+
+    /// The transparency chain as three textures (directional alpha, the ellipsoids'
+    /// diagonal and off-diagonal entries); single empty texels without one.
+    fn upload_haze(&self, set: &MipmapSet) -> Vec<wgpu::Texture> {
+        type Pick = fn(&crate::mipmap::Haze) -> [f32; 4];
+        let picks: [Pick; 3] = [
+            |h| [h.alpha.x, h.alpha.y, h.alpha.z, 0.0],
+            |h| [h.ndf.x_axis.x, h.ndf.y_axis.y, h.ndf.z_axis.z, 0.0],
+            |h| [h.ndf.x_axis.y, h.ndf.x_axis.z, h.ndf.y_axis.z, 0.0],
+        ];
+        let empty = [Level { dims: [1; 3], texels: vec![crate::mipmap::Haze { alpha: Vec3::ZERO, ndf: glam::Mat3::ZERO }] }];
+        let chain: &[Level<crate::mipmap::Haze>] = if set.transparency.is_empty() { &empty } else { &set.transparency };
+        picks.map(|pick| self.upload_chain("transparency texture", chain.iter().map(|l| (l.dims, l.texels.iter().map(pick))))).into()
+    }
+
+    fn prepare_haze_template(&mut self, count: u32) {
+        if self.haze_template.as_ref().is_some_and(|(c, _)| *c == count) {
+            return;
+        }
+        let vertices = slices::haze_layers(count);
+        let buffer = self.gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("transparency layers"),
+            contents: bytemuck::cast_slice(&vertices),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        self.haze_template = Some((count, buffer));
     }
 
     fn prepare_templates(&mut self, slices: u32) {
@@ -463,12 +553,27 @@ const GL_TO_WGPU: DMat4 = DMat4::from_cols(
     DVec4::new(0.0, 0.0, 0.5, 1.0),
 );
 
-fn globals(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> Globals {
+/// Transparency layers drawn (§6.5.2): the mean of the rows across the shell of the
+/// transition level and the next, at least two.
+fn haze_layer_count(nz: usize, transition: u32) -> u32 {
+    let rows = |l: u32| (nz >> l.min(63)).max(1) as f32;
+    ((rows(transition) + rows(transition + 1)) / 2.0).round().max(2.0) as u32
+}
+
+fn globals(
+    scene: &ShellScene,
+    camera: &Camera,
+    params: &SliceParams,
+    haze_dims: [usize; 3],
+    transition: u32,
+    haze_layers: u32,
+) -> Globals {
     let view = camera.view.as_dmat4();
     let view_proj = GL_TO_WGPU * camera.projection.as_dmat4() * view;
     let mut layers = [[0.0; 4]; MAX_LAYERS];
     for (info, layer) in layers.iter_mut().zip(&scene.textures) {
-        *info = [layer.offset.x, layer.offset.y, layer.texture.dims()[2] as f32, 0.0];
+        let [nx, ny, nz] = layer.texture.dims().map(|n| n as f32);
+        *info = [layer.offset.x, layer.offset.y, nz, (nx * ny).sqrt()];
     }
     let light = params.light.normalize();
     let mode = if params.mode == SliceMode::Interpolating { 1.0 } else { 0.0 };
@@ -482,5 +587,17 @@ fn globals(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> Globals
         layers,
         layer_count: [scene.textures.len().min(MAX_LAYERS) as u32, 0, 0, 0],
         viewport: [w, h, 1.0 / w, 1.0 / h],
+        mip: [
+            // World size of a pixel: 2 / (P[1][1] height) per unit of depth (or flat).
+            2.0 / (camera.projection.y_axis.y * h),
+            if camera.is_orthographic() { 0.0 } else { 1.0 },
+            match params.mipmaps {
+                Mipmaps::Off => 0.0,
+                Mipmaps::Linear => 1.0,
+                Mipmaps::Double => 2.0,
+            },
+            haze_layers as f32,
+        ],
+        haze: [haze_dims[0] as f32, haze_dims[1] as f32, haze_dims[2] as f32, transition as f32],
     }
 }

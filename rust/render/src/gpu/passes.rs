@@ -14,6 +14,8 @@ pub struct Targets {
     first_depth: wgpu::TextureView,
     /// T2: `(u, v, r)` and depth of the last outside fragment in front of T1.
     second_hit: wgpu::TextureView,
+    /// The transparency pass's premultiplied colour and alpha.
+    haze: wgpu::TextureView,
     depth_inside: wgpu::TextureView,
     depth_outside: wgpu::TextureView,
     pub color: wgpu::Texture,
@@ -52,6 +54,7 @@ impl Targets {
         let first_hit = view(&image(device, "T1", width, height, pipeline::FIRST_HIT_FORMAT, sampled));
         let first_depth = view(&image(device, "Z1", width, height, pipeline::DEPTH_VALUE_FORMAT, sampled));
         let second_hit = view(&image(device, "T2", width, height, pipeline::SECOND_HIT_FORMAT, sampled));
+        let haze = view(&image(device, "transparency", width, height, pipeline::HAZE_FORMAT, sampled));
         let depth_inside = view(&image(device, "depth 1", width, height, pipeline::DEPTH_FORMAT, U::RENDER_ATTACHMENT));
         let depth_outside =
             view(&image(device, "depth 2", width, height, pipeline::DEPTH_FORMAT, U::RENDER_ATTACHMENT));
@@ -69,7 +72,10 @@ impl Targets {
         let second_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("second hit"),
             layout: &pipelines.second_layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&second_hit) }],
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&second_hit) },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&haze) },
+            ],
         });
         Self {
             width,
@@ -79,6 +85,7 @@ impl Targets {
             first_hit,
             first_depth,
             second_hit,
+            haze,
             depth_inside,
             depth_outside,
             color,
@@ -126,8 +133,18 @@ fn depth(view: &wgpu::TextureView, clear: f32) -> Option<wgpu::RenderPassDepthSt
     })
 }
 
+/// What the transparency pass draws: its layer template (three vertices a layer,
+/// from the base outward) and every cell once per layer.
+pub struct HazeDraws<'a> {
+    pub layers: &'a wgpu::Buffer,
+    pub layer_count: u32,
+    pub instances: &'a wgpu::Buffer,
+    /// The range of `instances` holding the cells to draw.
+    pub cells: Range<u32>,
+}
+
 /// Records the passes: inside, outside (`interpolating`; otherwise T2 is only
-/// cleared) and shading.
+/// cleared), transparency (`haze`, double mipmaps; otherwise cleared) and shading.
 pub fn encode(
     encoder: &mut wgpu::CommandEncoder,
     pipelines: &Pipelines,
@@ -135,6 +152,7 @@ pub fn encode(
     scene_group: &wgpu::BindGroup,
     draws: &Draws<'_>,
     interpolating: bool,
+    haze: Option<&HazeDraws<'_>>,
 ) {
     {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -159,6 +177,24 @@ pub fn encode(
             pass.set_bind_group(0, scene_group, &[]);
             pass.set_bind_group(1, &targets.first_group, &[]);
             draws.record(&mut pass);
+        }
+    }
+    {
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("transparency pass"),
+            color_attachments: &[attachment(&targets.haze)],
+            ..Default::default()
+        });
+        if let Some(h) = haze {
+            pass.set_pipeline(&pipelines.haze);
+            pass.set_bind_group(0, scene_group, &[]);
+            pass.set_bind_group(1, &targets.first_group, &[]);
+            pass.set_vertex_buffer(0, h.layers.slice(..));
+            pass.set_vertex_buffer(1, h.instances.slice(..));
+            // Layer by layer, every cell's layer k before any layer k + 1.
+            for k in 0..h.layer_count {
+                pass.draw(3 * k..3 * k + 3, h.cells.clone());
+            }
         }
     }
     {

@@ -16,6 +16,8 @@ pub const SECOND_HIT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Fl
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 pub const VOLUME_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// The transparency pass's target: blendable on every adapter (32-bit floats are not).
+pub const HAZE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
 /// The most texture layers the shaders unite (`Globals::layers`, one 3D texture
 /// binding each).
@@ -23,6 +25,10 @@ pub const MAX_LAYERS: usize = 4;
 
 /// The bindings of the texture layers in group 0, layer 0 first.
 pub const LAYER_BINDINGS: [u32; MAX_LAYERS] = [3, 6, 7, 8];
+
+/// The bindings of the transparency chain's three textures in group 0: directional
+/// alpha, the ellipsoids' diagonal and off-diagonal entries.
+pub const HAZE_BINDINGS: [u32; 3] = [9, 10, 11];
 
 /// `Globals` in the shader.
 #[repr(C)]
@@ -38,6 +44,8 @@ pub struct Globals {
     /// The number of texture layers in `x`.
     pub layer_count: [u32; 4],
     pub viewport: [f32; 4],
+    pub mip: [f32; 4],
+    pub haze: [f32; 4],
 }
 
 pub struct Pipelines {
@@ -51,6 +59,7 @@ pub struct Pipelines {
     pub inside: wgpu::RenderPipeline,
     pub outside: wgpu::RenderPipeline,
     pub shade: wgpu::RenderPipeline,
+    pub haze: wgpu::RenderPipeline,
     pub sampler: wgpu::Sampler,
 }
 
@@ -114,6 +123,9 @@ impl Pipelines {
                 volume(LAYER_BINDINGS[1]),
                 volume(LAYER_BINDINGS[2]),
                 volume(LAYER_BINDINGS[3]),
+                volume(HAZE_BINDINGS[0]),
+                volume(HAZE_BINDINGS[1]),
+                volume(HAZE_BINDINGS[2]),
             ],
         });
         let first_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -129,11 +141,10 @@ impl Pipelines {
         });
         let second_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("second hit"),
-            entries: &[entry(
-                0,
-                wgpu::ShaderStages::FRAGMENT,
-                texture_2d(wgpu::TextureSampleType::Float { filterable: false }),
-            )],
+            entries: &[
+                entry(0, wgpu::ShaderStages::FRAGMENT, texture_2d(wgpu::TextureSampleType::Float { filterable: false })),
+                entry(1, wgpu::ShaderStages::FRAGMENT, texture_2d(wgpu::TextureSampleType::Float { filterable: false })),
+            ],
         });
         let layout = |label: &str, groups: &[Option<&wgpu::BindGroupLayout>]| {
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -165,7 +176,7 @@ impl Pipelines {
                               layout: &wgpu::PipelineLayout,
                               fragment: &str,
                               targets: &[Option<wgpu::ColorTargetState>],
-                              compare: wgpu::CompareFunction| {
+                              compare: Option<wgpu::CompareFunction>| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(layout),
@@ -176,7 +187,7 @@ impl Pipelines {
                     buffers: &buffers,
                 },
                 primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-                depth_stencil: Some(wgpu::DepthStencilState {
+                depth_stencil: compare.map(|compare| wgpu::DepthStencilState {
                     format: DEPTH_FORMAT,
                     depth_write_enabled: Some(true),
                     depth_compare: Some(compare),
@@ -200,7 +211,7 @@ impl Pipelines {
             "fs_inside",
             &[target(FIRST_HIT_FORMAT), target(DEPTH_VALUE_FORMAT)],
             // Reversed depth (near is 1): the nearest fragment has the largest depth.
-            wgpu::CompareFunction::Greater,
+            Some(wgpu::CompareFunction::Greater),
         );
         let outside = slice_pipeline(
             "outside pass",
@@ -208,7 +219,25 @@ impl Pipelines {
             "fs_outside",
             &[target(SECOND_HIT_FORMAT)],
             // The reversed depth test: the farthest fragment wins.
-            wgpu::CompareFunction::Less,
+            Some(wgpu::CompareFunction::Less),
+        );
+        // Premultiplied "over", drawn from the base outward (chapter 6.5.2); no depth
+        // buffer: the shader hides what lies behind Z1.
+        let over = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let haze = slice_pipeline(
+            "transparency pass",
+            &outside_layout,
+            "fs_haze",
+            &[Some(wgpu::ColorTargetState {
+                format: HAZE_FORMAT,
+                blend: Some(wgpu::BlendState { color: over, alpha: over }),
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+            None,
         );
         let shade = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("shading pass"),
@@ -239,8 +268,9 @@ impl Pipelines {
             address_mode_w: wgpu::AddressMode::ClampToEdge,
             mag_filter: wgpu::FilterMode::Linear,
             min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
             ..Default::default()
         });
-        Self { scene_layout, first_layout, second_layout, inside, outside, shade, sampler }
+        Self { scene_layout, first_layout, second_layout, inside, outside, shade, haze, sampler }
     }
 }

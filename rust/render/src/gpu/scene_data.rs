@@ -4,7 +4,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Vec3};
-use thicket_core::texture::{CellMap, VolumeTexture};
+use thicket_core::texture::CellMap;
 
 /// A triangle prism as `Cell` in the shader: base corners with `s` in `w`, directors
 /// with `t` in `w`.
@@ -112,34 +112,6 @@ fn corner_frame(c: &CellMap, q: Vec3) -> Mat3 {
     }
 }
 
-/// The texels of an `Rgba16Float` 3D texture: `∂alpha/∂(s, t, r)` by central
-/// differences at the texel centres (one texel wide, periodic in `s`, `t`, clamped
-/// in `r`: the CPU's [`VolumeTexture::gradient`] at the same points) and `alpha`.
-pub fn volume_texels(texture: &VolumeTexture) -> Vec<u16> {
-    let [nx, ny, nz] = texture.dims();
-    let a = texture.samples();
-    let at = |x: usize, y: usize, z: usize| a[x + nx * (y + ny * z)];
-    let (sx, sy) = (nx as f32 / 2.0, ny as f32 / 2.0);
-    let sz = (nz.max(2) - 1) as f32 / 2.0;
-    let mut out = Vec::with_capacity(4 * a.len());
-    for z in 0..nz {
-        let (z0, z1) = (z.saturating_sub(1), (z + 1).min(nz - 1));
-        for y in 0..ny {
-            let (y0, y1) = ((y + ny - 1) % ny, (y + 1) % ny);
-            for x in 0..nx {
-                let (x0, x1) = ((x + nx - 1) % nx, (x + 1) % nx);
-                let g = Vec3::new(
-                    (at(x1, y, z) - at(x0, y, z)) * sx,
-                    (at(x, y1, z) - at(x, y0, z)) * sy,
-                    (at(x, y, z1) - at(x, y, z0)) * sz,
-                );
-                out.extend([g.x, g.y, g.z, at(x, y, z)].map(f16_bits));
-            }
-        }
-    }
-    out
-}
-
 /// IEEE half-precision bits of `x`, rounded to nearest even; out-of-range values
 /// saturate to the largest finite half (the gradient of a sharp step may be large).
 pub fn f16_bits(x: f32) -> u16 {
@@ -197,8 +169,9 @@ mod tests {
     #[test]
     fn texels_hold_alpha_and_the_cpu_gradient() {
         let t =
-            VolumeTexture::from_fn([8, 6, 5], |c| (0.3 * c.x + 0.2 * c.z + 0.1 * (6.0 * c.y).sin()).fract()).unwrap();
-        let texels = volume_texels(&t);
+            thicket_core::texture::VolumeTexture::from_fn([8, 6, 5], |c| (0.3 * c.x + 0.2 * c.z + 0.1 * (6.0 * c.y).sin()).fract()).unwrap();
+        // The finest mip level, in the half floats the GPU gets.
+        let texels: Vec<u16> = crate::mipmap::finest_level(&t).texels.iter().flat_map(|t| t.map(f16_bits)).collect();
         let [nx, ny, nz] = t.dims();
         assert_eq!(texels.len(), 4 * nx * ny * nz);
         for (x, y, z) in [(0, 0, 0), (3, 2, 1), (7, 5, 4), (1, 4, 2)] {

@@ -150,6 +150,19 @@ pub fn templates(slices: u32) -> Templates {
     Templates { slices: m, vertices, ranges }
 }
 
+/// The layers of the transparency pass (chapter 6.5.2): `count` layers
+/// `r = (k + 1/2) / count` from the base outward, one triangle (three template
+/// vertices, no face code) each. They are not inset: neighbouring cells' layers meet
+/// edge to edge at identical positions, so blending never covers a pixel twice.
+pub fn haze_layers(count: u32) -> Vec<[f32; 4]> {
+    let mut vertices = Vec::new();
+    for k in 0..count.max(1) {
+        let r = (k as f32 + 0.5) / count.max(1) as f32;
+        push_triangle(&mut vertices, [Vec3::new(0.0, 0.0, r), Vec3::new(1.0, 0.0, r), Vec3::new(0.0, 1.0, r)], 0);
+    }
+    vertices
+}
+
 /// Moves `(u, v)` toward the cell's centre by [`FACE_INSET`] of the way.
 fn inset(p: Vec2) -> Vec2 {
     p + (Vec2::splat(1.0 / 3.0) - p) * FACE_INSET
