@@ -83,8 +83,9 @@ struct CellFrames {
 @group(0) @binding(6) var volume_texture_1: texture_3d<f32>;
 @group(0) @binding(7) var volume_texture_2: texture_3d<f32>;
 @group(0) @binding(8) var volume_texture_3: texture_3d<f32>;
-// The transparency chain (double mipmaps): directional alpha along (s, t, r), and the
-// ellipsoid Q^-1 as its diagonal and its off-diagonal (01, 02, 12) entries.
+// The transparency chain (double mipmaps): directional alpha along (s, t, r) and the
+// column's alpha across the shell (w), and the ellipsoid Q^-1 as its diagonal and its
+// off-diagonal (01, 02, 12) entries.
 @group(0) @binding(9) var haze_alpha: texture_3d<f32>;
 @group(0) @binding(10) var haze_ndf_diagonal: texture_3d<f32>;
 @group(0) @binding(11) var haze_ndf_off_diagonal: texture_3d<f32>;
@@ -479,7 +480,8 @@ fn ndf_normal(s: mat3x3<f32>, d: vec3<f32>, c: Cell, cell: u32, q: vec3<f32>, vi
     let p = vec3<f32>(dot(e1, s * e1), dot(e1, s * e2), dot(e2, s * e2));
     let mean = 0.5 * (p.x + p.z);
     let radius = sqrt(0.25 * (p.x - p.z) * (p.x - p.z) + p.y * p.y);
-    let angle = 0.5 * atan2(2.0 * p.y, p.x - p.z);
+    // A round ellipse has no axes of its own (and atan2(0, 0) is undefined).
+    let angle = select(0.0, 0.5 * atan2(2.0 * p.y, p.x - p.z), radius > 1e-6 * max(mean, 1e-30));
     let axis1 = (cos(angle) * e1 + sin(angle) * e2) * sqrt(max(mean + radius, 0.0));
     let axis2 = (cos(angle) * e2 - sin(angle) * e1) * sqrt(max(mean - radius, 0.0));
     let qm = inverse_symmetric(s);
@@ -524,8 +526,8 @@ fn fs_haze(v: SliceVarying) -> @location(0) vec4<f32> {
     let lod = cell_lod(c, v.view_depth) + 0.5 * log2(dims.x * dims.y);
     let level = max(lod, 0.0);
     let p = volume_coords(cell_texture(c, q), dims.z);
-    let alpha = textureSampleLevel(haze_alpha, volume_sampler, p, level).xyz;
-    if max(alpha.x, max(alpha.y, alpha.z)) < 1.0 / 256.0 {
+    let sampled = textureSampleLevel(haze_alpha, volume_sampler, p, level);
+    if max(max(sampled.x, sampled.y), max(sampled.z, sampled.w)) < 1.0 / 256.0 {
         discard;
     }
     // The view ray in texture coordinates: J^-1 = frame^T carries world directions to
@@ -533,12 +535,17 @@ fn fs_haze(v: SliceVarying) -> @location(0) vec4<f32> {
     let view = pixel_ray(v.position.xy);
     let frame = cell_frame(cell, q);
     let d = cell_to_texture(c, transpose(frame) * view);
-    // Between two layers the ray crosses |d_i| dims_i texels along each axis (dims at
+    // Between two layers (1 / count apart in r) the ray runs 1 / (count |d_r|) in
+    // texture units and crosses |d_i| dims_i of that texels along each axis (dims at
     // this level); each crossing lets 1 - alpha_i through.
+    // Along r, the column's alpha spread evenly over its rows (blending cannot
+    // correlate layers; this keeps a view along the directors exact).
     let level_dims = max(dims * exp2(-level), vec3<f32>(1.0));
     let between = (1.0 / globals.mip.w) / max(abs(d.z), 1e-6);
     let crossings = min(abs(d) * level_dims * between, vec3<f32>(64.0));
-    let through = exp2(crossings * log2(max(vec3<f32>(1.0) - alpha, vec3<f32>(1e-6))));
+    let per_row = log2(max(1.0 - sampled.w, 1e-6)) / level_dims.z;
+    let log_through = vec3<f32>(log2(max(vec2<f32>(1.0) - sampled.xy, vec2<f32>(1e-6))), per_row);
+    let through = exp2(crossings * log_through);
     let opacity = clamp(1.0 - through.x * through.y * through.z, 0.0, 1.0);
     if opacity < 1.0 / 512.0 {
         discard;

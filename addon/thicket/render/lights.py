@@ -43,9 +43,10 @@ def scene_light(depsgraph, obj):
     if not candidates:
         return DEFAULT_LIGHT
     _, toward = max(candidates, key=lambda c: c[0])
-    # World vectors to the object's space: the inverse of its matrix (directions keep
-    # their dot products with normals carried the same way).
-    local = np.array(obj.matrix_world.inverted().to_3x3() @ _vector(toward), dtype=np.float64)
+    # World vectors to the object's space by the inverse of its matrix (exact for
+    # rotations and uniform scale; an approximation under non-uniform scale, where
+    # the renderers' object-space shading differs from world space anyway).
+    local = np.array(obj.matrix_world.inverted_safe().to_3x3() @ _vector(toward), dtype=np.float64)
     length = float(np.linalg.norm(local))
     if not np.isfinite(length) or length < 1e-12:
         return DEFAULT_LIGHT

@@ -54,9 +54,10 @@ impl Frame {
         frame
     }
 
-    /// Share of pixels covered by a surface.
+    /// Share of the image the object covers: the mean alpha (each pixel a surface
+    /// covers counts 1, a semi-transparent one its alpha).
     pub fn coverage(&self) -> f32 {
-        self.rgba.iter().filter(|c| c.w > 0.5).count() as f32 / self.rgba.len().max(1) as f32
+        self.rgba.iter().map(|c| c.w.clamp(0.0, 1.0)).sum::<f32>() / self.rgba.len().max(1) as f32
     }
 }
 

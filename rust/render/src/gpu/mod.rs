@@ -243,15 +243,17 @@ impl GpuRenderer {
         self.prepare_targets(camera.width, camera.height);
         let grouping = slices::group_cells(&scene.cells, eye(camera));
         // The transparency pass's cells follow the slice passes' in the instances.
-        let haze_cells = match &self.scene {
+        let haze_order = match &self.scene {
             Some(s) if double => {
                 let texels = ((s.haze_dims[0] * s.haze_dims[1]) as f32).sqrt();
-                haze::cells_reaching(&scene.cells, &scene.bounds, camera, texels, s.transition as f32 - 1.0)
+                haze::draw_order(&scene.cells, &scene.bounds, camera, texels, s.transition as f32 - 1.0)
             }
-            _ => Vec::new(),
+            _ => haze::HazeOrder::default(),
         };
         let slice_instances = grouping.order.len() as u32;
-        self.upload_instances(&[grouping.order.as_slice(), haze_cells.as_slice()].concat());
+        let away_end = slice_instances + haze_order.away.len() as u32;
+        let facing_end = away_end + haze_order.facing.len() as u32;
+        self.upload_instances(&[grouping.order.as_slice(), &haze_order.away, &haze_order.facing].concat());
         let (haze_dims, transition) = self.scene.as_ref().map_or(([1; 3], 0), |s| (s.haze_dims, s.transition));
         let g = globals(scene, camera, params, haze_dims, transition, haze_layers);
         self.gpu.queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&g));
@@ -261,12 +263,13 @@ impl GpuRenderer {
         else {
             return Err(Error::InvalidParameter("the GPU renderer is not set up".into()));
         };
-        let haze = match (&self.haze_template, double && !haze_cells.is_empty()) {
+        let haze = match (&self.haze_template, double && facing_end > slice_instances) {
             (Some((count, layers)), true) => Some(HazeDraws {
                 layers,
                 layer_count: *count,
                 instances,
-                cells: slice_instances..slice_instances + haze_cells.len() as u32,
+                away: slice_instances..away_end,
+                facing: away_end..facing_end,
             }),
             _ => None,
         };
@@ -410,11 +413,11 @@ impl GpuRenderer {
     fn upload_haze(&self, set: &MipmapSet) -> Vec<wgpu::Texture> {
         type Pick = fn(&crate::mipmap::Haze) -> [f32; 4];
         let picks: [Pick; 3] = [
-            |h| [h.alpha.x, h.alpha.y, h.alpha.z, 0.0],
+            |h| h.alpha.to_array(),
             |h| [h.ndf.x_axis.x, h.ndf.y_axis.y, h.ndf.z_axis.z, 0.0],
             |h| [h.ndf.x_axis.y, h.ndf.x_axis.z, h.ndf.y_axis.z, 0.0],
         ];
-        let empty = [Level { dims: [1; 3], texels: vec![crate::mipmap::Haze { alpha: Vec3::ZERO, ndf: glam::Mat3::ZERO }] }];
+        let empty = [Level { dims: [1; 3], texels: vec![crate::mipmap::Haze { alpha: glam::Vec4::ZERO, ndf: glam::Mat3::ZERO }] }];
         let chain: &[Level<crate::mipmap::Haze>] = if set.transparency.is_empty() { &empty } else { &set.transparency };
         picks.map(|pick| self.upload_chain("transparency texture", chain.iter().map(|l| (l.dims, l.texels.iter().map(pick))))).into()
     }

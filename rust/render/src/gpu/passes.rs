@@ -134,13 +134,15 @@ fn depth(view: &wgpu::TextureView, clear: f32) -> Option<wgpu::RenderPassDepthSt
 }
 
 /// What the transparency pass draws: its layer template (three vertices a layer,
-/// from the base outward) and every cell once per layer.
+/// from the base outward) and its cells once per layer (see `gpu::haze`).
 pub struct HazeDraws<'a> {
     pub layers: &'a wgpu::Buffer,
     pub layer_count: u32,
     pub instances: &'a wgpu::Buffer,
-    /// The range of `instances` holding the cells to draw.
-    pub cells: Range<u32>,
+    /// The ranges of `instances` holding the cells facing away from the camera
+    /// (drawn first, outer layer first) and those facing it (base layer first).
+    pub away: Range<u32>,
+    pub facing: Range<u32>,
 }
 
 /// Records the passes: inside, outside (`interpolating`; otherwise T2 is only
@@ -191,9 +193,13 @@ pub fn encode(
             pass.set_bind_group(1, &targets.first_group, &[]);
             pass.set_vertex_buffer(0, h.layers.slice(..));
             pass.set_vertex_buffer(1, h.instances.slice(..));
-            // Layer by layer, every cell's layer k before any layer k + 1.
+            // Layer by layer, back to front: every cell's layer k before any layer
+            // k + 1 (k counted from the camera's far side).
+            for k in (0..h.layer_count).rev() {
+                pass.draw(3 * k..3 * k + 3, h.away.clone());
+            }
             for k in 0..h.layer_count {
-                pass.draw(3 * k..3 * k + 3, h.cells.clone());
+                pass.draw(3 * k..3 * k + 3, h.facing.clone());
             }
         }
     }

@@ -39,12 +39,15 @@ pub struct Globals {
     pub view_z: [f32; 4],
     pub light: [f32; 4],
     pub albedo: [f32; 4],
-    /// Per texture layer: offset `(s, t)`, texel rows `nz` across the shell, 0.
+    /// Per texture layer: offset `(s, t)`, texel rows `nz` across the shell, and
+    /// `sqrt(nx ny)` (texels per tile side, for the mip level).
     pub layers: [[f32; 4]; MAX_LAYERS],
     /// The number of texture layers in `x`.
     pub layer_count: [u32; 4],
     pub viewport: [f32; 4],
+    /// Pixel size per unit depth, perspective (1) or not, mipmap mode, layers drawn.
     pub mip: [f32; 4],
+    /// The transparency chain's finest size and its transition level.
     pub haze: [f32; 4],
 }
 

@@ -80,6 +80,8 @@ pub fn read(gpu: &Gpu, buffer: &wgpu::Buffer, width: u32, height: u32) -> Result
 }
 
 /// The frame from the two padded images (colour, then normal and depth) in `bytes`.
+/// Pixels with any alpha keep their colour (the transparency of double mipmaps is
+/// fractional); depth and normal only where a surface was hit (a non-zero normal).
 pub fn unpack(bytes: &[u8], width: u32, height: u32) -> Frame {
     let row = padded_row(width) as usize;
     let image = row * height as usize;
@@ -88,7 +90,9 @@ pub fn unpack(bytes: &[u8], width: u32, height: u32) -> Frame {
         let at = y * row + x * TEXEL as usize;
         let color = texel(at);
         let nd = texel(image + at);
-        (color.w >= 0.5).then(|| (color, nd.w, Vec3::new(nd.x, nd.y, nd.z)))
+        let normal = Vec3::new(nd.x, nd.y, nd.z);
+        let surface = normal.length_squared() > 0.25;
+        (color.w > 0.0).then(|| if surface { (color, nd.w, normal) } else { (color, f32::INFINITY, Vec3::ZERO) })
     })
 }
 
@@ -117,12 +121,16 @@ mod tests {
         // Pixel (2, 1) covered; its normal and depth in the second image.
         put(row + 32, [0.1, 0.2, 0.3, 1.0]);
         put(row * 2 + row + 32, [0.0, 0.0, 1.0, 4.5]);
+        // Pixel (0, 1): only a semi-transparent medium (double mipmaps), no surface.
+        put(row, [0.5, 0.5, 0.5, 0.25]);
         let f = unpack(&bytes, w, h);
+        assert_eq!(f.rgba[3], Vec4::new(0.5, 0.5, 0.5, 0.25));
+        assert!(f.depth[3].is_infinite() && f.normal[3] == Vec3::ZERO);
         assert_eq!(f.rgba[5], Vec4::new(0.1, 0.2, 0.3, 1.0));
         assert_eq!(f.normal[5], Vec3::Z);
         assert_eq!(f.depth[5], 4.5);
         assert_eq!(f.rgba[0], Vec4::ZERO);
         assert!(f.depth[0].is_infinite() && f.normal[0] == Vec3::ZERO);
-        assert_eq!(f.coverage(), 1.0 / 6.0);
+        assert_eq!(f.coverage(), 1.25 / 6.0);
     }
 }

@@ -7,22 +7,68 @@
 //! gives `1 - (1 - a1)(1 - a2)`, `C = 1` gives `max(a1, a2)`, figure 6.7). Here `C` is
 //! not guessed: every texel keeps, for each ray of the finest level through it, whether
 //! the ray is blocked, so the rule is evaluated exactly, level after level.
+//!
+//! Blending the transparency layers cannot apply the rule between layers (§6.6.2:
+//! it treats them as independent, which makes correlated content too opaque). So
+//! each texel also carries its column's alpha: the share of the finest rays along
+//! `r` blocked anywhere across the shell. The renderer spreads it evenly over the
+//! rows along `r`, which makes a view along the directors exact.
 
 use super::{children, level_dims, Level};
-use glam::Vec3;
+use glam::Vec4;
 use rayon::prelude::*;
 use std::ops::Range;
 
-/// Directional alpha for every level of `finest` (`count` levels), from its inside
-/// texels (`alpha >= 0.5`).
-pub fn chain(finest: &Level<[f32; 4]>, count: u32) -> Vec<Level<Vec3>> {
+/// Directional alpha (`xyz`: along `s`, `t`, `r`) and column alpha (`w`) for every
+/// level of `finest` (`count` levels), from its inside texels (`alpha >= 0.5`).
+pub fn chain(finest: &Level<[f32; 4]>, count: u32) -> Vec<Level<Vec4>> {
     let inside: Vec<bool> = finest.texels.iter().map(|t| t[3] >= 0.5).collect();
-    let per_axis: Vec<Vec<Vec<f32>>> = (0..3).map(|axis| along(&inside, finest.dims, axis, count)).collect();
+    let mut per_axis: Vec<Vec<Vec<f32>>> = (0..3).map(|axis| along(&inside, finest.dims, axis, count)).collect();
+    per_axis.push(columns(&inside, finest.dims, count));
     (0..count as usize)
         .map(|l| {
             let dims = level_dims(finest.dims, l as u32);
-            let texels = (0..per_axis[0][l].len()).map(|k| Vec3::new(per_axis[0][l][k], per_axis[1][l][k], per_axis[2][l][k])).collect();
+            let at = |axis: usize, k: usize| per_axis[axis][l][k];
+            let texels = (0..per_axis[0][l].len()).map(|k| Vec4::new(at(0, k), at(1, k), at(2, k), at(3, k))).collect();
             Level { dims, texels }
+        })
+        .collect()
+}
+
+/// The finest texels each texel of the next level covers, from those each texel of
+/// this level (size `above`) covers, along one axis.
+fn compose(ranges: &[Range<usize>], above: usize, here: usize) -> Vec<Range<usize>> {
+    (0..here)
+        .map(|i| {
+            let ch = children(i, above, here);
+            ranges[ch.start].start..ranges[ch.end - 1].end
+        })
+        .collect()
+}
+
+/// Column alpha for every level: the share of the finest columns along `r` under a
+/// texel's footprint that hold an inside texel anywhere.
+fn columns(inside: &[bool], dims: [usize; 3], count: u32) -> Vec<Vec<f32>> {
+    let [nx, ny, nz] = dims;
+    let blocked: Vec<bool> = (0..nx * ny).map(|c| (0..nz).any(|z| inside[c + nx * ny * z])).collect();
+    let mut ranges = [(0..nx).map(|i| i..i + 1).collect::<Vec<_>>(), (0..ny).map(|i| i..i + 1).collect()];
+    (0..count)
+        .map(|l| {
+            let here = level_dims(dims, l);
+            if l > 0 {
+                let above = level_dims(dims, l - 1);
+                ranges = [compose(&ranges[0], above[0], here[0]), compose(&ranges[1], above[1], here[1])];
+            }
+            (0..here.iter().product::<usize>())
+                .into_par_iter()
+                .map(|k| {
+                    let p = position(k, here);
+                    let (xs, ys) = (ranges[0][p[0]].clone(), ranges[1][p[1]].clone());
+                    let total = xs.len() * ys.len();
+                    let hit = ys.flat_map(|y| xs.clone().map(move |x| x + nx * y)).filter(|&c| blocked[c]).count();
+                    hit as f32 / total as f32
+                })
+                .collect()
         })
         .collect()
 }
@@ -62,12 +108,7 @@ fn along(inside: &[bool], dims: [usize; 3], axis: usize, count: u32) -> Vec<Vec<
             .collect();
         mask_dims = reduced;
         for (a, r) in ranges.iter_mut().enumerate() {
-            *r = (0..here[a])
-                .map(|i| {
-                    let ch = children(i, above[a], here[a]);
-                    r[ch.start].start..r[ch.end - 1].end
-                })
-                .collect();
+            *r = compose(r, above[a], here[a]);
         }
         // Side by side: the share of the texel's rays that are blocked.
         let alpha = (0..here.iter().product::<usize>())
@@ -145,8 +186,13 @@ mod tests {
         // Across the other axes the single blocked texel blocks a quarter too.
         assert_eq!(c[1].texels[0].x, 0.25);
         assert_eq!(c[1].texels[1].z, 0.0);
+        // Its column (one of four under a level-1 texel) is blocked at every height.
+        assert!(c[1].texels.iter().all(|a| a.w == 0.25 || a.w == 0.0));
+        assert_eq!(c[1].texels[0].w, 0.25);
+        // Texel (0, 0, 1) of the 2 x 2 x 2 level: the same column higher up.
+        assert_eq!(c[1].texels[4].w, 0.25);
         // A solid block stops everything in every direction.
         let solid = level([4, 4, 4], |_| true);
-        assert!(chain(&solid, 3).iter().all(|l| l.texels.iter().all(|a| *a == Vec3::ONE)));
+        assert!(chain(&solid, 3).iter().all(|l| l.texels.iter().all(|a| *a == Vec4::ONE)));
     }
 }

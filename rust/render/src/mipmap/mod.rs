@@ -19,14 +19,19 @@
 //!
 //! Level `l` of a texture with `n` texels a side has `max(1, n >> l)` (as the GPU's
 //! mip chains); each texel of a level covers two of the level above (three at an odd
-//! end).
+//! end, one where the size is already 1).
+//!
+//! A texture that never vanishes (a slab) gets no transparency chain: its averaged
+//! levels are kept all the way down. One that vanishes at once hands over at level 1
+//! at the earliest, so the transparency chain always starts with an empty level and
+//! close views stay the full-resolution image.
 
 pub mod directional;
 pub mod ndf;
 
 use std::ops::Range;
 
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Vec3, Vec4};
 use rayon::prelude::*;
 use thicket_core::texture::bake::TextureLayer;
 use thicket_core::texture::VolumeTexture;
@@ -154,16 +159,17 @@ pub fn transition_level(chain: &[Level<[f32; 4]>]) -> u32 {
     vanishing.map_or(chain.len() as u32 - 1, |l| (l as u32).saturating_sub(1))
 }
 
-/// A transparency texel: directional alpha along `s`, `t`, `r`, and the normal
-/// distribution's `Q^-1` (symmetric, largest eigenvalue 1).
+/// A transparency texel: directional alpha along `s`, `t`, `r` and its column's
+/// alpha across the shell (`w`, see [`directional`]), and the normal distribution's
+/// `Q^-1` (symmetric, largest eigenvalue 1).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Haze {
-    pub alpha: Vec3,
+    pub alpha: Vec4,
     pub ndf: Mat3,
 }
 
 impl Haze {
-    pub const EMPTY: Self = Self { alpha: Vec3::ZERO, ndf: Mat3::IDENTITY };
+    pub const EMPTY: Self = Self { alpha: Vec4::ZERO, ndf: Mat3::IDENTITY };
 }
 
 /// Everything the renderer uploads for one scene.
@@ -188,14 +194,26 @@ impl MipmapSet {
             Mipmaps::Double => {
                 let united = united_level(layers, &finest);
                 let united_chain = linear_chain(united.clone());
-                let transition = transition_level(&united_chain);
+                let last = united_chain.len() as u32 - 1;
+                let vanishing = transition_level(&united_chain);
+                if vanishing >= last {
+                    // Nothing vanishes: averaged levels all the way (no hand-over).
+                    return Self {
+                        mode,
+                        occupancy: finest.into_iter().map(linear_chain).collect(),
+                        transparency: vec![],
+                        transition: last,
+                    };
+                }
+                let transition = vanishing.max(1);
                 let transparency = transparency_chain(&united, transition);
                 // Each layer keeps the levels whose texels are at most as large as the
                 // united grid's at the transition level, and is empty below.
                 let occupancy = finest
                     .into_iter()
                     .map(|f| {
-                        let last = transition as f32 + (f.dims[0] as f32 / united.dims[0] as f32).log2();
+                        let texels = |d: [usize; 3]| ((d[0] * d[1]) as f32).sqrt();
+                        let last = transition as f32 + (texels(f.dims) / texels(united.dims)).log2();
                         let mut chain = linear_chain(f);
                         for (l, level) in chain.iter_mut().enumerate().skip(1) {
                             if l as f32 > last + 1e-3 {
@@ -248,18 +266,34 @@ fn united_level(layers: &[TextureLayer], finest: &[Level<[f32; 4]>]) -> Level<[f
 pub fn transparency_chain(finest: &Level<[f32; 4]>, transition: u32) -> Vec<Level<Haze>> {
     let count = level_count(finest.dims);
     let alphas = directional::chain(finest, count);
-    let mut ellipsoids = vec![Level {
-        dims: finest.dims,
-        texels: finest.texels.iter().map(|t| ndf::of_gradient(Vec3::new(t[0], t[1], t[2]), finest.dims)).collect(),
-    }];
+    // Per texel: the ellipsoid and the share of its finest texels holding surface.
+    // Texels without surface (inside or outside a feature) have no normal to add.
+    let finest_ellipsoids = finest
+        .texels
+        .iter()
+        .map(|t| match ndf::of_gradient(Vec3::new(t[0], t[1], t[2]), finest.dims) {
+            Some(disk) => (disk, 1.0),
+            None => (Mat3::IDENTITY, 0.0),
+        })
+        .collect();
+    let mut ellipsoids = vec![Level { dims: finest.dims, texels: finest_ellipsoids }];
     for l in 1..count {
         let above = &ellipsoids[l as usize - 1];
-        let weights = &alphas[l as usize - 1];
+        let opacity = &alphas[l as usize - 1];
+        // Children weighted by opacity (their mean directional alpha) times surface.
         let weighted = Level {
             dims: above.dims,
-            texels: above.texels.iter().zip(&weights.texels).map(|(s, a)| (*s, (a.x + a.y + a.z) / 3.0)).collect(),
+            texels: above.texels.iter().zip(&opacity.texels).map(|(&(s, surface), a)| (s, surface, (a.x + a.y + a.z) / 3.0)).collect(),
         };
-        ellipsoids.push(reduce(&weighted, level_dims(finest.dims, l), |it: &mut dyn Iterator<Item = (Mat3, f32)>| ndf::filter(it)));
+        ellipsoids.push(reduce(&weighted, level_dims(finest.dims, l), |it: &mut dyn Iterator<Item = (Mat3, f32, f32)>| {
+            let (mut sum, mut surface, mut n) = (Mat3::ZERO, 0.0, 0.0);
+            for (s, share, alpha) in it {
+                sum += s * (share * alpha);
+                surface += share;
+                n += 1.0;
+            }
+            (ndf::normalized(sum), surface / n)
+        }));
     }
     alphas
         .into_iter()
@@ -269,7 +303,7 @@ pub fn transparency_chain(finest: &Level<[f32; 4]>, transition: u32) -> Vec<Leve
             let texels = if (l as u32) < transition {
                 vec![Haze::EMPTY; a.texels.len()]
             } else {
-                a.texels.iter().zip(&e.texels).map(|(alpha, ndf)| Haze { alpha: *alpha, ndf: *ndf }).collect()
+                a.texels.iter().zip(&e.texels).map(|(alpha, (ndf, _))| Haze { alpha: *alpha, ndf: *ndf }).collect()
             };
             Level { dims: a.dims, texels }
         })
@@ -326,6 +360,12 @@ mod tests {
             assert_eq!(any_alpha(occupied), l <= t, "occupancy level {l}, transition {t}");
             assert_eq!(any_haze(haze), l >= t, "transparency level {l}, transition {t}");
         }
+        assert!(t >= 1, "the transparency chain starts with an empty level");
+        // A slab never vanishes: no transparency chain, averaged levels all the way.
+        let slab = VolumeTexture::from_fn([16, 16, 16], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap();
+        let flat = MipmapSet::build(&[TextureLayer { texture: slab, offset: glam::Vec2::ZERO }], Mipmaps::Double);
+        assert!(flat.transparency.is_empty());
+        assert!(flat.occupancy[0].iter().all(any_alpha));
         // Stored ellipsoids: symmetric, longest axis 1 (entries within [-1, 1]).
         for level in &set.transparency[t..] {
             for h in &level.texels {

@@ -16,21 +16,23 @@ pub fn disk(n: Vec3) -> Mat3 {
 }
 
 /// The finest level's ellipsoid from the gradient of alpha in texture units (`dims`:
-/// the texture's size): a disk across the gradient, or a sphere (all directions)
-/// where alpha is flat.
-pub fn of_gradient(gradient: Vec3, dims: [usize; 3]) -> Mat3 {
+/// the texture's size): a disk across the gradient, or none where alpha is flat
+/// (within a feature or outside all: no surface in the texel). The ellipsoids live
+/// in texture coordinates `(s, t, r)`; the renderer carries their normals to world
+/// space through each cell's map.
+pub fn of_gradient(gradient: Vec3, dims: [usize; 3]) -> Option<Mat3> {
     let per_texel = gradient / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2].max(2) as f32 - 1.0);
-    if per_texel.length() < 1e-3 || !gradient.is_finite() {
-        Mat3::IDENTITY
-    } else {
-        disk(gradient.normalize())
-    }
+    (per_texel.length() >= 1e-3 && gradient.is_finite()).then(|| disk(gradient.normalize()))
 }
 
 /// The opacity-weighted sum of `(Q^-1, opacity)`, scaled to a longest axis of 1; a
 /// sphere when nothing is opaque.
 pub fn filter(items: &mut dyn Iterator<Item = (Mat3, f32)>) -> Mat3 {
-    let sum = items.fold(Mat3::ZERO, |m, (q, w)| m + q * w);
+    normalized(items.fold(Mat3::ZERO, |m, (q, w)| m + q * w))
+}
+
+/// A sum of `Q^-1` scaled to a longest axis of 1; a sphere when it is zero.
+pub fn normalized(sum: Mat3) -> Mat3 {
     let top = largest_eigenvalue(&sum);
     if top > 1e-12 && top.is_finite() {
         sum * (1.0 / top)
@@ -85,6 +87,7 @@ mod tests {
         // A transparent texel does not count.
         let only = filter(&mut [(disk(n1), 1.0), (disk(n2), 0.0)].into_iter());
         assert!(only.abs_diff_eq(disk(n1), 1e-6));
+        assert_eq!(of_gradient(Vec3::ZERO, [8; 3]), None, "no surface, no ellipsoid");
         assert_eq!(filter(&mut std::iter::empty()), Mat3::IDENTITY);
     }
 }
