@@ -494,3 +494,19 @@ fn close_views_are_the_full_resolution_renderer() {
         assert!(frame.rgba == off.rgba && frame.depth == off.depth, "{mipmaps:?} differs from the full-resolution image");
     }
 }
+
+#[test]
+fn united_layers_keep_far_views_too() {
+    // Two layers (chain mail, and bubbles shifted by (0.3, 0.1) in a texture of another
+    // size): the transparency chain is built from their union resampled on one grid.
+    let mail = Generator::new(Pattern::ChainMail).generate([64, 64, 32]).unwrap();
+    let mut scene = scene(&tm::icosphere(2), 0.05, mail);
+    let bubbles = Generator::new(Pattern::Bubbles).generate([32, 32, 16]).unwrap();
+    scene.textures.push(TextureLayer { texture: bubbles, offset: Vec2::new(0.3, 0.1) });
+    let view = |size: u32| perspective(Vec3::new(0.35, -0.85, 0.4).normalize() * 4.0, Vec3::ZERO, 0.55, size);
+    let (truth, coverage, error) = far_view_coverage(&scene, view, 32, 16);
+    eprintln!("united layers, 32 px: truth {truth:.3}, off / linear / double {coverage:?}, pixel error {error:?}");
+    let [_, linear, double] = coverage;
+    assert!((double - truth).abs() < 0.25 * truth, "{double} vs {truth}");
+    assert!(linear < double && error[2] < error[1], "{coverage:?} {error:?}");
+}
