@@ -264,3 +264,29 @@ fn the_triangle_estimate_is_within_a_factor_of_two_of_the_bake() {
         assert!(estimate >= baked / 2.0 - 100.0 && estimate <= baked * 2.0 + 100.0, "{p:?}: estimate {estimate}, baked {baked}");
     }
 }
+
+#[test]
+fn interior_shells_bake_closed_and_outward_facing() {
+    // The cell map reverses orientation inside the object: the triangles are flipped
+    // so that, as outside, they face away from the texture's solid parts.
+    let mesh = tm::icosphere(2);
+    let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+    let s = build_shell(&mesh, &t, Side::Interior, &ShellParams::default()).unwrap();
+    let tex = Generator::new(Pattern::Rivets).generate([16, 16, 16]).unwrap();
+    let b = bake(&mesh, &s, &layer(tex), &BakeParams { resolution: 12, layers: 16, ..Default::default() }).unwrap();
+    let baked = as_mesh(&b);
+    assert!(baked.report().is_closed_manifold(), "{:?}", baked.report());
+    let geo = crate::mesh::vertex_normals(&baked);
+    let mean: f32 = b.normals.iter().zip(&geo).map(|(a, g)| a.dot(*g)).sum::<f32>() / geo.len() as f32;
+    assert!(mean > 0.9, "mean agreement {mean}");
+    // A closed surface facing outward encloses a positive volume.
+    let volume: f32 = b
+        .triangles
+        .iter()
+        .map(|t| {
+            let [p, q, r] = t.map(|i| b.positions[i as usize]);
+            p.dot(q.cross(r)) / 6.0
+        })
+        .sum();
+    assert!(volume > 0.0, "{volume}");
+}
