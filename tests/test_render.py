@@ -101,6 +101,12 @@ def test_render_preview_makes_an_image_and_files(scene, tmp_path):
     for path in png:
         frame = bpy.data.images.load(path)
         assert tuple(frame.size) == (64, 48)
+    # The operator, as the panels run it, with its Renderer and Mipmaps settings.
+    bpy.context.view_layer.objects.active = sphere
+    bpy.data.images.remove(bpy.data.images["Thicket Preview"])
+    for mipmaps in ("double", "linear", "off"):
+        assert bpy.ops.thicket.render_preview(method="interpolating", mipmaps=mipmaps) == {"FINISHED"}
+        assert tuple(bpy.data.images["Thicket Preview"].size) == (64, 48)
 
 
 def test_render_errors_are_clear(scene, tmp_path):
