@@ -2,20 +2,15 @@
 a source object's own space (the space the native renderers shade in)."""
 
 import numpy as np
+from mathutils import Vector
 
 # Toward the light when the scene has none: from the front-left, above.
 DEFAULT_LIGHT = (0.3, -0.5, 0.8)
 
 
 def _object_centre(obj):
-    corners = np.array([obj.matrix_world @ _vector(c) for c in obj.bound_box], dtype=np.float64)
+    corners = np.array([obj.matrix_world @ Vector(c) for c in obj.bound_box], dtype=np.float64)
     return corners.mean(axis=0)
-
-
-def _vector(values):
-    from mathutils import Vector
-
-    return Vector(values)
 
 
 def scene_light(depsgraph, obj):
@@ -32,7 +27,7 @@ def scene_light(depsgraph, obj):
         light = light_object.data
         matrix = instance.matrix_world
         if light.type == "SUN":
-            toward = np.array(matrix.to_3x3() @ _vector((0.0, 0.0, 1.0)), dtype=np.float64)
+            toward = np.array(matrix.to_3x3() @ Vector((0.0, 0.0, 1.0)), dtype=np.float64)
             suns.append((float(light.energy), toward))
         else:
             toward = np.array(matrix.translation, dtype=np.float64) - centre
@@ -46,7 +41,7 @@ def scene_light(depsgraph, obj):
     # World vectors to the object's space by the inverse of its matrix (exact for
     # rotations and uniform scale; an approximation under non-uniform scale, where
     # the renderers' object-space shading differs from world space anyway).
-    local = np.array(obj.matrix_world.inverted_safe().to_3x3() @ _vector(toward), dtype=np.float64)
+    local = np.array(obj.matrix_world.inverted_safe().to_3x3() @ Vector(toward), dtype=np.float64)
     length = float(np.linalg.norm(local))
     if not np.isfinite(length) or length < 1e-12:
         return DEFAULT_LIGHT

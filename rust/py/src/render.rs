@@ -12,7 +12,6 @@ use thicket_render::mipmap::Mipmaps;
 use thicket_render::reference::{render, RenderParams};
 use thicket_render::{Camera, Frame, ShellScene};
 
-use crate::arrays;
 use crate::errors::{run_detached, ThicketError};
 
 /// Pixels the renderer accepts in one frame (16384 x 16384).
@@ -133,9 +132,8 @@ pub fn render_shell<'py>(
         "reference" => None,
         other => return Err(ThicketError::new_err(format!("unknown render method {other:?}; one of auto, interpolating, plain, reference"))),
     };
-    let mesh = arrays::mesh_with_uvs(&vertices, face_sizes, corners, uvs.as_ref())?;
-    let shell = crate::texture::shell_of(&base_offset, &directors, mesh.vertex_count())?;
-    let layers = crate::texture::layers(textures)?;
+    let (mesh, shell, layers) =
+        crate::texture::textured_shell(&vertices, face_sizes, corners, uvs.as_ref(), &base_offset, &directors, textures)?;
     let view = matrix(view, "view")?;
     let projection = matrix(projection, "projection")?;
     if width as u64 * height as u64 > MAX_PIXELS {

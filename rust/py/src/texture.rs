@@ -3,8 +3,9 @@
 use numpy::{IntoPyArray, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use thicket_core::glam::{Vec2, Vec3};
-use thicket_core::shell::{Shell, Side};
+use thicket_core::glam::Vec2;
+use thicket_core::shell::Shell;
+use thicket_core::Mesh;
 use thicket_core::texture::bake::{bake, estimate_triangles_for, Cutter, MovedRegion, TextureLayer};
 use thicket_core::texture::{BakeParams, Generator, Pattern, VolumeTexture};
 
@@ -37,7 +38,7 @@ pub fn texture<'py>(
     Ok(arr.into_pyarray(py))
 }
 
-pub(crate) fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
+fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
     let a: PyReadonlyArray3<'_, f32> = alpha
         .extract()
         .map_err(|_| ThicketError::new_err("a texture must be a float32 array of shape (nz, ny, nx)"))?;
@@ -53,7 +54,7 @@ pub(crate) fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
 
 /// The placed textures of a `textures` argument: float32 (nz, ny, nx) arrays or
 /// (array, (ds, dt)) pairs.
-pub(crate) fn layers(textures: &Bound<'_, PyAny>) -> PyResult<Vec<TextureLayer>> {
+fn layers(textures: &Bound<'_, PyAny>) -> PyResult<Vec<TextureLayer>> {
     let mut out = Vec::new();
     for item in textures.try_iter()? {
         let item = item?;
@@ -68,14 +69,29 @@ pub(crate) fn layers(textures: &Bound<'_, PyAny>) -> PyResult<Vec<TextureLayer>>
 
 /// A shell given by its base offsets and directors (layer r of vertex v at
 /// v + base_offset + r * director), one row per vertex of an `n`-vertex mesh.
-pub(crate) fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyReadonlyArray2<'_, f32>, n: usize) -> PyResult<Shell> {
+/// The base mesh (with its UVs), its shell and the textures of a bake or render call,
+/// checked against each other.
+pub(crate) fn textured_shell(
+    vertices: &PyReadonlyArray2<'_, f32>,
+    face_sizes: &Bound<'_, PyAny>,
+    corners: &Bound<'_, PyAny>,
+    uvs: Option<&PyReadonlyArray2<'_, f32>>,
+    base_offset: &PyReadonlyArray2<'_, f32>,
+    directors: &PyReadonlyArray2<'_, f32>,
+    textures: &Bound<'_, PyAny>,
+) -> PyResult<(Mesh, Shell, Vec<TextureLayer>)> {
+    let mesh = arrays::mesh_with_uvs(vertices, face_sizes, corners, uvs)?;
+    let shell = shell_of(base_offset, directors, mesh.vertex_count())?;
+    Ok((mesh, shell, layers(textures)?))
+}
+
+fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyReadonlyArray2<'_, f32>, n: usize) -> PyResult<Shell> {
     let base_offset = arrays::positions(base_offset)?;
     let directors = arrays::positions(directors)?;
     if base_offset.len() != n || directors.len() != n {
         return Err(ThicketError::new_err("base_offset and directors need one row per vertex"));
     }
-    let achieved: Vec<f32> = directors.iter().map(|d: &Vec3| d.length()).collect();
-    Ok(Shell { side: Side::Exterior, base_offset, directors, target: achieved.clone(), achieved })
+    Ok(Shell::from_directors(base_offset, directors))
 }
 
 /// bake_texture(vertices, face_sizes, corners, base_offset, directors, textures,
@@ -116,10 +132,8 @@ pub fn bake_texture<'py>(
     move_offset: (f32, f32),
     max_triangles: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let mesh = arrays::mesh_with_uvs(&vertices, face_sizes, corners, uvs.as_ref())?;
+    let (mesh, shell, layers_in) = textured_shell(&vertices, face_sizes, corners, uvs.as_ref(), &base_offset, &directors, textures)?;
     let n = mesh.vertex_count();
-    let shell = shell_of(&base_offset, &directors, n)?;
-    let layers_in = self::layers(textures)?;
     let region = region.map(|r| arrays::per_vertex_or_scalar(r, n, "region")).transpose()?;
     let holes = holes.map(|r| arrays::per_vertex_or_scalar(r, n, "holes")).transpose()?;
     let moved = move_region

@@ -25,21 +25,17 @@ fn chain_mail() -> Vec<TextureLayer> {
     vec![TextureLayer { texture, offset: Vec2::ZERO }]
 }
 
-/// Frames side by side (`across`) or stacked, over a dark background, as sRGB.
+/// Frames side by side (`across`) or stacked, over a dark background.
 fn compose(frames: &[Frame], across: bool) -> image::RgbImage {
     let (w, h) = (frames[0].width, frames[0].height);
     let (cols, rows) = if across { (frames.len() as u32, 1) } else { (1, frames.len() as u32) };
-    let srgb = |c: f32| {
-        let c = c.clamp(0.0, 1.0);
-        let s = if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
-        (s * 255.0).round() as u8
-    };
-    image::RgbImage::from_fn(w * cols, h * rows, |x, y| {
-        let (k, px, py) = if across { (x / w, x % w, y) } else { (y / h, x, y % h) };
-        let c = frames[k as usize].rgba[(py * w + px) as usize];
-        let over = c.truncate() * c.w + Vec3::splat(0.03) * (1.0 - c.w);
-        image::Rgb([srgb(over.x), srgb(over.y), srgb(over.z)])
-    })
+    let mut out = image::RgbImage::new(w * cols, h * rows);
+    for (k, frame) in frames.iter().enumerate() {
+        let tile = image::RgbImage::from_raw(w, h, frame.rgb8_over(Vec3::splat(0.03))).expect("one RGB texel per pixel");
+        let (x, y) = if across { (k as u32 * w, 0) } else { (0, k as u32 * h) };
+        image::imageops::replace(&mut out, &tile, x.into(), y.into());
+    }
+    out
 }
 
 fn slices_figure(gpu: &mut GpuRenderer) -> image::RgbImage {

@@ -105,6 +105,18 @@ impl Frame {
         Ok(n)
     }
 
+    /// 8-bit RGB, rows top-down: the frame over a linear `background` colour,
+    /// sRGB-encoded (for pictures without transparency).
+    pub fn rgb8_over(&self, background: Vec3) -> Vec<u8> {
+        self.rgba
+            .iter()
+            .flat_map(|c| {
+                let over = c.truncate() * c.w + background * (1.0 - c.w);
+                [to_u8(srgb(over.x)), to_u8(srgb(over.y)), to_u8(srgb(over.z))]
+            })
+            .collect()
+    }
+
     /// 8-bit RGBA, rows top-down: colour sRGB-encoded from linear, alpha straight.
     pub fn rgba8_top_down(&self) -> Vec<u8> {
         self.rgba.iter().flat_map(|c| [to_u8(srgb(c.x)), to_u8(srgb(c.y)), to_u8(srgb(c.z)), to_u8(c.w)]).collect()
@@ -188,6 +200,10 @@ mod tests {
         assert_eq!(back.get_pixel(1, 0).0, [188, 124, 255, 255]);
         assert_eq!(back.get_pixel(0, 2).0, [0, 0, 0, 0]);
         assert_eq!(f.rgba8_top_down()[4..8], [188, 124, 255, 255]);
+        // Over a white background: the opaque pixel keeps its colour, the empty one
+        // is white.
+        assert_eq!(f.rgb8_over(Vec3::ONE)[3..6], [188, 124, 255]);
+        assert_eq!(f.rgb8_over(Vec3::ONE)[6 * 3..6 * 3 + 3], [255, 255, 255]);
         std::fs::remove_dir_all(dir).ok();
     }
 

@@ -152,35 +152,43 @@ impl Prism {
 
     /// Parameters `(u, v, r)` of world point `p` by Newton's method from `q`.
     #[inline]
-    fn invert(&self, p: DVec3, mut q: Vec3) -> Option<Vec3> {
+    fn invert(&self, p: DVec3, q: Vec3) -> Option<Vec3> {
         let x = (p - self.origin).as_vec3();
-        for _ in 0..NEWTON_ITERATIONS {
+        let (q, e) = newton(q, |q| {
             let (u, v, r) = (q.x, q.y, q.z);
             let pu = self.e1 + self.f1 * r;
             let pv = self.e2 + self.f2 * r;
             let pr = self.d0 + self.f1 * u + self.f2 * v;
-            let e = self.d0 * r + pu * u + pv * v - x;
-            let j = Mat3::from_cols(pu, pv, pr);
-            let det = j.determinant();
-            if det.abs() <= 1e-30 || !det.is_finite() {
-                return None;
-            }
-            let dq = j.inverse() * e;
-            q -= dq;
-            if !q.is_finite() || q.abs().max_element() > 1e3 {
-                return None;
-            }
-            if dq.abs().max_element() < 1e-6 {
-                break;
-            }
-        }
-        let (u, v, r) = (q.x, q.y, q.z);
-        let e = self.d0 * r + (self.e1 + self.f1 * r) * u + (self.e2 + self.f2 * r) * v - x;
+            (self.d0 * r + pu * u + pv * v - x, Mat3::from_cols(pu, pv, pr))
+        })?;
         (e.length() <= self.tolerance).then_some(q)
     }
 }
 
 const NEWTON_ITERATIONS: usize = 10;
+
+/// Newton's method from `q` on `residual(q) = (map(q) - x, d map / d q)`: the last
+/// parameters and their residual, or `None` where the Jacobian degenerates or the
+/// iterate runs away.
+#[inline]
+fn newton(mut q: Vec3, residual: impl Fn(Vec3) -> (Vec3, Mat3)) -> Option<(Vec3, Vec3)> {
+    for _ in 0..NEWTON_ITERATIONS {
+        let (e, j) = residual(q);
+        let det = j.determinant();
+        if det.abs() <= 1e-30 || !det.is_finite() {
+            return None;
+        }
+        let dq = j.inverse() * e;
+        q -= dq;
+        if !q.is_finite() || q.abs().max_element() > 1e3 {
+            return None;
+        }
+        if dq.abs().max_element() < 1e-6 {
+            break;
+        }
+    }
+    Some((q, residual(q).0))
+}
 /// Slack of the containment test in cell parameters.
 const INSIDE_EPS: f32 = 1e-4;
 
@@ -467,25 +475,10 @@ impl<'a> Marcher<'a> {
 }
 
 /// Newton's method on any cell map (quads included), from `q`.
-fn invert_generic(cell: &CellMap, x: Vec3, mut q: Vec3) -> Option<Vec3> {
-    for _ in 0..NEWTON_ITERATIONS {
-        let e = cell.world(q) - x;
-        let (jw, _) = cell.jacobians(q);
-        let det = jw.determinant();
-        if det.abs() <= 1e-30 || !det.is_finite() {
-            return None;
-        }
-        let dq = jw.inverse() * e;
-        q -= dq;
-        if !q.is_finite() || q.abs().max_element() > 1e3 {
-            return None;
-        }
-        if dq.abs().max_element() < 1e-6 {
-            break;
-        }
-    }
+fn invert_generic(cell: &CellMap, x: Vec3, q: Vec3) -> Option<Vec3> {
+    let (q, e) = newton(q, |q| (cell.world(q) - x, cell.jacobians(q).0))?;
     let size = (0..cell.count).map(|k| cell.director[k].length() + (cell.base[k] - cell.base[0]).length()).sum::<f32>();
-    ((cell.world(q) - x).length() <= 1e-5 * size + 4.0 * f32::EPSILON * x.abs().max_element()).then_some(q)
+    (e.length() <= 1e-5 * size + 4.0 * f32::EPSILON * x.abs().max_element()).then_some(q)
 }
 
 /// A bounding volume hierarchy over the cells' bounds (median splits, small leaves).
@@ -779,13 +772,7 @@ mod tests {
         let flat = {
             let mesh = tm::plane(4);
             let n = mesh.vertex_count();
-            let shell = thicket_core::shell::Shell {
-                side: Side::Exterior,
-                base_offset: vec![Vec3::ZERO; n],
-                directors: vec![Vec3::ZERO; n],
-                achieved: vec![0.0; n],
-                target: vec![0.0; n],
-            };
+            let shell = thicket_core::shell::Shell::from_directors(vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
             ShellScene::new(&mesh, &shell, layer(slab()), 1.0).unwrap()
         };
         assert!(render(&flat, &camera, &RenderParams::default()).is_err());

@@ -338,13 +338,7 @@ fn bad_input_is_an_error_not_a_panic() {
     let flat = {
         let mesh = tm::plane(4);
         let n = mesh.vertex_count();
-        let shell = thicket_core::shell::Shell {
-            side: Side::Exterior,
-            base_offset: vec![Vec3::ZERO; n],
-            directors: vec![Vec3::ZERO; n],
-            achieved: vec![0.0; n],
-            target: vec![0.0; n],
-        };
+        let shell = thicket_core::shell::Shell::from_directors(vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
         ShellScene::new(&mesh, &shell, layer(slab()), 1.0).unwrap()
     };
     assert!(r.render(&flat, &camera, &good).is_err());

@@ -135,6 +135,12 @@ impl Mesh {
             Ok(())
         }
     }
+    /// Signed volume enclosed by the faces (divergence theorem): positive for a closed
+    /// mesh whose faces point outward.
+    pub fn signed_volume(&self) -> f32 {
+        let p = &self.positions;
+        self.triangulate().triangles.iter().map(|t| p[t[0] as usize].dot(p[t[1] as usize].cross(p[t[2] as usize])) / 6.0).sum()
+    }
     /// Triangulation of every face (for integration and intersection tests only;
     /// the mesh itself keeps its polygons).
     pub fn triangulate(&self) -> Triangulation {

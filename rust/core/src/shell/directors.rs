@@ -141,6 +141,14 @@ pub struct Shell {
 }
 
 impl Shell {
+    /// A shell given by its base offsets and directors (read back from Blender, or
+    /// built by hand): the thickness reached is each director's length, and is taken
+    /// as the target too.
+    pub fn from_directors(base_offset: Vec<Vec3>, directors: Vec<Vec3>) -> Self {
+        let achieved: Vec<f32> = directors.iter().map(|d| d.length()).collect();
+        Self { side: Side::Exterior, base_offset, directors, target: achieved.clone(), achieved }
+    }
+
     /// Position of layer `r` of vertex `v`.
     pub fn point(&self, positions: &[Vec3], v: usize, r: f32) -> Vec3 {
         positions[v] + self.base_offset[v] + self.directors[v] * r

@@ -195,23 +195,13 @@ mod tests {
     use crate::mesh::fixtures::{cube, grid};
     use crate::shell::normal_offset_directors;
 
-    /// Signed volume by the divergence theorem; positive for outward-facing closed meshes.
-    fn volume(m: &Mesh) -> f32 {
-        let p = m.positions();
-        m.triangulate()
-            .triangles
-            .iter()
-            .map(|t| p[t[0] as usize].dot(p[t[1] as usize].cross(p[t[2] as usize])) / 6.0)
-            .sum()
-    }
-
     #[test]
     fn open_grid_solid_is_closed_and_outward() {
         let m = grid(3);
         let d = normal_offset_directors(&m, &vec![0.5; m.vertex_count()]);
         let s = build_geometry(&m, &d, ShellOutput::Solid).unwrap();
         assert!(s.mesh.report().is_closed_manifold());
-        assert!((volume(&s.mesh) - 9.0 * 0.5).abs() < 1e-4, "{}", volume(&s.mesh));
+        assert!((s.mesh.signed_volume() - 9.0 * 0.5).abs() < 1e-4, "{}", s.mesh.signed_volume());
     }
 
     #[test]
@@ -220,7 +210,7 @@ mod tests {
         let d = normal_offset_directors(&m, &vec![-0.25; m.vertex_count()]);
         let s = build_geometry(&m, &d, ShellOutput::Solid).unwrap();
         assert!(s.mesh.report().is_closed_manifold());
-        assert!((volume(&s.mesh) - 4.0 * 0.25).abs() < 1e-4);
+        assert!((s.mesh.signed_volume() - 4.0 * 0.25).abs() < 1e-4);
     }
 
     #[test]
@@ -229,7 +219,7 @@ mod tests {
         let d: Vec<Vec3> = m.positions().iter().map(|p| *p * 0.2).collect(); // scale cube by 1.2
         let s = build_geometry(&m, &d, ShellOutput::Solid).unwrap();
         assert!(s.mesh.report().is_closed_manifold());
-        assert!((volume(&s.mesh) - (1.2f32.powi(3) - 1.0)).abs() < 1e-4);
+        assert!((s.mesh.signed_volume() - (1.2f32.powi(3) - 1.0)).abs() < 1e-4);
     }
 
     #[test]

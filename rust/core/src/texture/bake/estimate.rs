@@ -4,7 +4,7 @@
 //! or holes), scaled to all cells.
 
 use super::lattice::Lattice;
-use super::prism_table;
+use super::{field, prism_table};
 use super::TextureLayer;
 
 /// Texture samples the estimate may take: a few milliseconds, far below a bake.
@@ -20,30 +20,23 @@ pub(super) fn estimate_triangles(lattice: &Lattice, textures: &[TextureLayer], l
     let picked = (BUDGET / (points.len() * (m + 1))).clamp(1, 64).min(cells);
     let mut triangles = 0usize;
     let mut values = vec![0.0f32; points.len() * (m + 1)];
+    let mut footprint = Vec::with_capacity(textures.len());
     for p in 0..picked {
         // Cells evenly spread over the mesh, so UV scales vary as they do in the bake.
         let [a, b, c] = lattice.st[p * cells / picked];
         for (k, &(i, j)) in points.iter().enumerate() {
             let st = a + (b - a) * (i as f32 / n as f32) + (c - a) * (j as f32 / n as f32);
-            for l in 0..=m {
-                // The shell's base and outer layer are outside, as in the bake.
-                let r = l as f32 / m as f32;
-                let inner = l > 0 && l < m;
-                values[k * (m + 1) + l] =
-                    if inner { textures.iter().map(|t| t.texture.sample((st + t.offset).extend(r))).fold(0.0, f32::max) } else { 0.0 };
+            footprint.clear();
+            field::footprints(textures, st, &mut footprint);
+            // The shell's base and outer layer are outside, as in the bake.
+            for (l, v) in values[k * (m + 1)..][..m + 1].iter_mut().enumerate() {
+                *v = if l > 0 && l < m { field::union(textures, &footprint, l as f32 / m as f32) } else { 0.0 };
             }
         }
-        let column = |i: u32, j: u32| &values[lattice.local_index(i, j) * (m + 1)..][..m + 1];
-        for i in 0..n {
-            for j in 0..n - i {
-                let up = [(i, j), (i + 1, j), (i, j + 1)];
-                let down = [(i + 1, j), (i + 1, j + 1), (i, j + 1)];
-                for corners in if i + j + 2 <= n { vec![up, down] } else { vec![up] } {
-                    let [a, b, c] = corners.map(|(i, j)| column(i, j));
-                    for l in 0..m {
-                        triangles += prism_table::classify(&[a[l], b[l], c[l], a[l + 1], b[l + 1], c[l + 1]]).count as usize;
-                    }
-                }
+        let column = |k: usize| &values[k * (m + 1)..][..m + 1];
+        for [a, b, c] in lattice.small_triangles().map(|t| t.map(column)) {
+            for l in 0..m {
+                triangles += prism_table::classify(&[a[l], b[l], c[l], a[l + 1], b[l + 1], c[l + 1]]).count as usize;
             }
         }
     }

@@ -25,6 +25,18 @@ pub(super) struct Field<'a> {
     pub layers_r: f32,
 }
 
+/// Each texture's footprint at `st` (its offset added), appended to `out`.
+pub(super) fn footprints(layers: &[TextureLayer], st: Vec2, out: &mut Vec<Column>) {
+    out.extend(layers.iter().map(|l| l.texture.column(st + l.offset)));
+}
+
+/// Union of the placed textures (max alpha, chapter 7.3) at height `r` over
+/// `footprints` (one per layer).
+#[inline]
+pub(super) fn union(layers: &[TextureLayer], footprints: &[Column], r: f32) -> f32 {
+    layers.iter().zip(footprints).map(|(l, f)| l.texture.sample_column(f, r)).fold(0.0, f32::max)
+}
+
 impl Field<'_> {
     /// A per-vertex weight interpolated at barycentric weights `w` of cell `t`.
     #[inline]
@@ -33,16 +45,13 @@ impl Field<'_> {
         values.map(|v| (0..3).map(|k| v[c[k] as usize].clamp(0.0, 1.0) * w[k]).sum())
     }
 
-    /// Each texture's footprint at `st` (its offset added), appended to `out`.
     fn footprints(&self, st: Vec2, out: &mut Vec<Column>) {
-        out.extend(self.layers.iter().map(|l| l.texture.column(st + l.offset)));
+        footprints(self.layers, st, out);
     }
 
-    /// Union of the placed textures (max alpha, chapter 7.3) at height `r` over
-    /// `footprints` (one per layer).
     #[inline]
     fn union(&self, footprints: &[Column], r: f32) -> f32 {
-        self.layers.iter().zip(footprints).map(|(l, f)| l.texture.sample_column(f, r)).fold(0.0, f32::max)
+        union(self.layers, footprints, r)
     }
 
     /// Occupancy at the heights `r = l / (out.len() - 1)` of the column at `(u, v)` of

@@ -103,6 +103,22 @@ impl Lattice {
         i * (n + 1) - i * (i.saturating_sub(1)) / 2 + j
     }
 
+    /// The small triangles of a cell's lattice (`n^2` of them, counter-clockwise),
+    /// as indices of their corners in [`Self::local_points`] order; each is the base of
+    /// one column of prisms.
+    pub fn small_triangles(&self) -> impl Iterator<Item = [usize; 3]> + '_ {
+        let n = self.n;
+        (0..n)
+            .flat_map(move |i| {
+                (0..n - i).flat_map(move |j| {
+                    let up = [(i, j), (i + 1, j), (i, j + 1)];
+                    let down = [(i + 1, j), (i + 1, j + 1), (i, j + 1)];
+                    [up, down].into_iter().take(if i + j + 2 <= n { 2 } else { 1 })
+                })
+            })
+            .map(|t| t.map(|(i, j)| self.local_index(i, j)))
+    }
+
     /// For every lattice point, the first cell containing it and its local `(i, j)`
     /// there: where its samples are computed, so shared points get one value.
     pub fn owners(&self) -> Vec<(u32, u16, u16)> {
@@ -132,6 +148,18 @@ mod tests {
             for (k, (i, j)) in l.local_points().enumerate() {
                 assert_eq!(l.local_index(i, j), k, "n {n} ({i},{j})");
             }
+            // n^2 small triangles, each counter-clockwise in (i, j), covering the cell.
+            let pts: Vec<(u32, u32)> = l.local_points().collect();
+            let area2: i64 = l
+                .small_triangles()
+                .map(|t| {
+                    let [a, b, c] = t.map(|k| (pts[k].0 as i64, pts[k].1 as i64));
+                    let cross = (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
+                    assert_eq!(cross, 1, "n {n}: {t:?}");
+                    cross
+                })
+                .sum();
+            assert_eq!(area2, (n * n) as i64);
             // Closed icosphere: every key is owned, none on a boundary.
             assert!(l.owners().iter().all(|o| o.0 != u32::MAX));
             assert!(!l.boundary.iter().any(|b| *b));

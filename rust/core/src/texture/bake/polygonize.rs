@@ -50,6 +50,8 @@ pub(super) struct Scratch {
     /// Per local column: bit `l` set when layer `l` is inside (columns of at most 64
     /// layers); else 1 when any layer is.
     masks: Vec<u64>,
+    /// The lattice's small triangles ([`Lattice::small_triangles`]), listed once.
+    smalls: Vec<[usize; 3]>,
 }
 
 impl Piece {
@@ -70,6 +72,7 @@ impl Cells<'_> {
         let lm = m as usize + 1;
         if s.ij.is_empty() {
             s.ij = lat.local_points().collect();
+            s.smalls = lat.small_triangles().collect();
             s.ijl = s.ij.iter().flat_map(|&(i, j)| (0..lm as i32).map(move |l| IVec3::new(i as i32, j as i32, l))).collect();
         }
         let points = s.ij.len() * lm;
@@ -170,32 +173,24 @@ impl Cells<'_> {
                 piece.tris.push(if flip { [t[0], t[2], t[1]] } else { t });
             }
         };
-        for i in 0..n {
-            for j in 0..(n - i) {
-                let up = [(i, j), (i + 1, j), (i, j + 1)];
-                let down = [(i + 1, j), (i + 1, j + 1), (i, j + 1)];
-                let smalls = if i + j + 2 <= n { &[up, down][..] } else { &[up][..] };
-                for sm in smalls {
-                    let columns = sm.map(|(i, j)| lat.local_index(i, j));
-                    let base = columns.map(|c| c * lm);
-                    let mut prism = |l: usize| {
-                        emit(&mut piece, [base[0] + l, base[1] + l, base[2] + l, base[0] + l + 1, base[1] + l + 1, base[2] + l + 1])
-                    };
-                    let [a, b, c] = columns.map(|c| masks[c]);
-                    if bitwise {
-                        // Only the layers whose six corners are not all on one side.
-                        let (all, any) = (a & b & c, a | b | c);
-                        let uniform = (all & (all >> 1)) | !(any | (any >> 1));
-                        let mut mixed = !uniform & ((1u64 << m) - 1);
-                        while mixed != 0 {
-                            prism(mixed.trailing_zeros() as usize);
-                            mixed &= mixed - 1;
-                        }
-                    } else if a | b | c != 0 {
-                        // Columns with no inside sample make no surface.
-                        (0..m as usize).for_each(&mut prism);
-                    }
+        for &columns in &s.smalls {
+            let base = columns.map(|c| c * lm);
+            let mut prism = |l: usize| {
+                emit(&mut piece, [base[0] + l, base[1] + l, base[2] + l, base[0] + l + 1, base[1] + l + 1, base[2] + l + 1])
+            };
+            let [a, b, c] = columns.map(|c| masks[c]);
+            if bitwise {
+                // Only the layers whose six corners are not all on one side.
+                let (all, any) = (a & b & c, a | b | c);
+                let uniform = (all & (all >> 1)) | !(any | (any >> 1));
+                let mut mixed = !uniform & ((1u64 << m) - 1);
+                while mixed != 0 {
+                    prism(mixed.trailing_zeros() as usize);
+                    mixed &= mixed - 1;
                 }
+            } else if a | b | c != 0 {
+                // Columns with no inside sample make no surface.
+                (0..m as usize).for_each(&mut prism);
             }
         }
         for slot in touched.drain(..) {
