@@ -69,3 +69,101 @@ def test_bad_side_is_a_clear_error(side):
     v = np.eye(3, dtype=np.float32)
     with pytest.raises(tn.ThicketError, match="side"):
         tn.build_shell(v, np.array([[0, 1, 2]], np.int32), 0.1, side)
+
+
+def _monkey_arrays():
+    head = add("monkey")
+    head.modifiers.new("subdivide", "SUBSURF").levels = 1
+    bpy.ops.object.modifier_apply(modifier="subdivide")
+    return head, mesh_io.read_mesh(head.data)
+
+
+def _bump(vertices, centre, height, radius):
+    """Vertices within `radius` of vertex `centre` pushed along +z, smoothly."""
+    d = np.linalg.norm(vertices - vertices[centre], axis=1)
+    w = np.clip(1.0 - d / radius, 0.0, None) ** 2
+    moved = vertices.copy()
+    moved[:, 2] += height * w
+    return moved, int(np.count_nonzero(w))
+
+
+def test_incremental_shell_follows_an_edit_like_a_rebuild(scene):
+    """A local edit retraces only part of the directors, and the shell equals a fresh
+    one on the edited mesh (within the Barnes-Hut approximation and the repair)."""
+    _, a = _monkey_arrays()
+    diag = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
+    live = tn.IncrementalShell(a.vertices, a.face_sizes, a.corners, 0.05, relative=True)
+    assert live.vertex_count == len(a.vertices) and live.tolerance == pytest.approx(0.03)
+    before = live.result()["directors"]
+    moved, count = _bump(a.vertices, 0, 0.01 * diag, 0.1 * diag)
+    stats = live.update(moved)
+    assert stats["changed"] == count and not stats["rebuilt"]
+    assert count < stats["retraced"] < len(a.vertices) // 2
+    after = live.result()
+    fresh = tn.shell(moved, a.face_sizes, a.corners, 0.05, relative=True)
+    h = 0.05 * diag
+    differs = np.linalg.norm(after["directors"] - fresh["directors"], axis=1)
+    # Trees refitted rather than rebuilt group the surface differently (Barnes-Hut
+    # noise), and the repair's rounds shorten a tangle's directors differently.
+    assert np.median(differs) < 5e-3 * h and np.percentile(differs, 90) < 0.03 * h and differs.max() < 0.25 * h
+    # What the tolerance kept is invisible beside that: retracing everything within
+    # reach gives the same shell.
+    exact = tn.IncrementalShell(a.vertices, a.face_sizes, a.corners, 0.05, relative=True, tolerance=0.0)
+    exact_stats = exact.update(moved)
+    assert exact_stats["retraced"] > stats["retraced"]
+    assert np.abs(exact.result()["directors"] - after["directors"]).max() < 1e-3 * h
+    assert np.abs(after["directors"] - before).max() > 1e-3 * h  # it did move
+    np.testing.assert_array_equal(after["corners"], fresh["corners"])
+    # Suzanne's eyes cross her head, so even a fresh shell has crossings there: the
+    # kept shell has no more of them.
+    report = tn.shell_report(moved, a.face_sizes, a.corners, after["directors"], after["target"])
+    reference = tn.shell_report(moved, a.face_sizes, a.corners, fresh["directors"], fresh["target"])
+    for key in ("outer_self_intersections", "outer_base_intersections", "inverted_cells"):
+        assert report[key] <= reference[key], key
+    assert live.update(moved)["changed"] == 0
+
+
+def test_incremental_shell_refuses_bad_updates_and_stays_usable(scene):
+    _, a = _monkey_arrays()
+    live = tn.IncrementalShell(a.vertices, a.face_sizes, a.corners, 0.05, relative=True, side="interior")
+    with pytest.raises(tn.ThicketError, match="topology"):
+        live.update(a.vertices[:-1])
+    bad = a.vertices.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(tn.ThicketError):
+        live.update(bad)
+    with pytest.raises(tn.ThicketError, match="tolerance"):
+        live.tolerance = -1.0
+    with pytest.raises(tn.ThicketError, match="tolerance"):
+        tn.IncrementalShell(a.vertices, a.face_sizes, a.corners, 0.05, tolerance=float("nan"))
+    live.tolerance = 0.0
+    assert live.update(a.vertices * 1.01)["rebuilt"]  # every vertex moved
+    assert live.result()["directors"].shape == a.vertices.shape
+
+
+def test_shell_item_follows_source_edits_incrementally(scene):
+    """Editing a source with a Shell item updates its result from the kept shell; the
+    Regenerate operator builds from scratch; both agree."""
+    from thicket.stack import live_shells
+
+    head, a = _monkey_arrays()
+    api.add_thick_surface(head, kind="SHELL", thickness=0.05)
+    live_shells.recent.clear()
+    result = head.thicket.result
+    diag = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
+    moved, count = _bump(a.vertices, 0, 0.01 * diag, 0.1 * diag)
+    head.data.vertices.foreach_set("co", moved.ravel())
+    head.data.update()
+    bpy.context.view_layer.update()  # the depsgraph update that drives regeneration
+    updates = [s for s in live_shells.recent if s is not None and s["changed"]]
+    assert None not in live_shells.recent and len(updates) == 1, live_shells.recent
+    assert updates[0]["changed"] == count and updates[0]["retraced"] < len(a.vertices) // 2
+    live = positions(result)
+    bpy.context.view_layer.objects.active = head
+    assert bpy.ops.thicket.regenerate() == {"FINISHED"}
+    assert live_shells.recent[-1] is None  # built from scratch
+    fresh = positions(result)
+    assert live.shape == fresh.shape
+    differs = np.linalg.norm(live - fresh, axis=1)
+    assert np.median(differs) < 1e-4 * diag and differs.max() < 0.01 * diag
+    assert np.abs(live - mesh_io.read_mesh(head.data).vertices).max() > 0.04 * diag  # a shell, not the base

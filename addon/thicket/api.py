@@ -22,6 +22,7 @@ import os
 import bpy
 
 from . import native
+from .stack import live_shells
 from .stack import settings as S
 from .stack.regenerate import regenerate as _regenerate
 
@@ -157,11 +158,15 @@ def render_frames(obj, frame_start, frame_end, directory, step=1, extension=".pn
     return paths
 
 
-def regenerate(obj, progress=None, ask=False):
+def regenerate(obj, progress=None, ask=False, fresh=False):
     """Recomputes `obj`'s result from its current mesh and stack; returns the result.
     `ask`: raise `BakeNeedsConfirmation` (with `.estimate`) instead of baking more
-    triangles than a Volumetric Texture item's `confirm_above`."""
+    triangles than a Volumetric Texture item's `confirm_above`. Shells follow edits
+    incrementally (only the directors an edit can reach are traced again); `fresh`
+    builds them from scratch instead."""
     _require_mesh(obj)
+    if fresh:
+        live_shells.clear()
     return _regenerate(obj, progress=progress, ask=ask)
 
 

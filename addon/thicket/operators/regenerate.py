@@ -32,7 +32,7 @@ class THICKET_OT_regenerate(StackOperator, bpy.types.Operator):
         self.estimate = 0
         try:
             with progress(context, len(obj.thicket.items)) as update:
-                api.regenerate(obj, progress=update, ask=ask)
+                api.regenerate(obj, progress=update, ask=ask, fresh=True)
         except BakeNeedsConfirmation as exc:
             self.estimate = exc.estimate
             return {"CANCELLED"}

@@ -11,6 +11,7 @@ import bpy
 from bpy.app.handlers import persistent
 
 from .. import native
+from . import live_shells
 
 DEBOUNCE_SECONDS = 0.15
 
@@ -102,9 +103,16 @@ def on_frame_change(scene, depsgraph=None):
             schedule(obj)
 
 
+@persistent
+def on_load(*_args):
+    """Shells kept for incremental updates belong to the file that was open."""
+    live_shells.clear()
+
+
 HANDLERS = (
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
     (bpy.app.handlers.frame_change_post, on_frame_change),
+    (bpy.app.handlers.load_post, on_load),
 )
 
 
@@ -119,3 +127,4 @@ def unregister_handlers():
         if fn in handler_list:
             handler_list.remove(fn)
     _pending.clear()
+    live_shells.clear()

@@ -9,6 +9,7 @@ import numpy as np
 
 from .. import native
 from ..arrays import MeshArrays, weight_attribute
+from . import live_shells
 from . import settings as S
 
 DIRECTOR_ATTRIBUTE = "thicket_director"
@@ -55,8 +56,7 @@ def _offset_shell(mesh: MeshArrays, item: S.OffsetShell, factors):
 
 
 def _field_shell(mesh: MeshArrays, item: S.FieldShell, factors):
-    args, kwargs = _common_args(mesh, item, factors)
-    out = native.get().shell(*args, side=item.side, **kwargs)
+    out = live_shells.field_shell(mesh, item, factors)
     return (*_shell_result(out), out)
 
 

@@ -18,7 +18,7 @@ fn triangle_mesh(vertices: &PyReadonlyArray2<'_, f32>, triangles: &Bound<'_, PyA
     Mesh::new(positions, &vec![3; corners.len() / 3], corners, None).map_err(crate::errors::to_py)
 }
 
-fn params(p: f64) -> ShellParams {
+pub fn params(p: f64) -> ShellParams {
     ShellParams { p, ..ShellParams::default() }
 }
 
@@ -73,6 +73,11 @@ pub fn shell<'py>(
         let shell = core::build_shell(&req.mesh, &req.per_vertex()?, side, &params(p))?;
         Ok((shell_geometry(&req.mesh, &shell, req.output)?, shell))
     })?;
+    shell_dict(py, geometry, shell)
+}
+
+/// The dict `shell()` returns: geometry arrays plus the shell's per-vertex arrays.
+pub fn shell_dict<'py>(py: Python<'py>, geometry: core::ShellMesh, shell: core::Shell) -> PyResult<Bound<'py, PyDict>> {
     let d = arrays::mesh_dict(py, geometry.mesh)?;
     d.set_item("source_vertex", arrays::u32_as_i32_array(py, geometry.source_vertex))?;
     d.set_item("layer", geometry.layer.into_pyarray(py))?;

@@ -7,9 +7,9 @@ mod topology;
 mod triangulate;
 mod validate;
 
-pub use normals::vertex_normals;
-pub use topology::{boundary_edges, EdgeMap};
-pub use triangulate::Triangulation;
+pub use normals::{vertex_normal, vertex_normals};
+pub use topology::{boundary_edges, EdgeMap, Incidence};
+pub use triangulate::{face_triangles, Triangulation};
 pub use validate::MeshReport;
 
 use crate::{Error, Result};

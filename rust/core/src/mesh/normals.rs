@@ -10,23 +10,43 @@ pub fn vertex_normals(mesh: &Mesh) -> Vec<Vec3> {
     let p = mesh.positions();
     let mut n = vec![Vec3::ZERO; p.len()];
     for face in mesh.faces() {
-        let pts: Vec<Vec3> = face.iter().map(|&i| p[i as usize]).collect();
-        let fnorm = super::triangulate::newell_normal(&pts).normalize_or_zero();
-        if fnorm == Vec3::ZERO {
-            continue;
-        }
-        let k = face.len();
-        for i in 0..k {
-            let prev = pts[(i + k - 1) % k] - pts[i];
-            let next = pts[(i + 1) % k] - pts[i];
-            let angle = prev.angle_between(next);
-            if angle.is_finite() {
-                n[face[i] as usize] += fnorm * angle;
-            }
-        }
+        add_face(p, face, |i, w| n[face[i] as usize] += w);
     }
     n.iter_mut().for_each(|v| *v = v.normalize_or_zero());
     n
+}
+
+/// The normal of vertex `v` from the faces around it (`faces`, indices into the
+/// mesh): [`vertex_normals`] for one vertex, after a local edit.
+pub fn vertex_normal(mesh: &Mesh, v: u32, faces: &[u32]) -> Vec3 {
+    let mut n = Vec3::ZERO;
+    for &f in faces {
+        let face = mesh.face(f as usize);
+        add_face(mesh.positions(), face, |i, w| {
+            if face[i] == v {
+                n += w
+            }
+        });
+    }
+    n.normalize_or_zero()
+}
+
+/// Calls `add(corner, weighted normal)` for each corner of a non-degenerate face.
+fn add_face(p: &[Vec3], face: &[u32], mut add: impl FnMut(usize, Vec3)) {
+    let pts: Vec<Vec3> = face.iter().map(|&i| p[i as usize]).collect();
+    let fnorm = super::triangulate::newell_normal(&pts).normalize_or_zero();
+    if fnorm == Vec3::ZERO {
+        return;
+    }
+    let k = face.len();
+    for i in 0..k {
+        let prev = pts[(i + k - 1) % k] - pts[i];
+        let next = pts[(i + 1) % k] - pts[i];
+        let angle = prev.angle_between(next);
+        if angle.is_finite() {
+            add(i, fnorm * angle);
+        }
+    }
 }
 
 #[cfg(test)]

@@ -31,10 +31,49 @@ impl EdgeMap {
 /// Directed boundary edges (used by exactly one face), in the direction that face uses
 /// them, sorted for deterministic output.
 pub fn boundary_edges(mesh: &Mesh) -> Vec<(u32, u32)> {
-    let mut edges: Vec<(u32, u32)> =
-        EdgeMap::of(mesh).uses.values().filter(|(n, _)| *n == 1).map(|(_, e)| *e).collect();
+    let mut edges: Vec<(u32, u32)> = EdgeMap::of(mesh).uses.values().filter(|(n, _)| *n == 1).map(|(_, e)| *e).collect();
     edges.sort_unstable();
     edges
+}
+
+/// Which items (faces, triangles, cells) use each vertex, in compressed rows.
+#[derive(Debug, Clone, Default)]
+pub struct Incidence {
+    start: Vec<u32>,
+    of: Vec<u32>,
+}
+
+impl Incidence {
+    /// `items` lists each item's vertices (below `n`); item `k` is the `k`-th.
+    pub fn new(n: usize, items: impl Iterator<Item = impl IntoIterator<Item = u32>> + Clone) -> Self {
+        let mut start = vec![0u32; n + 1];
+        for v in items.clone().flatten() {
+            start[v as usize + 1] += 1;
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut of = vec![0u32; start[n] as usize];
+        for (k, it) in items.enumerate() {
+            for v in it {
+                of[fill[v as usize] as usize] = k as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        Self { start, of }
+    }
+
+    /// The faces of `mesh` around each vertex.
+    pub fn faces(mesh: &Mesh) -> Self {
+        let faces: Vec<&[u32]> = mesh.faces().collect();
+        Self::new(mesh.vertex_count(), faces.iter().map(|f| f.iter().copied()))
+    }
+
+    /// The items using vertex `v`.
+    pub fn of(&self, v: usize) -> &[u32] {
+        &self.of[self.start[v] as usize..self.start[v + 1] as usize]
+    }
 }
 
 #[cfg(test)]
@@ -46,5 +85,15 @@ mod tests {
     fn closed_cube_has_no_boundary_grid_has_perimeter() {
         assert!(boundary_edges(&fixtures::cube()).is_empty());
         assert_eq!(boundary_edges(&fixtures::grid(3)).len(), 12);
+    }
+
+    #[test]
+    fn incidence_lists_the_faces_around_each_vertex() {
+        let cube = fixtures::cube();
+        let around = Incidence::faces(&cube);
+        for v in 0..8 {
+            assert_eq!(around.of(v).len(), 3, "vertex {v}");
+            assert!(around.of(v).iter().all(|&f| cube.face(f as usize).contains(&(v as u32))));
+        }
     }
 }

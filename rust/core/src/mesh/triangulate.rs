@@ -20,14 +20,21 @@ impl Triangulation {
         let mut scratch = Vec::new();
         for (f, face) in mesh.faces().enumerate() {
             let before = out.triangles.len();
-            match face.len() {
-                3 => out.triangles.push([face[0], face[1], face[2]]),
-                4 => out.triangles.extend(split_quad(mesh.positions(), face)),
-                _ => ear_clip(mesh.positions(), face, &mut scratch, &mut out.triangles),
-            }
+            face_triangles(mesh.positions(), face, &mut scratch, &mut out.triangles);
             out.face_of_triangle.extend(std::iter::repeat_n(f as u32, out.triangles.len() - before));
         }
         out
+    }
+}
+
+/// Appends the triangles of one face (always `face.len() - 2` of them); `scratch` is
+/// reused between calls.
+pub fn face_triangles(p: &[Vec3], face: &[u32], scratch: &mut Vec<usize>, out: &mut Vec<[u32; 3]>) {
+    match face.len() {
+        0..=2 => {}
+        3 => out.push([face[0], face[1], face[2]]),
+        4 => out.extend(split_quad(p, face)),
+        _ => ear_clip(p, face, scratch, out),
     }
 }
 
@@ -79,7 +86,9 @@ fn ear_clip(p: &[Vec3], face: &[u32], ring: &mut Vec<usize>, out: &mut Vec<[u32;
             cross(a, b, c) > 0.0
                 && ring.iter().all(|&k| {
                     let q = flat[k];
-                    k == ring[(i + m - 1) % m] || k == ring[i] || k == ring[(i + 1) % m]
+                    k == ring[(i + m - 1) % m]
+                        || k == ring[i]
+                        || k == ring[(i + 1) % m]
                         || !(cross(a, b, q) >= 0.0 && cross(b, c, q) >= 0.0 && cross(c, a, q) >= 0.0)
                 })
         });
@@ -110,8 +119,7 @@ mod tests {
     #[test]
     fn concave_ngon_keeps_area_and_orientation() {
         // An L-shaped hexagon of area 3 in the xy plane.
-        let p: Vec<Vec3> = [[0., 0.], [2., 0.], [2., 1.], [1., 1.], [1., 2.], [0., 2.]]
-            .iter().map(|a| Vec3::new(a[0], a[1], 0.)).collect();
+        let p: Vec<Vec3> = [[0., 0.], [2., 0.], [2., 1.], [1., 1.], [1., 2.], [0., 2.]].iter().map(|a| Vec3::new(a[0], a[1], 0.)).collect();
         let m = Mesh::new(p.clone(), &[6], (0..6).collect(), None).unwrap();
         let t = m.triangulate();
         assert_eq!(t.triangles.len(), 4);

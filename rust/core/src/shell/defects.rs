@@ -6,9 +6,11 @@
 use super::geometry::{prisms, Cell};
 use super::intersect::{tri_box, triangles_intersect, TriBvh};
 use super::Shell;
+use crate::mesh::Incidence;
 use crate::Mesh;
 use glam::DVec3;
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// The defects found (indices into [`Checker::tris`] and [`Checker::cells`]).
 #[derive(Debug, Default)]
@@ -29,35 +31,16 @@ pub(crate) struct Checker {
     pub base: Vec<[DVec3; 3]>,
     pub base_bvh: TriBvh,
     /// Triangles and cells around each vertex (CSR).
-    tri_start: Vec<u32>,
-    tri_of: Vec<u32>,
-    cell_start: Vec<u32>,
-    cell_of: Vec<u32>,
+    tris_around: Incidence,
+    cells_around: Incidence,
 }
 
-/// Which elements to check: all, or those flagged.
+/// Which elements to check: those flagged (mask and list).
 pub(crate) struct Dirty {
     pub tris: Vec<bool>,
     pub cells: Vec<bool>,
-}
-
-fn incidence(n: usize, items: impl Iterator<Item = impl IntoIterator<Item = u32>> + Clone) -> (Vec<u32>, Vec<u32>) {
-    let mut start = vec![0u32; n + 1];
-    for v in items.clone().flatten() {
-        start[v as usize + 1] += 1;
-    }
-    for i in 0..n {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut of = vec![0u32; start[n] as usize];
-    for (k, it) in items.enumerate() {
-        for v in it {
-            of[fill[v as usize] as usize] = k as u32;
-            fill[v as usize] += 1;
-        }
-    }
-    (start, of)
+    pub tri_list: Vec<u32>,
+    pub cell_list: Vec<u32>,
 }
 
 impl Checker {
@@ -66,61 +49,98 @@ impl Checker {
         let tris = mesh.triangulate().triangles;
         let base: Vec<[DVec3; 3]> = tris.iter().map(|t| t.map(|i| p[i as usize].as_dvec3())).collect();
         let cells = prisms(mesh);
-        let (tri_start, tri_of) = incidence(p.len(), tris.iter().copied());
-        let (cell_start, cell_of) = incidence(p.len(), cells.iter().map(|c| c.base().to_vec()));
-        Self { base_bvh: TriBvh::build(&base), base, tris, cells, tri_start, tri_of, cell_start, cell_of }
+        let tris_around = Incidence::new(p.len(), tris.iter().copied());
+        let cells_around = Incidence::new(p.len(), cells.iter().map(|c| c.base().to_vec()));
+        Self { base_bvh: TriBvh::build(&base), base, tris, cells, tris_around, cells_around }
+    }
+
+    /// After the vertices `moved` moved (same topology and triangulation): the base
+    /// triangles around them and the tree follow.
+    pub fn refit_base(&mut self, mesh: &Mesh, moved: &[u32]) {
+        let p = mesh.positions();
+        let mut touched: Vec<u32> = moved.iter().flat_map(|&v| self.tris_around.of(v as usize)).copied().collect();
+        touched.sort_unstable();
+        touched.dedup();
+        for &t in &touched {
+            self.base[t as usize] = self.tris[t as usize].map(|i| p[i as usize].as_dvec3());
+        }
+        self.base_bvh.refit_items(touched.iter().map(|&t| (t, tri_box(&self.base[t as usize]))));
     }
 
     /// Nothing flagged.
     pub fn clean(&self) -> Dirty {
-        Dirty { tris: vec![false; self.tris.len()], cells: vec![false; self.cells.len()] }
+        Dirty { tris: vec![false; self.tris.len()], cells: vec![false; self.cells.len()], tri_list: Vec::new(), cell_list: Vec::new() }
     }
 
     /// Flags the triangles and cells around vertex `v`.
     pub fn mark_around(&self, v: usize, dirty: &mut Dirty) {
-        for &t in &self.tri_of[self.tri_start[v] as usize..self.tri_start[v + 1] as usize] {
-            dirty.tris[t as usize] = true;
+        for &t in self.tris_around.of(v) {
+            if !std::mem::replace(&mut dirty.tris[t as usize], true) {
+                dirty.tri_list.push(t);
+            }
         }
-        for &c in &self.cell_of[self.cell_start[v] as usize..self.cell_start[v + 1] as usize] {
-            dirty.cells[c as usize] = true;
+        for &c in self.cells_around.of(v) {
+            if !std::mem::replace(&mut dirty.cells[c as usize], true) {
+                dirty.cell_list.push(c);
+            }
         }
     }
 
-    /// The defects of `shell` among the flagged elements (all for `None`). A pair is
-    /// found when either triangle is flagged. `outer_bvh` is built on the first call
-    /// and refitted on the next ones (the shell's topology never changes).
-    pub fn find(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, outer_bvh: &mut Option<TriBvh>) -> Findings {
-        let p = mesh.positions();
-        let top: Vec<DVec3> = (0..p.len()).map(|v| shell.point(p, v, 1.0).as_dvec3()).collect();
-        let outer: Vec<[DVec3; 3]> = self.tris.iter().map(|t| t.map(|i| top[i as usize])).collect();
-        match outer_bvh {
-            Some(b) => b.refit(&outer),
-            None => *outer_bvh = Some(TriBvh::build(&outer)),
+    /// A tree over the outer-layer triangles' boxes, refitting `reuse` when given
+    /// (the shell's topology never changes).
+    pub fn outer_tree(&self, mesh: &Mesh, shell: &Shell, reuse: Option<TriBvh>) -> TriBvh {
+        let boxes = (0..self.tris.len() as u32).into_par_iter().map(|t| self.outer_box(mesh, shell, t));
+        match reuse {
+            Some(mut tree) => {
+                tree.refit_boxes(boxes.collect::<Vec<_>>().into_iter());
+                tree
+            }
+            None => TriBvh::from_boxes(boxes.collect()),
         }
-        let outer_bvh = outer_bvh.as_ref().expect("built above");
+    }
+
+    /// The box of outer-layer triangle `t`.
+    pub fn outer_box(&self, mesh: &Mesh, shell: &Shell, t: u32) -> (DVec3, DVec3) {
+        tri_box(&self.tris[t as usize].map(|v| shell.point(mesh.positions(), v as usize, 1.0).as_dvec3()))
+    }
+
+    /// The defects of `shell` among the flagged elements (all for `None`). A pair is
+    /// found when either triangle is flagged. `outer_tree` holds every outer-layer
+    /// triangle of `shell` ([`outer_tree`](Self::outer_tree)).
+    pub fn find(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, outer_tree: &TriBvh) -> Findings {
+        let p = mesh.positions();
+        let top = |v: u32| shell.point(p, v as usize, 1.0).as_dvec3();
+        let outer = |i: usize| self.tris[i].map(top);
         let diag = mesh.bbox_diagonal() as f64;
-        let coincide = |v: u32| (top[v as usize] - p[v as usize].as_dvec3()).length() <= 1e-6 * diag;
+        let coincide = |v: u32| (top(v) - p[v as usize].as_dvec3()).length() <= 1e-6 * diag;
         let tris = &self.tris;
         let shares = |a: &[u32; 3], b: &[u32; 3]| a.iter().any(|v| b.contains(v));
         let tri_flagged = |i: usize| dirty.is_none_or(|d| d.tris[i]);
+
         // Per outer triangle: (is it a self pair?, other index).
-        let hits: Vec<(bool, u32, u32)> = (0..tris.len())
-            .into_par_iter()
-            .filter(|&i| tri_flagged(i))
-            .flat_map_iter(|i| {
-                let (lo, hi) = tri_box(&outer[i]);
+        let every = |n: usize| Cow::Owned((0..n as u32).collect());
+        let (tri_list, cell_list): (Cow<[u32]>, Cow<[u32]>) = match dirty {
+            Some(d) => (Cow::Borrowed(&d.tri_list), Cow::Borrowed(&d.cell_list)),
+            None => (every(tris.len()), every(self.cells.len())),
+        };
+        let hits: Vec<(bool, u32, u32)> = tri_list
+            .par_iter()
+            .flat_map_iter(|&i| {
+                let i = i as usize;
+                let mine = outer(i);
+                let (lo, hi) = tri_box(&mine);
                 let mut hits = Vec::new();
-                outer_bvh.query(lo, hi, |j| {
+                outer_tree.query(lo, hi, |j| {
                     let ju = j as usize;
                     // Each pair once: by the lower index, unless only the higher is flagged.
                     let first = j as usize > i || !tri_flagged(ju);
-                    if first && !shares(&tris[i], &tris[ju]) && triangles_intersect(&outer[i], &outer[ju]) {
+                    if first && !shares(&tris[i], &tris[ju]) && triangles_intersect(&mine, &outer(ju)) {
                         hits.push((true, i as u32, j));
                     }
                 });
                 self.base_bvh.query(lo, hi, |j| {
                     let touching = tris[i].iter().any(|v| tris[j as usize].contains(v) && coincide(*v));
-                    if !touching && triangles_intersect(&outer[i], &self.base[j as usize]) {
+                    if !touching && triangles_intersect(&mine, &self.base[j as usize]) {
                         hits.push((false, i as u32, j));
                     }
                 });
@@ -128,10 +148,7 @@ impl Checker {
             })
             .collect();
         let (self_hits, base_hits): (Vec<_>, Vec<_>) = hits.into_iter().partition(|h| h.0);
-        let inverted = (0..self.cells.len() as u32)
-            .into_par_iter()
-            .filter(|&c| dirty.is_none_or(|d| d.cells[c as usize]) && self.cells[c as usize].is_inverted(p, shell))
-            .collect();
+        let inverted = cell_list.par_iter().copied().filter(|&c| self.cells[c as usize].is_inverted(p, shell)).collect();
         Findings {
             self_pairs: self_hits.into_iter().map(|h| (h.1, h.2)).collect(),
             base_pairs: base_hits.into_iter().map(|h| (h.1, h.2)).collect(),

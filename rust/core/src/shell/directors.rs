@@ -39,9 +39,7 @@ impl Side {
             "exterior" => Ok(Side::Exterior),
             "interior" => Ok(Side::Interior),
             "envelope" => Ok(Side::Envelope),
-            _ => Err(Error::InvalidParameter(format!(
-                "shell side must be \"exterior\", \"interior\" or \"envelope\", got {s:?}"
-            ))),
+            _ => Err(Error::InvalidParameter(format!("shell side must be \"exterior\", \"interior\" or \"envelope\", got {s:?}"))),
         }
     }
     /// +1 when layer parameter r grows outward (exterior, envelope), -1 for interior.
@@ -166,12 +164,32 @@ pub(crate) struct Tracer {
     pub onset: f64,
 }
 
-/// One traced trajectory: its end and the bounding sphere of the points evaluated.
+/// One traced trajectory: its end, the bounding sphere of the points evaluated, and
+/// a few of those points with the field's strength there (for the incremental
+/// update's bound on how much a surface change can move the trajectory).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Trace {
     pub end: Vec3,
     pub center: Vec3,
     pub radius: f32,
+    /// The first point evaluated, the first ones at parameters past 1/3 and 2/3 of
+    /// the thickness, and the end; `push` is `|∇∫|x-y|^-p|` there (0: no sample).
+    pub samples: [Sample; TRACE_SAMPLES],
+}
+
+pub(crate) const TRACE_SAMPLES: usize = 4;
+
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Sample {
+    pub at: Vec3,
+    pub push: f32,
+}
+
+impl Trace {
+    /// A trajectory that did not move from `x`.
+    pub fn still(x: Vec3) -> Self {
+        Self { end: x, center: x, radius: 0.0, samples: [Sample { at: x, push: 0.0 }; TRACE_SAMPLES] }
+    }
 }
 
 pub(crate) fn integration_triangles(mesh: &Mesh, normals: &[Vec3], reach: &[f32], params: &ShellParams) -> Vec<[DVec3; 3]> {
@@ -205,14 +223,15 @@ impl Tracer {
         Self { tree, kernel: Kernel::new(params.p, params.theta), normals, min_edge: min_edges(mesh), onset: params.compression_onset }
     }
 
-    fn sample(&self, x: DVec3, radius: f64, reference: DVec3) -> Option<(DVec3, f64)> {
+    /// The unit field direction at `x`, the speed along it (module docs) and `|push|`.
+    fn sample(&self, x: DVec3, radius: f64, reference: DVec3) -> Option<(DVec3, f64, f64)> {
         let FieldEval { push, abs_along, .. } = self.tree.eval(x, radius, reference, &self.kernel);
         let len = push.length();
         if !(len > 0.0 && len.is_finite() && abs_along > 0.0) {
             return None;
         }
         let dir = push / len;
-        Some((dir, (push.dot(reference) / (abs_along * self.onset)).clamp(0.0, 1.0)))
+        Some((dir, (push.dot(reference) / (abs_along * self.onset)).clamp(0.0, 1.0), len))
     }
 
     /// Traces the trajectory of vertex `v` towards side `sign` (+1 outward, -1 inward)
@@ -220,7 +239,7 @@ impl Tracer {
     pub fn trace(&self, x0: Vec3, v: usize, sign: f32, h: f32, params: &ShellParams) -> Trace {
         let n = self.normals[v] * sign;
         if !(h > 0.0) || n == Vec3::ZERO {
-            return Trace { end: x0, center: x0, radius: 0.0 };
+            return Trace::still(x0);
         }
         let (h, radius) = (h as f64, params.support * h as f64);
         let start = x0.as_dvec3();
@@ -230,10 +249,23 @@ impl Tracer {
         let mut t = first;
         let mut x = start + n.as_dvec3() * first;
         let (mut lo, mut hi) = (start.min(x), start.max(x));
-        let mut evals = 1u32;
-        let Some((mut g, mut speed)) = self.sample(x, radius, n.as_dvec3()) else {
-            return Trace { end: x.as_vec3(), center: ((lo + hi) * 0.5).as_vec3(), radius: ((hi - lo).length() * 0.5) as f32 };
+        let mut samples = [Sample { at: x.as_vec3(), push: 0.0 }; TRACE_SAMPLES];
+        let finish = |x: DVec3, lo: DVec3, hi: DVec3, mut samples: [Sample; TRACE_SAMPLES], push: f64| {
+            // Slots not reached (short trajectories) repeat the end.
+            samples[TRACE_SAMPLES - 1] = Sample { at: x.as_vec3(), push: push as f32 };
+            for k in (1..TRACE_SAMPLES - 1).rev() {
+                if samples[k].push == 0.0 {
+                    samples[k] = samples[k + 1];
+                }
+            }
+            Trace { end: x.as_vec3(), center: ((lo + hi) * 0.5).as_vec3(), radius: ((hi - lo).length() * 0.5) as f32, samples }
         };
+        let mut evals = 1u32;
+        let Some((mut g, mut speed, mut push)) = self.sample(x, radius, n.as_dvec3()) else {
+            return finish(x, lo, hi, samples, 0.0);
+        };
+        samples[0].push = push as f32;
+        let mut slot = 1;
         let cos_eps = params.max_turn.cos();
         let step0 = h / params.steps as f64;
         'outer: while t < h * (1.0 - 1e-7) && evals < params.max_evaluations {
@@ -244,19 +276,21 @@ impl Tracer {
                 evals += 1;
                 lo = lo.min(xn);
                 hi = hi.max(xn);
-                let Some((gn, sn)) = self.sample(xn, radius, g) else { break 'outer };
+                let Some((gn, sn, pn)) = self.sample(xn, radius, g) else { break 'outer };
                 if gn.dot(g) >= cos_eps || halvings >= params.max_halvings || evals >= params.max_evaluations {
                     t += delta;
-                    x = xn;
-                    g = gn;
-                    speed = sn;
+                    (x, g, speed, push) = (xn, gn, sn, pn);
+                    if slot < TRACE_SAMPLES - 1 && t >= h * slot as f64 / (TRACE_SAMPLES - 1) as f64 {
+                        samples[slot] = Sample { at: x.as_vec3(), push: push as f32 };
+                        slot += 1;
+                    }
                     break;
                 }
                 delta *= 0.5;
                 halvings += 1;
             }
         }
-        Trace { end: x.as_vec3(), center: ((lo + hi) * 0.5).as_vec3(), radius: ((hi - lo).length() * 0.5) as f32 }
+        finish(x, lo, hi, samples, push)
     }
 }
 
@@ -270,11 +304,7 @@ pub(crate) fn check_inputs(mesh: &Mesh, thickness: &[f32], params: &ShellParams)
     mesh.require_faces()?;
     params.validate()?;
     if thickness.len() != mesh.vertex_count() {
-        return Err(Error::InvalidParameter(format!(
-            "{} thickness values given for {} vertices",
-            thickness.len(),
-            mesh.vertex_count()
-        )));
+        return Err(Error::InvalidParameter(format!("{} thickness values given for {} vertices", thickness.len(), mesh.vertex_count())));
     }
     if let Some(i) = thickness.iter().position(|t| !t.is_finite()) {
         return Err(Error::InvalidParameter(format!("thickness of vertex {i} is not finite")));
@@ -298,7 +328,7 @@ pub(crate) fn trace_vertices(
         .with_min_len(16)
         .map(|&v| {
             let v = v as usize;
-            let none = Trace { end: p[v], center: p[v], radius: 0.0 };
+            let none = Trace::still(p[v]);
             let out = if side != Side::Interior { tracer.trace(p[v], v, 1.0, lengths[v], params) } else { none };
             let inn = if side != Side::Exterior { tracer.trace(p[v], v, -1.0, lengths[v], params) } else { none };
             (out, inn)

@@ -1,17 +1,51 @@
 //! Incremental shell update after local edits (section 7.1): the field is local
-//! (4.3.1), so after moving some vertices only the directors whose support — the
-//! points their trajectory evaluated, widened by the localization radius — reaches a
-//! changed triangle are traced again. The patch tree is refitted, not rebuilt.
+//! (4.3.1), so after moving some vertices only the directors whose trajectories the
+//! changed triangles can reach are traced again.
+//!
+//! Which ones, is decided per trajectory from a few of its points and the field's
+//! strength there ([`influence`](super::influence)): a change of the surface beyond
+//! the support ball changes nothing; a change within it is bounded by its distance,
+//! and when that bound relative to the field's own strength stays below
+//! [`IncrementalShell::tolerance`] the director is kept. Tolerance 0 retraces every
+//! trajectory within reach (the locality rule alone).
+//!
+//! The work of an update is in proportion to the edit: the triangulation, normals,
+//! first steps and boundary faces are redone only around moved vertices, the patch
+//! tree and the defect checker's trees are refitted, not rebuilt, and the repair pass
+//! starts from the retraced directors.
 
-use super::directors::{
-    assemble, check_inputs, integration_triangles, min_edges, side_lengths, trace_vertices, Trace, Tracer,
-    REPAIR_FACTOR,
-};
+use super::defects::Checker;
+use super::directors::{assemble, check_inputs, side_lengths, trace_vertices, Trace, Tracer, REPAIR_FACTOR, TRACE_SAMPLES};
+use super::field::{extension_faces, mesh_triangles, PatchTree};
+use super::influence::ChangeBound;
+use super::intersect::TriBvh;
 use super::{Shell, ShellParams, Side};
-use crate::mesh::vertex_normals;
-use crate::{Mesh, Result};
+use crate::mesh::{boundary_edges, face_triangles, vertex_normal, Incidence, Triangulation};
+use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
+
+/// Default of [`IncrementalShell::tolerance`]: a trajectory is kept when the change
+/// of the surface can turn the field along it by at most this (radians, relative
+/// speed); measured director changes stay two orders of magnitude below the
+/// thickness (`shell_bench`).
+pub const DEFAULT_TOLERANCE: f64 = 3e-2;
+
+/// When more than this fraction of the vertices changed, the update is a rebuild.
+const REBUILD_FRACTION: usize = 3;
+
+/// What one update did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct UpdateStats {
+    /// Vertices whose position or thickness changed.
+    pub changed: usize,
+    /// Directors traced again.
+    pub retraced: usize,
+    /// Directors within reach of the change that the tolerance let keep their value.
+    pub kept: usize,
+    /// Whether the update rebuilt the whole shell (topology or most vertices changed).
+    pub rebuilt: bool,
+}
 
 /// A shell kept up to date while its base mesh is edited.
 pub struct IncrementalShell {
@@ -20,10 +54,21 @@ pub struct IncrementalShell {
     lengths: Vec<f32>,
     side: Side,
     params: ShellParams,
+    /// Bound on the relative field change a kept trajectory may see (module docs).
+    pub tolerance: f64,
     tracer: Tracer,
+    triangulation: Triangulation,
+    /// First triangle of each face (and the total at the end).
+    face_tris: Vec<u32>,
+    faces_of_vertex: Incidence,
+    boundary: Vec<(u32, u32)>,
+    on_boundary: Vec<bool>,
+    /// Integration triangles: the mesh's, then the boundary extension's.
     tris: Vec<[DVec3; 3]>,
     traces: Vec<(Trace, Trace)>,
     shell: Shell,
+    checker: Checker,
+    outer_bvh: Option<TriBvh>,
 }
 
 impl IncrementalShell {
@@ -31,12 +76,43 @@ impl IncrementalShell {
         check_inputs(&mesh, &thickness, &params)?;
         let lengths = side_lengths(&thickness, side);
         let tracer = Tracer::new(&mesh, &lengths, &params);
-        let tris = integration_triangles(&mesh, &tracer.normals, &lengths, &params);
+        let triangulation = mesh.triangulate();
+        let mut face_tris = vec![0u32; mesh.face_count() + 1];
+        triangulation.face_of_triangle.iter().for_each(|&f| face_tris[f as usize + 1] += 1);
+        for f in 0..mesh.face_count() {
+            face_tris[f + 1] += face_tris[f];
+        }
+        let faces_of_vertex = Incidence::faces(&mesh);
+        let boundary = if params.boundary_faces { boundary_edges(&mesh) } else { Vec::new() };
+        let mut on_boundary = vec![false; mesh.vertex_count()];
+        boundary.iter().for_each(|&(a, b)| (on_boundary[a as usize], on_boundary[b as usize]) = (true, true));
+        let mut tris = mesh_triangles(&mesh);
+        tris.extend(extension_faces(&boundary, mesh.positions(), &tracer.normals, &lengths));
         let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
         let traces = trace_vertices(&tracer, &mesh, &lengths, side, &params, &all);
         let mut shell = assemble(&mesh, &thickness, side, &traces);
-        super::repair::untangle(&mesh, &mut shell, params.repair_rounds, REPAIR_FACTOR);
-        Ok(Self { mesh, thickness, lengths, side, params, tracer, tris, traces, shell })
+        let checker = Checker::new(&mesh);
+        let mut outer_bvh = None;
+        super::repair::untangle_with(&checker, &mut outer_bvh, &mesh, &mut shell, params.repair_rounds, REPAIR_FACTOR, None);
+        Ok(Self {
+            mesh,
+            thickness,
+            lengths,
+            side,
+            params,
+            tolerance: DEFAULT_TOLERANCE,
+            tracer,
+            triangulation,
+            face_tris,
+            faces_of_vertex,
+            boundary,
+            on_boundary,
+            tris,
+            traces,
+            shell,
+            checker,
+            outer_bvh,
+        })
     }
 
     pub fn shell(&self) -> &Shell {
@@ -45,76 +121,223 @@ impl IncrementalShell {
     pub fn mesh(&self) -> &Mesh {
         &self.mesh
     }
+    pub fn thickness(&self) -> &[f32] {
+        &self.thickness
+    }
+    /// The directors as traced, before the repair pass shortened any.
+    pub fn traced_directors(&self) -> Vec<Vec3> {
+        assemble(&self.mesh, &self.thickness, self.side, &self.traces).directors
+    }
 
     /// Moves vertices to new positions and updates the shell; returns how many
-    /// vertices were traced again.
+    /// directors were traced again.
     pub fn move_vertices(&mut self, moved: &[(u32, Vec3)]) -> Result<usize> {
+        let mut positions = self.mesh.positions().to_vec();
         for &(v, p) in moved {
-            self.mesh.set_position(v as usize, p)?;
+            *positions.get_mut(v as usize).ok_or_else(|| Error::InvalidParameter(format!("vertex {v} does not exist")))? = p;
         }
-        // Normals and first steps change around the moved vertices only, but are cheap
-        // to recompute in full.
-        self.tracer.normals = vertex_normals(&self.mesh);
-        self.tracer.min_edge = min_edges(&self.mesh);
-        let tris = integration_triangles(&self.mesh, &self.tracer.normals, &self.lengths, &self.params);
-        // Changed triangles: bounding spheres of their old and new shapes.
-        let mut spheres: Vec<(DVec3, f64)> = Vec::new();
-        for (old, new) in self.tris.iter().zip(&tris) {
-            if old != new {
-                for t in [old, new] {
-                    let c = (t[0] + t[1] + t[2]) / 3.0;
-                    spheres.push((c, t.iter().map(|p| (*p - c).length()).fold(0.0, f64::max)));
+        let thickness = self.thickness.clone();
+        Ok(self.update(&positions, &thickness)?.retraced)
+    }
+
+    /// Brings the shell to new vertex positions and target thickness (same vertex
+    /// count and faces): only what changed is recomputed.
+    pub fn update(&mut self, positions: &[Vec3], thickness: &[f32]) -> Result<UpdateStats> {
+        let n = self.mesh.vertex_count();
+        if positions.len() != n || thickness.len() != n {
+            return Err(Error::InvalidParameter(format!(
+                "{} positions and {} thickness values given for a shell of {n} vertices",
+                positions.len(),
+                thickness.len()
+            )));
+        }
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(Error::NonFinite { index: i, value: positions[i].to_array() });
+        }
+        if let Some(i) = thickness.iter().position(|t| !t.is_finite()) {
+            return Err(Error::InvalidParameter(format!("thickness of vertex {i} is not finite")));
+        }
+        let moved: Vec<u32> = (0..n as u32).filter(|&v| positions[v as usize] != self.mesh.positions()[v as usize]).collect();
+        let thicker: Vec<u32> = (0..n as u32).filter(|&v| thickness[v as usize] != self.thickness[v as usize]).collect();
+        let changed = moved.iter().chain(&thicker).collect::<std::collections::BTreeSet<_>>().len();
+        if changed == 0 {
+            return Ok(UpdateStats::default());
+        }
+        for &v in &moved {
+            self.mesh.set_position(v as usize, positions[v as usize])?;
+        }
+        self.thickness.copy_from_slice(thickness);
+        self.lengths = side_lengths(&self.thickness, self.side);
+        if changed * REBUILD_FRACTION > n {
+            return self.rebuild(changed);
+        }
+
+        // Faces around moved vertices, and the vertices whose normal or first step changed.
+        let mut touched_face = vec![false; self.mesh.face_count()];
+        let mut around = vec![false; n];
+        for &v in &moved {
+            for &f in self.faces_of_vertex.of(v as usize) {
+                if !std::mem::replace(&mut touched_face[f as usize], true) {
+                    self.mesh.face(f as usize).iter().for_each(|&u| around[u as usize] = true);
                 }
             }
         }
-        if tris.len() != self.tris.len() {
-            // Topology of the extension changed (cannot happen when only positions
-            // move); fall back to a full rebuild.
-            *self = Self::new(self.mesh.clone(), self.thickness.clone(), self.side, self.params.clone())?;
-            return Ok(self.mesh.vertex_count());
+        let around: Vec<u32> = (0..n as u32).filter(|&u| around[u as usize]).collect();
+        for &u in &around {
+            let faces = self.faces_of_vertex.of(u as usize);
+            self.tracer.normals[u as usize] = vertex_normal(&self.mesh, u, faces);
+            self.tracer.min_edge[u as usize] = min_edge_at(&self.mesh, u, faces);
         }
-        self.tracer.tree.refit(&tris);
-        self.tris = tris;
-        if spheres.is_empty() {
-            return Ok(0);
-        }
-        // Vertices whose support may touch a changed triangle, or whose own normal moved.
-        let (lo, hi) = spheres.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), (c, r)| (l.min(*c - *r), h.max(*c + *r)));
-        let support = self.params.support;
+
+        // Changed triangles, old and new. A face whose triangulation changed its
+        // diagonals asks for a rebuild of the checker's incidences.
         let p = self.mesh.positions();
+        let mut changes: Vec<(usize, [DVec3; 3])> = Vec::new();
+        let mut scratch = (Vec::new(), Vec::new());
+        let mut retriangulated = false;
+        for f in (0..touched_face.len()).filter(|&f| touched_face[f]) {
+            let range = self.face_tris[f] as usize..self.face_tris[f + 1] as usize;
+            scratch.1.clear();
+            face_triangles(p, self.mesh.face(f), &mut scratch.0, &mut scratch.1);
+            if scratch.1.len() != range.len() {
+                return self.rebuild(changed);
+            }
+            for (i, t) in range.zip(&scratch.1) {
+                retriangulated |= self.triangulation.triangles[i] != *t;
+                self.triangulation.triangles[i] = *t;
+                changes.push((i, t.map(|k| p[k as usize].as_dvec3())));
+            }
+        }
+        if !self.boundary.is_empty() && around.iter().chain(&thicker).any(|&u| self.on_boundary[u as usize]) {
+            let first = self.triangulation.triangles.len();
+            let ext = extension_faces(&self.boundary, p, &self.tracer.normals, &self.lengths);
+            changes.extend(ext.into_iter().enumerate().map(|(k, t)| (first + k, t)));
+        }
+        let changes: Vec<(usize, [DVec3; 3], [DVec3; 3])> =
+            changes.into_iter().filter(|(i, t)| self.tris[*i] != *t).map(|(i, t)| (i, self.tris[i], t)).collect();
+        for &(i, _, t) in &changes {
+            self.tris[i] = t;
+        }
+        let moved_tris: Vec<_> = changes.iter().map(|&(i, _, t)| (i, t)).collect();
+        if !self.tracer.tree.refit_triangles(&moved_tris) {
+            self.tracer.tree = PatchTree::build(&self.tris);
+        }
+
+        // Which trajectories to trace again.
+        let mut must = vec![false; n];
+        around.iter().chain(&thicker).for_each(|&u| must[u as usize] = true);
+        let pairs: Vec<_> = changes.iter().map(|(_, old, new)| (*old, *new)).collect();
+        let mean_reach = self.params.support * self.lengths.iter().map(|&l| l as f64).sum::<f64>() / n as f64;
+        let bound = ChangeBound::new(&pairs, (mean_reach / 10.0).max(f64::MIN_POSITIVE), self.params.p);
+        let (support, tolerance) = (self.params.support, self.tolerance);
         let lengths = &self.lengths;
-        let dirty: Vec<u32> = (0..p.len() as u32)
+        let verdicts: Vec<(u32, bool)> = (0..n as u32)
             .into_par_iter()
-            .filter(|&v| {
-                let v = v as usize;
-                let (o, i) = &self.traces[v];
-                let reach = support * lengths[v] as f64 + 1e-6;
-                let hit = |t: &Trace| {
-                    let c = t.center.as_dvec3();
-                    let r = t.radius as f64 + reach;
-                    if c.cmplt(lo - r).any() || c.cmpgt(hi + r).any() {
-                        return false;
-                    }
-                    spheres.iter().any(|(sc, sr)| (c - *sc).length() <= r + sr)
-                };
-                // A moved vertex itself, or one whose starting point lies in a changed triangle's sphere.
-                hit(o) || hit(i) || spheres.iter().any(|(sc, sr)| (p[v].as_dvec3() - *sc).length() <= *sr)
+            .filter_map(|v| {
+                if must[v as usize] {
+                    return Some((v, true));
+                }
+                let (o, i) = &self.traces[v as usize];
+                let reach = support * lengths[v as usize] as f64;
+                let within = |t: &Trace| t.radius > 0.0 && bound.reaches(t.center.as_dvec3(), t.center.as_dvec3(), reach + t.radius as f64);
+                if !(within(o) || within(i)) {
+                    return None;
+                }
+                let retrace = [o, i].iter().any(|t| t.radius > 0.0 && drift(&bound, t, reach) > tolerance);
+                Some((v, retrace))
             })
             .collect();
+        let dirty: Vec<u32> = verdicts.iter().filter(|(_, r)| *r).map(|(v, _)| *v).collect();
+        let kept = verdicts.len() - dirty.len();
+
         let fresh = trace_vertices(&self.tracer, &self.mesh, &self.lengths, self.side, &self.params, &dirty);
         for (&v, t) in dirty.iter().zip(fresh) {
             self.traces[v as usize] = t;
         }
-        // Retraced directors start unrepaired; the others keep their repair, and the
-        // repair pass starts from the cells and triangles around the retraced ones.
-        let fresh_shell = assemble(&self.mesh, &self.thickness, self.side, &self.traces);
-        for &v in &dirty {
-            let v = v as usize;
-            self.shell.base_offset[v] = fresh_shell.base_offset[v];
-            self.shell.directors[v] = fresh_shell.directors[v];
-            self.shell.achieved[v] = fresh_shell.achieved[v];
+        // The repair shortens the directors of a tangle together, round by round, so
+        // its result depends on the whole group. The repaired directors connected to
+        // retraced ones go back to their traced value with them, and the repair runs
+        // again from there: the rounds a rebuild would run on these groups. Repaired
+        // groups the update did not retrace keep their repair.
+        let raw = assemble(&self.mesh, &self.thickness, self.side, &self.traces);
+        let repaired = |v: usize| self.shell.directors[v] != raw.directors[v] || self.shell.base_offset[v] != raw.base_offset[v];
+        let mut reset = vec![false; n];
+        let mut stack: Vec<u32> = dirty.clone();
+        stack.iter().for_each(|&v| reset[v as usize] = true);
+        let mut seeds = Vec::with_capacity(stack.len());
+        while let Some(v) = stack.pop() {
+            seeds.push(v);
+            for &f in self.faces_of_vertex.of(v as usize) {
+                for &u in self.mesh.face(f as usize) {
+                    if !reset[u as usize] && repaired(u as usize) {
+                        reset[u as usize] = true;
+                        stack.push(u);
+                    }
+                }
+            }
         }
-        super::repair::untangle_around(&self.mesh, &mut self.shell, self.params.repair_rounds, REPAIR_FACTOR, Some(&dirty));
-        Ok(dirty.len())
+        for &v in &seeds {
+            let v = v as usize;
+            self.shell.base_offset[v] = raw.base_offset[v];
+            self.shell.directors[v] = raw.directors[v];
+            self.shell.achieved[v] = raw.achieved[v];
+        }
+        self.shell.target = raw.target;
+        if retriangulated {
+            self.checker = Checker::new(&self.mesh);
+            self.outer_bvh = None;
+        } else {
+            self.checker.refit_base(&self.mesh, &moved);
+        }
+        super::repair::untangle_with(
+            &self.checker,
+            &mut self.outer_bvh,
+            &self.mesh,
+            &mut self.shell,
+            self.params.repair_rounds,
+            REPAIR_FACTOR,
+            Some(&seeds),
+        );
+        Ok(UpdateStats { changed, retraced: dirty.len(), kept, rebuilt: false })
     }
+
+    fn rebuild(&mut self, changed: usize) -> Result<UpdateStats> {
+        let tolerance = self.tolerance;
+        *self = Self::new(self.mesh.clone(), self.thickness.clone(), self.side, self.params.clone())?;
+        self.tolerance = tolerance;
+        Ok(UpdateStats { changed, retraced: self.mesh.vertex_count(), kept: 0, rebuilt: true })
+    }
+}
+
+/// Largest relative change of the field the surface change can cause along a
+/// trajectory (between consecutive samples, against the weaker field of the two).
+fn drift(bound: &ChangeBound, t: &Trace, reach: f64) -> f64 {
+    let mut worst = 0.0f64;
+    for k in 0..TRACE_SAMPLES - 1 {
+        let (a, b) = (t.samples[k], t.samples[k + 1]);
+        let change = bound.on_segment(a.at.as_dvec3(), b.at.as_dvec3(), reach);
+        if change > 0.0 {
+            worst = worst.max(change / a.push.min(b.push) as f64);
+        }
+    }
+    worst
+}
+
+/// Shortest edge at `v` among its faces (the first step of its trajectory).
+fn min_edge_at(mesh: &Mesh, v: u32, faces: &[u32]) -> f32 {
+    let p = mesh.positions();
+    let mut m = f32::INFINITY;
+    for &f in faces {
+        let face = mesh.face(f as usize);
+        let k = face.len();
+        if let Some(i) = face.iter().position(|&u| u == v) {
+            for u in [face[(i + 1) % k], face[(i + k - 1) % k]] {
+                let l = (p[u as usize] - p[v as usize]).length();
+                if l > 0.0 {
+                    m = m.min(l);
+                }
+            }
+        }
+    }
+    m
 }

@@ -25,8 +25,7 @@ pub fn segment_crosses_triangle(p: DVec3, q: DVec3, t: &[DVec3; 3]) -> bool {
 
 /// Whether two triangles intersect (an edge of either properly crosses the other).
 pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
-    (0..3).any(|i| segment_crosses_triangle(a[i], a[(i + 1) % 3], b))
-        || (0..3).any(|i| segment_crosses_triangle(b[i], b[(i + 1) % 3], a))
+    (0..3).any(|i| segment_crosses_triangle(a[i], a[(i + 1) % 3], b)) || (0..3).any(|i| segment_crosses_triangle(b[i], b[(i + 1) % 3], a))
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -44,6 +43,10 @@ pub struct TriBvh {
     nodes: Vec<BoxNode>,
     items: Vec<u32>,
     boxes: Vec<(DVec3, DVec3)>,
+    /// Parent of each node (the root's is itself) and leaf of each item, for
+    /// [`refit_items`](Self::refit_items).
+    parent: Vec<u32>,
+    leaf_of: Vec<u32>,
 }
 
 pub fn tri_box(t: &[DVec3; 3]) -> (DVec3, DVec3) {
@@ -52,14 +55,66 @@ pub fn tri_box(t: &[DVec3; 3]) -> (DVec3, DVec3) {
 
 impl TriBvh {
     pub fn build(tris: &[[DVec3; 3]]) -> Self {
-        let boxes: Vec<_> = tris.iter().map(tri_box).collect();
-        let mut items: Vec<u32> = (0..tris.len() as u32).collect();
-        let mut me = Self { nodes: Vec::new(), items: Vec::new(), boxes };
+        Self::from_boxes(tris.iter().map(tri_box).collect())
+    }
+
+    /// A tree over boxes (one per item) rather than triangles.
+    pub fn from_boxes(boxes: Vec<(DVec3, DVec3)>) -> Self {
+        let mut items: Vec<u32> = (0..boxes.len() as u32).collect();
+        let mut me = Self { nodes: Vec::new(), items: Vec::new(), boxes, parent: Vec::new(), leaf_of: Vec::new() };
         if !items.is_empty() {
             me.split(&mut items, 0);
         }
         me.items = items;
+        me.parent = vec![0; me.nodes.len()];
+        me.leaf_of = vec![0; me.boxes.len()];
+        for (n, node) in me.nodes.iter().enumerate() {
+            if node.count > 0 {
+                me.items[node.index as usize..(node.index + node.count) as usize].iter().for_each(|&i| me.leaf_of[i as usize] = n as u32);
+            } else {
+                me.parent[n + 1] = n as u32;
+                me.parent[node.index as usize] = n as u32;
+            }
+        }
         me
+    }
+
+    /// Moves some items to new boxes and refits only the nodes above them: work in
+    /// proportion to the items times the depth (the repair's later rounds).
+    pub fn refit_items(&mut self, moved: impl Iterator<Item = (u32, (DVec3, DVec3))>) {
+        for (i, b) in moved {
+            self.boxes[i as usize] = b;
+            let mut n = self.leaf_of[i as usize] as usize;
+            loop {
+                let (lo, hi) = self.node_box(n);
+                let node = &mut self.nodes[n];
+                if node.lo == lo && node.hi == hi {
+                    break; // unchanged here, so unchanged above
+                }
+                (node.lo, node.hi) = (lo, hi);
+                if n == 0 {
+                    break;
+                }
+                n = self.parent[n] as usize;
+            }
+        }
+    }
+
+    /// A node's box from its items (leaf) or children.
+    fn node_box(&self, n: usize) -> (DVec3, DVec3) {
+        let node = self.nodes[n];
+        if node.count > 0 {
+            self.items[node.index as usize..(node.index + node.count) as usize].iter().fold(
+                (DVec3::INFINITY, DVec3::NEG_INFINITY),
+                |(l, h), &i| {
+                    let b = self.boxes[i as usize];
+                    (l.min(b.0), h.max(b.1))
+                },
+            )
+        } else {
+            let (a, b) = (self.nodes[n + 1], self.nodes[node.index as usize]);
+            (a.lo.min(b.lo), a.hi.max(b.hi))
+        }
     }
 
     fn split(&mut self, items: &mut [u32], first: usize) -> usize {
@@ -73,7 +128,13 @@ impl TriBvh {
             return me;
         }
         let e = hi - lo;
-        let axis = if e.x >= e.y && e.x >= e.z { 0 } else if e.y >= e.z { 1 } else { 2 };
+        let axis = if e.x >= e.y && e.x >= e.z {
+            0
+        } else if e.y >= e.z {
+            1
+        } else {
+            2
+        };
         let mid = items.len() / 2;
         let key = |i: &u32| {
             let b = self.boxes[*i as usize];
@@ -92,24 +153,15 @@ impl TriBvh {
     /// bottom-up, keeping the tree's topology: O(n), for shells whose vertices moved
     /// a little.
     pub fn refit(&mut self, tris: &[[DVec3; 3]]) {
-        self.boxes.iter_mut().zip(tris).for_each(|(b, t)| *b = tri_box(t));
+        self.refit_boxes(tris.iter().map(tri_box));
+    }
+
+    /// [`refit`](Self::refit) to boxes given directly (one per triangle, in order).
+    pub fn refit_boxes(&mut self, boxes: impl Iterator<Item = (DVec3, DVec3)>) {
+        self.boxes.iter_mut().zip(boxes).for_each(|(b, t)| *b = t);
         // Children always follow their parent: refit in reverse order.
         for n in (0..self.nodes.len()).rev() {
-            let node = self.nodes[n];
-            let (lo, hi) = if node.count > 0 {
-                self.items[node.index as usize..(node.index + node.count) as usize].iter().fold(
-                    (DVec3::INFINITY, DVec3::NEG_INFINITY),
-                    |(l, h), &i| {
-                        let b = self.boxes[i as usize];
-                        (l.min(b.0), h.max(b.1))
-                    },
-                )
-            } else {
-                let (a, b) = (self.nodes[n + 1], self.nodes[node.index as usize]);
-                (a.lo.min(b.lo), a.hi.max(b.hi))
-            };
-            self.nodes[n].lo = lo;
-            self.nodes[n].hi = hi;
+            (self.nodes[n].lo, self.nodes[n].hi) = self.node_box(n);
         }
     }
 
@@ -167,5 +219,13 @@ mod tests {
         // After moving the crossing triangle away and `above` down, a refit finds `above`.
         bvh.refit(&[a, above.map(|p| p - DVec3::Z * 1.5), crossing.map(|p| p + DVec3::X * 5.0)]);
         assert_eq!(query(&bvh), vec![0, 1]);
+        // Moving items one by one gives the same answers as a full refit.
+        let mut partial = TriBvh::build(&[a, above, crossing]);
+        partial.refit_items(
+            [(1, tri_box(&above.map(|p| p - DVec3::Z * 1.5))), (2, tri_box(&crossing.map(|p| p + DVec3::X * 5.0)))].into_iter(),
+        );
+        assert_eq!(query(&partial), vec![0, 1]);
+        partial.refit_items(std::iter::once((2, tri_box(&crossing))));
+        assert_eq!(query(&partial), vec![0, 1, 2]);
     }
 }

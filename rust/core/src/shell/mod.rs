@@ -6,6 +6,8 @@
 //! - [`offset`]: the normal-displacement baseline (Offset Shell).
 //! - [`field`]: the L_p-averaged distance and its gradient (chapter 4.2).
 //! - [`directors`]: directors by integrating the field (chapter 4.3-4.4).
+//! - [`incremental`]: a shell following edits of its base mesh (7.1); `influence`
+//!   bounds how far an edit reaches in the field.
 //! - [`geometry`]: layers, outer surface and closed solids built from any directors.
 //! - [`defects`], [`repair`], [`report`]: finding folds, shortening directors around
 //!   them, and counting shell quality.
@@ -15,13 +17,14 @@ pub mod directors;
 pub mod field;
 pub mod geometry;
 pub mod incremental;
+pub(crate) mod influence;
 pub mod intersect;
+pub mod offset;
 pub mod repair;
 pub mod report;
-pub mod offset;
 pub mod thickness;
 
-pub use directors::{build_shell, ShellParams, Shell, Side};
+pub use directors::{build_shell, Shell, ShellParams, Side};
 pub use geometry::{build_geometry, prisms, shell_geometry, Cell, ShellMesh, ShellOutput};
 pub use offset::normal_offset_directors;
 pub use thickness::{Thickness, ThicknessMode};

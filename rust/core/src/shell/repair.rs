@@ -8,6 +8,7 @@
 //! again, so later rounds cost in proportion to the defects left.
 
 use super::defects::Checker;
+use super::intersect::TriBvh;
 use super::Shell;
 use crate::Mesh;
 
@@ -27,16 +28,40 @@ pub fn untangle_around(mesh: &Mesh, shell: &mut Shell, rounds: u32, factor: f32,
     if rounds == 0 || mesh.vertex_count() == 0 {
         return 0;
     }
-    let checker = Checker::new(mesh);
+    untangle_with(&Checker::new(mesh), &mut None, mesh, shell, rounds, factor, seeds)
+}
+
+/// [`untangle_around`] with a checker and outer-layer tree kept by the caller (the
+/// incremental shell keeps them between edits): a kept tree must match `shell`
+/// except around `seeds`.
+pub(crate) fn untangle_with(
+    checker: &Checker,
+    outer_bvh: &mut Option<TriBvh>,
+    mesh: &Mesh,
+    shell: &mut Shell,
+    rounds: u32,
+    factor: f32,
+    seeds: Option<&[u32]>,
+) -> u32 {
+    if rounds == 0 || mesh.vertex_count() == 0 {
+        return 0;
+    }
     let mut dirty = seeds.map(|s| {
         let mut d = checker.clean();
         s.iter().for_each(|v| checker.mark_around(*v as usize, &mut d));
         d
     });
-    let mut outer_bvh = None;
+    // A kept tree is refitted where the seeds' directors changed; otherwise in full.
+    let mut outer = match (outer_bvh.take(), &dirty) {
+        (Some(mut tree), Some(d)) => {
+            tree.refit_items(d.tri_list.iter().map(|&t| (t, checker.outer_box(mesh, shell, t))));
+            tree
+        }
+        (reuse, _) => checker.outer_tree(mesh, shell, reuse),
+    };
     let mut changed = 0;
     for _ in 0..rounds {
-        let found = checker.find(mesh, shell, dirty.as_ref(), &mut outer_bvh);
+        let found = checker.find(mesh, shell, dirty.as_ref(), &outer);
         let bad = checker.defect_vertices(&found, mesh.vertex_count());
         let mut next = checker.clean();
         let mut any = false;
@@ -54,7 +79,10 @@ pub fn untangle_around(mesh: &Mesh, shell: &mut Shell, rounds: u32, factor: f32,
             break;
         }
         changed += 1;
+        // Only the outer triangles around shortened directors moved.
+        outer.refit_items(next.tri_list.iter().map(|&t| (t, checker.outer_box(mesh, shell, t))));
         dirty = Some(next);
     }
+    *outer_bvh = Some(outer);
     changed
 }

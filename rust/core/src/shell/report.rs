@@ -66,12 +66,11 @@ pub fn normal_valid_vertices(mesh: &Mesh, side: Side, target: &[f32]) -> Vec<boo
 
 fn normal_valid_with(checker: &Checker, mesh: &Mesh, side: Side, target: &[f32]) -> Vec<bool> {
     let shell = normal_shell(mesh, side, target);
-    let mut outer_bvh = None;
-    let f = checker.find(mesh, &shell, None, &mut outer_bvh);
+    let outer_bvh = checker.outer_tree(mesh, &shell, None);
+    let f = checker.find(mesh, &shell, None, &outer_bvh);
     let p = mesh.positions();
     let bad = checker.defect_vertices(&f, p.len());
     // (b), (d): the vertex's own segment crossing the base or the outer layer away from it.
-    let outer_bvh = outer_bvh.expect("built by find");
     let outer: Vec<[DVec3; 3]> = checker.tris.iter().map(|t| t.map(|i| dv(shell.point(p, i as usize, 1.0)))).collect();
     (0..p.len())
         .into_par_iter()
@@ -94,7 +93,7 @@ fn normal_valid_with(checker: &Checker, mesh: &Mesh, side: Side, target: &[f32])
 /// Counts what is wrong with `shell` and how much thickness it kept.
 pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
     let checker = Checker::new(mesh);
-    let f = checker.find(mesh, shell, None, &mut None);
+    let f = checker.find(mesh, shell, None, &checker.outer_tree(mesh, shell, None));
     let valid = normal_valid_with(&checker, mesh, shell.side, &shell.target);
     let normals = vertex_normals(mesh);
     let (mut min_ratio, mut sum, mut count, mut min_valid, mut n_valid) = (f32::INFINITY, 0.0f64, 0usize, f32::INFINITY, 0);

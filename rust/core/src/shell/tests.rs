@@ -83,29 +83,119 @@ fn saddle_is_clean() {
     assert_clean("saddle", &tm::saddle(24), true);
 }
 
+/// Largest distance between two sets of directors.
+fn worst(a: &[Vec3], b: &[Vec3]) -> f32 {
+    a.iter().zip(b).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max)
+}
+
+/// The shell traced from scratch on `mesh` (directors before the repair pass).
+fn traced(mesh: &Mesh, t: &[f32], side: Side, params: &ShellParams) -> Vec<Vec3> {
+    incremental::IncrementalShell::new(mesh.clone(), t.to_vec(), side, params.clone()).unwrap().traced_directors()
+}
+
+fn bumped(mesh: &Mesh, centre: usize, height: f32, radius: f32) -> Vec<Vec3> {
+    let normals = crate::mesh::vertex_normals(mesh);
+    let c = mesh.positions()[centre];
+    mesh.positions()
+        .iter()
+        .zip(&normals)
+        .map(|(p, n)| {
+            let w = (1.0 - (*p - c).length() / radius).max(0.0);
+            *p + *n * height * w * w
+        })
+        .collect()
+}
+
+fn with_positions(mesh: &Mesh, positions: Vec<Vec3>) -> Mesh {
+    Mesh::new(positions, &mesh.face_sizes(), mesh.corners().to_vec(), None).unwrap()
+}
+
 #[test]
 fn incremental_update_matches_full_rebuild() {
     let mesh = tm::bumpy_head(3);
-    let t = Thickness::relative(0.03).per_vertex(&mesh, None).unwrap();
-    // theta = 0: every face integrated exactly, so refit and rebuilt trees agree.
-    let params = ShellParams { theta: 0.0, ..Default::default() };
-    let mut inc = incremental::IncrementalShell::new(mesh.clone(), t.clone(), Side::Exterior, params.clone()).unwrap();
-    let normals = crate::mesh::vertex_normals(&mesh);
-    let moved: Vec<(u32, Vec3)> = (0..6u32).map(|v| (v, mesh.positions()[v as usize] + normals[v as usize] * 0.05)).collect();
-    let retraced = inc.move_vertices(&moved).unwrap();
-    assert!(retraced > 0 && retraced < mesh.vertex_count() / 2, "retraced {retraced} of {}", mesh.vertex_count());
-    let full = build_shell(inc.mesh(), &t, Side::Exterior, &params).unwrap();
+    let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
     let h = t[0];
-    for (v, (a, b)) in inc.shell().directors.iter().zip(&full.directors).enumerate() {
-        assert!((*a - *b).length() < 1e-4 * h, "vertex {v}: {a} vs {b}");
+    let diag = mesh.bbox_diagonal();
+    let moved = bumped(&mesh, 0, 0.01 * diag, 0.1 * diag);
+    let edited = with_positions(&mesh, moved.clone());
+    // theta = 0: every face integrated exactly, so refitted and rebuilt trees agree.
+    let params = ShellParams { theta: 0.0, ..Default::default() };
+    let reference = traced(&edited, &t, Side::Exterior, &params);
+    let mut retraced = Vec::new();
+    for tolerance in [0.0, incremental::DEFAULT_TOLERANCE] {
+        let mut inc = incremental::IncrementalShell::new(mesh.clone(), t.clone(), Side::Exterior, params.clone()).unwrap();
+        inc.tolerance = tolerance;
+        let stats = inc.update(&moved, &t).unwrap();
+        assert!(!stats.rebuilt && stats.changed > 0, "{stats:?}");
+        assert!(stats.retraced < mesh.vertex_count() / 2, "{stats:?} of {}", mesh.vertex_count());
+        let err = worst(&inc.traced_directors(), &reference);
+        // Tolerance 0 retraces everything within reach: the rebuild's directors. A
+        // tolerance keeps directors the bound says move by about that fraction.
+        let allowed = if tolerance == 0.0 { 1e-4 * h } else { (tolerance as f32) * h };
+        assert!(err <= allowed, "tolerance {tolerance}: worst {err} vs h {h} ({stats:?})");
+        let full = build_shell(&edited, &t, Side::Exterior, &params).unwrap();
+        assert_eq!(inc.shell().directors.len(), full.directors.len());
+        let r = shell_report(inc.mesh(), inc.shell());
+        assert_eq!((r.inverted_cells, r.outer_self_intersections, r.outer_base_intersections), (0, 0, 0), "{r:?}");
+        eprintln!("tolerance {tolerance}: {stats:?}, worst {}", err / h);
+        retraced.push(stats);
     }
+    assert!(retraced[1].retraced < retraced[0].retraced && retraced[1].kept > 0, "the tolerance kept nothing: {retraced:?}");
+
     // With the default Barnes-Hut approximation the two trees differ in shape only.
     let params = ShellParams::default();
     let mut inc = incremental::IncrementalShell::new(mesh.clone(), t.clone(), Side::Exterior, params.clone()).unwrap();
-    inc.move_vertices(&moved).unwrap();
-    let full = build_shell(inc.mesh(), &t, Side::Exterior, &params).unwrap();
-    let worst = inc.shell().directors.iter().zip(&full.directors).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max);
-    assert!(worst < 0.05 * h, "worst {worst} vs h {h}");
+    inc.update(&moved, &t).unwrap();
+    let err = worst(&inc.traced_directors(), &traced(&edited, &t, Side::Exterior, &params));
+    assert!(err < 0.05 * h, "worst {err} vs h {h}");
+}
+
+#[test]
+fn incremental_update_follows_boundaries_quads_and_thickness() {
+    // An open quad sheet (boundary extension faces, quads split for integration):
+    // moving a corner region and thickening some vertices gives the rebuilt shell.
+    let mesh = tm::saddle(12);
+    assert!(mesh.faces().all(|f| f.len() == 4));
+    let diag = mesh.bbox_diagonal();
+    let mut t = Thickness::relative(0.05).per_vertex(&mesh, None).unwrap();
+    let params = ShellParams { theta: 0.0, ..Default::default() };
+    for side in [Side::Exterior, Side::Envelope] {
+        let mut inc = incremental::IncrementalShell::new(mesh.clone(), t.clone(), side, params.clone()).unwrap();
+        inc.tolerance = 0.0;
+        let moved = bumped(&mesh, 0, 0.02 * diag, 0.2 * diag);
+        t[5] *= 1.5;
+        t[6] *= 0.5;
+        let stats = inc.update(&moved, &t).unwrap();
+        assert!(!stats.rebuilt && stats.retraced > 0 && stats.retraced < mesh.vertex_count(), "{side:?}: {stats:?}");
+        let edited = with_positions(&mesh, moved);
+        let err = worst(&inc.traced_directors(), &traced(&edited, &t, side, &params));
+        assert!(err <= 1e-4 * t[0], "{side:?}: worst {err}");
+        assert_eq!(inc.shell().target, t.iter().map(|x| x.abs()).collect::<Vec<_>>());
+        // Nothing changed: nothing to do.
+        assert_eq!(inc.update(&edited.positions().to_vec(), &t).unwrap(), incremental::UpdateStats::default());
+    }
+}
+
+#[test]
+fn incremental_update_rebuilds_after_large_changes_and_refuses_bad_input() {
+    let mesh = tm::icosphere(2);
+    let t = Thickness::relative(0.05).per_vertex(&mesh, None).unwrap();
+    let mut inc = incremental::IncrementalShell::new(mesh.clone(), t.clone(), Side::Exterior, ShellParams::default()).unwrap();
+    let scaled: Vec<Vec3> = mesh.positions().iter().map(|p| *p * 1.5).collect();
+    let stats = inc.update(&scaled, &t).unwrap();
+    assert!(stats.rebuilt && stats.retraced == mesh.vertex_count(), "{stats:?}");
+    let full = build_shell(&with_positions(&mesh, scaled.clone()), &t, Side::Exterior, &ShellParams::default()).unwrap();
+    assert!(worst(&inc.shell().directors, &full.directors) < 1e-6);
+    assert!(inc.update(&scaled[1..], &t).is_err());
+    let mut bad = scaled.clone();
+    bad[3].x = f32::NAN;
+    assert!(inc.update(&bad, &t).is_err());
+    let mut bad_t = t.clone();
+    bad_t[2] = f32::INFINITY;
+    assert!(inc.update(&scaled, &bad_t).is_err());
+    assert!(inc.move_vertices(&[(mesh.vertex_count() as u32, Vec3::ZERO)]).is_err());
+    // A refused update leaves the shell as it was.
+    assert!(worst(&inc.shell().directors, &full.directors) < 1e-6);
 }
 
 #[test]
@@ -161,7 +251,8 @@ fn quads_give_hexahedra_and_ngons_prisms() {
     let t = Thickness::relative(0.05).per_vertex(&cube, None).unwrap();
     let s = build_shell(&cube, &t, Side::Exterior, &ShellParams::default()).unwrap();
     assert!(cells.iter().all(|c| !c.is_inverted(cube.positions(), &s)));
-    let hex = Mesh::new((0..6).map(|i| Vec3::new((i as f32).cos(), (i as f32).sin(), 0.0)).collect(), &[6], (0..6).collect(), None).unwrap();
+    let hex =
+        Mesh::new((0..6).map(|i| Vec3::new((i as f32).cos(), (i as f32).sin(), 0.0)).collect(), &[6], (0..6).collect(), None).unwrap();
     assert_eq!(prisms(&hex).len(), 4);
 }
 

@@ -10,13 +10,16 @@ use glam::{DVec3, Vec3};
 /// Extension triangles for the open boundaries of `mesh` (none for closed meshes).
 /// `normals` are unit vertex normals, `reach[v]` the extension length at vertex `v`.
 pub fn boundary_faces(mesh: &Mesh, normals: &[Vec3], reach: &[f32]) -> Vec<[DVec3; 3]> {
-    let edges = boundary_edges(mesh);
+    extension_faces(&boundary_edges(mesh), mesh.positions(), normals, reach)
+}
+
+/// [`boundary_faces`] along the given directed boundary edges (two per edge, in order).
+pub fn extension_faces(edges: &[(u32, u32)], p: &[Vec3], normals: &[Vec3], reach: &[f32]) -> Vec<[DVec3; 3]> {
     if edges.is_empty() {
         return Vec::new();
     }
-    let p = mesh.positions();
     let mut across = vec![Vec3::ZERO; p.len()];
-    for &(a, b) in &edges {
+    for &(a, b) in edges {
         let (a, b) = (a as usize, b as usize);
         // The face lies to the left of a -> b (counter-clockwise about n): outward is right.
         let out = (p[b] - p[a]).cross(normals[a] + normals[b]).normalize_or_zero();
@@ -24,7 +27,7 @@ pub fn boundary_faces(mesh: &Mesh, normals: &[Vec3], reach: &[f32]) -> Vec<[DVec
         across[b] += out;
     }
     let mut count = vec![0u32; p.len()];
-    for &(a, b) in &edges {
+    for &(a, b) in edges {
         count[a as usize] += 1;
         count[b as usize] += 1;
     }
@@ -36,7 +39,7 @@ pub fn boundary_faces(mesh: &Mesh, normals: &[Vec3], reach: &[f32]) -> Vec<[DVec
         (p[v] + s.normalize_or_zero() * (reach[v].abs() * miter)).as_dvec3()
     };
     let mut tris = Vec::with_capacity(2 * edges.len());
-    for &(a, b) in &edges {
+    for &(a, b) in edges {
         let (a, b) = (a as usize, b as usize);
         let (pa, pb) = (p[a].as_dvec3(), p[b].as_dvec3());
         let (qa, qb) = (ext(a), ext(b));

@@ -63,11 +63,10 @@ impl Kernel {
     fn is_exact(&self) -> bool {
         self.p == 3.0
     }
+    /// A point mass `area` at distance vector `d = x - c` (`r2 = |d|²`, `r = |d|`).
     #[inline]
-    fn point(&self, area: f64, c: DVec3, x: DVec3) -> (f64, DVec3) {
-        let d = x - c;
-        let r2 = d.length_squared();
-        let k = if self.is_exact() { area / (r2 * r2.sqrt()) } else { area * r2.powf(-0.5 * self.p) };
+    fn point(&self, area: f64, d: DVec3, r2: f64, r: f64) -> (f64, DVec3) {
+        let k = if self.is_exact() { area / (r2 * r) } else { area * r2.powf(-0.5 * self.p) };
         (k, d * (self.p * k / r2))
     }
     #[inline]
@@ -88,8 +87,15 @@ pub struct PatchTree {
     tri_area: Vec<f64>,
     tri_centroid: Vec<DVec3>,
     tri_radius: Vec<f64>,
-    /// Original index of each stored triangle.
+    /// Original index of each stored triangle, and the stored place of each original
+    /// one (`u32::MAX`: dropped as degenerate).
     order: Vec<u32>,
+    place: Vec<u32>,
+    /// Leaf of each stored triangle and parent of each node, for [`refit_triangles`].
+    ///
+    /// [`refit_triangles`]: PatchTree::refit_triangles
+    leaf_of: Vec<u32>,
+    parent: Vec<u32>,
     nodes: Vec<Node>,
     total_area: f64,
 }
@@ -120,8 +126,58 @@ impl PatchTree {
         }
         tree.order = idx;
         tree.tris = tree.order.iter().map(|&i| tris[i as usize]).collect();
+        tree.place = vec![u32::MAX; tris.len()];
+        tree.order.iter().enumerate().for_each(|(k, &i)| tree.place[i as usize] = k as u32);
+        tree.leaf_of = vec![0; tree.tris.len()];
+        tree.parent = vec![0; tree.nodes.len()];
+        for (n, node) in tree.nodes.iter().enumerate() {
+            if node.count > 0 {
+                (node.index..node.index + node.count).for_each(|k| tree.leaf_of[k as usize] = n as u32);
+            } else {
+                tree.parent[n + 1] = n as u32;
+                tree.parent[node.index as usize] = n as u32;
+            }
+        }
         tree.refit_all();
         tree
+    }
+
+    /// Moves some triangles (original indices, as given to [`build`]) and refits the
+    /// nodes above them only. Returns false, changing nothing, when one of them was
+    /// left out of the tree as degenerate and now has an area: rebuild then.
+    ///
+    /// [`build`]: PatchTree::build
+    pub fn refit_triangles(&mut self, moved: &[(usize, [DVec3; 3])]) -> bool {
+        if moved.iter().any(|(i, t)| self.place[*i] == u32::MAX && tri_props(t).0 > 0.0) {
+            return false;
+        }
+        let mut nodes: Vec<u32> = Vec::with_capacity(moved.len());
+        for (i, t) in moved {
+            let k = self.place[*i];
+            if k == u32::MAX {
+                continue;
+            }
+            let k = k as usize;
+            self.tris[k] = *t;
+            (self.tri_area[k], self.tri_centroid[k], self.tri_radius[k]) = tri_props(t);
+            nodes.push(self.leaf_of[k]);
+        }
+        // Every ancestor once, children before parents (they have larger indices).
+        let mut n = 0;
+        while n < nodes.len() {
+            let p = self.parent[nodes[n] as usize];
+            if nodes[n] != 0 {
+                nodes.push(p);
+            }
+            n += 1;
+        }
+        nodes.sort_unstable_by(|a, b| b.cmp(a));
+        nodes.dedup();
+        for n in nodes {
+            self.refit_node(n as usize);
+        }
+        self.total_area = self.nodes.first().map_or(0.0, |r| r.area);
+        true
     }
 
     fn split(&mut self, idx: &mut [u32], props: &[(f64, DVec3, f64)], first: usize) -> usize {
@@ -137,7 +193,13 @@ impl PatchTree {
             (lo.min(c), hi.max(c))
         });
         let ext = hi - lo;
-        let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
         let mid = idx.len() / 2;
         idx.select_nth_unstable_by(mid, |&a, &b| props[a as usize].1[axis].total_cmp(&props[b as usize].1[axis]));
         let (l, r) = idx.split_at_mut(mid);
@@ -157,39 +219,33 @@ impl PatchTree {
         self.total_area = self.tri_area.iter().sum();
         // Children have larger indices than parents: refit in reverse order.
         for n in (0..self.nodes.len()).rev() {
-            let node = self.nodes[n];
-            let (area, centroid, radius) = if node.count > 0 {
-                let r = node.index as usize..(node.index + node.count) as usize;
-                let area: f64 = self.tri_area[r.clone()].iter().sum();
-                let c = if area > 0.0 {
-                    r.clone().map(|i| self.tri_centroid[i] * self.tri_area[i]).sum::<DVec3>() / area
-                } else {
-                    self.tri_centroid[r.start]
-                };
-                let rad = self.tris[r].iter().flatten().map(|p| (*p - c).length()).fold(0.0, f64::max);
-                (area, c, rad)
-            } else {
-                let (a, b) = (self.nodes[n + 1], self.nodes[node.index as usize]);
-                let area = a.area + b.area;
-                let c = if area > 0.0 { (a.centroid * a.area + b.centroid * b.area) / area } else { a.centroid };
-                let rad = (a.radius + (a.centroid - c).length()).max(b.radius + (b.centroid - c).length());
-                (area, c, rad)
-            };
-            self.nodes[n].area = area;
-            self.nodes[n].centroid = centroid;
-            self.nodes[n].radius = radius;
+            self.refit_node(n);
         }
     }
 
-    /// Replaces the triangle positions (same count and order as given to [`build`]) and
-    /// refits the tree without rebuilding its topology.
-    ///
-    /// [`build`]: PatchTree::build
-    pub fn refit(&mut self, tris: &[[DVec3; 3]]) {
-        for (k, &i) in self.order.iter().enumerate() {
-            self.tris[k] = tris[i as usize];
-        }
-        self.refit_all();
+    /// Area, centroid and bounding sphere of node `n` from its triangles or children.
+    fn refit_node(&mut self, n: usize) {
+        let node = self.nodes[n];
+        let (area, centroid, radius) = if node.count > 0 {
+            let r = node.index as usize..(node.index + node.count) as usize;
+            let area: f64 = self.tri_area[r.clone()].iter().sum();
+            let c = if area > 0.0 {
+                r.clone().map(|i| self.tri_centroid[i] * self.tri_area[i]).sum::<DVec3>() / area
+            } else {
+                self.tri_centroid[r.start]
+            };
+            let rad = self.tris[r].iter().flatten().map(|p| (*p - c).length()).fold(0.0, f64::max);
+            (area, c, rad)
+        } else {
+            let (a, b) = (self.nodes[n + 1], self.nodes[node.index as usize]);
+            let area = a.area + b.area;
+            let c = if area > 0.0 { (a.centroid * a.area + b.centroid * b.area) / area } else { a.centroid };
+            let rad = (a.radius + (a.centroid - c).length()).max(b.radius + (b.centroid - c).length());
+            (area, c, rad)
+        };
+        self.nodes[n].area = area;
+        self.nodes[n].centroid = centroid;
+        self.nodes[n].radius = radius;
     }
 
     pub fn total_area(&self) -> f64 {
@@ -218,35 +274,46 @@ impl PatchTree {
             out.push += push;
             out.abs_along += push.dot(reference).abs();
         };
-        let theta = kernel.theta;
-        let outer = radius;
+        let theta2 = kernel.theta * kernel.theta;
         let mut stack = [0u32; 64];
         let mut sp = 1;
         while sp > 0 {
             sp -= 1;
             let ni = stack[sp];
             let node = &self.nodes[ni as usize];
-            let d = (x - node.centroid).length();
-            if d - node.radius > outer {
+            let d = x - node.centroid;
+            let r2 = d.length_squared();
+            let reach = radius + node.radius;
+            if r2 > reach * reach {
                 continue;
             }
-            if node.radius < theta * d {
-                let w = taper(d, radius);
+            // Squared forms of `d - node.radius > radius` and `node.radius < theta d`.
+            if node.radius * node.radius < theta2 * r2 {
+                let r = r2.sqrt();
+                let w = taper(r, radius);
                 if w > 0.0 {
-                    add(w, kernel.point(node.area, node.centroid, x), &mut out);
+                    add(w, kernel.point(node.area, d, r2, r), &mut out);
                 }
                 continue;
             }
             if node.count > 0 {
                 for i in node.index as usize..(node.index + node.count) as usize {
-                    let c = self.tri_centroid[i];
-                    let dc = (x - c).length();
-                    let w = taper(dc, radius);
+                    let d = x - self.tri_centroid[i];
+                    let r2 = d.length_squared();
+                    if r2 >= radius * radius {
+                        continue;
+                    }
+                    let r = r2.sqrt();
+                    let w = taper(r, radius);
                     if w <= 0.0 {
                         continue;
                     }
-                    if self.tri_radius[i] < theta * dc {
-                        add(w, kernel.point(self.tri_area[i], c, x), &mut out);
+                    if self.tri_area[i] == 0.0 {
+                        continue; // degenerate since a refit: no area, no contribution
+                    }
+                    let tr = self.tri_radius[i];
+                    if tr * tr < theta2 * r2 {
+                        add(w, kernel.point(self.tri_area[i], d, r2, r), &mut out);
                     } else {
                         add(w, kernel.face(&self.tris[i], x), &mut out);
                     }
@@ -261,3 +328,55 @@ impl PatchTree {
     }
 }
 
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sheet(n: usize, lift: impl Fn(usize) -> f64) -> Vec<[DVec3; 3]> {
+        let p = |i: usize, j: usize| DVec3::new(i as f64, j as f64, lift(i * (n + 1) + j));
+        let mut tris = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                tris.push([p(i, j), p(i + 1, j), p(i + 1, j + 1)]);
+                tris.push([p(i, j), p(i + 1, j + 1), p(i, j + 1)]);
+            }
+        }
+        tris
+    }
+
+    #[test]
+    fn refitting_some_triangles_matches_a_rebuilt_tree() {
+        let flat = sheet(12, |_| 0.0);
+        let bumped = sheet(12, |k| if (40..60).contains(&k) { 0.3 } else { 0.0 });
+        let moved: Vec<(usize, [DVec3; 3])> =
+            flat.iter().zip(&bumped).enumerate().filter(|(_, (a, b))| a != b).map(|(i, (_, b))| (i, *b)).collect();
+        assert!(!moved.is_empty() && moved.len() < flat.len() / 4);
+        let mut tree = PatchTree::build(&flat);
+        assert!(tree.refit_triangles(&moved));
+        let rebuilt = PatchTree::build(&bumped);
+        let exact = Kernel::new(3.0, 0.0);
+        for x in [DVec3::new(3.0, 4.0, 1.0), DVec3::new(6.5, 2.2, -0.7), DVec3::new(11.0, 11.0, 2.0)] {
+            let (a, b) = (tree.eval(x, 5.0, DVec3::Z, &exact), rebuilt.eval(x, 5.0, DVec3::Z, &exact));
+            assert!((a.push - b.push).length() <= 1e-9 * b.push.length() && (a.value - b.value).abs() <= 1e-9 * b.value, "{a:?} vs {b:?}");
+        }
+        assert!((tree.total_area() - rebuilt.total_area()).abs() < 1e-9);
+        // The root's sphere holds every triangle after the refit.
+        let root = tree.nodes[0];
+        assert!(bumped.iter().flatten().all(|q| (*q - root.centroid).length() <= root.radius + 1e-9));
+    }
+
+    #[test]
+    fn a_degenerate_triangle_gaining_area_asks_for_a_rebuild() {
+        let mut tris = sheet(3, |_| 0.0);
+        let c = tris[4][0];
+        let flat = tris[4];
+        tris[4] = [c, c, c];
+        let mut tree = PatchTree::build(&tris);
+        assert_eq!(tree.triangle_count(), tris.len() - 1);
+        assert!(!tree.refit_triangles(&[(4, flat)]));
+        // Collapsing a triangle is fine: it stops contributing.
+        assert!(tree.refit_triangles(&[(5, [c, c, c])]));
+        let e = tree.eval(DVec3::new(1.5, 1.5, 0.5), f64::INFINITY, DVec3::Z, &Kernel::new(3.0, 0.0));
+        assert!(e.value.is_finite() && e.push.is_finite());
+    }
+}
