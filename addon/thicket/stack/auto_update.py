@@ -75,21 +75,31 @@ def flush() -> None:
 def on_depsgraph_update(scene, depsgraph):
     if _busy:
         return
+    # One depsgraph update can name a source twice (its object and its mesh):
+    # collect first, so that it regenerates once.
+    sources = []
+
+    def add(obj):
+        if obj not in sources:
+            sources.append(obj)
+
     for update in depsgraph.updates:
         original = update.id.original
         if isinstance(original, bpy.types.Object) and (update.is_updated_geometry or update.is_updated_transform):
             # A cutter moved or changed: its sources cut again.
             for obj in scene.objects:
                 if obj != original and _is_source(obj) and any(i.cutter == original for i in obj.thicket.items if i.kind == "VOLUMETRIC_TEXTURE"):
-                    schedule(obj)
+                    add(obj)
         if not update.is_updated_geometry:
             continue
         if isinstance(original, bpy.types.Object):
-            schedule(original)
+            add(original)
         elif isinstance(original, bpy.types.Mesh):
             for obj in scene.objects:
                 if obj.data == original:
-                    schedule(obj)
+                    add(obj)
+    for obj in sources:
+        schedule(obj)
 
 
 @persistent
