@@ -74,9 +74,74 @@ def bench(obj):
     return ours
 
 
+def voxel_object(name, dims, sub, filled):
+    """The closed quad surface of unit voxels, each face split into sub x sub quads:
+    the notched box and comb of the Rust tests (`testmeshes::voxels`)."""
+    def inside(c):
+        return all(0 <= c[a] < dims[a] for a in range(3)) and filled(*c)
+
+    index, verts, faces = {}, [], []
+
+    def vid(q):
+        if q not in index:
+            index[q] = len(verts)
+            verts.append(tuple(x / sub for x in q))
+        return index[q]
+
+    for c in np.ndindex(*dims):
+        if not inside(c):
+            continue
+        for a in range(3):
+            for sign in (1, -1):
+                nb = list(c)
+                nb[a] += sign
+                if inside(nb):
+                    continue
+                u, v = (a + 1) % 3, (a + 2) % 3
+                base = [x * sub for x in c]
+                if sign > 0:
+                    base[a] += sub
+                for du in range(sub):
+                    for dv in range(sub):
+                        def at(x, y):
+                            q = list(base)
+                            q[u] += x
+                            q[v] += y
+                            return tuple(q)
+                        quad = [at(du, dv), at(du + 1, dv), at(du + 1, dv + 1), at(du, dv + 1)]
+                        if sign < 0:
+                            quad.reverse()
+                        faces.append([vid(q) for q in quad])
+    return mesh_object(name, verts, faces)
+
+
+def mesh_object(name, verts, faces):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(verts, [], faces)
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def saddle_object(n=24):
+    """The open saddle sheet of the Rust tests: z = x^2 - y^2 over [-1, 1]^2."""
+    x, y = np.meshgrid(np.linspace(-1, 1, n + 1), np.linspace(-1, 1, n + 1), indexing="ij")
+    verts = np.column_stack([x.ravel(), y.ravel(), (x * x - y * y).ravel()])
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    a = (i * (n + 1) + j).ravel()
+    faces = np.column_stack([a, a + n + 1, a + n + 2, a + 1])
+    return mesh_object("Saddle (open)", verts.tolist(), faces.tolist())
+
+
 def main():
     thicket.register()
     bpy.ops.wm.read_factory_settings(use_empty=True)
+    for obj in (
+        voxel_object("Notched box", (10, 6, 6), 2, lambda i, j, k: not (i == 5 and j >= 2)),
+        voxel_object("Comb (fins 2 apart)", (13, 6, 4), 2, lambda i, j, k: j == 0 or i % 3 == 0),
+        saddle_object(),
+    ):
+        bench(obj)
     bpy.ops.mesh.primitive_monkey_add()
     head = bpy.context.active_object
     head.name = "Suzanne (subdiv 1)"
