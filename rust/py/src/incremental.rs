@@ -71,7 +71,7 @@ impl IncrementalShell {
     ///
     /// New positions for all base vertices (float32 (n,3)) and, for a shell with
     /// per-vertex factors, their new values. Errors leave the shell as it was, except
-    /// an internal failure, after which the object refuses further use.
+    /// an internal failure (a panic), after which the object refuses further use.
     #[pyo3(signature = (vertices, factors=None))]
     fn update<'py>(
         &mut self,
@@ -94,11 +94,13 @@ impl IncrementalShell {
         }
         let thickness = self.thickness.per_vertex(&moved, factors.as_deref()).map_err(crate::errors::to_py)?;
         let mut inner = self.inner.take().expect("checked above");
+        // A refused update hands the shell back unchanged; a panic loses it.
         let (inner, stats) = run_detached(py, move || {
-            let stats = inner.update(&positions, &thickness)?;
+            let stats = inner.update(&positions, &thickness);
             Ok((inner, stats))
         })?;
         self.inner = Some(inner);
+        let stats = stats.map_err(crate::errors::to_py)?;
         let d = PyDict::new(py);
         d.set_item("changed", stats.changed)?;
         d.set_item("retraced", stats.retraced)?;

@@ -6,8 +6,9 @@
 //! strength there ([`influence`](super::influence)): a change of the surface beyond
 //! the support ball changes nothing; a change within it is bounded by its distance,
 //! and when that bound relative to the field's own strength stays below
-//! [`IncrementalShell::tolerance`] the director is kept. Tolerance 0 retraces every
-//! trajectory within reach (the locality rule alone).
+//! [`IncrementalShell::tolerance`] the director is kept. The bounds a kept trajectory
+//! was spared add up over updates, so many small edits retrace it in the end.
+//! Tolerance 0 retraces every trajectory within reach (the locality rule alone).
 //!
 //! The work of an update is in proportion to the edit: the triangulation, normals,
 //! first steps and boundary faces are redone only around moved vertices, the patch
@@ -18,7 +19,7 @@ use super::defects::Checker;
 use super::directors::{assemble, check_inputs, side_lengths, trace_vertices, Trace, Tracer, REPAIR_FACTOR, TRACE_SAMPLES};
 use super::field::{extension_faces, mesh_triangles, PatchTree};
 use super::influence::ChangeBound;
-use super::intersect::TriBvh;
+use super::intersect::{tri_box, TriBvh};
 use super::{Shell, ShellParams, Side};
 use crate::mesh::{boundary_edges, face_triangles, vertex_normal, Incidence, Triangulation};
 use crate::{Error, Mesh, Result};
@@ -66,6 +67,9 @@ pub struct IncrementalShell {
     /// Integration triangles: the mesh's, then the boundary extension's.
     tris: Vec<[DVec3; 3]>,
     traces: Vec<(Trace, Trace)>,
+    /// Bound on the relative field change each kept trajectory has been spared since
+    /// it was traced (summed over updates).
+    drifted: Vec<f32>,
     shell: Shell,
     checker: Checker,
     outer_bvh: Option<TriBvh>,
@@ -108,6 +112,7 @@ impl IncrementalShell {
             boundary,
             on_boundary,
             tris,
+            drifted: vec![0.0; traces.len()],
             traces,
             shell,
             checker,
@@ -225,17 +230,19 @@ impl IncrementalShell {
 
         // Which trajectories to trace again.
         let mut must = vec![false; n];
-        around.iter().chain(&thicker).for_each(|&u| must[u as usize] = true);
+        around.iter().chain(&thicker).chain(&moved).for_each(|&u| must[u as usize] = true);
         let pairs: Vec<_> = changes.iter().map(|(_, old, new)| (*old, *new)).collect();
         let mean_reach = self.params.support * self.lengths.iter().map(|&l| l as f64).sum::<f64>() / n as f64;
         let bound = ChangeBound::new(&pairs, (mean_reach / 10.0).max(f64::MIN_POSITIVE), self.params.p);
         let (support, tolerance) = (self.params.support, self.tolerance);
         let lengths = &self.lengths;
-        let verdicts: Vec<(u32, bool)> = (0..n as u32)
+        // (vertex, its trajectories' drift so far with this update's, retrace?)
+        let drifted = &self.drifted;
+        let verdicts: Vec<(u32, f64, bool)> = (0..n as u32)
             .into_par_iter()
             .filter_map(|v| {
                 if must[v as usize] {
-                    return Some((v, true));
+                    return Some((v, 0.0, true));
                 }
                 let (o, i) = &self.traces[v as usize];
                 let reach = support * lengths[v as usize] as f64;
@@ -243,12 +250,18 @@ impl IncrementalShell {
                 if !(within(o) || within(i)) {
                     return None;
                 }
-                let retrace = [o, i].iter().any(|t| t.radius > 0.0 && drift(&bound, t, reach) > tolerance);
-                Some((v, retrace))
+                // Kept trajectories add up the changes they were spared, edit after
+                // edit: the tolerance bounds the sum since they were traced.
+                let d = [o, i].iter().filter(|t| t.radius > 0.0).map(|t| drift(&bound, t, reach)).fold(0.0, f64::max);
+                let total = drifted[v as usize] as f64 + d;
+                Some((v, total, total > tolerance))
             })
             .collect();
-        let dirty: Vec<u32> = verdicts.iter().filter(|(_, r)| *r).map(|(v, _)| *v).collect();
+        let dirty: Vec<u32> = verdicts.iter().filter(|(_, _, r)| *r).map(|(v, _, _)| *v).collect();
         let kept = verdicts.len() - dirty.len();
+        for &(v, total, retrace) in &verdicts {
+            self.drifted[v as usize] = if retrace { 0.0 } else { total as f32 };
+        }
 
         let fresh = trace_vertices(&self.tracer, &self.mesh, &self.lengths, self.side, &self.params, &dirty);
         for (&v, t) in dirty.iter().zip(fresh) {
@@ -288,6 +301,23 @@ impl IncrementalShell {
             self.outer_bvh = None;
         } else {
             self.checker.refit_base(&self.mesh, &moved);
+            // Moved base triangles can now cross outer triangles no retraced director
+            // touches: those are checked too (their directors keep their value).
+            if let Some(outer) = &self.outer_bvh {
+                let mut near = vec![false; n];
+                seeds.iter().for_each(|&v| near[v as usize] = true);
+                let base_count = self.triangulation.triangles.len();
+                for (_, _, new) in changes.iter().filter(|c| c.0 < base_count) {
+                    let (lo, hi) = tri_box(new);
+                    outer.query(lo, hi, |t| {
+                        for &v in &self.checker.tris[t as usize] {
+                            if !std::mem::replace(&mut near[v as usize], true) {
+                                seeds.push(v);
+                            }
+                        }
+                    });
+                }
+            }
         }
         super::repair::untangle_with(
             &self.checker,

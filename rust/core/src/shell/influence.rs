@@ -15,6 +15,13 @@
 //! `D` measured from the cell's bounding sphere. Divided by `|push(x)|`, this bounds
 //! the turn of the field direction (and twice it the change of the speed), so a
 //! trajectory whose bound stays below a tolerance keeps its director.
+//!
+//! The bound is for the field integrated face by face (`theta = 0`). The Barnes-Hut
+//! tree lumps a node whose centroid is in the ball, so a change up to `(1 + theta)`
+//! times farther can reach a trajectory through its node's monopole; such changes
+//! are of the size of the tree's own approximation error, which the update's
+//! measurements include (`shell_bench`). Between its samples a trajectory is taken
+//! as the chord, and `|push|` as the smaller of the two ends.
 
 use glam::{DVec3, IVec3};
 use std::collections::HashMap;
@@ -123,8 +130,10 @@ impl ChangeBound {
                 return f64::INFINITY;
             }
             let d1 = if p == 3.0 { (d * d * d * d).recip() } else { d.powf(-(p + 1.0)) };
-            // The taper's weight changes only for patches in its band.
-            let taper = if dc + c.radius >= super::field::tree::TAPER * radius { c.taper / radius } else { 0.0 };
+            // The taper's weight changes only for patches in its band (seen from
+            // anywhere on the segment: its farther end bounds the distance).
+            let far = (a - c.centre).length().max((b - c.centre).length());
+            let taper = if far + c.radius >= super::field::tree::TAPER * radius { c.taper / radius } else { 0.0 };
             sum += d1 * (c.area + taper) + d1 / d * (c.shift + c.spread / d);
         }
         sum

@@ -313,3 +313,42 @@ fn general_p_uses_quadrature_and_agrees_in_direction() {
     assert!((g.length() - 1.0).abs() < 0.05 && g.z > 0.0, "{g}");
     assert!((f.distance(x) - 30.0).abs() < 1.5, "{}", f.distance(x));
 }
+
+#[test]
+fn kept_directors_add_up_what_repeated_edits_spared_them() {
+    // The same small edit, again and again: each alone keeps the far directors, but
+    // what they were spared adds up, so later edits retrace some of them.
+    let mesh = tm::bumpy_head(3);
+    let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+    let diag = mesh.bbox_diagonal();
+    let mut inc = incremental::IncrementalShell::new(mesh.clone(), t.clone(), Side::Exterior, ShellParams::default()).unwrap();
+    inc.tolerance = 0.05;
+    let step = bumped(&mesh, 0, 0.002 * diag, 0.1 * diag);
+    let mut counts = Vec::new();
+    for k in 1..=8 {
+        let positions: Vec<Vec3> = mesh.positions().iter().zip(&step).map(|(p, q)| *p + (*q - *p) * k as f32).collect();
+        let stats = inc.update(&positions, &t).unwrap();
+        assert!(!stats.rebuilt && stats.kept > 0, "{stats:?}");
+        counts.push(stats.retraced);
+    }
+    // Without the sum every edit after the first retraces the same directors (the
+    // bump's neighbourhood); with it, kept ones join them as their sums pass the
+    // tolerance.
+    assert!(counts[2..].iter().any(|&c| c > counts[1]), "retraced per edit {counts:?}");
+}
+
+#[test]
+fn a_moved_loose_vertex_keeps_a_zero_director() {
+    let sphere = tm::icosphere(2);
+    let mut positions = sphere.positions().to_vec();
+    positions.push(Vec3::new(5.0, 0.0, 0.0));
+    let mesh = Mesh::new(positions.clone(), &sphere.face_sizes(), sphere.corners().to_vec(), None).unwrap();
+    let t = Thickness::relative(0.05).per_vertex(&mesh, None).unwrap();
+    let mut inc = incremental::IncrementalShell::new(mesh.clone(), t.clone(), Side::Exterior, ShellParams::default()).unwrap();
+    let loose = positions.len() - 1;
+    positions[loose] = Vec3::new(5.0, 1.0, 0.0);
+    let stats = inc.update(&positions, &t).unwrap();
+    assert_eq!((stats.changed, stats.retraced), (1, 1), "{stats:?}");
+    assert_eq!(inc.shell().directors[loose], Vec3::ZERO);
+    assert_eq!(inc.shell().achieved[loose], 0.0);
+}
