@@ -16,6 +16,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 import thicket  # noqa: E402
+from blender_objects import mesh_object  # noqa: E402, F401  (tests import it from here)
 
 thicket.register()
 
@@ -48,14 +49,6 @@ def select_only(*objects):
 def add(primitive, **kw):
     getattr(bpy.ops.mesh, f"primitive_{primitive}_add")(**kw)
     return bpy.context.active_object
-
-
-def mesh_object(name, vertices, faces):
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(vertices, [], faces)
-    obj = bpy.data.objects.new(name, mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
 
 
 _exit_status = 0

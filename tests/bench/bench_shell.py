@@ -12,12 +12,13 @@ import sys
 import time
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-sys.path[:0] = [str(ROOT / "addon"), str(ROOT / "build" / "site")]
+sys.path[:0] = [str(ROOT / "addon"), str(ROOT / "build" / "site"), str(ROOT / "tests")]
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 import thicket  # noqa: E402
+from blender_objects import mesh_object  # noqa: E402
 from thicket import mesh_io, native  # noqa: E402
 
 EXTERIOR = 0.10  # fraction of the bounding-box diagonal, as in the issue
@@ -113,14 +114,6 @@ def voxel_object(name, dims, sub, filled):
                             quad.reverse()
                         faces.append([vid(q) for q in quad])
     return mesh_object(name, verts, faces)
-
-
-def mesh_object(name, verts, faces):
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(verts, [], faces)
-    obj = bpy.data.objects.new(name, mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
 
 
 def saddle_object(n=24):

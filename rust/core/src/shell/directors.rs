@@ -15,8 +15,8 @@
 //! down exponentially instead of crossing the medial axis, which is the compression
 //! behaviour of figures 4.7 and 4.8.
 
-use super::field::{boundary_faces, FieldEval, Kernel, PatchTree};
-use crate::mesh::vertex_normals;
+use super::field::{extension_faces, FieldEval, Kernel, PatchTree};
+use crate::mesh::{boundary_edges, vertex_normals, Incidence};
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -162,6 +162,10 @@ pub(crate) struct Tracer {
     pub min_edge: Vec<f32>,
     /// [`ShellParams::compression_onset`].
     pub onset: f64,
+    /// Directed open-boundary edges with artificial faces (none when disabled).
+    pub boundary: Vec<(u32, u32)>,
+    /// The faces around each vertex.
+    pub faces_around: Incidence,
 }
 
 /// One traced trajectory: its end, the bounding sphere of the points evaluated, and
@@ -192,24 +196,27 @@ impl Trace {
     }
 }
 
-pub(crate) fn integration_triangles(mesh: &Mesh, normals: &[Vec3], reach: &[f32], params: &ShellParams) -> Vec<[DVec3; 3]> {
+/// The triangles the field integrates: the mesh's, then the artificial faces along
+/// its open `boundary` edges (4.3.2).
+fn integration_triangles(mesh: &Mesh, normals: &[Vec3], reach: &[f32], boundary: &[(u32, u32)]) -> Vec<[DVec3; 3]> {
     let mut tris = super::field::mesh_triangles(mesh);
-    if params.boundary_faces {
-        tris.extend(boundary_faces(mesh, normals, reach));
-    }
+    tris.extend(extension_faces(boundary, mesh.positions(), normals, reach));
     tris
 }
 
-pub(crate) fn min_edges(mesh: &Mesh) -> Vec<f32> {
+/// Shortest edge at `v` among its `faces` (the first step of its trajectory).
+pub(crate) fn min_edge_at(mesh: &Mesh, v: u32, faces: &[u32]) -> f32 {
     let p = mesh.positions();
-    let mut m = vec![f32::INFINITY; p.len()];
-    for f in mesh.faces() {
-        for i in 0..f.len() {
-            let (a, b) = (f[i] as usize, f[(i + 1) % f.len()] as usize);
-            let l = (p[a] - p[b]).length();
-            if l > 0.0 {
-                m[a] = m[a].min(l);
-                m[b] = m[b].min(l);
+    let mut m = f32::INFINITY;
+    for &f in faces {
+        let face = mesh.face(f as usize);
+        let k = face.len();
+        if let Some(i) = face.iter().position(|&u| u == v) {
+            for u in [face[(i + 1) % k], face[(i + k - 1) % k]] {
+                let l = (p[u as usize] - p[v as usize]).length();
+                if l > 0.0 {
+                    m = m.min(l);
+                }
             }
         }
     }
@@ -217,10 +224,17 @@ pub(crate) fn min_edges(mesh: &Mesh) -> Vec<f32> {
 }
 
 impl Tracer {
-    pub fn new(mesh: &Mesh, reach: &[f32], params: &ShellParams) -> Self {
+    /// The tracer, and the integration triangles its tree was built from (in their
+    /// original order, for later refits).
+    pub fn new(mesh: &Mesh, reach: &[f32], params: &ShellParams) -> (Self, Vec<[DVec3; 3]>) {
         let normals = vertex_normals(mesh);
-        let tree = PatchTree::build(&integration_triangles(mesh, &normals, reach, params));
-        Self { tree, kernel: Kernel::new(params.p, params.theta), normals, min_edge: min_edges(mesh), onset: params.compression_onset }
+        let boundary = if params.boundary_faces { boundary_edges(mesh) } else { Vec::new() };
+        let tris = integration_triangles(mesh, &normals, reach, &boundary);
+        let tree = PatchTree::build(&tris);
+        let faces_around = Incidence::faces(mesh);
+        let min_edge = (0..mesh.vertex_count()).map(|v| min_edge_at(mesh, v as u32, faces_around.of(v))).collect();
+        let kernel = Kernel::new(params.p, params.theta);
+        (Self { tree, kernel, normals, min_edge, onset: params.compression_onset, boundary, faces_around }, tris)
     }
 
     /// The unit field direction at `x`, the speed along it (module docs) and `|push|`.
@@ -353,7 +367,7 @@ pub(crate) fn director_of(x0: Vec3, side: Side, out: &Trace, inn: &Trace) -> (Ve
 pub fn build_shell(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellParams) -> Result<Shell> {
     check_inputs(mesh, thickness, params)?;
     let lengths = side_lengths(thickness, side);
-    let tracer = Tracer::new(mesh, &lengths, params);
+    let (tracer, _) = Tracer::new(mesh, &lengths, params);
     let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
     let traces = trace_vertices(&tracer, mesh, &lengths, side, params, &all);
     let mut shell = assemble(mesh, thickness, side, &traces);

@@ -16,12 +16,12 @@
 //! starts from the retraced directors.
 
 use super::defects::Checker;
-use super::directors::{assemble, check_inputs, side_lengths, trace_vertices, Trace, Tracer, REPAIR_FACTOR, TRACE_SAMPLES};
-use super::field::{extension_faces, mesh_triangles, PatchTree};
+use super::directors::{assemble, check_inputs, min_edge_at, side_lengths, trace_vertices, Trace, Tracer, REPAIR_FACTOR, TRACE_SAMPLES};
+use super::field::{extension_faces, PatchTree};
 use super::influence::ChangeBound;
 use super::intersect::{tri_box, TriBvh};
 use super::{Shell, ShellParams, Side};
-use crate::mesh::{boundary_edges, face_triangles, vertex_normal, Incidence, Triangulation};
+use crate::mesh::{face_triangles, vertex_normal};
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -58,11 +58,8 @@ pub struct IncrementalShell {
     /// Bound on the relative field change a kept trajectory may see (module docs).
     pub tolerance: f64,
     tracer: Tracer,
-    triangulation: Triangulation,
     /// First triangle of each face (and the total at the end).
     face_tris: Vec<u32>,
-    faces_of_vertex: Incidence,
-    boundary: Vec<(u32, u32)>,
     on_boundary: Vec<bool>,
     /// Integration triangles: the mesh's, then the boundary extension's.
     tris: Vec<[DVec3; 3]>,
@@ -79,19 +76,16 @@ impl IncrementalShell {
     pub fn new(mesh: Mesh, thickness: Vec<f32>, side: Side, params: ShellParams) -> Result<Self> {
         check_inputs(&mesh, &thickness, &params)?;
         let lengths = side_lengths(&thickness, side);
-        let tracer = Tracer::new(&mesh, &lengths, &params);
-        let triangulation = mesh.triangulate();
-        let mut face_tris = vec![0u32; mesh.face_count() + 1];
-        triangulation.face_of_triangle.iter().for_each(|&f| face_tris[f as usize + 1] += 1);
-        for f in 0..mesh.face_count() {
-            face_tris[f + 1] += face_tris[f];
-        }
-        let faces_of_vertex = Incidence::faces(&mesh);
-        let boundary = if params.boundary_faces { boundary_edges(&mesh) } else { Vec::new() };
+        let (tracer, tris) = Tracer::new(&mesh, &lengths, &params);
+        // A face of k corners splits into k - 2 triangles (`face_triangles`).
+        let face_tris: Vec<u32> = std::iter::once(0)
+            .chain(mesh.faces().scan(0u32, |n, f| {
+                *n += f.len().saturating_sub(2) as u32;
+                Some(*n)
+            }))
+            .collect();
         let mut on_boundary = vec![false; mesh.vertex_count()];
-        boundary.iter().for_each(|&(a, b)| (on_boundary[a as usize], on_boundary[b as usize]) = (true, true));
-        let mut tris = mesh_triangles(&mesh);
-        tris.extend(extension_faces(&boundary, mesh.positions(), &tracer.normals, &lengths));
+        tracer.boundary.iter().for_each(|&(a, b)| (on_boundary[a as usize], on_boundary[b as usize]) = (true, true));
         let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
         let traces = trace_vertices(&tracer, &mesh, &lengths, side, &params, &all);
         let mut shell = assemble(&mesh, &thickness, side, &traces);
@@ -106,10 +100,7 @@ impl IncrementalShell {
             params,
             tolerance: DEFAULT_TOLERANCE,
             tracer,
-            triangulation,
             face_tris,
-            faces_of_vertex,
-            boundary,
             on_boundary,
             tris,
             drifted: vec![0.0; traces.len()],
@@ -177,11 +168,45 @@ impl IncrementalShell {
             return self.rebuild(changed);
         }
 
-        // Faces around moved vertices, and the vertices whose normal or first step changed.
+        let (touched_face, around) = self.refresh_around(&moved);
+        let Some((changes, retriangulated)) = self.changed_triangles(&touched_face, &around, &thicker) else {
+            return self.rebuild(changed);
+        };
+        let mut must = vec![false; n];
+        around.iter().chain(&thicker).chain(&moved).for_each(|&u| must[u as usize] = true);
+        let (dirty, kept) = self.choose_retraced(&changes, &must);
+        let fresh = trace_vertices(&self.tracer, &self.mesh, &self.lengths, self.side, &self.params, &dirty);
+        for (&v, t) in dirty.iter().zip(fresh) {
+            self.traces[v as usize] = t;
+        }
+        let mut seeds = self.reset_repaired(&dirty);
+        if retriangulated {
+            self.checker = Checker::new(&self.mesh);
+            self.outer_bvh = None;
+        } else {
+            self.checker.refit_base(&self.mesh, &moved);
+            self.seed_pierced_outer(&changes, &mut seeds);
+        }
+        super::repair::untangle_with(
+            &self.checker,
+            &mut self.outer_bvh,
+            &self.mesh,
+            &mut self.shell,
+            self.params.repair_rounds,
+            REPAIR_FACTOR,
+            Some(&seeds),
+        );
+        Ok(UpdateStats { changed, retraced: dirty.len(), kept, rebuilt: false })
+    }
+
+    /// The faces around moved vertices, and the vertices of those faces, whose normal
+    /// and first step are recomputed here.
+    fn refresh_around(&mut self, moved: &[u32]) -> (Vec<bool>, Vec<u32>) {
+        let n = self.mesh.vertex_count();
         let mut touched_face = vec![false; self.mesh.face_count()];
         let mut around = vec![false; n];
-        for &v in &moved {
-            for &f in self.faces_of_vertex.of(v as usize) {
+        for &v in moved {
+            for &f in self.tracer.faces_around.of(v as usize) {
                 if !std::mem::replace(&mut touched_face[f as usize], true) {
                     self.mesh.face(f as usize).iter().for_each(|&u| around[u as usize] = true);
                 }
@@ -189,13 +214,24 @@ impl IncrementalShell {
         }
         let around: Vec<u32> = (0..n as u32).filter(|&u| around[u as usize]).collect();
         for &u in &around {
-            let faces = self.faces_of_vertex.of(u as usize);
+            let faces = self.tracer.faces_around.of(u as usize);
             self.tracer.normals[u as usize] = vertex_normal(&self.mesh, u, faces);
             self.tracer.min_edge[u as usize] = min_edge_at(&self.mesh, u, faces);
         }
+        (touched_face, around)
+    }
 
-        // Changed triangles, old and new. A face whose triangulation changed its
-        // diagonals asks for a rebuild of the checker's incidences.
+    /// The integration triangles that changed, as (index, old, new), written into
+    /// `tris` and the patch tree, and whether a face's diagonals changed (the checker,
+    /// which holds the triangulation, is then rebuilt). `None`: a face's triangle
+    /// count changed; rebuild.
+    #[allow(clippy::type_complexity)]
+    fn changed_triangles(
+        &mut self,
+        touched_face: &[bool],
+        around: &[u32],
+        thicker: &[u32],
+    ) -> Option<(Vec<(usize, [DVec3; 3], [DVec3; 3])>, bool)> {
         let p = self.mesh.positions();
         let mut changes: Vec<(usize, [DVec3; 3])> = Vec::new();
         let mut scratch = (Vec::new(), Vec::new());
@@ -205,17 +241,16 @@ impl IncrementalShell {
             scratch.1.clear();
             face_triangles(p, self.mesh.face(f), &mut scratch.0, &mut scratch.1);
             if scratch.1.len() != range.len() {
-                return self.rebuild(changed);
+                return None;
             }
             for (i, t) in range.zip(&scratch.1) {
-                retriangulated |= self.triangulation.triangles[i] != *t;
-                self.triangulation.triangles[i] = *t;
+                retriangulated |= self.checker.tris[i] != *t;
                 changes.push((i, t.map(|k| p[k as usize].as_dvec3())));
             }
         }
-        if !self.boundary.is_empty() && around.iter().chain(&thicker).any(|&u| self.on_boundary[u as usize]) {
-            let first = self.triangulation.triangles.len();
-            let ext = extension_faces(&self.boundary, p, &self.tracer.normals, &self.lengths);
+        if !self.tracer.boundary.is_empty() && around.iter().chain(thicker).any(|&u| self.on_boundary[u as usize]) {
+            let first = self.checker.tris.len();
+            let ext = extension_faces(&self.tracer.boundary, p, &self.tracer.normals, &self.lengths);
             changes.extend(ext.into_iter().enumerate().map(|(k, t)| (first + k, t)));
         }
         let changes: Vec<(usize, [DVec3; 3], [DVec3; 3])> =
@@ -227,17 +262,19 @@ impl IncrementalShell {
         if !self.tracer.tree.refit_triangles(&moved_tris) {
             self.tracer.tree = PatchTree::build(&self.tris);
         }
+        Some((changes, retriangulated))
+    }
 
-        // Which trajectories to trace again.
-        let mut must = vec![false; n];
-        around.iter().chain(&thicker).chain(&moved).for_each(|&u| must[u as usize] = true);
+    /// The trajectories to trace again: the `must` ones, and those within reach of the
+    /// change whose summed drift passes the tolerance (module docs). Returns them and
+    /// how many within reach were kept.
+    fn choose_retraced(&mut self, changes: &[(usize, [DVec3; 3], [DVec3; 3])], must: &[bool]) -> (Vec<u32>, usize) {
+        let n = self.mesh.vertex_count();
         let pairs: Vec<_> = changes.iter().map(|(_, old, new)| (*old, *new)).collect();
         let mean_reach = self.params.support * self.lengths.iter().map(|&l| l as f64).sum::<f64>() / n as f64;
         let bound = ChangeBound::new(&pairs, (mean_reach / 10.0).max(f64::MIN_POSITIVE), self.params.p);
-        let (support, tolerance) = (self.params.support, self.tolerance);
-        let lengths = &self.lengths;
+        let (support, tolerance, lengths, drifted) = (self.params.support, self.tolerance, &self.lengths, &self.drifted);
         // (vertex, its trajectories' drift so far with this update's, retrace?)
-        let drifted = &self.drifted;
         let verdicts: Vec<(u32, f64, bool)> = (0..n as u32)
             .into_par_iter()
             .filter_map(|v| {
@@ -257,30 +294,29 @@ impl IncrementalShell {
                 Some((v, total, total > tolerance))
             })
             .collect();
-        let dirty: Vec<u32> = verdicts.iter().filter(|(_, _, r)| *r).map(|(v, _, _)| *v).collect();
-        let kept = verdicts.len() - dirty.len();
         for &(v, total, retrace) in &verdicts {
             self.drifted[v as usize] = if retrace { 0.0 } else { total as f32 };
         }
+        let dirty: Vec<u32> = verdicts.iter().filter(|(_, _, r)| *r).map(|(v, _, _)| *v).collect();
+        let kept = verdicts.len() - dirty.len();
+        (dirty, kept)
+    }
 
-        let fresh = trace_vertices(&self.tracer, &self.mesh, &self.lengths, self.side, &self.params, &dirty);
-        for (&v, t) in dirty.iter().zip(fresh) {
-            self.traces[v as usize] = t;
-        }
-        // The repair shortens the directors of a tangle together, round by round, so
-        // its result depends on the whole group. The repaired directors connected to
-        // retraced ones go back to their traced value with them, and the repair runs
-        // again from there: the rounds a rebuild would run on these groups. Repaired
-        // groups the update did not retrace keep their repair.
+    /// The repair shortens the directors of a tangle together, round by round, so its
+    /// result depends on the whole group. The repaired directors connected to the
+    /// retraced ones go back to their traced value with them; the repair then runs
+    /// again from these seeds: the rounds a rebuild would run on these groups.
+    /// Repaired groups the update did not retrace keep their repair.
+    fn reset_repaired(&mut self, retraced: &[u32]) -> Vec<u32> {
         let raw = assemble(&self.mesh, &self.thickness, self.side, &self.traces);
         let repaired = |v: usize| self.shell.directors[v] != raw.directors[v] || self.shell.base_offset[v] != raw.base_offset[v];
-        let mut reset = vec![false; n];
-        let mut stack: Vec<u32> = dirty.clone();
+        let mut reset = vec![false; self.mesh.vertex_count()];
+        let mut stack: Vec<u32> = retraced.to_vec();
         stack.iter().for_each(|&v| reset[v as usize] = true);
         let mut seeds = Vec::with_capacity(stack.len());
         while let Some(v) = stack.pop() {
             seeds.push(v);
-            for &f in self.faces_of_vertex.of(v as usize) {
+            for &f in self.tracer.faces_around.of(v as usize) {
                 for &u in self.mesh.face(f as usize) {
                     if !reset[u as usize] && repaired(u as usize) {
                         reset[u as usize] = true;
@@ -296,39 +332,26 @@ impl IncrementalShell {
             self.shell.achieved[v] = raw.achieved[v];
         }
         self.shell.target = raw.target;
-        if retriangulated {
-            self.checker = Checker::new(&self.mesh);
-            self.outer_bvh = None;
-        } else {
-            self.checker.refit_base(&self.mesh, &moved);
-            // Moved base triangles can now cross outer triangles no retraced director
-            // touches: those are checked too (their directors keep their value).
-            if let Some(outer) = &self.outer_bvh {
-                let mut near = vec![false; n];
-                seeds.iter().for_each(|&v| near[v as usize] = true);
-                let base_count = self.triangulation.triangles.len();
-                for (_, _, new) in changes.iter().filter(|c| c.0 < base_count) {
-                    let (lo, hi) = tri_box(new);
-                    outer.query(lo, hi, |t| {
-                        for &v in &self.checker.tris[t as usize] {
-                            if !std::mem::replace(&mut near[v as usize], true) {
-                                seeds.push(v);
-                            }
-                        }
-                    });
+        seeds
+    }
+
+    /// Moved base triangles can cross outer triangles no retraced director touches:
+    /// their vertices join the repair's seeds (their directors keep their value).
+    fn seed_pierced_outer(&self, changes: &[(usize, [DVec3; 3], [DVec3; 3])], seeds: &mut Vec<u32>) {
+        let Some(outer) = &self.outer_bvh else { return };
+        let mut near = vec![false; self.mesh.vertex_count()];
+        seeds.iter().for_each(|&v| near[v as usize] = true);
+        let base_count = self.checker.tris.len();
+        for (_, _, new) in changes.iter().filter(|c| c.0 < base_count) {
+            let (lo, hi) = tri_box(new);
+            outer.query(lo, hi, |t| {
+                for &v in &self.checker.tris[t as usize] {
+                    if !std::mem::replace(&mut near[v as usize], true) {
+                        seeds.push(v);
+                    }
                 }
-            }
+            });
         }
-        super::repair::untangle_with(
-            &self.checker,
-            &mut self.outer_bvh,
-            &self.mesh,
-            &mut self.shell,
-            self.params.repair_rounds,
-            REPAIR_FACTOR,
-            Some(&seeds),
-        );
-        Ok(UpdateStats { changed, retraced: dirty.len(), kept, rebuilt: false })
     }
 
     fn rebuild(&mut self, changed: usize) -> Result<UpdateStats> {
@@ -351,23 +374,4 @@ fn drift(bound: &ChangeBound, t: &Trace, reach: f64) -> f64 {
         }
     }
     worst
-}
-
-/// Shortest edge at `v` among its faces (the first step of its trajectory).
-fn min_edge_at(mesh: &Mesh, v: u32, faces: &[u32]) -> f32 {
-    let p = mesh.positions();
-    let mut m = f32::INFINITY;
-    for &f in faces {
-        let face = mesh.face(f as usize);
-        let k = face.len();
-        if let Some(i) = face.iter().position(|&u| u == v) {
-            for u in [face[(i + 1) % k], face[(i + k - 1) % k]] {
-                let l = (p[u as usize] - p[v as usize]).length();
-                if l > 0.0 {
-                    m = m.min(l);
-                }
-            }
-        }
-    }
-    m
 }

@@ -149,14 +149,8 @@ impl TriBvh {
         me
     }
 
-    /// Moves the triangles (same count and order as built) and recomputes the boxes
-    /// bottom-up, keeping the tree's topology: O(n), for shells whose vertices moved
-    /// a little.
-    pub fn refit(&mut self, tris: &[[DVec3; 3]]) {
-        self.refit_boxes(tris.iter().map(tri_box));
-    }
-
-    /// [`refit`](Self::refit) to boxes given directly (one per triangle, in order).
+    /// Moves every item to a new box (same count and order as built) and recomputes
+    /// the nodes bottom-up, keeping the tree's topology: O(n).
     pub fn refit_boxes(&mut self, boxes: impl Iterator<Item = (DVec3, DVec3)>) {
         self.boxes.iter_mut().zip(boxes).for_each(|(b, t)| *b = t);
         // Children always follow their parent: refit in reverse order.
@@ -217,7 +211,7 @@ mod tests {
         };
         assert_eq!(query(&bvh), vec![0, 2]);
         // After moving the crossing triangle away and `above` down, a refit finds `above`.
-        bvh.refit(&[a, above.map(|p| p - DVec3::Z * 1.5), crossing.map(|p| p + DVec3::X * 5.0)]);
+        bvh.refit_boxes([a, above.map(|p| p - DVec3::Z * 1.5), crossing.map(|p| p + DVec3::X * 5.0)].iter().map(tri_box));
         assert_eq!(query(&bvh), vec![0, 1]);
         // Moving items one by one gives the same answers as a full refit.
         let mut partial = TriBvh::build(&[a, above, crossing]);

@@ -3,17 +3,11 @@
 //! along the surface's tangent by the shell thickness, and a quad per boundary edge
 //! (two triangles) make the field behave as if the surface continued.
 
-use crate::mesh::boundary_edges;
-use crate::Mesh;
 use glam::{DVec3, Vec3};
 
-/// Extension triangles for the open boundaries of `mesh` (none for closed meshes).
-/// `normals` are unit vertex normals, `reach[v]` the extension length at vertex `v`.
-pub fn boundary_faces(mesh: &Mesh, normals: &[Vec3], reach: &[f32]) -> Vec<[DVec3; 3]> {
-    extension_faces(&boundary_edges(mesh), mesh.positions(), normals, reach)
-}
-
-/// [`boundary_faces`] along the given directed boundary edges (two per edge, in order).
+/// Extension triangles along the directed open-boundary `edges` (two per edge, in
+/// order; none for closed meshes). `normals` are unit vertex normals, `reach[v]` the
+/// extension length at vertex `v`.
 pub fn extension_faces(edges: &[(u32, u32)], p: &[Vec3], normals: &[Vec3], reach: &[f32]) -> Vec<[DVec3; 3]> {
     if edges.is_empty() {
         return Vec::new();

@@ -13,7 +13,7 @@ pub mod exact;
 pub mod quadrature;
 pub mod tree;
 
-pub use boundary::{boundary_faces, extension_faces};
+pub use boundary::extension_faces;
 pub use exact::{triangle_p3, TriangleIntegral};
 pub use quadrature::Quadrature;
 pub use tree::{FieldEval, Kernel, PatchTree};
