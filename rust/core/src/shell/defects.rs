@@ -4,7 +4,7 @@
 //! round, on a refitted BVH).
 
 use super::geometry::{prisms, Cell};
-use super::intersect::{tri_box, triangles_intersect, TriBvh};
+use super::intersect::{segment_crosses_triangle, tri_box, triangles_intersect, TriBvh};
 use super::Shell;
 use crate::mesh::Incidence;
 use crate::Mesh;
@@ -30,6 +30,8 @@ pub(crate) struct Checker {
     pub cells: Vec<Cell>,
     pub base: Vec<[DVec3; 3]>,
     pub base_bvh: TriBvh,
+    /// The base mesh's bounding-box diagonal (the scale of "coincide").
+    diag: f64,
     /// Triangles and cells around each vertex (CSR).
     tris_around: Incidence,
     cells_around: Incidence,
@@ -51,7 +53,7 @@ impl Checker {
         let cells = prisms(mesh);
         let tris_around = Incidence::new(p.len(), tris.iter().copied());
         let cells_around = Incidence::new(p.len(), cells.iter().map(|c| c.base().to_vec()));
-        Self { base_bvh: TriBvh::build(&base), base, tris, cells, tris_around, cells_around }
+        Self { base_bvh: TriBvh::build(&base), diag: mesh.bbox_diagonal() as f64, base, tris, cells, tris_around, cells_around }
     }
 
     /// After the vertices `moved` moved (same topology and triangulation): the base
@@ -65,11 +67,20 @@ impl Checker {
             self.base[t as usize] = self.tris[t as usize].map(|i| p[i as usize].as_dvec3());
         }
         self.base_bvh.refit_items(touched.iter().map(|&t| (t, tri_box(&self.base[t as usize]))));
+        self.diag = mesh.bbox_diagonal() as f64;
     }
 
     /// Nothing flagged.
     pub fn clean(&self) -> Dirty {
         Dirty { tris: vec![false; self.tris.len()], cells: vec![false; self.cells.len()], tri_list: Vec::new(), cell_list: Vec::new() }
+    }
+
+    /// Flags the triangles and cells around each of `vertices`, after clearing `dirty`
+    /// (in time proportional to what it held).
+    pub fn mark_anew(&self, vertices: impl Iterator<Item = u32>, dirty: &mut Dirty) {
+        dirty.tri_list.drain(..).for_each(|t| dirty.tris[t as usize] = false);
+        dirty.cell_list.drain(..).for_each(|c| dirty.cells[c as usize] = false);
+        vertices.for_each(|v| self.mark_around(v as usize, dirty));
     }
 
     /// Flags the triangles and cells around vertex `v`.
@@ -84,6 +95,51 @@ impl Checker {
                 dirty.cell_list.push(c);
             }
         }
+    }
+
+    /// Whether outer-layer triangle `t` of `shell` crosses another one that shares no
+    /// vertex with it (`tree` holds the outer layer); stops at the first.
+    pub fn outer_crosses(&self, mesh: &Mesh, shell: &Shell, t: u32, tree: &TriBvh) -> bool {
+        let top = |v: &u32| shell.point(mesh.positions(), *v as usize, 1.0).as_dvec3();
+        let mine = self.tris[t as usize].map(|v| top(&v));
+        let (lo, hi) = tri_box(&mine);
+        let mut hit = false;
+        tree.query(lo, hi, |j| {
+            let other = &self.tris[j as usize];
+            hit = hit || (!other.iter().any(|v| self.tris[t as usize].contains(v)) && triangles_intersect(&mine, &other.map(|v| top(&v))));
+        });
+        hit
+    }
+
+    /// The triangles around vertex `v`.
+    pub fn tris_of(&self, v: usize) -> &[u32] {
+        self.tris_around.of(v)
+    }
+
+    /// Whether segment `a`-`b` of vertex `v` crosses a triangle away from `v`: of the
+    /// base, or of `outer`'s outer layer (with its tree).
+    pub fn segment_crosses(&self, mesh: &Mesh, v: u32, a: DVec3, b: DVec3, outer: Option<(&Shell, &TriBvh)>) -> bool {
+        let mut hit = false;
+        let mut test =
+            |j: u32, t: &dyn Fn() -> [DVec3; 3]| hit = hit || (!self.tris[j as usize].contains(&v) && segment_crosses_triangle(a, b, &t()));
+        match outer {
+            None => self.base_bvh.query_segment(a, b, |j| test(j, &|| self.base[j as usize])),
+            Some((shell, tree)) => {
+                let top = |i: u32| shell.point(mesh.positions(), i as usize, 1.0).as_dvec3();
+                tree.query_segment(a, b, |j| test(j, &|| self.tris[j as usize].map(top)))
+            }
+        }
+        hit
+    }
+
+    /// The cells around vertex `v`.
+    pub fn cells_of(&self, v: usize) -> &[u32] {
+        self.cells_around.of(v)
+    }
+
+    /// The corners of the cells around vertex `v` (`v` among them, others repeated).
+    pub fn cell_corners_around(&self, v: usize) -> impl Iterator<Item = u32> + '_ {
+        self.cells_around.of(v).iter().flat_map(|&c| self.cells[c as usize].base().iter().copied())
     }
 
     /// A tree over the outer-layer triangles' boxes, refitting `reuse` when given
@@ -106,13 +162,13 @@ impl Checker {
 
     /// The defects of `shell` among the flagged elements (all for `None`). A pair is
     /// found when either triangle is flagged. `outer_tree` holds every outer-layer
-    /// triangle of `shell` ([`outer_tree`](Self::outer_tree)).
-    pub fn find(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, outer_tree: &TriBvh) -> Findings {
+    /// triangle of `shell` ([`outer_tree`](Self::outer_tree)); without it the outer
+    /// layer is not checked against itself.
+    pub fn find(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, outer_tree: Option<&TriBvh>) -> Findings {
         let p = mesh.positions();
         let top = |v: u32| shell.point(p, v as usize, 1.0).as_dvec3();
         let outer = |i: usize| self.tris[i].map(top);
-        let diag = mesh.bbox_diagonal() as f64;
-        let coincide = |v: u32| (top(v) - p[v as usize].as_dvec3()).length() <= 1e-6 * diag;
+        let coincide = |v: u32| (top(v) - p[v as usize].as_dvec3()).length() <= 1e-6 * self.diag;
         let tris = &self.tris;
         let shares = |a: &[u32; 3], b: &[u32; 3]| a.iter().any(|v| b.contains(v));
         let tri_flagged = |i: usize| dirty.is_none_or(|d| d.tris[i]);
@@ -130,14 +186,16 @@ impl Checker {
                 let mine = outer(i);
                 let (lo, hi) = tri_box(&mine);
                 let mut hits = Vec::new();
-                outer_tree.query(lo, hi, |j| {
-                    let ju = j as usize;
-                    // Each pair once: by the lower index, unless only the higher is flagged.
-                    let first = j as usize > i || !tri_flagged(ju);
-                    if first && !shares(&tris[i], &tris[ju]) && triangles_intersect(&mine, &outer(ju)) {
-                        hits.push((true, i as u32, j));
-                    }
-                });
+                if let Some(tree) = outer_tree {
+                    tree.query(lo, hi, |j| {
+                        let ju = j as usize;
+                        // Each pair once: by the lower index, unless only the higher is flagged.
+                        let first = j as usize > i || !tri_flagged(ju);
+                        if first && !shares(&tris[i], &tris[ju]) && triangles_intersect(&mine, &outer(ju)) {
+                            hits.push((true, i as u32, j));
+                        }
+                    });
+                }
                 self.base_bvh.query(lo, hi, |j| {
                     let touching = tris[i].iter().any(|v| tris[j as usize].contains(v) && coincide(*v));
                     if !touching && triangles_intersect(&mine, &self.base[j as usize]) {
@@ -159,17 +217,25 @@ impl Checker {
     /// The vertices of every defect, as a mask.
     pub fn defect_vertices(&self, f: &Findings, n: usize) -> Vec<bool> {
         let mut bad = vec![false; n];
-        let mut mark = |vs: &[u32]| vs.iter().for_each(|v| bad[*v as usize] = true);
+        self.defect_vertex_list(f).iter().for_each(|v| bad[*v as usize] = true);
+        bad
+    }
+
+    /// The vertices of every defect, sorted, each once.
+    pub fn defect_vertex_list(&self, f: &Findings) -> Vec<u32> {
+        let mut bad = Vec::new();
         for &(i, j) in &f.self_pairs {
-            mark(&self.tris[i as usize]);
-            mark(&self.tris[j as usize]);
+            bad.extend(self.tris[i as usize]);
+            bad.extend(self.tris[j as usize]);
         }
         for &(i, _) in &f.base_pairs {
-            mark(&self.tris[i as usize]);
+            bad.extend(self.tris[i as usize]);
         }
         for &c in &f.inverted {
-            mark(self.cells[c as usize].base());
+            bad.extend(self.cells[c as usize].base());
         }
+        bad.sort_unstable();
+        bad.dedup();
         bad
     }
 }

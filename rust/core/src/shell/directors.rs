@@ -371,7 +371,10 @@ pub fn build_shell(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPar
     let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
     let traces = trace_vertices(&tracer, mesh, &lengths, side, params, &all);
     let mut shell = assemble(mesh, thickness, side, &traces);
-    super::repair::untangle(mesh, &mut shell, params.repair_rounds, REPAIR_FACTOR);
+    if params.repair_rounds > 0 && mesh.vertex_count() > 0 {
+        let checker = super::defects::Checker::new(mesh);
+        super::restore::settle(&checker, &mut None, mesh, &mut shell, params.repair_rounds, REPAIR_FACTOR, None);
+    }
     Ok(shell)
 }
 

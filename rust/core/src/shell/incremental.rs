@@ -91,7 +91,7 @@ impl IncrementalShell {
         let mut shell = assemble(&mesh, &thickness, side, &traces);
         let checker = Checker::new(&mesh);
         let mut outer_bvh = None;
-        super::repair::untangle_with(&checker, &mut outer_bvh, &mesh, &mut shell, params.repair_rounds, REPAIR_FACTOR, None);
+        super::restore::settle(&checker, &mut outer_bvh, &mesh, &mut shell, params.repair_rounds, REPAIR_FACTOR, None);
         Ok(Self {
             mesh,
             thickness,
@@ -187,7 +187,7 @@ impl IncrementalShell {
             self.checker.refit_base(&self.mesh, &moved);
             self.seed_pierced_outer(&changes, &mut seeds);
         }
-        super::repair::untangle_with(
+        super::restore::settle(
             &self.checker,
             &mut self.outer_bvh,
             &self.mesh,

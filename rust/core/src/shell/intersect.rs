@@ -159,8 +159,38 @@ impl TriBvh {
         }
     }
 
+    /// Calls `f` with every triangle whose box the segment `a`-`b` meets (slab test
+    /// per node: a long slanted segment visits far fewer nodes than its box would).
+    pub fn query_segment(&self, a: DVec3, b: DVec3, mut f: impl FnMut(u32)) {
+        let d = b - a;
+        let inv = DVec3::ONE / d;
+        let meets = |lo: DVec3, hi: DVec3| {
+            let (t0, t1) = ((lo - a) * inv, (hi - a) * inv);
+            // An axis the segment runs parallel to gives NaN or infinities: decide it by
+            // the start point alone.
+            let (mut enter, mut exit) = (0.0f64, 1.0f64);
+            for k in 0..3 {
+                if d[k] == 0.0 {
+                    if a[k] < lo[k] || a[k] > hi[k] {
+                        return false;
+                    }
+                } else {
+                    enter = enter.max(t0[k].min(t1[k]));
+                    exit = exit.min(t0[k].max(t1[k]));
+                }
+            }
+            enter <= exit
+        };
+        self.walk(meets, &mut f);
+    }
+
     /// Calls `f` with every triangle whose box overlaps `[lo, hi]`.
     pub fn query(&self, lo: DVec3, hi: DVec3, mut f: impl FnMut(u32)) {
+        self.walk(|l, h| !(l.cmpgt(hi).any() || h.cmplt(lo).any()), &mut f);
+    }
+
+    /// Calls `f` with every item whose box, and every ancestor's, passes `meets`.
+    fn walk(&self, meets: impl Fn(DVec3, DVec3) -> bool, f: &mut impl FnMut(u32)) {
         if self.nodes.is_empty() {
             return;
         }
@@ -170,13 +200,13 @@ impl TriBvh {
             sp -= 1;
             let n = stack[sp];
             let node = self.nodes[n as usize];
-            if node.lo.cmpgt(hi).any() || node.hi.cmplt(lo).any() {
+            if !meets(node.lo, node.hi) {
                 continue;
             }
             if node.count > 0 {
                 for &i in &self.items[node.index as usize..(node.index + node.count) as usize] {
                     let b = self.boxes[i as usize];
-                    if !(b.0.cmpgt(hi).any() || b.1.cmplt(lo).any()) {
+                    if meets(b.0, b.1) {
                         f(i);
                     }
                 }

@@ -9,8 +9,9 @@
 //! - [`incremental`]: a shell following edits of its base mesh (7.1); `influence`
 //!   bounds how far an edit reaches in the field.
 //! - [`geometry`]: layers, outer surface and closed solids built from any directors.
-//! - [`defects`], [`repair`], [`report`]: finding folds, shortening directors around
-//!   them, and counting shell quality.
+//! - [`defects`], [`repair`], `restore`, [`report`]: finding folds, shortening
+//!   directors around them, giving thickness back where normals have room, and
+//!   counting shell quality.
 
 pub mod defects;
 pub mod directors;
@@ -22,6 +23,7 @@ pub mod intersect;
 pub mod offset;
 pub mod repair;
 pub mod report;
+pub(crate) mod restore;
 pub mod thickness;
 
 pub use directors::{build_shell, Shell, ShellParams, Side};

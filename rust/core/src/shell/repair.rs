@@ -61,7 +61,7 @@ pub(crate) fn untangle_with(
     };
     let mut changed = 0;
     for _ in 0..rounds {
-        let found = checker.find(mesh, shell, dirty.as_ref(), &outer);
+        let found = checker.find(mesh, shell, dirty.as_ref(), Some(&outer));
         let bad = checker.defect_vertices(&found, mesh.vertex_count());
         let mut next = checker.clean();
         let mut any = false;

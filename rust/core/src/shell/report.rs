@@ -11,7 +11,7 @@
 //! twice the thickness, even where the two outer layers do not intersect). There the field shell is expected to reach (nearly) the full thickness.
 
 use super::defects::Checker;
-use super::intersect::segment_crosses_triangle;
+use super::intersect::TriBvh;
 use super::{Shell, Side};
 use crate::mesh::vertex_normals;
 use crate::Mesh;
@@ -46,17 +46,18 @@ fn dv(p: Vec3) -> DVec3 {
 /// The normal-displacement shell of the same side and targets.
 pub fn normal_shell(mesh: &Mesh, side: Side, target: &[f32]) -> Shell {
     let n = vertex_normals(mesh);
-    let (mut base_offset, mut directors) = (Vec::new(), Vec::new());
-    for (v, t) in target.iter().enumerate() {
-        let d = n[v] * t.abs();
-        match side {
-            Side::Exterior => (base_offset.push(Vec3::ZERO), directors.push(d)),
-            Side::Interior => (base_offset.push(Vec3::ZERO), directors.push(-d)),
-            Side::Envelope => (base_offset.push(-d * 0.5), directors.push(d)),
-        };
-    }
+    let (base_offset, directors): (Vec<Vec3>, Vec<Vec3>) = target.iter().zip(&n).map(|(t, n)| normal_shape(side, *n * t.abs())).unzip();
     let achieved = directors.iter().map(|d| d.length()).collect();
     Shell { side, base_offset, directors, achieved, target: target.iter().map(|t| t.abs()).collect() }
+}
+
+/// The base offset and director of normal displacement by `d` (normal times thickness).
+pub(crate) fn normal_shape(side: Side, d: Vec3) -> (Vec3, Vec3) {
+    match side {
+        Side::Exterior => (Vec3::ZERO, d),
+        Side::Interior => (Vec3::ZERO, -d),
+        Side::Envelope => (-d * 0.5, d),
+    }
 }
 
 /// Vertices where the normal-offset shell of the same side and targets is locally valid.
@@ -65,35 +66,65 @@ pub fn normal_valid_vertices(mesh: &Mesh, side: Side, target: &[f32]) -> Vec<boo
 }
 
 fn normal_valid_with(checker: &Checker, mesh: &Mesh, side: Side, target: &[f32]) -> Vec<bool> {
-    let shell = normal_shell(mesh, side, target);
-    let outer_bvh = checker.outer_tree(mesh, &shell, None);
-    let f = checker.find(mesh, &shell, None, &outer_bvh);
-    let p = mesh.positions();
-    let bad = checker.defect_vertices(&f, p.len());
-    // (b), (d): the vertex's own segment crossing the base or the outer layer away from it.
-    let outer: Vec<[DVec3; 3]> = checker.tris.iter().map(|t| t.map(|i| dv(shell.point(p, i as usize, 1.0)))).collect();
-    (0..p.len())
-        .into_par_iter()
-        .map(|v| {
-            let (a, b) = (dv(shell.point(p, v, 0.0)), dv(shell.point(p, v, 1.0)));
-            let mut hit = bad[v];
-            for (tree, tris) in [(&checker.base_bvh, &checker.base), (&outer_bvh, &outer)] {
-                tree.query(a.min(b), a.max(b), |j| {
-                    let t = &checker.tris[j as usize];
-                    if !t.contains(&(v as u32)) && segment_crosses_triangle(a, b, &tris[j as usize]) {
-                        hit = true;
-                    }
-                });
-            }
-            !hit
-        })
-        .collect()
+    let mut valid = vec![false; mesh.vertex_count()];
+    let all = (0..mesh.vertex_count() as u32).collect();
+    NormalRoom::new(checker, mesh, side, target).among(all, None).into_iter().for_each(|v| valid[v as usize] = true);
+    valid
+}
+
+/// Asks for any vertices whether normal displacement is valid around them ((a)-(d)
+/// above); the normal-offset shell's outer-layer tree is built on first need.
+pub(crate) struct NormalRoom<'a> {
+    checker: &'a Checker,
+    mesh: &'a Mesh,
+    pub shell: Shell,
+    tree: Option<TriBvh>,
+}
+
+impl<'a> NormalRoom<'a> {
+    pub fn new(checker: &'a Checker, mesh: &'a Mesh, side: Side, target: &[f32]) -> Self {
+        Self { checker, mesh, shell: normal_shell(mesh, side, target), tree: None }
+    }
+
+    /// Those of `vertices` with room. `like` is a tree over the same triangles whose
+    /// layout the outer-layer tree may copy (refitting is cheaper than building).
+    pub fn among(&mut self, vertices: Vec<u32>, like: Option<&TriBvh>) -> Vec<u32> {
+        let (checker, mesh, normal) = (self.checker, self.mesh, &self.shell);
+        let p = mesh.positions();
+        let segment = |v: u32| (dv(normal.point(p, v as usize, 0.0)), dv(normal.point(p, v as usize, 1.0)));
+        let mut dirty = checker.clean();
+        // (a), (b) and the base part of (c) first: they need no outer-layer tree, and
+        // most vertices that fail, fail there.
+        checker.mark_anew(vertices.iter().copied(), &mut dirty);
+        let bad = checker.defect_vertex_list(&checker.find(mesh, normal, Some(&dirty), None));
+        let vertices: Vec<u32> = vertices
+            .into_par_iter()
+            .filter(|&v| bad.binary_search(&v).is_err() && !checker.segment_crosses(mesh, v, segment(v).0, segment(v).1, None))
+            .collect();
+        if vertices.is_empty() {
+            return vertices;
+        }
+        // (c), (d): the outer layer against itself.
+        let tree = &*self.tree.get_or_insert_with(|| checker.outer_tree(mesh, normal, like.cloned()));
+        // Each triangle once: a vertex's triangles are its neighbours' too.
+        let mut tris: Vec<u32> = vertices.iter().flat_map(|&v| checker.tris_of(v as usize)).copied().collect();
+        tris.sort_unstable();
+        tris.dedup();
+        let crossing: Vec<u32> = tris.into_par_iter().filter(|&t| checker.outer_crosses(mesh, normal, t, tree)).collect();
+        vertices
+            .into_par_iter()
+            .filter(|&v| {
+                !checker.tris_of(v as usize).iter().any(|t| crossing.binary_search(t).is_ok())
+                    && !checker.segment_crosses(mesh, v, segment(v).0, segment(v).1, Some((normal, tree)))
+            })
+            .collect()
+    }
 }
 
 /// Counts what is wrong with `shell` and how much thickness it kept.
 pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
     let checker = Checker::new(mesh);
-    let f = checker.find(mesh, shell, None, &checker.outer_tree(mesh, shell, None));
+    let f = checker.find(mesh, shell, None, Some(&checker.outer_tree(mesh, shell, None)));
     let valid = normal_valid_with(&checker, mesh, shell.side, &shell.target);
     let normals = vertex_normals(mesh);
     let (mut min_ratio, mut sum, mut count, mut min_valid, mut n_valid) = (f32::INFINITY, 0.0f64, 0usize, f32::INFINITY, 0);

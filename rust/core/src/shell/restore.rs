@@ -1,0 +1,221 @@
+//! Giving back thickness the repair took where normal displacement has room.
+//!
+//! The repair ([`super::repair`]) shortens every corner of a defect. Beside concave
+//! folds a cell is often inverted only because the field bends its corners' directors
+//! towards each other (chapter 4.6: straight chords of curved trajectories), while
+//! the surface normals there would leave it upright. For each vertex short of
+//! [`GOAL`] of its target where the normal-offset shell has no defect around it
+//! ([`NormalRoom`]), and for its short neighbours, this pass tries the [`ATTEMPTS`]
+//! in turn: the full target along its own direction, then turned with its
+//! neighbours towards their normals. A try is kept only where no defect appears
+//! around it, so a clean shell stays clean; the pass makes one batch of tries per
+//! attempt and conflict, and each check only undoes tries, so it always ends.
+
+use super::defects::{Checker, Dirty};
+use super::intersect::TriBvh;
+use super::report::NormalRoom;
+use super::Shell;
+use crate::Mesh;
+use glam::Vec3;
+
+/// The share of its target a vertex should reach; vertices below it are retried.
+pub const GOAL: f32 = 0.95;
+
+/// Attempts in turn: how far towards the normal the vertex turns, how many rings of
+/// neighbours turn with it (the first ring as far, outer rings less and less), and
+/// the share of the target short directors are lengthened to.
+const ATTEMPTS: [(f32, u32, f32); 8] =
+    [(0.0, 0, 1.0), (0.5, 1, 1.0), (1.0, 1, 1.0), (1.0, 2, 1.0), (1.0, 3, 1.0), (0.0, 0, REACH), (0.5, 1, REACH), (1.0, 2, REACH)];
+
+/// The share of the target the last attempts settle for.
+const REACH: f32 = 0.96;
+
+/// Neighbours without room of their own (tried only to make room) stop after these
+/// attempts, and are looked for within these rings of a vertex with room.
+const NEIGHBOUR_ATTEMPTS: usize = 2;
+const NEIGHBOUR_RINGS: u32 = 2;
+
+/// A director's shape: its base offset and director.
+type Shape = (Vec3, Vec3);
+
+/// What a try replaced: vertex, shape and length.
+type Saved = Vec<(u32, Shape, f32)>;
+
+/// The repair, then the restore: of the whole shell, or after an edit around `seeds`
+/// (the vertices whose directors were reset), where both stay local.
+pub(crate) fn settle(
+    checker: &Checker,
+    outer: &mut Option<TriBvh>,
+    mesh: &Mesh,
+    shell: &mut Shell,
+    rounds: u32,
+    factor: f32,
+    seeds: Option<&[u32]>,
+) {
+    if rounds == 0 || mesh.vertex_count() == 0 {
+        return;
+    }
+    let before = seeds.map(|_| shell.achieved.clone());
+    super::repair::untangle_with(checker, outer, mesh, shell, rounds, factor, seeds);
+    let Some(tree) = outer.as_mut() else { return };
+    let scope = seeds.zip(before).map(|(seeds, before)| {
+        // The seeds, what the repair shortened, and their neighbours.
+        let mut near = seeds.to_vec();
+        near.extend((0..before.len() as u32).filter(|&v| before[v as usize] != shell.achieved[v as usize]));
+        let mut scope: Vec<u32> = near.iter().flat_map(|&v| checker.cell_corners_around(v as usize)).chain(near.iter().copied()).collect();
+        scope.sort_unstable();
+        scope.dedup();
+        scope
+    });
+    restore(checker, tree, mesh, shell, scope.as_deref());
+}
+
+/// Restores the vertices short of [`GOAL`] (among `scope`, all for `None`) where the
+/// normal-offset shell is locally valid. `outer` holds `shell`'s outer-layer triangles
+/// and is kept in step. Returns how many directors were lengthened.
+pub(crate) fn restore(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Shell, scope: Option<&[u32]>) -> usize {
+    let mut room = NormalRoom::new(checker, mesh, shell.side, &shell.target);
+    let short = |v: usize| shell.target[v] > 0.0 && shell.achieved[v] < GOAL * shell.target[v] && room.shell.achieved[v] > 0.0;
+    let short: Vec<u32> = match scope {
+        Some(s) => s.iter().copied().filter(|&v| short(v as usize)).collect(),
+        None => (0..shell.target.len() as u32).filter(|&v| short(v as usize)).collect(),
+    };
+    if short.is_empty() {
+        return 0;
+    }
+    let with_room = room.among(short.clone(), Some(outer));
+    // Short neighbours are tried too: beside a fold a vertex often fits only once
+    // they have their length back.
+    let mut tries: Vec<u32> = with_room
+        .iter()
+        .flat_map(|&c| rings_around(checker, c, NEIGHBOUR_RINGS))
+        .map(|m| m.0)
+        .filter(|v| short.binary_search(v).is_ok())
+        .collect();
+    tries.sort_unstable();
+    tries.dedup();
+    let mut stamp = vec![0u32; checker.cells.len()];
+    let mut batch_id = 0u32;
+    let mut dirty = checker.clean();
+    let mut restored = 0;
+    for (level, &(t, rings, reach)) in ATTEMPTS.iter().enumerate() {
+        if level == NEIGHBOUR_ATTEMPTS {
+            tries.retain(|c| with_room.binary_search(c).is_ok());
+        }
+        let mut pending = std::mem::take(&mut tries);
+        while !pending.is_empty() {
+            // A batch of tries whose groups share no cell, so that each defect is
+            // blamed on one group.
+            batch_id += 1;
+            let (mut batch, mut later) = (Vec::new(), Vec::new());
+            for c in pending {
+                let turn = |k: u32| t * if k <= 1 { 1.0 } else { (rings + 1 - k) as f32 / rings as f32 };
+                let members: Vec<(u32, f32)> = rings_around(checker, c, rings).into_iter().map(|(w, k)| (w, turn(k))).collect();
+                let cells: Vec<u32> = members.iter().flat_map(|&(w, _)| checker.cells_of(w as usize)).copied().collect();
+                if cells.iter().any(|&k| stamp[k as usize] == batch_id) {
+                    later.push(c);
+                } else {
+                    cells.iter().for_each(|&k| stamp[k as usize] = batch_id);
+                    batch.push((c, members));
+                }
+            }
+            pending = later;
+            let saved: Vec<Saved> = batch.iter().map(|(_, m)| propose(shell, &room.shell, m, reach)).collect();
+            let kept = keep_clean(checker, outer, mesh, shell, &saved, &mut dirty);
+            for ((c, _), (kept, saved)) in batch.into_iter().zip(kept.into_iter().zip(&saved)) {
+                match kept && !saved.is_empty() {
+                    true => restored += 1,
+                    false => tries.push(c),
+                }
+            }
+        }
+    }
+    restored
+}
+
+/// `c` and the corners of the cells within `rings` rings of it, with their ring.
+fn rings_around(checker: &Checker, c: u32, rings: u32) -> Vec<(u32, u32)> {
+    let mut members = vec![(c, 0)];
+    let mut start = 0;
+    for ring in 1..=rings {
+        let mut next: Vec<u32> = members[start..].iter().flat_map(|&(w, _)| checker.cell_corners_around(w as usize)).collect();
+        next.sort_unstable();
+        next.dedup();
+        next.retain(|w| !members.iter().any(|m| m.0 == *w));
+        start = members.len();
+        members.extend(next.into_iter().map(|w| (w, ring)));
+    }
+    members
+}
+
+/// Turns each member by its weight towards its normal, lengthening it to `reach` of
+/// its target where short of [`GOAL`]; returns what the directors were.
+fn propose(shell: &mut Shell, normal: &Shell, members: &[(u32, f32)], reach: f32) -> Saved {
+    let unit = |s: &Shell, v: usize| -> Option<Shape> {
+        let l = s.directors[v].length();
+        (l > 0.0 && l.is_finite()).then(|| (s.base_offset[v] / l, s.directors[v] / l))
+    };
+    let mut saved = Vec::with_capacity(members.len());
+    for &(w, t) in members {
+        let w = w as usize;
+        let Some((b, d)) = blend(unit(shell, w).or(unit(normal, w)), unit(normal, w), t) else { continue };
+        let now = shell.achieved[w];
+        let length = if now < GOAL * shell.target[w] { reach * shell.target[w] } else { now };
+        saved.push((w as u32, (shell.base_offset[w], shell.directors[w]), now));
+        set(shell, w, (b * length, d * length), length);
+    }
+    saved
+}
+
+/// Checks the tried groups (`saved`: what each replaced) and undoes every group a
+/// defect touches, until none is left; returns which groups stayed.
+fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Shell, saved: &[Saved], dirty: &mut Dirty) -> Vec<bool> {
+    let vertices = |groups: &[usize]| groups.iter().flat_map(|&g| saved[g].iter().map(|s| s.0)).collect::<Vec<u32>>();
+    let mut live: Vec<usize> = (0..saved.len()).collect();
+    checker.mark_anew(vertices(&live).into_iter(), dirty);
+    refit(checker, outer, mesh, shell, dirty);
+    loop {
+        checker.mark_anew(vertices(&live).into_iter(), dirty);
+        if dirty.cell_list.is_empty() && dirty.tri_list.is_empty() {
+            break;
+        }
+        let bad = checker.defect_vertex_list(&checker.find(mesh, shell, Some(dirty), Some(outer)));
+        let (failed, kept): (Vec<usize>, Vec<usize>) =
+            live.iter().partition(|&&g| saved[g].iter().any(|s| bad.binary_search(&s.0).is_ok()));
+        if failed.is_empty() {
+            break;
+        }
+        for &g in &failed {
+            saved[g].iter().for_each(|&(w, shape, length)| set(shell, w as usize, shape, length));
+        }
+        checker.mark_anew(vertices(&failed).into_iter(), dirty);
+        refit(checker, outer, mesh, shell, dirty);
+        live = kept;
+    }
+    let mut kept = vec![false; saved.len()];
+    live.iter().for_each(|&g| kept[g] = true);
+    kept
+}
+
+/// The unit shape `t` of the way from `from` towards `to`, scaled so its director has
+/// unit length (None where they cancel out).
+fn blend(from: Option<Shape>, to: Option<Shape>, t: f32) -> Option<Shape> {
+    match (from, to) {
+        (Some(a), Some(b)) => {
+            let d = a.1.lerp(b.1, t);
+            let l = d.length();
+            (l > 1e-3).then(|| (a.0.lerp(b.0, t) / l, d / l))
+        }
+        (Some(a), None) if t == 0.0 => Some(a),
+        _ => None,
+    }
+}
+
+fn set(shell: &mut Shell, v: usize, shape: Shape, length: f32) {
+    (shell.base_offset[v], shell.directors[v]) = shape;
+    shell.achieved[v] = length;
+}
+
+fn refit(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &Shell, dirty: &Dirty) {
+    outer.refit_items(dirty.tri_list.iter().map(|&t| (t, checker.outer_box(mesh, shell, t))));
+}
