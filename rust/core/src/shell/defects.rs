@@ -45,6 +45,14 @@ pub(crate) struct Dirty {
     pub cell_list: Vec<u32>,
 }
 
+impl Dirty {
+    /// Flags nothing again, in time proportional to what was flagged.
+    pub fn clear(&mut self) {
+        self.tri_list.drain(..).for_each(|t| self.tris[t as usize] = false);
+        self.cell_list.drain(..).for_each(|c| self.cells[c as usize] = false);
+    }
+}
+
 impl Checker {
     pub fn new(mesh: &Mesh) -> Self {
         let p = mesh.positions();
@@ -78,8 +86,7 @@ impl Checker {
     /// Flags the triangles and cells around each of `vertices`, after clearing `dirty`
     /// (in time proportional to what it held).
     pub fn mark_anew(&self, vertices: impl Iterator<Item = u32>, dirty: &mut Dirty) {
-        dirty.tri_list.drain(..).for_each(|t| dirty.tris[t as usize] = false);
-        dirty.cell_list.drain(..).for_each(|c| dirty.cells[c as usize] = false);
+        dirty.clear();
         vertices.for_each(|v| self.mark_around(v as usize, dirty));
     }
 
@@ -212,13 +219,6 @@ impl Checker {
             base_pairs: base_hits.into_iter().map(|h| (h.1, h.2)).collect(),
             inverted,
         }
-    }
-
-    /// The vertices of every defect, as a mask.
-    pub fn defect_vertices(&self, f: &Findings, n: usize) -> Vec<bool> {
-        let mut bad = vec![false; n];
-        self.defect_vertex_list(f).iter().for_each(|v| bad[*v as usize] = true);
-        bad
     }
 
     /// The vertices of every defect, sorted, each once.

@@ -57,8 +57,10 @@ impl Side {
 pub struct ShellParams {
     /// Exponent p of the averaged distance (4.3); 3 uses exact integration (Appendix A).
     pub p: f64,
-    /// Barnes–Hut opening criterion: a patch counts as a point mass when its bounding
-    /// radius is below `theta` times its distance.
+    /// Barnes–Hut opening criterion: a patch counts as a point mass (with its
+    /// quadrupole term) when its bounding radius is below `theta` times its distance.
+    /// 0.65 keeps the traced directors as close to exact integration as the point
+    /// mass alone did at 0.6, with fewer patches opened.
     pub theta: f64,
     /// Localization (4.3.1): the surface within `support * thickness` of a point counts.
     pub support: f64,
@@ -89,7 +91,7 @@ impl Default for ShellParams {
     fn default() -> Self {
         Self {
             p: 3.0,
-            theta: 0.6,
+            theta: 0.65,
             support: 2.2,
             steps: 6,
             max_turn: 0.15,
@@ -373,7 +375,7 @@ pub fn build_shell(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPar
     let mut shell = assemble(mesh, thickness, side, &traces);
     if params.repair_rounds > 0 && mesh.vertex_count() > 0 {
         let checker = super::defects::Checker::new(mesh);
-        super::restore::settle(&checker, &mut None, mesh, &mut shell, params.repair_rounds, REPAIR_FACTOR, None);
+        super::restore::settle(&checker, &mut None, mesh, &mut shell, &tracer.normals, params.repair_rounds, REPAIR_FACTOR, None);
     }
     Ok(shell)
 }

@@ -91,7 +91,7 @@ impl IncrementalShell {
         let mut shell = assemble(&mesh, &thickness, side, &traces);
         let checker = Checker::new(&mesh);
         let mut outer_bvh = None;
-        super::restore::settle(&checker, &mut outer_bvh, &mesh, &mut shell, params.repair_rounds, REPAIR_FACTOR, None);
+        super::restore::settle(&checker, &mut outer_bvh, &mesh, &mut shell, &tracer.normals, params.repair_rounds, REPAIR_FACTOR, None);
         Ok(Self {
             mesh,
             thickness,
@@ -192,6 +192,7 @@ impl IncrementalShell {
             &mut self.outer_bvh,
             &self.mesh,
             &mut self.shell,
+            &self.tracer.normals,
             self.params.repair_rounds,
             REPAIR_FACTOR,
             Some(&seeds),

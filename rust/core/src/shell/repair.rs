@@ -60,12 +60,14 @@ pub(crate) fn untangle_with(
         (reuse, _) => checker.outer_tree(mesh, shell, reuse),
     };
     let mut changed = 0;
+    // Two flag sets, swapped round after round: clearing costs what they held.
+    let mut next = checker.clean();
     for _ in 0..rounds {
         let found = checker.find(mesh, shell, dirty.as_ref(), Some(&outer));
-        let bad = checker.defect_vertices(&found, mesh.vertex_count());
-        let mut next = checker.clean();
+        next.clear();
         let mut any = false;
-        for (v, _) in bad.iter().enumerate().filter(|(_, b)| **b) {
+        for v in checker.defect_vertex_list(&found) {
+            let v = v as usize;
             let f = factor.max(FLOOR * shell.target[v] / shell.achieved[v].max(f32::MIN_POSITIVE));
             if f < 1.0 {
                 shell.base_offset[v] *= f;
@@ -81,7 +83,10 @@ pub(crate) fn untangle_with(
         changed += 1;
         // Only the outer triangles around shortened directors moved.
         outer.refit_items(next.tri_list.iter().map(|&t| (t, checker.outer_box(mesh, shell, t))));
-        dirty = Some(next);
+        match dirty.as_mut() {
+            Some(d) => std::mem::swap(d, &mut next),
+            None => dirty = Some(std::mem::replace(&mut next, checker.clean())),
+        }
     }
     *outer_bvh = Some(outer);
     changed

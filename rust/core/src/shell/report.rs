@@ -45,8 +45,12 @@ fn dv(p: Vec3) -> DVec3 {
 
 /// The normal-displacement shell of the same side and targets.
 pub fn normal_shell(mesh: &Mesh, side: Side, target: &[f32]) -> Shell {
-    let n = vertex_normals(mesh);
-    let (base_offset, directors): (Vec<Vec3>, Vec<Vec3>) = target.iter().zip(&n).map(|(t, n)| normal_shape(side, *n * t.abs())).unzip();
+    normal_shell_from(&vertex_normals(mesh), side, target)
+}
+
+/// [`normal_shell`] from the mesh's vertex normals.
+fn normal_shell_from(n: &[Vec3], side: Side, target: &[f32]) -> Shell {
+    let (base_offset, directors): (Vec<Vec3>, Vec<Vec3>) = target.iter().zip(n).map(|(t, n)| normal_shape(side, *n * t.abs())).unzip();
     let achieved = directors.iter().map(|d| d.length()).collect();
     Shell { side, base_offset, directors, achieved, target: target.iter().map(|t| t.abs()).collect() }
 }
@@ -68,7 +72,7 @@ pub fn normal_valid_vertices(mesh: &Mesh, side: Side, target: &[f32]) -> Vec<boo
 fn normal_valid_with(checker: &Checker, mesh: &Mesh, side: Side, target: &[f32]) -> Vec<bool> {
     let mut valid = vec![false; mesh.vertex_count()];
     let all = (0..mesh.vertex_count() as u32).collect();
-    NormalRoom::new(checker, mesh, side, target).among(all, None).into_iter().for_each(|v| valid[v as usize] = true);
+    NormalRoom::new(checker, mesh, &vertex_normals(mesh), side, target).among(all, None).into_iter().for_each(|v| valid[v as usize] = true);
     valid
 }
 
@@ -82,8 +86,9 @@ pub(crate) struct NormalRoom<'a> {
 }
 
 impl<'a> NormalRoom<'a> {
-    pub fn new(checker: &'a Checker, mesh: &'a Mesh, side: Side, target: &[f32]) -> Self {
-        Self { checker, mesh, shell: normal_shell(mesh, side, target), tree: None }
+    /// `normals` are the mesh's vertex normals.
+    pub fn new(checker: &'a Checker, mesh: &'a Mesh, normals: &[Vec3], side: Side, target: &[f32]) -> Self {
+        Self { checker, mesh, shell: normal_shell_from(normals, side, target), tree: None }
     }
 
     /// Those of `vertices` with room. `like` is a tree over the same triangles whose

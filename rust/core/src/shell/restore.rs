@@ -42,12 +42,15 @@ type Shape = (Vec3, Vec3);
 type Saved = Vec<(u32, Shape, f32)>;
 
 /// The repair, then the restore: of the whole shell, or after an edit around `seeds`
-/// (the vertices whose directors were reset), where both stay local.
+/// (the vertices whose directors were reset), where both stay local. `normals` are
+/// the mesh's vertex normals.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn settle(
     checker: &Checker,
     outer: &mut Option<TriBvh>,
     mesh: &Mesh,
     shell: &mut Shell,
+    normals: &[Vec3],
     rounds: u32,
     factor: f32,
     seeds: Option<&[u32]>,
@@ -60,26 +63,32 @@ pub(crate) fn settle(
     let Some(tree) = outer.as_mut() else { return };
     let scope = seeds.zip(before).map(|(seeds, before)| {
         // The seeds, what the repair shortened, and their neighbours.
-        let mut near = seeds.to_vec();
-        near.extend((0..before.len() as u32).filter(|&v| before[v as usize] != shell.achieved[v as usize]));
-        let mut scope: Vec<u32> = near.iter().flat_map(|&v| checker.cell_corners_around(v as usize)).chain(near.iter().copied()).collect();
-        scope.sort_unstable();
-        scope.dedup();
+        let mut scope = vec![false; before.len()];
+        let changed = (0..before.len() as u32).filter(|&v| before[v as usize] != shell.achieved[v as usize]);
+        for v in seeds.iter().copied().chain(changed) {
+            checker.cell_corners_around(v as usize).for_each(|w| scope[w as usize] = true);
+        }
         scope
     });
-    restore(checker, tree, mesh, shell, scope.as_deref());
+    restore(checker, tree, mesh, shell, normals, scope.as_deref());
 }
 
-/// Restores the vertices short of [`GOAL`] (among `scope`, all for `None`) where the
-/// normal-offset shell is locally valid. `outer` holds `shell`'s outer-layer triangles
-/// and is kept in step. Returns how many directors were lengthened.
-pub(crate) fn restore(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Shell, scope: Option<&[u32]>) -> usize {
-    let mut room = NormalRoom::new(checker, mesh, shell.side, &shell.target);
-    let short = |v: usize| shell.target[v] > 0.0 && shell.achieved[v] < GOAL * shell.target[v] && room.shell.achieved[v] > 0.0;
-    let short: Vec<u32> = match scope {
-        Some(s) => s.iter().copied().filter(|&v| short(v as usize)).collect(),
-        None => (0..shell.target.len() as u32).filter(|&v| short(v as usize)).collect(),
+/// Restores the vertices short of [`GOAL`] (those flagged in `scope`, all for `None`)
+/// where the normal-offset shell is locally valid. `outer` holds `shell`'s outer-layer
+/// triangles and is kept in step. Returns how many directors were lengthened.
+pub(crate) fn restore(
+    checker: &Checker,
+    outer: &mut TriBvh,
+    mesh: &Mesh,
+    shell: &mut Shell,
+    normals: &[Vec3],
+    scope: Option<&[bool]>,
+) -> usize {
+    let mut room = NormalRoom::new(checker, mesh, normals, shell.side, &shell.target);
+    let short = |v: usize| {
+        scope.is_none_or(|s| s[v]) && shell.target[v] > 0.0 && shell.achieved[v] < GOAL * shell.target[v] && room.shell.achieved[v] > 0.0
     };
+    let short: Vec<u32> = (0..shell.target.len() as u32).filter(|&v| short(v as usize)).collect();
     if short.is_empty() {
         return 0;
     }

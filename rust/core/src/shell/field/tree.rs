@@ -1,8 +1,12 @@
 //! Barnes–Hut patch tree over the integration triangles (section 4.4.2): a BVH whose
-//! nodes store the patch area, the area-weighted centroid and a bounding sphere. Far
-//! patches are replaced by a point mass at their centroid; near single faces are
-//! integrated exactly (Appendix A, p = 3) or by quadrature (other p). Localization
-//! (section 4.3.1): only faces whose centroid lies within a ball around `x` count.
+//! nodes store the patch area, the area-weighted centroid, the second moment of area
+//! about it and a bounding sphere. Far patches are replaced by a point mass at their
+//! centroid with a quadrupole correction (the thesis uses the point mass alone; the
+//! correction's error falls with the cube of size over distance instead of the
+//! square, so patches can be accepted from nearer at the same accuracy); near single
+//! faces are integrated exactly (Appendix A, p = 3) or by quadrature (other p).
+//! Localization (section 4.3.1): only faces whose centroid lies within a ball around
+//! `x` count.
 
 use super::exact::triangle_p3;
 use super::quadrature::Quadrature;
@@ -24,10 +28,33 @@ pub fn taper(d: f64, radius: f64) -> f64 {
     s * s * (3.0 - 2.0 * s)
 }
 
+/// A symmetric 3x3 matrix: xx, yy, zz, xy, xz, yz.
+type Sym = [f64; 6];
+
+/// `w v vᵀ`.
+fn outer(v: DVec3, w: f64) -> Sym {
+    [w * v.x * v.x, w * v.y * v.y, w * v.z * v.z, w * v.x * v.y, w * v.x * v.z, w * v.y * v.z]
+}
+
+fn add_sym(a: Sym, b: Sym) -> Sym {
+    std::array::from_fn(|i| a[i] + b[i])
+}
+
+fn sym_times(q: &Sym, d: DVec3) -> DVec3 {
+    DVec3::new(q[0] * d.x + q[3] * d.y + q[4] * d.z, q[3] * d.x + q[1] * d.y + q[5] * d.z, q[4] * d.x + q[5] * d.y + q[2] * d.z)
+}
+
+/// Second moment of a triangle's area about its centroid `c`: `A/12 Σ (v_i - c)(v_i - c)ᵀ`.
+fn tri_second(t: &[DVec3; 3], area: f64, c: DVec3) -> Sym {
+    t.iter().fold([0.0; 6], |q, v| add_sym(q, outer(*v - c, area / 12.0)))
+}
+
 #[derive(Debug, Clone, Copy, Default)]
 struct Node {
     centroid: DVec3,
     area: f64,
+    /// Second moment of area about the centroid, `∫ (y-c)(y-c)ᵀ dy`.
+    second: Sym,
     radius: f64,
     /// Leaf: first triangle; internal: index of the second child (the first is `self + 1`).
     index: u32,
@@ -63,11 +90,20 @@ impl Kernel {
     fn is_exact(&self) -> bool {
         self.p == 3.0
     }
-    /// A point mass `area` at distance vector `d = x - c` (`r2 = |d|²`, `r = |d|`).
+    /// A patch of `area` and second moment `second` about its centroid, at distance
+    /// vector `d = x - c` (`r2 = |d|²`, `r = |d|`): the point mass and its quadrupole
+    /// term, `½ Σ Q_ij ∂_i ∂_j` of the kernels `r^-p` and `p d r^-(p+2)` (the dipole
+    /// term vanishes about the centroid).
     #[inline]
-    fn point(&self, area: f64, d: DVec3, r2: f64, r: f64) -> (f64, DVec3) {
-        let k = if self.is_exact() { area / (r2 * r) } else { area * r2.powf(-0.5 * self.p) };
-        (k, d * (self.p * k / r2))
+    fn point(&self, area: f64, second: &Sym, d: DVec3, r2: f64, r: f64) -> (f64, DVec3) {
+        let p = self.p;
+        let rp = if self.is_exact() { 1.0 / (r2 * r) } else { r2.powf(-0.5 * p) };
+        let (qd, trace) = (sym_times(second, d), second[0] + second[1] + second[2]);
+        let dqd = d.dot(qd) / r2;
+        let value = rp * (area + 0.5 * p * ((p + 2.0) * dqd - trace) / r2);
+        let q = p + 2.0;
+        let push = d * (p * rp / r2) * (area + 0.5 * q * ((q + 2.0) * dqd - trace) / r2) - qd * (p * q * rp / (r2 * r2));
+        (value, push)
     }
     #[inline]
     fn face(&self, t: &[DVec3; 3], x: DVec3) -> (f64, DVec3) {
@@ -87,6 +123,7 @@ pub struct PatchTree {
     tri_area: Vec<f64>,
     tri_centroid: Vec<DVec3>,
     tri_radius: Vec<f64>,
+    tri_second: Vec<Sym>,
     /// Original index of each stored triangle, and the stored place of each original
     /// one (`u32::MAX`: dropped as degenerate).
     order: Vec<u32>,
@@ -97,6 +134,8 @@ pub struct PatchTree {
     leaf_of: Vec<u32>,
     parent: Vec<u32>,
     nodes: Vec<Node>,
+    /// Each node's bounding box (only for refits: it tightens the bounding sphere).
+    boxes: Vec<(DVec3, DVec3)>,
     total_area: f64,
 }
 
@@ -130,6 +169,7 @@ impl PatchTree {
         tree.order.iter().enumerate().for_each(|(k, &i)| tree.place[i as usize] = k as u32);
         tree.leaf_of = vec![0; tree.tris.len()];
         tree.parent = vec![0; tree.nodes.len()];
+        tree.boxes = vec![(DVec3::ZERO, DVec3::ZERO); tree.nodes.len()];
         for (n, node) in tree.nodes.iter().enumerate() {
             if node.count > 0 {
                 (node.index..node.index + node.count).for_each(|k| tree.leaf_of[k as usize] = n as u32);
@@ -160,6 +200,7 @@ impl PatchTree {
             let k = k as usize;
             self.tris[k] = *t;
             (self.tri_area[k], self.tri_centroid[k], self.tri_radius[k]) = tri_props(t);
+            self.tri_second[k] = tri_second(t, self.tri_area[k], self.tri_centroid[k]);
             nodes.push(self.leaf_of[k]);
         }
         // Every ancestor once, children before parents (they have larger indices).
@@ -216,6 +257,7 @@ impl PatchTree {
         self.tri_area = props.iter().map(|p| p.0).collect();
         self.tri_centroid = props.iter().map(|p| p.1).collect();
         self.tri_radius = props.iter().map(|p| p.2).collect();
+        self.tri_second = self.tris.iter().zip(&props).map(|(t, p)| tri_second(t, p.0, p.1)).collect();
         self.total_area = self.tri_area.iter().sum();
         // Children have larger indices than parents: refit in reverse order.
         for n in (0..self.nodes.len()).rev() {
@@ -223,10 +265,14 @@ impl PatchTree {
         }
     }
 
-    /// Area, centroid and bounding sphere of node `n` from its triangles or children.
+    /// Area, centroid, second moment and bounding sphere of node `n` from its
+    /// triangles or children (moments move to the new centroid by the parallel-axis rule).
     fn refit_node(&mut self, n: usize) {
         let node = self.nodes[n];
-        let (area, centroid, radius) = if node.count > 0 {
+        let shifted = |c: DVec3, parts: &mut dyn Iterator<Item = (f64, DVec3, Sym)>| {
+            parts.fold([0.0; 6], |q, (area, centroid, second)| add_sym(q, add_sym(second, outer(centroid - c, area))))
+        };
+        let (area, centroid, second, radius) = if node.count > 0 {
             let r = node.index as usize..(node.index + node.count) as usize;
             let area: f64 = self.tri_area[r.clone()].iter().sum();
             let c = if area > 0.0 {
@@ -234,17 +280,29 @@ impl PatchTree {
             } else {
                 self.tri_centroid[r.start]
             };
+            let second = shifted(c, &mut r.clone().map(|i| (self.tri_area[i], self.tri_centroid[i], self.tri_second[i])));
+            self.boxes[n] =
+                self.tris[r.clone()].iter().flatten().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), p| (l.min(*p), h.max(*p)));
             let rad = self.tris[r].iter().flatten().map(|p| (*p - c).length()).fold(0.0, f64::max);
-            (area, c, rad)
+            (area, c, second, rad)
         } else {
             let (a, b) = (self.nodes[n + 1], self.nodes[node.index as usize]);
             let area = a.area + b.area;
             let c = if area > 0.0 { (a.centroid * a.area + b.centroid * b.area) / area } else { a.centroid };
-            let rad = (a.radius + (a.centroid - c).length()).max(b.radius + (b.centroid - c).length());
-            (area, c, rad)
+            let second = shifted(c, &mut [(a.area, a.centroid, a.second), (b.area, b.centroid, b.second)].into_iter());
+            let (ba, bb) = (self.boxes[n + 1], self.boxes[node.index as usize]);
+            let (lo, hi) = (ba.0.min(bb.0), ba.1.max(bb.1));
+            self.boxes[n] = (lo, hi);
+            // The farther of the children's spheres, or of the box's corners: the box
+            // is the tighter bound for compact nodes, the spheres for long thin ones.
+            let spheres = (a.radius + (a.centroid - c).length()).max(b.radius + (b.centroid - c).length());
+            let corner = (c - lo).abs().max((hi - c).abs()).length();
+            let rad = spheres.min(corner);
+            (area, c, second, rad)
         };
         self.nodes[n].area = area;
         self.nodes[n].centroid = centroid;
+        self.nodes[n].second = second;
         self.nodes[n].radius = radius;
     }
 
@@ -292,7 +350,7 @@ impl PatchTree {
                 let r = r2.sqrt();
                 let w = taper(r, radius);
                 if w > 0.0 {
-                    add(w, kernel.point(node.area, d, r2, r), &mut out);
+                    add(w, kernel.point(node.area, &node.second, d, r2, r), &mut out);
                 }
                 continue;
             }
@@ -313,7 +371,7 @@ impl PatchTree {
                     }
                     let tr = self.tri_radius[i];
                     if tr * tr < theta2 * r2 {
-                        add(w, kernel.point(self.tri_area[i], d, r2, r), &mut out);
+                        add(w, kernel.point(self.tri_area[i], &self.tri_second[i], d, r2, r), &mut out);
                     } else {
                         add(w, kernel.face(&self.tris[i], x), &mut out);
                     }
@@ -344,6 +402,42 @@ mod tests {
         tris
     }
 
+    /// One patch (a curved sheet) summed as the root's point mass, with and without its
+    /// quadrupole term, against every face integrated exactly.
+    #[test]
+    fn quadrupole_term_cuts_the_far_field_error_by_an_order_and_is_a_gradient() {
+        let tris = sheet(6, |k| 0.05 * ((k % 7) as f64) + 0.02 * ((k / 7) as f64).powi(2));
+        let tree = PatchTree::build(&tris);
+        let root = tree.nodes[0];
+        let exact = Kernel::new(3.0, 0.0);
+        let mut worst = [0.0f64; 2];
+        for (k, dir) in [DVec3::new(0.3, 0.2, 1.0), DVec3::new(1.0, -0.4, 0.5), DVec3::new(-0.7, 0.9, -0.2)].iter().enumerate() {
+            let x = root.centroid + dir.normalize() * root.radius * (3.0 + k as f64);
+            let want = tree.eval(x, f64::INFINITY, DVec3::Z, &exact);
+            let d = x - root.centroid;
+            let (r2, r) = (d.length_squared(), d.length());
+            for (slot, second) in [[0.0; 6], root.second].iter().enumerate() {
+                let (value, push) = exact.point(root.area, second, d, r2, r);
+                let err = ((value - want.value).abs() / want.value).max((push - want.push).length() / want.push.length());
+                worst[slot] = worst[slot].max(err);
+            }
+            // The corrected push is minus the gradient of the corrected value.
+            let h = 1e-5 * r;
+            let value_at = |x: DVec3| {
+                let d = x - root.centroid;
+                exact.point(root.area, &root.second, d, d.length_squared(), d.length()).0
+            };
+            let (_, push) = exact.point(root.area, &root.second, d, r2, r);
+            for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
+                let fd = -(value_at(x + axis * h) - value_at(x - axis * h)) / (2.0 * h);
+                assert!((fd - push.dot(axis)).abs() <= 1e-6 * push.length(), "{fd} vs {}", push.dot(axis));
+            }
+        }
+        let [monopole, quadrupole] = worst;
+        assert!(monopole > 1e-3, "the test patch must be far from a point: {monopole}");
+        assert!(quadrupole < 0.1 * monopole, "monopole {monopole:.2e}, quadrupole {quadrupole:.2e}");
+    }
+
     #[test]
     fn refitting_some_triangles_matches_a_rebuilt_tree() {
         let flat = sheet(12, |_| 0.0);
@@ -360,9 +454,23 @@ mod tests {
             assert!((a.push - b.push).length() <= 1e-9 * b.push.length() && (a.value - b.value).abs() <= 1e-9 * b.value, "{a:?} vs {b:?}");
         }
         assert!((tree.total_area() - rebuilt.total_area()).abs() < 1e-9);
-        // The root's sphere holds every triangle after the refit.
-        let root = tree.nodes[0];
-        assert!(bumped.iter().flatten().all(|q| (*q - root.centroid).length() <= root.radius + 1e-9));
+        // The whole surface's second moment does not depend on how the tree groups it.
+        let (a, b) = (tree.nodes[0].second, rebuilt.nodes[0].second);
+        assert!(a.iter().zip(&b).all(|(a, b)| (a - b).abs() <= 1e-9 * b.abs().max(1.0)), "{a:?} vs {b:?}");
+        // Every node's sphere holds its triangles after the refit (and after the build).
+        for t in [&tree, &rebuilt] {
+            for (k, tri) in t.tris.iter().enumerate() {
+                let mut n = t.leaf_of[k] as usize;
+                loop {
+                    let node = t.nodes[n];
+                    assert!(tri.iter().all(|q| (*q - node.centroid).length() <= node.radius + 1e-9), "node {n}");
+                    if n == 0 {
+                        break;
+                    }
+                    n = t.parent[n] as usize;
+                }
+            }
+        }
     }
 
     #[test]
