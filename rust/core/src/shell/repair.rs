@@ -3,14 +3,20 @@
 //! trajectories") can, in sharp concave corners and where trajectories converge.
 //! The thesis accepts this (4.6); we shorten the directors of every defect — an
 //! inverted cell, or an outer-layer triangle crossing another one or the base —
-//! towards their base point, so thickness is reduced only there. After the first
-//! round only the triangles and cells touching a shortened director are checked
-//! again, so later rounds cost in proportion to the defects left.
+//! towards their base point, so thickness is reduced only there. A director already
+//! at the [`FLOOR`] that is still the corner of an inverted cell points nearly along
+//! the surface (a trajectory bent by self-intersecting input): it turns to the
+//! vertex normal, at the same length. After the first round only the triangles and cells touching a
+//! changed director are checked again, so later rounds cost in proportion to the
+//! defects left.
 
 use super::defects::Checker;
 use super::intersect::TriBvh;
+use super::report::normal_shape;
 use super::Shell;
+use crate::mesh::vertex_normals;
 use crate::Mesh;
+use glam::Vec3;
 
 /// Shortest director the repair leaves, as a fraction of the target: a cell of
 /// vanishing height is degenerate, no better than a folded one.
@@ -28,17 +34,19 @@ pub fn untangle_around(mesh: &Mesh, shell: &mut Shell, rounds: u32, factor: f32,
     if rounds == 0 || mesh.vertex_count() == 0 {
         return 0;
     }
-    untangle_with(&Checker::new(mesh), &mut None, mesh, shell, rounds, factor, seeds)
+    untangle_with(&Checker::new(mesh), &mut None, mesh, shell, &vertex_normals(mesh), rounds, factor, seeds)
 }
 
 /// [`untangle_around`] with a checker and outer-layer tree kept by the caller (the
 /// incremental shell keeps them between edits): a kept tree must match `shell`
-/// except around `seeds`.
+/// except around `seeds`. `normals` are the mesh's vertex normals.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn untangle_with(
     checker: &Checker,
     outer_bvh: &mut Option<TriBvh>,
     mesh: &Mesh,
     shell: &mut Shell,
+    normals: &[Vec3],
     rounds: u32,
     factor: f32,
     seeds: Option<&[u32]>,
@@ -66,16 +74,24 @@ pub(crate) fn untangle_with(
         let found = checker.find(mesh, shell, dirty.as_ref(), Some(&outer));
         next.clear();
         let mut any = false;
+        let mut folded: Vec<u32> = found.inverted.iter().flat_map(|&c| checker.cells[c as usize].base()).copied().collect();
+        folded.sort_unstable();
         for v in checker.defect_vertex_list(&found) {
+            let folds = folded.binary_search(&v).is_ok();
             let v = v as usize;
             let f = factor.max(FLOOR * shell.target[v] / shell.achieved[v].max(f32::MIN_POSITIVE));
+            let length = shell.achieved[v];
             if f < 1.0 {
                 shell.base_offset[v] *= f;
                 shell.directors[v] *= f;
                 shell.achieved[v] = shell.directors[v].length();
-                checker.mark_around(v, &mut next);
-                any = true;
+            } else if folds && length > 0.0 && normals[v] != Vec3::ZERO && shell.directors[v].dot(normals[v]).abs() < 0.999 * length {
+                (shell.base_offset[v], shell.directors[v]) = normal_shape(shell.side, normals[v] * length);
+            } else {
+                continue;
             }
+            checker.mark_around(v, &mut next);
+            any = true;
         }
         if !any {
             break;

@@ -59,7 +59,7 @@ pub(crate) fn settle(
         return;
     }
     let before = seeds.map(|_| shell.achieved.clone());
-    super::repair::untangle_with(checker, outer, mesh, shell, rounds, factor, seeds);
+    super::repair::untangle_with(checker, outer, mesh, shell, normals, rounds, factor, seeds);
     let Some(tree) = outer.as_mut() else { return };
     let scope = seeds.zip(before).map(|(seeds, before)| {
         // The seeds, what the repair shortened, and their neighbours.
@@ -118,6 +118,9 @@ pub(crate) fn restore(
             batch_id += 1;
             let (mut batch, mut later) = (Vec::new(), Vec::new());
             for c in pending {
+                if shell.achieved[c as usize] >= GOAL * shell.target[c as usize] {
+                    continue; // lengthened with another vertex's group
+                }
                 let turn = |k: u32| t * if k <= 1 { 1.0 } else { (rings + 1 - k) as f32 / rings as f32 };
                 let members: Vec<(u32, f32)> = rings_around(checker, c, rings).into_iter().map(|(w, k)| (w, turn(k))).collect();
                 let cells: Vec<u32> = members.iter().flat_map(|&(w, _)| checker.cells_of(w as usize)).copied().collect();
