@@ -16,6 +16,7 @@
 //! behaviour of figures 4.7 and 4.8.
 
 use super::field::{extension_faces, FieldEval, Kernel, PatchTree};
+use super::repair::Repair;
 use crate::mesh::{boundary_edges, vertex_normals, Incidence};
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
@@ -375,7 +376,8 @@ pub fn build_shell(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPar
     let mut shell = assemble(mesh, thickness, side, &traces);
     if params.repair_rounds > 0 && mesh.vertex_count() > 0 {
         let checker = super::defects::Checker::new(mesh);
-        super::restore::settle(&checker, &mut None, mesh, &mut shell, &tracer.normals, params.repair_rounds, REPAIR_FACTOR, None);
+        let repair = Repair { checker: &checker, mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR };
+        repair.settle(&mut None, &mut shell, None);
     }
     Ok(shell)
 }

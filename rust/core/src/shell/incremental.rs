@@ -20,6 +20,7 @@ use super::directors::{assemble, check_inputs, min_edge_at, side_lengths, trace_
 use super::field::{extension_faces, PatchTree};
 use super::influence::ChangeBound;
 use super::intersect::{tri_box, TriBvh};
+use super::repair::Repair;
 use super::{Shell, ShellParams, Side};
 use crate::mesh::{face_triangles, vertex_normal};
 use crate::{Error, Mesh, Result};
@@ -91,7 +92,9 @@ impl IncrementalShell {
         let mut shell = assemble(&mesh, &thickness, side, &traces);
         let checker = Checker::new(&mesh);
         let mut outer_bvh = None;
-        super::restore::settle(&checker, &mut outer_bvh, &mesh, &mut shell, &tracer.normals, params.repair_rounds, REPAIR_FACTOR, None);
+        let repair =
+            Repair { checker: &checker, mesh: &mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR };
+        repair.settle(&mut outer_bvh, &mut shell, None);
         Ok(Self {
             mesh,
             thickness,
@@ -187,16 +190,14 @@ impl IncrementalShell {
             self.checker.refit_base(&self.mesh, &moved);
             self.seed_pierced_outer(&changes, &mut seeds);
         }
-        super::restore::settle(
-            &self.checker,
-            &mut self.outer_bvh,
-            &self.mesh,
-            &mut self.shell,
-            &self.tracer.normals,
-            self.params.repair_rounds,
-            REPAIR_FACTOR,
-            Some(&seeds),
-        );
+        let repair = Repair {
+            checker: &self.checker,
+            mesh: &self.mesh,
+            normals: &self.tracer.normals,
+            rounds: self.params.repair_rounds,
+            factor: REPAIR_FACTOR,
+        };
+        repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
         Ok(UpdateStats { changed, retraced: dirty.len(), kept, rebuilt: false })
     }
 

@@ -13,6 +13,7 @@
 
 use super::defects::{Checker, Dirty};
 use super::intersect::TriBvh;
+use super::repair::Repair;
 use super::report::NormalRoom;
 use super::Shell;
 use crate::Mesh;
@@ -41,36 +42,28 @@ type Shape = (Vec3, Vec3);
 /// What a try replaced: vertex, shape and length.
 type Saved = Vec<(u32, Shape, f32)>;
 
-/// The repair, then the restore: of the whole shell, or after an edit around `seeds`
-/// (the vertices whose directors were reset), where both stay local. `normals` are
-/// the mesh's vertex normals.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn settle(
-    checker: &Checker,
-    outer: &mut Option<TriBvh>,
-    mesh: &Mesh,
-    shell: &mut Shell,
-    normals: &[Vec3],
-    rounds: u32,
-    factor: f32,
-    seeds: Option<&[u32]>,
-) {
-    if rounds == 0 || mesh.vertex_count() == 0 {
-        return;
-    }
-    let before = seeds.map(|_| shell.achieved.clone());
-    super::repair::untangle_with(checker, outer, mesh, shell, normals, rounds, factor, seeds);
-    let Some(tree) = outer.as_mut() else { return };
-    let scope = seeds.zip(before).map(|(seeds, before)| {
-        // The seeds, what the repair shortened, and their neighbours.
-        let mut scope = vec![false; before.len()];
-        let changed = (0..before.len() as u32).filter(|&v| before[v as usize] != shell.achieved[v as usize]);
-        for v in seeds.iter().copied().chain(changed) {
-            checker.cell_corners_around(v as usize).for_each(|w| scope[w as usize] = true);
+impl Repair<'_> {
+    /// The repair, then the restore: of the whole shell, or after an edit around
+    /// `seeds` (the vertices whose directors were reset), where both stay local.
+    pub(crate) fn settle(&self, outer: &mut Option<TriBvh>, shell: &mut Shell, seeds: Option<&[u32]>) {
+        let Repair { checker, mesh, normals, rounds, .. } = *self;
+        if rounds == 0 || mesh.vertex_count() == 0 {
+            return;
         }
-        scope
-    });
-    restore(checker, tree, mesh, shell, normals, scope.as_deref());
+        let before = seeds.map(|_| shell.achieved.clone());
+        self.untangle(outer, shell, seeds);
+        let Some(tree) = outer.as_mut() else { return };
+        let scope = seeds.zip(before).map(|(seeds, before)| {
+            // The seeds, what the repair shortened, and their neighbours.
+            let mut scope = vec![false; before.len()];
+            let changed = (0..before.len() as u32).filter(|&v| before[v as usize] != shell.achieved[v as usize]);
+            for v in seeds.iter().copied().chain(changed) {
+                checker.cell_corners_around(v as usize).for_each(|w| scope[w as usize] = true);
+            }
+            scope
+        });
+        restore(checker, tree, mesh, shell, normals, scope.as_deref());
+    }
 }
 
 /// Restores the vertices short of [`GOAL`] (those flagged in `scope`, all for `None`)
