@@ -105,7 +105,8 @@ impl Checker {
     }
 
     /// Whether outer-layer triangle `t` of `shell` crosses another one that shares no
-    /// vertex with it (`tree` holds the outer layer); stops at the first.
+    /// vertex with it (`tree` holds the outer layer); after the first crossing the
+    /// remaining candidates are skipped untested.
     pub fn outer_crosses(&self, mesh: &Mesh, shell: &Shell, t: u32, tree: &TriBvh) -> bool {
         let top = |v: &u32| shell.point(mesh.positions(), *v as usize, 1.0).as_dvec3();
         let mine = self.tris[t as usize].map(|v| top(&v));

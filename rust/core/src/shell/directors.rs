@@ -76,12 +76,15 @@ pub struct ShellParams {
     /// Artificial faces along open boundaries (4.3.2).
     pub boundary_faces: bool,
     /// Rounds of local director shortening where chords still tangle
-    /// ([`repair::untangle`](super::repair::untangle)); 0 disables it.
+    /// ([`repair::untangle`](super::repair::untangle)); 0 disables it and the
+    /// restore pass after it (`restore`), leaving the traced directors.
     pub repair_rounds: u32,
     /// The shell moves at full speed while the agreement `σ` of the surface pushes
     /// (module docs) is at least this; below it the speed is `σ / onset`. 1 slows down
     /// as soon as any surface pushes back; lower values keep the full thickness in
-    /// shallow concavities and compress only nearer the medial axis.
+    /// shallow concavities and compress only nearer the medial axis. Where normal
+    /// displacement has room and nothing folds, the restore pass gives compressed
+    /// directors their full thickness back.
     pub compression_onset: f64,
 }
 

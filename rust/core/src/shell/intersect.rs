@@ -179,7 +179,8 @@ impl TriBvh {
                     exit = exit.min(t0[k].max(t1[k]));
                 }
             }
-            enter <= exit
+            // A little slack: a segment grazing a box face must not be lost to rounding.
+            enter <= exit + 1e-9
         };
         self.walk(meets, &mut f);
     }

@@ -4,9 +4,9 @@
 //! The thesis accepts this (4.6); we shorten the directors of every defect — an
 //! inverted cell, or an outer-layer triangle crossing another one or the base —
 //! towards their base point, so thickness is reduced only there. A director already
-//! at the [`FLOOR`] that is still the corner of an inverted cell points nearly along
-//! the surface (a trajectory bent by self-intersecting input): it turns to the
-//! vertex normal, at the same length. After the first round only the triangles and cells touching a
+//! at the [`FLOOR`] that is still the corner of an inverted cell points away from its
+//! side's normal (a trajectory bent by self-intersecting input): no length unfolds
+//! that cell, so it turns to the normal, at the same length. After the first round only the triangles and cells touching a
 //! changed director are checked again, so later rounds cost in proportion to the
 //! defects left.
 
@@ -85,11 +85,14 @@ impl Repair<'_> {
                 let v = v as usize;
                 let f = factor.max(FLOOR * shell.target[v] / shell.achieved[v].max(f32::MIN_POSITIVE));
                 let length = shell.achieved[v];
-                if f < 1.0 {
+                let along = normal_shape(shell.side, normals[v]).1;
+                if length <= 0.0 {
+                    continue; // nothing to shorten or turn (a zero target)
+                } else if f < 1.0 {
                     shell.base_offset[v] *= f;
                     shell.directors[v] *= f;
                     shell.achieved[v] = shell.directors[v].length();
-                } else if folds && length > 0.0 && normals[v] != Vec3::ZERO && shell.directors[v].dot(normals[v]).abs() < 0.999 * length {
+                } else if folds && along != Vec3::ZERO && shell.directors[v].dot(along) < 0.999 * length {
                     (shell.base_offset[v], shell.directors[v]) = normal_shape(shell.side, normals[v] * length);
                 } else {
                     continue;

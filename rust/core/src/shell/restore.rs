@@ -1,4 +1,5 @@
-//! Giving back thickness the repair took where normal displacement has room.
+//! Giving back thickness the repair took, or the field compressed, where normal
+//! displacement has room.
 //!
 //! The repair ([`super::repair`]) shortens every corner of a defect. Beside concave
 //! folds a cell is often inverted only because the field bends its corners' directors
@@ -50,13 +51,13 @@ impl Repair<'_> {
         if rounds == 0 || mesh.vertex_count() == 0 {
             return;
         }
-        let before = seeds.map(|_| shell.achieved.clone());
+        let before = seeds.map(|_| shell.directors.clone());
         self.untangle(outer, shell, seeds);
         let Some(tree) = outer.as_mut() else { return };
         let scope = seeds.zip(before).map(|(seeds, before)| {
-            // The seeds, what the repair shortened, and their neighbours.
+            // The seeds, what the repair shortened or turned, and their neighbours.
             let mut scope = vec![false; before.len()];
-            let changed = (0..before.len() as u32).filter(|&v| before[v as usize] != shell.achieved[v as usize]);
+            let changed = (0..before.len() as u32).filter(|&v| before[v as usize] != shell.directors[v as usize]);
             for v in seeds.iter().copied().chain(changed) {
                 checker.cell_corners_around(v as usize).for_each(|w| scope[w as usize] = true);
             }
@@ -106,8 +107,9 @@ pub(crate) fn restore(
         }
         let mut pending = std::mem::take(&mut tries);
         while !pending.is_empty() {
-            // A batch of tries whose groups share no cell, so that each defect is
-            // blamed on one group.
+            // A batch of tries whose groups share no cell (nor triangle), so that a
+            // folded cell is blamed on one group; two groups whose outer triangles
+            // cross are both undone, and tried again at the next attempt.
             batch_id += 1;
             let (mut batch, mut later) = (Vec::new(), Vec::new());
             for c in pending {
@@ -163,7 +165,12 @@ fn propose(shell: &mut Shell, normal: &Shell, members: &[(u32, f32)], reach: f32
     let mut saved = Vec::with_capacity(members.len());
     for &(w, t) in members {
         let w = w as usize;
-        let Some((b, d)) = blend(unit(shell, w).or(unit(normal, w)), unit(normal, w), t) else { continue };
+        let Some((b, d)) = blend(unit(shell, w).or(unit(normal, w)), unit(normal, w), t) else {
+            match saved.is_empty() {
+                true => return saved, // the centre (first) has no direction here: no try
+                false => continue,
+            }
+        };
         let now = shell.achieved[w];
         let length = if now < GOAL * shell.target[w] { reach * shell.target[w] } else { now };
         saved.push((w as u32, (shell.base_offset[w], shell.directors[w]), now));
@@ -179,11 +186,7 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
     let mut live: Vec<usize> = (0..saved.len()).collect();
     checker.mark_anew(vertices(&live).into_iter(), dirty);
     refit(checker, outer, mesh, shell, dirty);
-    loop {
-        checker.mark_anew(vertices(&live).into_iter(), dirty);
-        if dirty.cell_list.is_empty() && dirty.tri_list.is_empty() {
-            break;
-        }
+    while !(dirty.cell_list.is_empty() && dirty.tri_list.is_empty()) {
         let bad = checker.defect_vertex_list(&checker.find(mesh, shell, Some(dirty), Some(outer)));
         let (failed, kept): (Vec<usize>, Vec<usize>) =
             live.iter().partition(|&&g| saved[g].iter().any(|s| bad.binary_search(&s.0).is_ok()));
@@ -196,6 +199,7 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
         checker.mark_anew(vertices(&failed).into_iter(), dirty);
         refit(checker, outer, mesh, shell, dirty);
         live = kept;
+        checker.mark_anew(vertices(&live).into_iter(), dirty);
     }
     let mut kept = vec![false; saved.len()];
     live.iter().for_each(|&g| kept[g] = true);

@@ -84,15 +84,24 @@ fn a_director_along_the_surface_at_the_floor_turns_to_the_normal() {
     let target = vec![1.0f32; n];
     let mut directors = vec![Vec3::Z * repair::FLOOR; n];
     let odd = 12; // an interior vertex
-    directors[odd] = Vec3::new(1.0, 0.0, -0.05).normalize() * repair::FLOOR;
-    let achieved = directors.iter().map(|d| d.length()).collect();
-    let mut shell = Shell { side: Side::Exterior, base_offset: vec![Vec3::ZERO; n], directors, achieved, target };
-    assert!(shell_report(&mesh, &shell).inverted_cells > 0);
-    repair::untangle(&mesh, &mut shell, 4, directors::REPAIR_FACTOR);
-    let r = shell_report(&mesh, &shell);
-    assert_eq!((r.inverted_cells, r.outer_self_intersections, r.outer_base_intersections), (0, 0, 0), "{r:?}");
-    assert!(shell.directors[odd].normalize().dot(Vec3::Z) > 0.999 && (shell.achieved[odd] - repair::FLOOR).abs() < 1e-6);
-    assert!((0..n).filter(|&v| v != odd).all(|v| shell.directors[v] == Vec3::Z * repair::FLOOR), "only the folding corner turns");
+                  // Along the surface, and straight back into it.
+    for wrong in [Vec3::new(1.0, 0.0, -0.05).normalize(), -Vec3::Z] {
+        directors[odd] = wrong * repair::FLOOR;
+        let achieved = directors.iter().map(|d| d.length()).collect();
+        let mut shell = Shell {
+            side: Side::Exterior,
+            base_offset: vec![Vec3::ZERO; n],
+            directors: directors.clone(),
+            achieved,
+            target: target.clone(),
+        };
+        assert!(shell_report(&mesh, &shell).inverted_cells > 0);
+        repair::untangle(&mesh, &mut shell, 4, directors::REPAIR_FACTOR);
+        let r = shell_report(&mesh, &shell);
+        assert_eq!((r.inverted_cells, r.outer_self_intersections, r.outer_base_intersections), (0, 0, 0), "{wrong}: {r:?}");
+        assert!(shell.directors[odd].normalize().dot(Vec3::Z) > 0.999 && (shell.achieved[odd] - repair::FLOOR).abs() < 1e-6);
+        assert!((0..n).filter(|&v| v != odd).all(|v| shell.directors[v] == Vec3::Z * repair::FLOOR), "only the folding corner turns");
+    }
 }
 
 #[test]

@@ -1,9 +1,11 @@
 //! Barnes–Hut patch tree over the integration triangles (section 4.4.2): a BVH whose
 //! nodes store the patch area, the area-weighted centroid, the second moment of area
 //! about it and a bounding sphere. Far patches are replaced by a point mass at their
-//! centroid with a quadrupole correction (the thesis uses the point mass alone; the
-//! correction's error falls with the cube of size over distance instead of the
-//! square, so patches can be accepted from nearer at the same accuracy); near single
+//! centroid with, for p = 3, a quadrupole correction (the thesis uses the point mass
+//! alone; the correction's error falls with the cube of size over distance instead
+//! of the square, so patches can be accepted from nearer at the same accuracy; for
+//! larger p the kernel's higher terms grow and the correction can do worse, so other
+//! p keep the point mass alone); near single
 //! faces are integrated exactly (Appendix A, p = 3) or by quadrature (other p).
 //! Localization (section 4.3.1): only faces whose centroid lies within a ball around
 //! `x` count.
@@ -91,13 +93,17 @@ impl Kernel {
         self.p == 3.0
     }
     /// A patch of `area` and second moment `second` about its centroid, at distance
-    /// vector `d = x - c` (`r2 = |d|²`, `r = |d|`): the point mass and its quadrupole
-    /// term, `½ Σ Q_ij ∂_i ∂_j` of the kernels `r^-p` and `p d r^-(p+2)` (the dipole
+    /// vector `d = x - c` (`r2 = |d|²`, `r = |d|`): the point mass and (p = 3) its
+    /// quadrupole term, `½ Σ Q_ij ∂_i ∂_j` of the kernels `r^-p` and `p d r^-(p+2)` (the dipole
     /// term vanishes about the centroid).
     #[inline]
     fn point(&self, area: f64, second: &Sym, d: DVec3, r2: f64, r: f64) -> (f64, DVec3) {
         let p = self.p;
-        let rp = if self.is_exact() { 1.0 / (r2 * r) } else { r2.powf(-0.5 * p) };
+        if !self.is_exact() {
+            let k = area * r2.powf(-0.5 * p);
+            return (k, d * (p * k / r2));
+        }
+        let rp = 1.0 / (r2 * r);
         let (qd, trace) = (sym_times(second, d), second[0] + second[1] + second[2]);
         let dqd = d.dot(qd) / r2;
         let value = rp * (area + 0.5 * p * ((p + 2.0) * dqd - trace) / r2);
