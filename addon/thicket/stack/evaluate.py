@@ -56,7 +56,8 @@ def _offset_shell(mesh: MeshArrays, item: S.OffsetShell, factors):
 
 
 def _field_shell(mesh: MeshArrays, item: S.FieldShell, factors):
-    out = live_shells.field_shell(mesh, item, factors)
+    args, kwargs = _common_args(mesh, item, factors)
+    out = live_shells.field_shell(args, dict(kwargs, side=item.side))
     return (*_shell_result(out), out)
 
 

@@ -25,32 +25,28 @@ def clear() -> None:
     _kept.clear()
 
 
-def _key(mesh, item, factors):
-    settings = (float(item.thickness), bool(item.relative), item.side, item.output, int(item.layers), factors is None)
-    return (mesh.vertex_count, len(mesh.corners), hash(mesh.face_sizes.tobytes()), hash(mesh.corners.tobytes()), settings)
-
-
-def field_shell(mesh, item, factors) -> dict:
-    """`thicket_native.shell(...)`'s result for `mesh` and the Shell `item`, updated
-    from a kept shell of the same topology and settings when there is one."""
-    key = _key(mesh, item, factors)
+def field_shell(args, kwargs) -> dict:
+    """`thicket_native.shell(*args, **kwargs)`'s result, updated from a kept shell of
+    the same topology and settings when there is one (only the positions in `args`
+    and the `factors` may differ)."""
+    vertices, face_sizes, corners, thickness = args
+    factors = kwargs["factors"]
+    settings = (thickness, *(kwargs[k] for k in sorted(kwargs) if k != "factors"), factors is None)
+    key = (len(vertices), len(corners), hash(face_sizes.tobytes()), hash(corners.tobytes()), settings)
     kept = _kept.get(key)
-    if kept is not None and np.array_equal(kept[0], mesh.face_sizes) and np.array_equal(kept[1], mesh.corners):
+    if kept is not None and np.array_equal(kept[0], face_sizes) and np.array_equal(kept[1], corners):
         shell = kept[2]
         try:
-            stats = shell.update(mesh.vertices, factors=factors)
+            stats = shell.update(vertices, factors=factors)
         except native.error_types():
             del _kept[key]  # rebuilt below; the error, if real, comes again from there
         else:
             _kept.move_to_end(key, last=False)
             recent.append(stats)
             return shell.result()
-    shell = native.get().IncrementalShell(
-        mesh.vertices, mesh.face_sizes, mesh.corners, float(item.thickness),
-        side=item.side, relative=item.relative, factors=factors, output=item.output, layers=int(item.layers),
-    )
+    shell = native.get().IncrementalShell(*args, **kwargs)
     recent.append(None)
-    _kept[key] = (mesh.face_sizes.copy(), mesh.corners.copy(), shell)
+    _kept[key] = (face_sizes.copy(), corners.copy(), shell)
     _kept.move_to_end(key, last=False)
     while len(_kept) > KEEP:
         _kept.popitem(last=True)

@@ -30,8 +30,15 @@ pub struct IncrementalShell {
 
 impl IncrementalShell {
     fn core(&self) -> PyResult<&Core> {
-        self.inner.as_ref().ok_or_else(|| ThicketError::new_err("this IncrementalShell failed in an earlier update; create a new one"))
+        self.inner.as_ref().ok_or_else(failed)
     }
+    fn core_mut(&mut self) -> PyResult<&mut Core> {
+        self.inner.as_mut().ok_or_else(failed)
+    }
+}
+
+fn failed() -> PyErr {
+    ThicketError::new_err("this IncrementalShell failed in an earlier update; create a new one")
 }
 
 #[pymethods]
@@ -88,15 +95,11 @@ impl IncrementalShell {
             )));
         }
         let factors = factors.map(|f| arrays::per_vertex_or_scalar(f, n, "factors")).transpose()?;
-        let mut moved = self.core()?.mesh().clone();
-        for (v, q) in positions.iter().enumerate() {
-            moved.set_position(v, *q).map_err(crate::errors::to_py)?;
-        }
-        let thickness = self.thickness.per_vertex(&moved, factors.as_deref()).map_err(crate::errors::to_py)?;
+        let rule = self.thickness;
         let mut inner = self.inner.take().expect("checked above");
         // A refused update hands the shell back unchanged; a panic loses it.
         let (inner, stats) = run_detached(py, move || {
-            let stats = inner.update(&positions, &thickness);
+            let stats = inner.update_with(&positions, &rule, factors.as_deref());
             Ok((inner, stats))
         })?;
         self.inner = Some(inner);
@@ -132,8 +135,7 @@ impl IncrementalShell {
         if !(tolerance >= 0.0 && tolerance.is_finite()) {
             return Err(ThicketError::new_err(format!("tolerance must be a finite number >= 0, got {tolerance}")));
         }
-        self.inner.as_mut().ok_or_else(|| ThicketError::new_err("this IncrementalShell failed in an earlier update"))?.tolerance =
-            tolerance;
+        self.core_mut()?.tolerance = tolerance;
         Ok(())
     }
 }

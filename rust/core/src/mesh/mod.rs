@@ -113,7 +113,11 @@ impl Mesh {
     }
     /// Diagonal of the axis-aligned bounding box of the vertices that faces use.
     pub fn bbox_diagonal(&self) -> f32 {
-        let (lo, hi) = self.bounds();
+        self.bbox_diagonal_at(&self.positions)
+    }
+    /// [`bbox_diagonal`](Self::bbox_diagonal) were the vertices at `positions`.
+    pub fn bbox_diagonal_at(&self, positions: &[Vec3]) -> f32 {
+        let (lo, hi) = self.bounds_at(positions);
         if lo.x > hi.x {
             0.0
         } else {
@@ -122,8 +126,12 @@ impl Mesh {
     }
     /// Axis-aligned bounds of the vertices referenced by faces (loose vertices do not count).
     pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds_at(&self.positions)
+    }
+    /// [`bounds`](Self::bounds) were the vertices at `positions` (one per vertex).
+    pub fn bounds_at(&self, positions: &[Vec3]) -> (Vec3, Vec3) {
         self.corners.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), &v| {
-            let p = self.positions[v as usize];
+            let p = positions[v as usize];
             (lo.min(p), hi.max(p))
         })
     }
@@ -166,10 +174,8 @@ pub(crate) mod fixtures {
 
     /// Axis-aligned unit cube centred at the origin, 6 outward quads.
     pub fn cube() -> Mesh {
-        let p = [
-            [-1., -1., -1.], [1., -1., -1.], [1., 1., -1.], [-1., 1., -1.],
-            [-1., -1., 1.], [1., -1., 1.], [1., 1., 1.], [-1., 1., 1.],
-        ];
+        let p =
+            [[-1., -1., -1.], [1., -1., -1.], [1., 1., -1.], [-1., 1., -1.], [-1., -1., 1.], [1., -1., 1.], [1., 1., 1.], [-1., 1., 1.]];
         let positions = p.iter().map(|a| Vec3::from_array(*a) * 0.5).collect();
         let quads = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
         Mesh::new(positions, &[4; 6], quads.iter().flatten().copied().collect(), None).unwrap()

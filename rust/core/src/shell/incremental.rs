@@ -21,7 +21,7 @@ use super::field::{extension_faces, PatchTree};
 use super::influence::ChangeBound;
 use super::intersect::{tri_box, TriBvh};
 use super::repair::Repair;
-use super::{Shell, ShellParams, Side};
+use super::{Shell, ShellParams, Side, Thickness};
 use crate::mesh::{face_triangles, vertex_normal};
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
@@ -199,6 +199,18 @@ impl IncrementalShell {
         };
         repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
         Ok(UpdateStats { changed, retraced: dirty.len(), kept, rebuilt: false })
+    }
+
+    /// [`update`](Self::update) with the thickness given by its rule (and per-vertex
+    /// factors), resolved on the new positions: relative thickness follows the
+    /// edited mesh's size.
+    pub fn update_with(&mut self, positions: &[Vec3], rule: &Thickness, factors: Option<&[f32]>) -> Result<UpdateStats> {
+        let n = self.mesh.vertex_count();
+        if positions.len() != n {
+            return Err(Error::InvalidParameter(format!("{} positions given for a shell of {n} vertices", positions.len())));
+        }
+        let thickness = rule.per_vertex_at(&self.mesh, positions, factors)?;
+        self.update(positions, &thickness)
     }
 
     /// The faces around moved vertices, and the vertices of those faces, whose normal

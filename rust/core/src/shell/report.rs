@@ -66,13 +66,13 @@ pub(crate) fn normal_shape(side: Side, d: Vec3) -> (Vec3, Vec3) {
 
 /// Vertices where the normal-offset shell of the same side and targets is locally valid.
 pub fn normal_valid_vertices(mesh: &Mesh, side: Side, target: &[f32]) -> Vec<bool> {
-    normal_valid_with(&Checker::new(mesh), mesh, side, target)
+    normal_valid_with(&Checker::new(mesh), mesh, &vertex_normals(mesh), side, target)
 }
 
-fn normal_valid_with(checker: &Checker, mesh: &Mesh, side: Side, target: &[f32]) -> Vec<bool> {
+fn normal_valid_with(checker: &Checker, mesh: &Mesh, normals: &[Vec3], side: Side, target: &[f32]) -> Vec<bool> {
     let mut valid = vec![false; mesh.vertex_count()];
     let all = (0..mesh.vertex_count() as u32).collect();
-    NormalRoom::new(checker, mesh, &vertex_normals(mesh), side, target).among(all, None).into_iter().for_each(|v| valid[v as usize] = true);
+    NormalRoom::new(checker, mesh, normals, side, target).among(all, None).into_iter().for_each(|v| valid[v as usize] = true);
     valid
 }
 
@@ -130,8 +130,8 @@ impl<'a> NormalRoom<'a> {
 pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
     let checker = Checker::new(mesh);
     let f = checker.find(mesh, shell, None, Some(&checker.outer_tree(mesh, shell, None)));
-    let valid = normal_valid_with(&checker, mesh, shell.side, &shell.target);
     let normals = vertex_normals(mesh);
+    let valid = normal_valid_with(&checker, mesh, &normals, shell.side, &shell.target);
     let (mut min_ratio, mut sum, mut count, mut min_valid, mut n_valid) = (f32::INFINITY, 0.0f64, 0usize, f32::INFINITY, 0);
     let mut valid_at_95 = 0usize;
     for v in 0..mesh.vertex_count() {

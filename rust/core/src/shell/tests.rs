@@ -255,6 +255,23 @@ fn incremental_update_rebuilds_after_large_changes_and_refuses_bad_input() {
 }
 
 #[test]
+fn incremental_update_with_a_thickness_rule_sizes_on_the_edited_mesh() {
+    let mesh = tm::icosphere(2);
+    let rule = Thickness::relative(0.1);
+    let factors: Vec<f32> = (0..mesh.vertex_count()).map(|v| 0.5 + (v % 3) as f32 * 0.25).collect();
+    let t = rule.per_vertex(&mesh, Some(&factors)).unwrap();
+    let mut inc = incremental::IncrementalShell::new(mesh.clone(), t, Side::Exterior, ShellParams::default()).unwrap();
+    // Stretch one vertex far out: the bounding box, so relative thickness, grows.
+    let mut moved = mesh.positions().to_vec();
+    moved[0] *= 3.0;
+    inc.update_with(&moved, &rule, Some(&factors)).unwrap();
+    let want = rule.per_vertex(&with_positions(&mesh, moved.clone()), Some(&factors)).unwrap();
+    assert!(want[0] > 1.2 * rule.per_vertex(&mesh, Some(&factors)).unwrap()[0]);
+    assert_eq!(inc.thickness(), &want[..]);
+    assert!(inc.update_with(&moved[1..], &rule, None).is_err());
+}
+
+#[test]
 fn incremental_update_of_a_folding_shell_stays_clean() {
     // Thick enough that the repair pass works; after a deformation the incremental
     // shell must be as clean as a rebuilt one.

@@ -2,6 +2,7 @@
 //! diagonal, times an optional per-vertex factor (a Blender vertex group).
 
 use crate::{Error, Mesh, Result};
+use glam::Vec3;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ThicknessMode {
@@ -35,8 +36,14 @@ impl Thickness {
     /// [`MAX_THICKNESS_IN_DIAGONALS`] diagonals, a mesh whose vertices all coincide,
     /// factor arrays of the wrong length or with non-finite entries.
     pub fn per_vertex(&self, mesh: &Mesh, factors: Option<&[f32]>) -> Result<Vec<f32>> {
+        self.per_vertex_at(mesh, mesh.positions(), factors)
+    }
+
+    /// [`per_vertex`](Self::per_vertex) were `mesh`'s vertices at `positions` (a
+    /// shell following an edit sizes itself on the edited mesh).
+    pub fn per_vertex_at(&self, mesh: &Mesh, positions: &[Vec3], factors: Option<&[f32]>) -> Result<Vec<f32>> {
         mesh.require_faces()?;
-        let diag = mesh.bbox_diagonal();
+        let diag = mesh.bbox_diagonal_at(positions);
         if diag <= 0.0 || !diag.is_finite() {
             return Err(Error::InvalidMesh("all vertices coincide: the mesh has no size".into()));
         }
@@ -55,11 +62,9 @@ impl Thickness {
         }
         match factors {
             None => Ok(vec![length; mesh.vertex_count()]),
-            Some(f) if f.len() != mesh.vertex_count() => Err(Error::InvalidParameter(format!(
-                "{} thickness factors given for {} vertices",
-                f.len(),
-                mesh.vertex_count()
-            ))),
+            Some(f) if f.len() != mesh.vertex_count() => {
+                Err(Error::InvalidParameter(format!("{} thickness factors given for {} vertices", f.len(), mesh.vertex_count())))
+            }
             Some(f) => match f.iter().position(|w| !w.is_finite()) {
                 Some(i) => Err(Error::InvalidParameter(format!("thickness factor of vertex {i} is not finite"))),
                 None => Ok(f.iter().map(|w| w * length).collect()),
