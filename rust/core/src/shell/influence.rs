@@ -23,6 +23,7 @@
 //! measurements include (`shell_bench`). Between its samples a trajectory is taken
 //! as the chord, and `|push|` as the smaller of the two ends.
 
+use super::field::tree::tri_props;
 use glam::{DVec3, IVec3};
 use std::collections::HashMap;
 
@@ -49,12 +50,6 @@ pub(crate) struct ChangeBound {
     centre: DVec3,
     radius: f64,
     p: f64,
-}
-
-fn props(t: &[DVec3; 3]) -> (f64, DVec3, f64) {
-    let area = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length();
-    let c = (t[0] + t[1] + t[2]) / 3.0;
-    (area, c, t.iter().map(|q| (*q - c).length()).fold(0.0, f64::max))
 }
 
 /// Distance from `c` to the segment `a b`.
@@ -84,7 +79,7 @@ impl ChangeBound {
                 cell.centre = (lo + hi) * 0.5;
                 for &i in &members {
                     let (old, new) = &changes[i];
-                    let ((a0, c0, r0), (a1, c1, r1)) = (props(old), props(new));
+                    let ((a0, c0, r0), (a1, c1, r1)) = (tri_props(old), tri_props(new));
                     for q in old.iter().chain(new) {
                         cell.radius = cell.radius.max((*q - cell.centre).length());
                     }

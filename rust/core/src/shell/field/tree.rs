@@ -145,7 +145,8 @@ pub struct PatchTree {
     total_area: f64,
 }
 
-fn tri_props(t: &[DVec3; 3]) -> (f64, DVec3, f64) {
+/// Area, centroid and bounding radius about the centroid of a triangle.
+pub(crate) fn tri_props(t: &[DVec3; 3]) -> (f64, DVec3, f64) {
     let area = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length();
     let c = (t[0] + t[1] + t[2]) / 3.0;
     let r = t.iter().map(|p| (*p - c).length()).fold(0.0, f64::max);
