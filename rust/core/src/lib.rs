@@ -11,6 +11,8 @@ pub mod shell;
 pub mod texture;
 #[doc(hidden)]
 pub mod testmeshes;
+#[doc(hidden)]
+pub mod hard_meshes;
 
 pub use glam;
 pub use error::{Error, Result};

@@ -27,6 +27,7 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(shell::build_shell, m)?)?;
     m.add_function(wrap_pyfunction!(shell::shell, m)?)?;
     m.add_function(wrap_pyfunction!(shell::shell_report, m)?)?;
+    m.add_function(wrap_pyfunction!(shell::self_intersections, m)?)?;
     m.add_class::<incremental::IncrementalShell>()?;
     m.add_function(wrap_pyfunction!(texture::texture, m)?)?;
     m.add_function(wrap_pyfunction!(texture::bake_texture, m)?)?;

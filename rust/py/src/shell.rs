@@ -2,7 +2,7 @@ use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use thicket_core::glam::Vec3;
-use thicket_core::shell::{self as core, report::shell_report as core_shell_report, shell_geometry, ShellParams, Side};
+use thicket_core::shell::{self as core, report::{self_intersecting_faces, shell_report as core_shell_report}, shell_geometry, ShellParams, Side};
 use thicket_core::Mesh;
 
 use crate::arrays;
@@ -83,8 +83,41 @@ pub fn shell_dict<'py>(py: Python<'py>, geometry: core::ShellMesh, shell: core::
     d.set_item("layer", geometry.layer.into_pyarray(py))?;
     d.set_item("base_offset", arrays::vec3_array(py, shell.base_offset)?)?;
     d.set_item("directors", arrays::vec3_array(py, shell.directors)?)?;
+    d.set_item("check", check_dict(py, &shell.check)?)?;
     d.set_item("achieved", shell.achieved.into_pyarray(py))?;
     d.set_item("target", shell.target.into_pyarray(py))?;
+    Ok(d)
+}
+
+/// What the repair and the final check did: clean (no defect left), repair_rounds,
+/// check_rounds, check_shortened (vertices the final check shortened),
+/// base_crossing_faces (faces of the base crossing another part of it).
+fn check_dict<'py>(py: Python<'py>, c: &core::ShellCheck) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("clean", c.clean)?;
+    d.set_item("repair_rounds", c.rounds)?;
+    d.set_item("check_rounds", c.check_rounds)?;
+    d.set_item("check_shortened", c.check_shortened)?;
+    d.set_item("base_crossing_faces", c.base_crossing_faces)?;
+    Ok(d)
+}
+
+/// self_intersections(vertices, face_sizes, corners) -> dict
+///
+/// The mesh's own intersections: `pairs` (crossing triangle pairs that share no
+/// vertex) and `faces` (int32 array of the faces involved, sorted).
+#[pyfunction]
+pub fn self_intersections<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
+    let (pairs, faces) = run_detached(py, move || Ok(self_intersecting_faces(&mesh)))?;
+    let d = PyDict::new(py);
+    d.set_item("pairs", pairs)?;
+    d.set_item("faces", arrays::u32_as_i32_array(py, faces))?;
     Ok(d)
 }
 
@@ -92,9 +125,12 @@ pub fn shell_dict<'py>(py: Python<'py>, geometry: core::ShellMesh, shell: core::
 ///              side="exterior") -> dict
 ///
 /// Quality figures of any shell given by its directors (e.g. from Solidify: outer
-/// position minus base): outer_self_intersections, outer_base_intersections,
-/// inverted_cells, min_ratio, mean_ratio, min_ratio_normal_valid, normal_valid_vertices,
-/// normal_valid_at_95,
+/// position minus base): outer_self_intersections, outer_base_intersections (skins:
+/// the outer layer, and an envelope's inner layer too), inverted_cells,
+/// inherited_intersections (crossings involving faces where the base crosses
+/// itself, not counted in the first two), base_self_intersections,
+/// compressed_vertices (below 95% of the target), min_ratio, mean_ratio,
+/// min_ratio_normal_valid, normal_valid_vertices, normal_valid_at_95,
 /// considered_vertices.
 #[pyfunction]
 #[pyo3(signature = (vertices, face_sizes, corners, directors, target, base_offset=None, side="exterior"))]
@@ -122,12 +158,15 @@ pub fn shell_report<'py>(
     let target = arrays::per_vertex_or_scalar(target, n, "target")?;
     let side = Side::parse(side).map_err(crate::errors::to_py)?;
     let achieved = directors.iter().map(|d| d.length()).collect();
-    let shell = core::Shell { side, base_offset, directors, achieved, target };
+    let shell = core::Shell { side, base_offset, directors, achieved, target, check: Default::default() };
     let r = run_detached(py, move || Ok(core_shell_report(&mesh, &shell)))?;
     let d = PyDict::new(py);
     d.set_item("outer_self_intersections", r.outer_self_intersections)?;
     d.set_item("outer_base_intersections", r.outer_base_intersections)?;
     d.set_item("inverted_cells", r.inverted_cells)?;
+    d.set_item("inherited_intersections", r.inherited_intersections)?;
+    d.set_item("base_self_intersections", r.base_self_intersections)?;
+    d.set_item("compressed_vertices", r.compressed_vertices)?;
     d.set_item("min_ratio", r.min_ratio)?;
     d.set_item("mean_ratio", r.mean_ratio)?;
     d.set_item("min_ratio_normal_valid", r.min_ratio_normal_valid)?;

@@ -3,13 +3,15 @@
 
 mod normals;
 pub mod obj;
+mod reorder;
 mod topology;
 mod triangulate;
 mod validate;
 
 pub use normals::{vertex_normal, vertex_normals};
+pub use reorder::morton_codes;
 pub use topology::{boundary_edges, EdgeMap, Incidence};
-pub use triangulate::{face_triangles, Triangulation};
+pub use triangulate::{face_triangles, newell_normal, Triangulation};
 pub use validate::MeshReport;
 
 use crate::{Error, Result};

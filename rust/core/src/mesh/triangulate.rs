@@ -57,7 +57,7 @@ fn split_quad(p: &[Vec3], q: &[u32]) -> [[u32; 3]; 2] {
     }
 }
 
-pub(crate) fn newell_normal(pts: &[Vec3]) -> Vec3 {
+pub fn newell_normal(pts: &[Vec3]) -> Vec3 {
     let mut n = Vec3::ZERO;
     for i in 0..pts.len() {
         let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);

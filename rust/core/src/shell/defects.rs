@@ -1,35 +1,64 @@
-//! Finding a shell's defects: outer-layer triangles crossing each other or the base,
-//! and inverted cells. One search serves the report (every element, once) and the
-//! repair pass (only the elements around directors it just shortened, round after
-//! round, on a refitted BVH).
+//! Finding a shell's defects: skin triangles (the outer layer, and an envelope's
+//! inner layer) crossing each other or the base, and inverted cells; exact
+//! orientation tests in double precision. One search serves the report (every
+//! element, once) and the repair pass (only the elements around directors it just
+//! shortened, round after round, on a refitted BVH). Crossings that involve a base
+//! triangle which already crosses the base (self-intersecting input) are counted
+//! apart, as inherited: no shell can remove them.
 
 use super::geometry::{prisms, Cell};
 use super::intersect::{segment_crosses_triangle, tri_box, triangles_intersect, TriBvh};
-use super::Shell;
+use super::{Shell, Side};
 use crate::mesh::Incidence;
 use crate::Mesh;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::borrow::Cow;
 
-/// The defects found (indices into [`Checker::tris`] and [`Checker::cells`]).
+/// The defects found: skin items (see [`Checker::skin_item`]) and indices into
+/// [`Checker::tris`] and [`Checker::cells`].
 #[derive(Debug, Default)]
 pub(crate) struct Findings {
-    /// Intersecting outer-layer triangles that share no vertex.
+    /// Intersecting skin triangles whose base triangles share no vertex.
     pub self_pairs: Vec<(u32, u32)>,
-    /// (outer triangle, base triangle) pairs that intersect, ignoring pairs that share
-    /// a vertex whose outer point coincides with its base point.
+    /// (skin triangle, base triangle) pairs that intersect, ignoring pairs of one quad
+    /// split differently and pairs that share a vertex whose skin point coincides with
+    /// its base point.
     pub base_pairs: Vec<(u32, u32)>,
     /// Inverted cells.
     pub inverted: Vec<u32>,
+    /// Intersecting pairs of either kind that involve a base triangle which intersects
+    /// the base itself: inherited from the input, not counted as defects.
+    pub inherited: usize,
+}
+
+impl Findings {
+    pub fn is_clean(&self) -> bool {
+        self.self_pairs.is_empty() && self.base_pairs.is_empty() && self.inverted.is_empty()
+    }
 }
 
 /// What the search needs of a mesh, built once and used for any number of shells.
+///
+/// A shell's *skins* are the layers that bound it away from the base: the outer layer
+/// (r = 1), and for envelopes also the inner layer (r = 0). Skin triangle `t` of skin
+/// `s` is item `s * tris.len() + t` of the skin tree.
 pub(crate) struct Checker {
+    /// The mesh's triangulation ([`Mesh::triangulate`]), then, for each quad, the two
+    /// triangles of its other diagonal: a skin quad is not planar, and whoever shows
+    /// it (Blender's viewport, an exporter) may split it either way, so both splits
+    /// are checked.
     pub tris: Vec<[u32; 3]>,
+    /// The mesh face of each triangle.
+    pub face_of: Vec<u32>,
+    /// Where the quads' other-diagonal triangles begin in `tris`.
+    first_other: usize,
     pub cells: Vec<Cell>,
     pub base: Vec<[DVec3; 3]>,
     pub base_bvh: TriBvh,
+    /// Base triangles that cross another base triangle (sharing no vertex): the
+    /// input intersects itself there.
+    pub own: Vec<bool>,
     /// The base mesh's bounding-box diagonal (the scale of "coincide").
     diag: f64,
     /// Triangles and cells around each vertex (CSR).
@@ -37,7 +66,8 @@ pub(crate) struct Checker {
     cells_around: Incidence,
 }
 
-/// Which elements to check: those flagged (mask and list).
+/// Which elements to check: those flagged (mask and list); a flagged triangle is
+/// checked in every skin.
 pub(crate) struct Dirty {
     pub tris: Vec<bool>,
     pub cells: Vec<bool>,
@@ -53,29 +83,110 @@ impl Dirty {
     }
 }
 
+/// The skins of a shell of `side`: layer parameters r.
+pub(crate) fn skins(side: Side) -> &'static [f32] {
+    if side == Side::Envelope {
+        &[1.0, 0.0]
+    } else {
+        &[1.0]
+    }
+}
+
 impl Checker {
     pub fn new(mesh: &Mesh) -> Self {
         let p = mesh.positions();
-        let tris = mesh.triangulate().triangles;
+        let tri = mesh.triangulate();
+        let (mut tris, mut face_of) = (tri.triangles, tri.face_of_triangle);
+        let mesh_tris = tris.len();
+        for (f, face) in mesh.faces().enumerate().filter(|(_, face)| face.len() == 4) {
+            let first = face_of[..mesh_tris].partition_point(|&g| (g as usize) < f);
+            let [a, b, c, d] = [face[0], face[1], face[2], face[3]];
+            let other = if tris[first] == [a, b, c] { [[b, c, d], [b, d, a]] } else { [[a, b, c], [a, c, d]] };
+            tris.extend(other);
+            face_of.extend([f as u32; 2]);
+        }
         let base: Vec<[DVec3; 3]> = tris.iter().map(|t| t.map(|i| p[i as usize].as_dvec3())).collect();
         let cells = prisms(mesh);
+        let first_other = mesh_tris;
         let tris_around = Incidence::new(p.len(), tris.iter().copied());
         let cells_around = Incidence::new(p.len(), cells.iter().map(|c| c.base().to_vec()));
-        Self { base_bvh: TriBvh::build(&base), diag: mesh.bbox_diagonal() as f64, base, tris, cells, tris_around, cells_around }
+        let base_bvh = TriBvh::build(&base);
+        let mut me = Self {
+            base_bvh,
+            diag: mesh.bbox_diagonal() as f64,
+            own: Vec::new(),
+            face_of,
+            first_other,
+            base,
+            tris,
+            cells,
+            tris_around,
+            cells_around,
+        };
+        me.own = (0..me.tris.len() as u32).into_par_iter().map(|t| me.crosses_base(t)).collect();
+        me
+    }
+
+    /// Whether base triangle `t` crosses another base triangle that shares no vertex.
+    fn crosses_base(&self, t: u32) -> bool {
+        let (lo, hi) = tri_box(&self.base[t as usize]);
+        let mut hit = false;
+        self.base_bvh.query(lo, hi, |j| {
+            hit = hit || (!shares(&self.tris[t as usize], &self.tris[j as usize]) && triangles_intersect(&self.base[t as usize], &self.base[j as usize]));
+        });
+        hit
+    }
+
+    /// Pairs of base triangles that cross each other (sharing no vertex): the input's
+    /// own intersections.
+    pub fn base_self_pairs(&self) -> usize {
+        let own: Vec<u32> = (0..self.tris.len() as u32).filter(|&t| self.own[t as usize]).collect();
+        own.par_iter()
+            .map(|&t| {
+                let (lo, hi) = tri_box(&self.base[t as usize]);
+                let mut n = 0;
+                self.base_bvh.query(lo, hi, |j| {
+                    let crosses = || !shares(&self.tris[t as usize], &self.tris[j as usize]) && triangles_intersect(&self.base[t as usize], &self.base[j as usize]);
+                    n += usize::from(j > t && crosses());
+                });
+                n
+            })
+            .sum()
+    }
+
+    /// The mesh faces that cross another part of the mesh, sorted, each once.
+    pub fn own_faces(&self) -> Vec<u32> {
+        let mut f: Vec<u32> = (0..self.tris.len()).filter(|&t| self.own[t]).map(|t| self.face_of[t]).collect();
+        f.sort_unstable();
+        f.dedup();
+        f
     }
 
     /// After the vertices `moved` moved (same topology and triangulation): the base
-    /// triangles around them and the tree follow.
-    pub fn refit_base(&mut self, mesh: &Mesh, moved: &[u32]) {
+    /// triangles around them and the tree follow. Returns the base triangles whose
+    /// [`own`](Self::own) flag changed.
+    pub fn refit_base(&mut self, mesh: &Mesh, moved: &[u32]) -> Vec<u32> {
         let p = mesh.positions();
         let mut touched: Vec<u32> = moved.iter().flat_map(|&v| self.tris_around.of(v as usize)).copied().collect();
         touched.sort_unstable();
         touched.dedup();
+        // Triangles the moved ones crossed before or cross now may change their flag.
+        let mut near = touched.clone();
+        let mut around = |b: (DVec3, DVec3)| self.base_bvh.query(b.0, b.1, |j| near.push(j));
+        touched.iter().for_each(|&t| around(tri_box(&self.base[t as usize])));
         for &t in &touched {
             self.base[t as usize] = self.tris[t as usize].map(|i| p[i as usize].as_dvec3());
         }
         self.base_bvh.refit_items(touched.iter().map(|&t| (t, tri_box(&self.base[t as usize]))));
+        let mut around = |b: (DVec3, DVec3)| self.base_bvh.query(b.0, b.1, |j| near.push(j));
+        touched.iter().for_each(|&t| around(tri_box(&self.base[t as usize])));
+        near.sort_unstable();
+        near.dedup();
+        let flags: Vec<bool> = near.par_iter().map(|&t| self.crosses_base(t)).collect();
+        let flipped: Vec<u32> = near.iter().zip(flags).filter(|(&t, f)| self.own[t as usize] != *f).map(|(&t, _)| t).collect();
+        flipped.iter().for_each(|&t| self.own[t as usize] ^= true);
         self.diag = mesh.bbox_diagonal() as f64;
+        flipped
     }
 
     /// Nothing flagged.
@@ -104,19 +215,40 @@ impl Checker {
         }
     }
 
-    /// Whether outer-layer triangle `t` of `shell` crosses another one that shares no
-    /// vertex with it (`tree` holds the outer layer); after the first crossing the
-    /// remaining candidates are skipped untested.
+    /// The base triangle and layer parameter of skin item `i`.
+    pub fn skin_item(&self, i: u32) -> (u32, f32) {
+        let n = self.tris.len() as u32;
+        (i % n, if i >= n { 0.0 } else { 1.0 })
+    }
+
+    /// The corners of skin item `i` of `shell`.
+    pub fn skin_tri(&self, mesh: &Mesh, shell: &Shell, i: u32) -> [DVec3; 3] {
+        let (t, r) = self.skin_item(i);
+        self.tris[t as usize].map(|v| shell.point(mesh.positions(), v as usize, r).as_dvec3())
+    }
+
+    /// The skin items of base triangle `t` in a shell of `side`.
+    fn items_of(&self, t: u32, side: Side) -> impl Iterator<Item = u32> {
+        let n = self.tris.len() as u32;
+        (0..skins(side).len() as u32).map(move |s| s * n + t)
+    }
+
+    /// Whether a skin triangle of base triangle `t` crosses another skin triangle
+    /// away from it (`tree` holds the skins); after the first crossing the remaining
+    /// candidates are skipped untested. Crossings inherited from the base do not count.
     pub fn outer_crosses(&self, mesh: &Mesh, shell: &Shell, t: u32, tree: &TriBvh) -> bool {
-        let top = |v: &u32| shell.point(mesh.positions(), *v as usize, 1.0).as_dvec3();
-        let mine = self.tris[t as usize].map(|v| top(&v));
-        let (lo, hi) = tri_box(&mine);
-        let mut hit = false;
-        tree.query(lo, hi, |j| {
-            let other = &self.tris[j as usize];
-            hit = hit || (!other.iter().any(|v| self.tris[t as usize].contains(v)) && triangles_intersect(&mine, &other.map(|v| top(&v))));
-        });
-        hit
+        self.items_of(t, shell.side).any(|i| {
+            let mine = self.skin_tri(mesh, shell, i);
+            let (lo, hi) = tri_box(&mine);
+            let mut hit = false;
+            tree.query(lo, hi, |j| {
+                let u = self.skin_item(j).0;
+                hit = hit
+                    || (!(shares(&self.tris[t as usize], &self.tris[u as usize]) || self.own[t as usize] || self.own[u as usize])
+                        && triangles_intersect(&mine, &self.skin_tri(mesh, shell, j)));
+            });
+            hit
+        })
     }
 
     /// The triangles around vertex `v`.
@@ -125,17 +257,17 @@ impl Checker {
     }
 
     /// Whether segment `a`-`b` of vertex `v` crosses a triangle away from `v`: of the
-    /// base, or of `outer`'s outer layer (with its tree).
+    /// base, or of `outer`'s skins (with their tree).
     pub fn segment_crosses(&self, mesh: &Mesh, v: u32, a: DVec3, b: DVec3, outer: Option<(&Shell, &TriBvh)>) -> bool {
         let mut hit = false;
-        let mut test =
-            |j: u32, t: &dyn Fn() -> [DVec3; 3]| hit = hit || (!self.tris[j as usize].contains(&v) && segment_crosses_triangle(a, b, &t()));
         match outer {
-            None => self.base_bvh.query_segment(a, b, |j| test(j, &|| self.base[j as usize])),
-            Some((shell, tree)) => {
-                let top = |i: u32| shell.point(mesh.positions(), i as usize, 1.0).as_dvec3();
-                tree.query_segment(a, b, |j| test(j, &|| self.tris[j as usize].map(top)))
-            }
+            None => self.base_bvh.query_segment(a, b, |j| {
+                hit = hit || (!self.tris[j as usize].contains(&v) && segment_crosses_triangle(a, b, &self.base[j as usize]))
+            }),
+            Some((shell, tree)) => tree.query_segment(a, b, |j| {
+                let t = self.skin_item(j).0 as usize;
+                hit = hit || (!self.tris[t].contains(&v) && segment_crosses_triangle(a, b, &self.skin_tri(mesh, shell, j)))
+            }),
         }
         hit
     }
@@ -150,87 +282,87 @@ impl Checker {
         self.cells_around.of(v).iter().flat_map(|&c| self.cells[c as usize].base().iter().copied())
     }
 
-    /// A tree over the outer-layer triangles' boxes, refitting `reuse` when given
-    /// (the shell's topology never changes).
+    /// A tree over the skin triangles' boxes, refitting `reuse` when given (the
+    /// shell's topology never changes).
     pub fn outer_tree(&self, mesh: &Mesh, shell: &Shell, reuse: Option<TriBvh>) -> TriBvh {
-        let boxes = (0..self.tris.len() as u32).into_par_iter().map(|t| self.outer_box(mesh, shell, t));
+        let items = (self.tris.len() * skins(shell.side).len()) as u32;
+        let boxes = (0..items).into_par_iter().map(|i| tri_box(&self.skin_tri(mesh, shell, i)));
         match reuse {
-            Some(mut tree) => {
+            Some(mut tree) if tree.len() == items as usize => {
                 tree.refit_boxes(boxes.collect::<Vec<_>>().into_iter());
                 tree
             }
-            None => TriBvh::from_boxes(boxes.collect()),
+            _ => TriBvh::from_boxes(boxes.collect()),
         }
     }
 
-    /// The box of outer-layer triangle `t`.
-    pub fn outer_box(&self, mesh: &Mesh, shell: &Shell, t: u32) -> (DVec3, DVec3) {
-        tri_box(&self.tris[t as usize].map(|v| shell.point(mesh.positions(), v as usize, 1.0).as_dvec3()))
+    /// Moves the skin triangles of base triangles `tris` to where `shell` puts them.
+    pub fn refit_outer(&self, mesh: &Mesh, shell: &Shell, tree: &mut TriBvh, tris: &[u32]) {
+        tree.refit_items(tris.iter().flat_map(|&t| self.items_of(t, shell.side)).map(|i| (i, tri_box(&self.skin_tri(mesh, shell, i)))));
     }
 
     /// The defects of `shell` among the flagged elements (all for `None`). A pair is
-    /// found when either triangle is flagged. `outer_tree` holds every outer-layer
-    /// triangle of `shell` ([`outer_tree`](Self::outer_tree)); without it the outer
-    /// layer is not checked against itself.
+    /// found when either triangle is flagged. `outer_tree` holds every skin triangle
+    /// of `shell` ([`outer_tree`](Self::outer_tree)); without it the skins are not
+    /// checked against each other. Everything in double precision.
     pub fn find(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, outer_tree: Option<&TriBvh>) -> Findings {
         let p = mesh.positions();
-        let top = |v: u32| shell.point(p, v as usize, 1.0).as_dvec3();
-        let outer = |i: usize| self.tris[i].map(top);
-        let coincide = |v: u32| (top(v) - p[v as usize].as_dvec3()).length() <= 1e-6 * self.diag;
         let tris = &self.tris;
-        let shares = |a: &[u32; 3], b: &[u32; 3]| a.iter().any(|v| b.contains(v));
         let tri_flagged = |i: usize| dirty.is_none_or(|d| d.tris[i]);
-
-        // Per outer triangle: (is it a self pair?, other index).
         let every = |n: usize| Cow::Owned((0..n as u32).collect());
         let (tri_list, cell_list): (Cow<[u32]>, Cow<[u32]>) = match dirty {
             Some(d) => (Cow::Borrowed(&d.tri_list), Cow::Borrowed(&d.cell_list)),
             None => (every(tris.len()), every(self.cells.len())),
         };
-        let hits: Vec<(bool, u32, u32)> = tri_list
+        // Per skin triangle: (kind, item, other), kind 0 a self pair, 1 a base pair,
+        // 2 an inherited pair of either kind.
+        let hits: Vec<(u8, u32, u32)> = tri_list
             .par_iter()
-            .flat_map_iter(|&i| {
-                let i = i as usize;
-                let mine = outer(i);
+            .flat_map_iter(|&t| self.items_of(t, shell.side).map(move |i| (t, i)))
+            .flat_map_iter(|(t, i)| {
+                let tu = t as usize;
+                let r = self.skin_item(i).1;
+                let mine = self.skin_tri(mesh, shell, i);
                 let (lo, hi) = tri_box(&mine);
                 let mut hits = Vec::new();
                 if let Some(tree) = outer_tree {
                     tree.query(lo, hi, |j| {
-                        let ju = j as usize;
-                        // Each pair once: by the lower index, unless only the higher is flagged.
-                        let first = j as usize > i || !tri_flagged(ju);
-                        if first && !shares(&tris[i], &tris[ju]) && triangles_intersect(&mine, &outer(ju)) {
-                            hits.push((true, i as u32, j));
+                        let u = self.skin_item(j).0 as usize;
+                        // Each pair once: by the lower item, unless only the higher is flagged.
+                        let first = j > i || !tri_flagged(u);
+                        if first && !shares(&tris[tu], &tris[u]) && triangles_intersect(&mine, &self.skin_tri(mesh, shell, j)) {
+                            hits.push((if self.own[tu] || self.own[u] { 2 } else { 0 }, i, j));
                         }
                     });
                 }
+                let coincide = |v: u32| (shell.point(p, v as usize, r).as_dvec3() - p[v as usize].as_dvec3()).length() <= 1e-6 * self.diag;
                 self.base_bvh.query(lo, hi, |j| {
-                    let touching = tris[i].iter().any(|v| tris[j as usize].contains(v) && coincide(*v));
-                    if !touching && triangles_intersect(&mine, &self.base[j as usize]) {
-                        hits.push((false, i as u32, j));
+                    // The two splits of a curved quad cross each other once one is
+                    // offset a little: a skin triangle is checked against its own
+                    // face's base in the same split only.
+                    let other_split = self.face_of[j as usize] == self.face_of[tu] && (tu < self.first_other) != ((j as usize) < self.first_other);
+                    let touching = tris[tu].iter().any(|v| tris[j as usize].contains(v) && coincide(*v));
+                    if !other_split && !touching && triangles_intersect(&mine, &self.base[j as usize]) {
+                        hits.push((if self.own[tu] || self.own[j as usize] { 2 } else { 1 }, i, j));
                     }
                 });
                 hits
             })
             .collect();
-        let (self_hits, base_hits): (Vec<_>, Vec<_>) = hits.into_iter().partition(|h| h.0);
+        let pairs = |k: u8| hits.iter().filter(|h| h.0 == k).map(|h| (h.1, h.2)).collect();
         let inverted = cell_list.par_iter().copied().filter(|&c| self.cells[c as usize].is_inverted(p, shell)).collect();
-        Findings {
-            self_pairs: self_hits.into_iter().map(|h| (h.1, h.2)).collect(),
-            base_pairs: base_hits.into_iter().map(|h| (h.1, h.2)).collect(),
-            inverted,
-        }
+        Findings { self_pairs: pairs(0), base_pairs: pairs(1), inverted, inherited: hits.iter().filter(|h| h.0 == 2).count() }
     }
 
     /// The vertices of every defect, sorted, each once.
     pub fn defect_vertex_list(&self, f: &Findings) -> Vec<u32> {
         let mut bad = Vec::new();
         for &(i, j) in &f.self_pairs {
-            bad.extend(self.tris[i as usize]);
-            bad.extend(self.tris[j as usize]);
+            bad.extend(self.tris[self.skin_item(i).0 as usize]);
+            bad.extend(self.tris[self.skin_item(j).0 as usize]);
         }
         for &(i, _) in &f.base_pairs {
-            bad.extend(self.tris[i as usize]);
+            bad.extend(self.tris[self.skin_item(i).0 as usize]);
         }
         for &c in &f.inverted {
             bad.extend(self.cells[c as usize].base());
@@ -239,4 +371,8 @@ impl Checker {
         bad.dedup();
         bad
     }
+}
+
+fn shares(a: &[u32; 3], b: &[u32; 3]) -> bool {
+    a.iter().any(|v| b.contains(v))
 }

@@ -16,7 +16,7 @@
 //! behaviour of figures 4.7 and 4.8.
 
 use super::field::{extension_faces, FieldEval, Kernel, PatchTree};
-use super::repair::Repair;
+use super::repair::{Repair, ShellCheck};
 use crate::mesh::{boundary_edges, vertex_normals, Incidence};
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
@@ -76,9 +76,10 @@ pub struct ShellParams {
     /// Artificial faces along open boundaries (4.3.2).
     pub boundary_faces: bool,
     /// Rounds of local director shortening where chords still tangle
-    /// ([`repair::untangle`](super::repair::untangle)); 0 disables it and the
-    /// restore pass after it (`restore`), leaving the traced directors. Clean inputs
-    /// settle in fewer (the 29k bunny in 28); self-intersecting ones may use them all.
+    /// ([`repair::untangle`](super::repair::untangle)), before its final check
+    /// removes whatever is left; 0 disables both and the restore pass after them
+    /// (`restore`), leaving the traced directors (which may fold). Clean inputs
+    /// settle in fewer (the 29k bunny in 28).
     pub repair_rounds: u32,
     /// The shell moves at full speed while the agreement `σ` of the surface pushes
     /// (module docs) is at least this; below it the speed is `σ / onset`. 1 slows down
@@ -143,6 +144,8 @@ pub struct Shell {
     pub achieved: Vec<f32>,
     /// The thickness asked for (magnitude of the input).
     pub target: Vec<f32>,
+    /// What the repair and its final check did (all zero for shells not built here).
+    pub check: ShellCheck,
 }
 
 impl Shell {
@@ -151,7 +154,25 @@ impl Shell {
     /// as the target too.
     pub fn from_directors(base_offset: Vec<Vec3>, directors: Vec<Vec3>) -> Self {
         let achieved: Vec<f32> = directors.iter().map(|d| d.length()).collect();
-        Self { side: Side::Exterior, base_offset, directors, target: achieved.clone(), achieved }
+        Self { side: Side::Exterior, base_offset, directors, target: achieved.clone(), achieved, check: ShellCheck::default() }
+    }
+
+    /// The shell of the mesh whose vertex `order[i]` is this shell's vertex `i`.
+    fn renumbered(self, order: &[u32]) -> Self {
+        fn back<T: Copy>(order: &[u32], values: Vec<T>) -> Vec<T> {
+            let mut out = values.clone();
+            order.iter().zip(values).for_each(|(&v, x)| out[v as usize] = x);
+            out
+        }
+        let Shell { side, base_offset, directors, achieved, target, check } = self;
+        Shell {
+            side,
+            base_offset: back(order, base_offset),
+            directors: back(order, directors),
+            achieved: back(order, achieved),
+            target: back(order, target),
+            check,
+        }
     }
 
     /// Position of layer `r` of vertex `v`.
@@ -294,6 +315,16 @@ impl Tracer {
             let mut halvings = 0;
             loop {
                 let xn = x + g * (speed * delta);
+                if self.tree.segment_crosses(x, xn) {
+                    // The step jumped over a thin part (the field is singular on the
+                    // surface, so the trajectory itself never crosses it).
+                    if halvings >= params.max_halvings {
+                        break 'outer;
+                    }
+                    delta *= 0.5;
+                    halvings += 1;
+                    continue;
+                }
                 evals += 1;
                 lo = lo.min(xn);
                 hi = hi.max(xn);
@@ -371,8 +402,17 @@ pub(crate) fn director_of(x0: Vec3, side: Side, out: &Trace, inn: &Trace) -> (Ve
 /// Quads and n-gons are triangulated for integration only. Zero-area faces are
 /// skipped, loose vertices get zero directors; where the surface leaves no room the
 /// shell gets thinner (see [`Shell::achieved`]).
+///
+/// The work runs on the mesh in spatial order ([`Mesh::spatially_ordered`]): on
+/// meshes stored in random order (scattered parts) that makes it several times faster.
 pub fn build_shell(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellParams) -> Result<Shell> {
     check_inputs(mesh, thickness, params)?;
+    let (sorted, order) = mesh.spatially_ordered();
+    let thickness: Vec<f32> = order.iter().map(|&v| thickness[v as usize]).collect();
+    Ok(build_in_order(&sorted, &thickness, side, params).renumbered(&order))
+}
+
+fn build_in_order(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellParams) -> Shell {
     let lengths = side_lengths(thickness, side);
     let (tracer, _) = Tracer::new(mesh, &lengths, params);
     let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
@@ -381,9 +421,9 @@ pub fn build_shell(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPar
     if params.repair_rounds > 0 && mesh.vertex_count() > 0 {
         let checker = super::defects::Checker::new(mesh);
         let repair = Repair { checker: &checker, mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR };
-        repair.settle(&mut None, &mut shell, None);
+        shell.check = repair.settle(&mut None, &mut shell, None);
     }
-    Ok(shell)
+    shell
 }
 
 pub(crate) fn assemble(mesh: &Mesh, thickness: &[f32], side: Side, traces: &[(Trace, Trace)]) -> Shell {
@@ -395,5 +435,5 @@ pub(crate) fn assemble(mesh: &Mesh, thickness: &[f32], side: Side, traces: &[(Tr
         directors.push(d);
     }
     let achieved = directors.iter().map(|d| d.length()).collect();
-    Shell { side, base_offset, directors, achieved, target: thickness.iter().map(|t| t.abs()).collect() }
+    Shell { side, base_offset, directors, achieved, target: thickness.iter().map(|t| t.abs()).collect(), check: ShellCheck::default() }
 }

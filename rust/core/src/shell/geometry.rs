@@ -4,7 +4,7 @@
 use crate::mesh::{boundary_edges, vertex_normals};
 use super::Shell;
 use crate::{Error, Mesh, Result};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// What to build from a shell.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -148,27 +148,48 @@ impl Cell {
         let b = self.base();
         b.iter().map(|&v| shell.point(positions, v as usize, 0.0)).chain(b.iter().map(|&v| shell.point(positions, v as usize, 1.0))).collect()
     }
-    /// Signed volumes of the tetrahedra of a fixed decomposition: each prism
+    /// Signed volumes (f64) of the tetrahedra of a fixed decomposition: each prism
     /// `(a b c | a' b' c')` into `(a b c a') (b c a' b') (c a' b' c')`; a hexahedron
-    /// `(a b c d)` into the prisms over `(a b c)` and `(a c d)`. Positive for a valid
-    /// cell of an outward shell (base counter-clockwise seen from outside).
-    pub fn tet_volumes(&self, positions: &[Vec3], shell: &Shell) -> Vec<f32> {
-        let c = self.corners(positions, shell);
+    /// `(a b c d)` into the prisms over both splits of its base, `(a b c)`, `(a c d)`
+    /// and `(b c d)`, `(b d a)` (whoever shows the shell may split it either way),
+    /// each where its base triangle faces the way the quad does. Positive for a valid
+    /// cell of an outward shell (base counter-clockwise seen from outside). A
+    /// tetrahedron with two coincident corners (a zero director: the cell is pressed
+    /// flat there) is reported as `None`.
+    pub fn tet_volumes(&self, positions: &[Vec3], shell: &Shell) -> Vec<Option<f64>> {
+        let c: Vec<DVec3> = self.corners(positions, shell).into_iter().map(|p| p.as_dvec3()).collect();
         let k = self.count as usize;
-        let prisms: Vec<[usize; 3]> = if k == 4 { vec![[0, 1, 2], [0, 2, 3]] } else { vec![[0, 1, 2]] };
-        let vol = |a: Vec3, b: Vec3, cc: Vec3, d: Vec3| (b - a).cross(cc - a).dot(d - a) / 6.0;
+        let prisms: &[[usize; 3]] = if k == 4 { &[[0, 1, 2], [0, 2, 3], [1, 2, 3], [1, 3, 0]] } else { &[[0, 1, 2]] };
+        let base_at = |q: usize| positions[self.vertices[q] as usize].as_dvec3();
+        let facing = match k {
+            4 => crate::mesh::newell_normal(&[0, 1, 2, 3].map(|q| positions[self.vertices[q] as usize])).as_dvec3(),
+            _ => (base_at(1) - base_at(0)).cross(base_at(2) - base_at(0)),
+        };
+        let vol = |t: [DVec3; 4]| {
+            let flat = (0..4).any(|i| (i + 1..4).any(|j| t[i] == t[j]));
+            (!flat).then(|| (t[1] - t[0]).cross(t[2] - t[0]).dot(t[3] - t[0]) / 6.0)
+        };
         let mut out = Vec::with_capacity(3 * prisms.len());
-        for [i, j, l] in prisms {
+        for &[i, j, l] in prisms {
+            // A base triangle of zero area has no inside to fold, and one facing away
+            // from its quad folds the base itself: their prisms are skipped.
+            let base = [i, j, l].map(base_at);
+            if !((base[1] - base[0]).cross(base[2] - base[0]).dot(facing) > 0.0) {
+                continue;
+            }
             let (a, b, cc, a2, b2, c2) = (c[i], c[j], c[l], c[i + k], c[j + k], c[l + k]);
-            out.extend([vol(a, b, cc, a2), vol(b, cc, a2, b2), vol(cc, a2, b2, c2)]);
+            out.extend([vol([a, b, cc, a2]), vol([b, cc, a2, b2]), vol([cc, a2, b2, c2])]);
         }
         out
     }
-    /// A cell is inverted when any tetrahedron of the fixed decomposition has a
-    /// non-positive volume once oriented by the shell side (interior shells grow inward).
+    /// A cell is inverted when a tetrahedron of the fixed decomposition has a
+    /// non-positive volume once oriented by the shell side (interior shells grow
+    /// inward), in double precision. Tetrahedra pressed flat by a zero director do not
+    /// count: a cell of zero height is the shell compressed to nothing there, not a
+    /// fold (so zero thickness is always valid, which the final check relies on).
     pub fn is_inverted(&self, positions: &[Vec3], shell: &Shell) -> bool {
-        let s = shell.side.orientation();
-        self.tet_volumes(positions, shell).iter().any(|v| s * v <= 0.0)
+        let s = shell.side.orientation() as f64;
+        self.tet_volumes(positions, shell).iter().any(|v| v.is_some_and(|v| s * v <= 0.0))
     }
 }
 

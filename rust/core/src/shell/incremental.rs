@@ -94,7 +94,7 @@ impl IncrementalShell {
         let mut outer_bvh = None;
         let repair =
             Repair { checker: &checker, mesh: &mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR };
-        repair.settle(&mut outer_bvh, &mut shell, None);
+        shell.check = repair.settle(&mut outer_bvh, &mut shell, None);
         Ok(Self {
             mesh,
             thickness,
@@ -187,8 +187,8 @@ impl IncrementalShell {
             self.checker = Checker::new(&self.mesh);
             self.outer_bvh = None;
         } else {
-            self.checker.refit_base(&self.mesh, &moved);
-            self.seed_pierced_outer(&changes, &mut seeds);
+            let flipped = self.checker.refit_base(&self.mesh, &moved);
+            self.seed_pierced_outer(&changes, &flipped, &mut seeds);
         }
         let repair = Repair {
             checker: &self.checker,
@@ -197,7 +197,7 @@ impl IncrementalShell {
             rounds: self.params.repair_rounds,
             factor: REPAIR_FACTOR,
         };
-        repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
+        self.shell.check = repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
         Ok(UpdateStats { changed, retraced: dirty.len(), kept, rebuilt: false })
     }
 
@@ -263,7 +263,7 @@ impl IncrementalShell {
             }
         }
         if !self.tracer.boundary.is_empty() && around.iter().chain(thicker).any(|&u| self.on_boundary[u as usize]) {
-            let first = self.checker.tris.len();
+            let first = *self.face_tris.last().unwrap() as usize;
             let ext = extension_faces(&self.tracer.boundary, p, &self.tracer.normals, &self.lengths);
             changes.extend(ext.into_iter().enumerate().map(|(k, t)| (first + k, t)));
         }
@@ -349,22 +349,29 @@ impl IncrementalShell {
         seeds
     }
 
-    /// Moved base triangles can cross outer triangles no retraced director touches:
-    /// their vertices join the repair's seeds (their directors keep their value).
-    fn seed_pierced_outer(&self, changes: &[(usize, [DVec3; 3], [DVec3; 3])], seeds: &mut Vec<u32>) {
+    /// Moved base triangles can cross skin triangles no retraced director touches,
+    /// and base triangles that began or stopped crossing the base (`flipped`) change
+    /// which crossings are inherited: the vertices of the skin triangles near them,
+    /// and their own, join the repair's seeds (their directors keep their value).
+    fn seed_pierced_outer(&self, changes: &[(usize, [DVec3; 3], [DVec3; 3])], flipped: &[u32], seeds: &mut Vec<u32>) {
         let Some(outer) = &self.outer_bvh else { return };
         let mut near = vec![false; self.mesh.vertex_count()];
         seeds.iter().for_each(|&v| near[v as usize] = true);
-        let base_count = self.checker.tris.len();
-        for (_, _, new) in changes.iter().filter(|c| c.0 < base_count) {
-            let (lo, hi) = tri_box(new);
-            outer.query(lo, hi, |t| {
-                for &v in &self.checker.tris[t as usize] {
-                    if !std::mem::replace(&mut near[v as usize], true) {
-                        seeds.push(v);
-                    }
+        let mut seed = |t: u32, seeds: &mut Vec<u32>| {
+            for &v in &self.checker.tris[t as usize] {
+                if !std::mem::replace(&mut near[v as usize], true) {
+                    seeds.push(v);
                 }
-            });
+            }
+        };
+        let base_count = *self.face_tris.last().unwrap() as usize;
+        let moved = changes.iter().filter(|c| c.0 < base_count).map(|c| c.2);
+        for t in flipped {
+            seed(*t, seeds);
+        }
+        for tri in moved.chain(flipped.iter().map(|&t| self.checker.base[t as usize])) {
+            let (lo, hi) = tri_box(&tri);
+            outer.query(lo, hi, |i| seed(self.checker.skin_item(i).0, seeds));
         }
     }
 

@@ -28,6 +28,27 @@ pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     (0..3).any(|i| segment_crosses_triangle(a[i], a[(i + 1) % 3], b)) || (0..3).any(|i| segment_crosses_triangle(b[i], b[(i + 1) % 3], a))
 }
 
+/// Whether segment `a`-`b` meets the box `[lo, hi]` (slab test; `inv` is
+/// `1 / (b - a)`). An axis the segment runs parallel to is decided by `a` alone; a
+/// little slack keeps a segment grazing a face from being lost to rounding.
+#[inline]
+pub(crate) fn segment_meets_box(a: DVec3, b: DVec3, inv: DVec3, lo: DVec3, hi: DVec3) -> bool {
+    let d = b - a;
+    let (t0, t1) = ((lo - a) * inv, (hi - a) * inv);
+    let (mut enter, mut exit) = (0.0f64, 1.0f64);
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            if a[k] < lo[k] || a[k] > hi[k] {
+                return false;
+            }
+        } else {
+            enter = enter.max(t0[k].min(t1[k]));
+            exit = exit.min(t0[k].max(t1[k]));
+        }
+    }
+    enter <= exit + 1e-9
+}
+
 #[derive(Debug, Clone, Copy)]
 struct BoxNode {
     lo: DVec3,
@@ -56,6 +77,15 @@ pub fn tri_box(t: &[DVec3; 3]) -> (DVec3, DVec3) {
 impl TriBvh {
     pub fn build(tris: &[[DVec3; 3]]) -> Self {
         Self::from_boxes(tris.iter().map(tri_box).collect())
+    }
+
+    /// The number of items.
+    pub fn len(&self) -> usize {
+        self.boxes.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.boxes.is_empty()
     }
 
     /// A tree over boxes (one per item) rather than triangles.
@@ -162,27 +192,8 @@ impl TriBvh {
     /// Calls `f` with every triangle whose box the segment `a`-`b` meets (slab test
     /// per node: a long slanted segment visits far fewer nodes than its box would).
     pub fn query_segment(&self, a: DVec3, b: DVec3, mut f: impl FnMut(u32)) {
-        let d = b - a;
-        let inv = DVec3::ONE / d;
-        let meets = |lo: DVec3, hi: DVec3| {
-            let (t0, t1) = ((lo - a) * inv, (hi - a) * inv);
-            // An axis the segment runs parallel to gives NaN or infinities: decide it by
-            // the start point alone.
-            let (mut enter, mut exit) = (0.0f64, 1.0f64);
-            for k in 0..3 {
-                if d[k] == 0.0 {
-                    if a[k] < lo[k] || a[k] > hi[k] {
-                        return false;
-                    }
-                } else {
-                    enter = enter.max(t0[k].min(t1[k]));
-                    exit = exit.min(t0[k].max(t1[k]));
-                }
-            }
-            // A little slack: a segment grazing a box face must not be lost to rounding.
-            enter <= exit + 1e-9
-        };
-        self.walk(meets, &mut f);
+        let inv = DVec3::ONE / (b - a);
+        self.walk(|lo, hi| segment_meets_box(a, b, inv, lo, hi), &mut f);
     }
 
     /// Calls `f` with every triangle whose box overlaps `[lo, hi]`.

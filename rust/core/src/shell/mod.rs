@@ -29,6 +29,7 @@ pub mod thickness;
 pub use directors::{build_shell, Shell, ShellParams, Side};
 pub use geometry::{build_geometry, prisms, shell_geometry, Cell, ShellMesh, ShellOutput};
 pub use offset::normal_offset_directors;
+pub use repair::ShellCheck;
 pub use thickness::{Thickness, ThicknessMode};
 #[cfg(test)]
 mod tests;

@@ -1,16 +1,30 @@
-//! Local thickness reduction where the traced shell is still tangled: the field
-//! trajectories never cross, but their straight chords (chapter 3.1, "virtual
-//! trajectories") can, in sharp concave corners and where trajectories converge.
-//! The thesis accepts this (4.6); we shorten the directors of every defect — an
-//! inverted cell, or an outer-layer triangle crossing another one or the base —
-//! towards their base point, so thickness is reduced only there. A director already
-//! at the [`FLOOR`] that is still the corner of an inverted cell points away from its
-//! side's normal (a trajectory bent by self-intersecting input): no length unfolds
-//! that cell, so it turns to the normal, at the same length. After the first round only the triangles and cells touching a
-//! changed director are checked again, so later rounds cost in proportion to the
-//! defects left.
+//! Local thickness reduction where the traced shell is still tangled, ending in a
+//! shell with no defect at all. The field trajectories never cross, but their
+//! straight chords (chapter 3.1, "virtual trajectories") can, in sharp concave corners
+//! and where trajectories converge; the thesis accepts this (4.6). We do not: every
+//! defect — an inverted cell, or a skin triangle crossing another one or the base
+//! ([`super::defects`], exact tests in double precision) — has its corners' directors
+//! shortened towards their base points, so thickness is reduced only there.
+//!
+//! Two phases share one loop:
+//! 1. *Repair*, for `rounds` rounds: each defect's corners shrink by `factor`. A
+//!    folded corner already below [`TURN_AT`] of its target that points away from its
+//!    side's normal (a trajectory bent by self-intersecting input) turns to the
+//!    normal, at the same length: no length unfolds such a cell.
+//! 2. *Final check*, until no defect is left: each defect's corners are halved and
+//!    their neighbours shortened less (a smooth fall-off over [`FALL_OFF`] rings). A
+//!    director below [`SNAP`] of its target becomes zero. Zero thickness is always
+//!    valid (a flat cell is not inverted, the skins then lie on a base that does not
+//!    cross itself, and crossings inherited from a self-intersecting base are not
+//!    defects), and every round shortens a non-zero director of each defect, so the
+//!    loop ends; after [`HALVING_ROUNDS`] it sets defect corners to zero at once, which
+//!    bounds it by the vertex count.
+//!
+//! There is no floor: where two parts touch, the shell is pressed to zero. After the
+//! first round only the triangles and cells touching a changed director are checked
+//! again, so later rounds cost in proportion to the defects left.
 
-use super::defects::Checker;
+use super::defects::{Checker, Findings};
 use super::intersect::TriBvh;
 use super::report::normal_shape;
 use super::Shell;
@@ -18,21 +32,46 @@ use crate::mesh::vertex_normals;
 use crate::Mesh;
 use glam::Vec3;
 
-/// Shortest director the repair leaves, as a fraction of the target: a cell of
-/// vanishing height is degenerate, no better than a folded one.
-pub const FLOOR: f32 = 0.05;
+/// A folded director shorter than this share of its target, pointing away from its
+/// side's normal, turns to the normal.
+pub const TURN_AT: f32 = 0.05;
+
+/// Below this share of its target a director is set to zero (pressed flat).
+pub const SNAP: f32 = 1e-3;
+
+/// Shortening in one final-check round: a defect's corners, then each ring around.
+pub const FALL_OFF: [f32; 3] = [0.5, 0.7, 0.85];
+
+/// Final-check rounds that halve; later ones set defect corners to zero.
+pub const HALVING_ROUNDS: u32 = 60;
+
+/// What the repair and the final check did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ShellCheck {
+    /// Faces of the base that cross another part of the base (their crossings are
+    /// inherited by any shell, and not counted as defects).
+    pub base_crossing_faces: usize,
+    /// Repair rounds that changed something.
+    pub rounds: u32,
+    /// Final-check rounds that changed something.
+    pub check_rounds: u32,
+    /// Vertices the final check shortened.
+    pub check_shortened: usize,
+    /// No defect is left (always, unless `rounds` is 0 or the base has no faces).
+    pub clean: bool,
+}
 
 /// Shrinks directors around defects by `factor` per round, for at most `rounds`
-/// rounds; returns the number of rounds that changed something.
-pub fn untangle(mesh: &Mesh, shell: &mut Shell, rounds: u32, factor: f32) -> u32 {
+/// rounds, then runs the final check until the shell is clean.
+pub fn untangle(mesh: &Mesh, shell: &mut Shell, rounds: u32, factor: f32) -> ShellCheck {
     untangle_around(mesh, shell, rounds, factor, None)
 }
 
 /// [`untangle`], checking at first only the triangles and cells around `seeds` (all
 /// of them for `None`): after a local edit the rest of the shell is known clean.
-pub fn untangle_around(mesh: &Mesh, shell: &mut Shell, rounds: u32, factor: f32, seeds: Option<&[u32]>) -> u32 {
+pub fn untangle_around(mesh: &Mesh, shell: &mut Shell, rounds: u32, factor: f32, seeds: Option<&[u32]>) -> ShellCheck {
     if rounds == 0 || mesh.vertex_count() == 0 {
-        return 0;
+        return ShellCheck::default();
     }
     let checker = Checker::new(mesh);
     let normals = vertex_normals(mesh);
@@ -50,13 +89,13 @@ pub(crate) struct Repair<'a> {
 }
 
 impl Repair<'_> {
-    /// [`untangle_around`] with an outer-layer tree kept by the caller (the
-    /// incremental shell keeps it between edits): a kept tree must match `shell`
-    /// except around `seeds`.
-    pub fn untangle(&self, outer_bvh: &mut Option<TriBvh>, shell: &mut Shell, seeds: Option<&[u32]>) -> u32 {
-        let Repair { checker, mesh, normals, rounds, factor } = *self;
+    /// [`untangle_around`] with a skin tree kept by the caller (the incremental shell
+    /// keeps it between edits): a kept tree must match `shell` except around `seeds`.
+    pub fn untangle(&self, outer_bvh: &mut Option<TriBvh>, shell: &mut Shell, seeds: Option<&[u32]>) -> ShellCheck {
+        let Repair { checker, mesh, rounds, .. } = *self;
+        let mut done = ShellCheck { base_crossing_faces: checker.own_faces().len(), ..Default::default() };
         if rounds == 0 || mesh.vertex_count() == 0 {
-            return 0;
+            return done;
         }
         let mut dirty = seeds.map(|s| {
             let mut d = checker.clean();
@@ -65,53 +104,123 @@ impl Repair<'_> {
         });
         // A kept tree is refitted where the seeds' directors changed; otherwise in full.
         let mut outer = match (outer_bvh.take(), &dirty) {
-            (Some(mut tree), Some(d)) => {
-                tree.refit_items(d.tri_list.iter().map(|&t| (t, checker.outer_box(mesh, shell, t))));
+            (Some(mut tree), Some(d)) if tree.len() == checker.tris.len() * super::defects::skins(shell.side).len() => {
+                checker.refit_outer(mesh, shell, &mut tree, &d.tri_list);
                 tree
             }
             (reuse, _) => checker.outer_tree(mesh, shell, reuse),
         };
-        let mut changed = 0;
         // Two flag sets, swapped round after round: clearing costs what they held.
         let mut next = checker.clean();
-        for _ in 0..rounds {
+        let mut shortened = vec![false; mesh.vertex_count()];
+        let mut scale = vec![1.0f32; mesh.vertex_count()];
+        for round in 0.. {
             let found = checker.find(mesh, shell, dirty.as_ref(), Some(&outer));
-            next.clear();
-            let mut any = false;
-            let mut folded: Vec<u32> = found.inverted.iter().flat_map(|&c| checker.cells[c as usize].base()).copied().collect();
-            folded.sort_unstable();
-            for v in checker.defect_vertex_list(&found) {
-                let folds = folded.binary_search(&v).is_ok();
-                let v = v as usize;
-                let f = factor.max(FLOOR * shell.target[v] / shell.achieved[v].max(f32::MIN_POSITIVE));
-                let length = shell.achieved[v];
-                let along = normal_shape(shell.side, normals[v]).1;
-                if length <= 0.0 {
-                    continue; // nothing to shorten or turn (a zero target)
-                } else if f < 1.0 {
-                    shell.base_offset[v] *= f;
-                    shell.directors[v] *= f;
-                    shell.achieved[v] = shell.directors[v].length();
-                } else if folds && along != Vec3::ZERO && shell.directors[v].dot(along) < 0.999 * length {
-                    (shell.base_offset[v], shell.directors[v]) = normal_shape(shell.side, normals[v] * length);
-                } else {
-                    continue;
-                }
-                checker.mark_around(v, &mut next);
-                any = true;
-            }
-            if !any {
+            if found.is_clean() {
+                done.clean = true;
                 break;
             }
-            changed += 1;
-            // Only the outer triangles around shortened directors moved.
-            outer.refit_items(next.tri_list.iter().map(|&t| (t, checker.outer_box(mesh, shell, t))));
+            next.clear();
+            let any = if round < rounds {
+                self.repair_round(&found, shell, &mut next)
+            } else {
+                let halving = round - rounds < HALVING_ROUNDS;
+                self.check_round(&found, shell, &mut next, &mut scale, halving, &mut shortened)
+            };
+            if !any {
+                break; // defects whose corners are all zero: only on a base that crosses itself in a way not flagged
+            }
+            match round < rounds {
+                true => done.rounds += 1,
+                false => done.check_rounds += 1,
+            }
+            // Only the skin triangles around shortened directors moved.
+            checker.refit_outer(mesh, shell, &mut outer, &next.tri_list);
             match dirty.as_mut() {
                 Some(d) => std::mem::swap(d, &mut next),
                 None => dirty = Some(std::mem::replace(&mut next, checker.clean())),
             }
         }
+        done.check_shortened = shortened.iter().filter(|&&s| s).count();
         *outer_bvh = Some(outer);
-        changed
+        done
     }
+
+    /// One repair round: shrink (or turn) the corners of every defect; flags what
+    /// changed in `next`. Returns whether anything changed.
+    fn repair_round(&self, found: &Findings, shell: &mut Shell, next: &mut super::defects::Dirty) -> bool {
+        let Repair { checker, normals, factor, .. } = *self;
+        let mut folded: Vec<u32> = found.inverted.iter().flat_map(|&c| checker.cells[c as usize].base()).copied().collect();
+        folded.sort_unstable();
+        let mut any = false;
+        for v in checker.defect_vertex_list(found) {
+            let folds = folded.binary_search(&v).is_ok();
+            let v = v as usize;
+            let length = shell.achieved[v];
+            let along = normal_shape(shell.side, normals[v]).1;
+            if length <= 0.0 {
+                continue; // nothing to shorten or turn
+            } else if folds && length <= TURN_AT * shell.target[v] && along != Vec3::ZERO && shell.directors[v].dot(along) < 0.999 * length {
+                (shell.base_offset[v], shell.directors[v]) = normal_shape(shell.side, normals[v] * length);
+            } else {
+                shorten(shell, v, factor);
+            }
+            checker.mark_around(v, next);
+            any = true;
+        }
+        any
+    }
+
+    /// One final-check round: halve the corners of every defect and shorten the rings
+    /// around them less ([`FALL_OFF`]), or set the corners to zero once `halving` is
+    /// over. Returns whether anything changed.
+    fn check_round(
+        &self,
+        found: &Findings,
+        shell: &mut Shell,
+        next: &mut super::defects::Dirty,
+        scale: &mut [f32],
+        halving: bool,
+        shortened: &mut [bool],
+    ) -> bool {
+        let checker = self.checker;
+        let corners = checker.defect_vertex_list(found);
+        let mut touched: Vec<u32> = Vec::new();
+        let mut ring: Vec<u32> = corners.clone();
+        for (k, &f) in FALL_OFF.iter().enumerate() {
+            let f = if halving { f } else if k == 0 { 0.0 } else { break };
+            for &v in &ring {
+                if scale[v as usize] == 1.0 {
+                    touched.push(v);
+                }
+                scale[v as usize] = scale[v as usize].min(f);
+            }
+            if k + 1 < FALL_OFF.len() {
+                let mut around: Vec<u32> = ring.iter().flat_map(|&v| checker.cell_corners_around(v as usize)).collect();
+                around.sort_unstable();
+                around.dedup();
+                ring = around;
+            }
+        }
+        let mut any = false;
+        for v in touched {
+            let v = v as usize;
+            let f = std::mem::replace(&mut scale[v], 1.0);
+            if shell.achieved[v] > 0.0 {
+                shorten(shell, v, f);
+                shortened[v] = true;
+                checker.mark_around(v, next);
+                any = true;
+            }
+        }
+        any
+    }
+}
+
+/// Shortens director `v` (and an envelope's base offset) by `f`, to zero below [`SNAP`].
+fn shorten(shell: &mut Shell, v: usize, f: f32) {
+    let f = if shell.achieved[v] * f < SNAP * shell.target[v] { 0.0 } else { f };
+    shell.base_offset[v] *= f;
+    shell.directors[v] *= f;
+    shell.achieved[v] = shell.directors[v].length();
 }

@@ -20,11 +20,19 @@ use rayon::prelude::*;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct ShellReport {
-    /// Intersecting pairs of outer-layer (r = 1) triangles that share no vertex.
+    /// Intersecting pairs of skin triangles (the outer layer r = 1, and an envelope's
+    /// inner layer r = 0) that share no vertex.
     pub outer_self_intersections: usize,
-    /// Intersecting (outer-layer triangle, base triangle) pairs, ignoring pairs that
-    /// share a vertex whose outer point coincides with the base point.
+    /// Intersecting (skin triangle, base triangle) pairs, ignoring pairs that share
+    /// a vertex whose skin point coincides with the base point.
     pub outer_base_intersections: usize,
+    /// Intersecting pairs of either kind that involve a base triangle which crosses
+    /// the base itself (not counted above: inherited from the input).
+    pub inherited_intersections: usize,
+    /// Pairs of base triangles that cross each other (the input's own).
+    pub base_self_intersections: usize,
+    /// Vertices (with a positive target and a normal) below 95% of their target.
+    pub compressed_vertices: usize,
     /// Cells with a non-positive tetrahedron (see [`Cell::is_inverted`]).
     pub inverted_cells: usize,
     /// achieved / target over vertices with a positive target and a normal.
@@ -52,7 +60,7 @@ pub fn normal_shell(mesh: &Mesh, side: Side, target: &[f32]) -> Shell {
 fn normal_shell_from(n: &[Vec3], side: Side, target: &[f32]) -> Shell {
     let (base_offset, directors): (Vec<Vec3>, Vec<Vec3>) = target.iter().zip(n).map(|(t, n)| normal_shape(side, *n * t.abs())).unzip();
     let achieved = directors.iter().map(|d| d.length()).collect();
-    Shell { side, base_offset, directors, achieved, target: target.iter().map(|t| t.abs()).collect() }
+    Shell { side, base_offset, directors, achieved, target: target.iter().map(|t| t.abs()).collect(), check: Default::default() }
 }
 
 /// The base offset and director of normal displacement by `d` (normal times thickness).
@@ -130,6 +138,7 @@ impl<'a> NormalRoom<'a> {
 pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
     let checker = Checker::new(mesh);
     let f = checker.find(mesh, shell, None, Some(&checker.outer_tree(mesh, shell, None)));
+    let mut compressed = 0;
     let normals = vertex_normals(mesh);
     let valid = normal_valid_with(&checker, mesh, &normals, shell.side, &shell.target);
     let (mut min_ratio, mut sum, mut count, mut min_valid, mut n_valid) = (f32::INFINITY, 0.0f64, 0usize, f32::INFINITY, 0);
@@ -139,6 +148,7 @@ pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
             continue;
         }
         let r = shell.achieved[v] / shell.target[v];
+        compressed += usize::from(r < 0.95);
         min_ratio = min_ratio.min(r);
         sum += r as f64;
         count += 1;
@@ -152,6 +162,9 @@ pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
         outer_self_intersections: f.self_pairs.len(),
         outer_base_intersections: f.base_pairs.len(),
         inverted_cells: f.inverted.len(),
+        inherited_intersections: f.inherited,
+        base_self_intersections: checker.base_self_pairs(),
+        compressed_vertices: compressed,
         min_ratio: if count > 0 { min_ratio } else { 1.0 },
         mean_ratio: if count > 0 { (sum / count as f64) as f32 } else { 1.0 },
         min_ratio_normal_valid: if n_valid > 0 { min_valid } else { 1.0 },
@@ -159,4 +172,11 @@ pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
         considered_vertices: count,
         normal_valid_at_95: if n_valid > 0 { valid_at_95 as f32 / n_valid as f32 } else { 1.0 },
     }
+}
+
+/// The mesh's own intersections: how many pairs of its triangles (sharing no vertex)
+/// cross, and the faces involved (sorted).
+pub fn self_intersecting_faces(mesh: &Mesh) -> (usize, Vec<u32>) {
+    let checker = Checker::new(mesh);
+    (checker.base_self_pairs(), checker.own_faces())
 }

@@ -14,7 +14,7 @@
 
 use super::defects::{Checker, Dirty};
 use super::intersect::TriBvh;
-use super::repair::Repair;
+use super::repair::{Repair, ShellCheck};
 use super::report::NormalRoom;
 use super::Shell;
 use crate::Mesh;
@@ -46,14 +46,16 @@ type Saved = Vec<(u32, Shape, f32)>;
 impl Repair<'_> {
     /// The repair, then the restore: of the whole shell, or after an edit around
     /// `seeds` (the vertices whose directors were reset), where both stay local.
-    pub(crate) fn settle(&self, outer: &mut Option<TriBvh>, shell: &mut Shell, seeds: Option<&[u32]>) {
+    /// Returns what the repair and its final check did; the shell is clean after
+    /// both, and the restore keeps it so.
+    pub(crate) fn settle(&self, outer: &mut Option<TriBvh>, shell: &mut Shell, seeds: Option<&[u32]>) -> ShellCheck {
         let Repair { checker, mesh, normals, rounds, .. } = *self;
         if rounds == 0 || mesh.vertex_count() == 0 {
-            return;
+            return ShellCheck::default();
         }
         let before = seeds.map(|_| shell.directors.clone());
-        self.untangle(outer, shell, seeds);
-        let Some(tree) = outer.as_mut() else { return };
+        let done = self.untangle(outer, shell, seeds);
+        let Some(tree) = outer.as_mut() else { return done };
         let scope = seeds.zip(before).map(|(seeds, before)| {
             // The seeds, what the repair shortened or turned, and their neighbours.
             let mut scope = vec![false; before.len()];
@@ -64,6 +66,7 @@ impl Repair<'_> {
             scope
         });
         restore(checker, tree, mesh, shell, normals, scope.as_deref());
+        done
     }
 }
 
@@ -97,6 +100,10 @@ pub(crate) fn restore(
         .collect();
     tries.sort_unstable();
     tries.dedup();
+    // Tried in space-filling-curve order: the greedy batches then do not depend on
+    // how the vertices are numbered (a kept shell and a fresh one agree).
+    let code = crate::mesh::morton_codes(mesh.positions());
+    tries.sort_unstable_by_key(|&v| (code[v as usize], v));
     let mut stamp = vec![0u32; checker.cells.len()];
     let mut batch_id = 0u32;
     let mut dirty = checker.clean();
@@ -106,6 +113,10 @@ pub(crate) fn restore(
             tries.retain(|c| with_room.binary_search(c).is_ok());
         }
         let mut pending = std::mem::take(&mut tries);
+        // The first attempt starts with every try in one batch: most fit at once (on
+        // open meshes nearly every boundary vertex is short), and only those that
+        // fail are tried again in batches without shared cells.
+        let mut bulk = level == 0;
         while !pending.is_empty() {
             // A batch of tries whose groups share no cell (nor triangle), so that a
             // folded cell is blamed on one group; two groups whose outer triangles
@@ -119,7 +130,7 @@ pub(crate) fn restore(
                 let turn = |k: u32| t * if k <= 1 { 1.0 } else { (rings + 1 - k) as f32 / rings as f32 };
                 let members: Vec<(u32, f32)> = rings_around(checker, c, rings).into_iter().map(|(w, k)| (w, turn(k))).collect();
                 let cells: Vec<u32> = members.iter().flat_map(|&(w, _)| checker.cells_of(w as usize)).copied().collect();
-                if cells.iter().any(|&k| stamp[k as usize] == batch_id) {
+                if !bulk && cells.iter().any(|&k| stamp[k as usize] == batch_id) {
                     later.push(c);
                 } else {
                     cells.iter().for_each(|&k| stamp[k as usize] = batch_id);
@@ -130,11 +141,13 @@ pub(crate) fn restore(
             let saved: Vec<Saved> = batch.iter().map(|(_, m)| propose(shell, &room.shell, m, reach)).collect();
             let kept = keep_clean(checker, outer, mesh, shell, &saved, &mut dirty);
             for ((c, _), (kept, saved)) in batch.into_iter().zip(kept.into_iter().zip(&saved)) {
-                match kept && !saved.is_empty() {
-                    true => restored += 1,
-                    false => tries.push(c),
+                match (kept && !saved.is_empty(), bulk) {
+                    (true, _) => restored += 1,
+                    (false, true) => pending.push(c),
+                    (false, false) => tries.push(c),
                 }
             }
+            bulk = false;
         }
     }
     restored
@@ -187,7 +200,8 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
     checker.mark_anew(vertices(&live).into_iter(), dirty);
     refit(checker, outer, mesh, shell, dirty);
     while !(dirty.cell_list.is_empty() && dirty.tri_list.is_empty()) {
-        let bad = checker.defect_vertex_list(&checker.find(mesh, shell, Some(dirty), Some(outer)));
+        let found = checker.find(mesh, shell, Some(dirty), Some(outer));
+        let bad = checker.defect_vertex_list(&found);
         let (failed, kept): (Vec<usize>, Vec<usize>) =
             live.iter().partition(|&&g| saved[g].iter().any(|s| bad.binary_search(&s.0).is_ok()));
         if failed.is_empty() {
@@ -226,5 +240,5 @@ fn set(shell: &mut Shell, v: usize, shape: Shape, length: f32) {
 }
 
 fn refit(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &Shell, dirty: &Dirty) {
-    outer.refit_items(dirty.tri_list.iter().map(|&t| (t, checker.outer_box(mesh, shell, t))));
+    checker.refit_outer(mesh, shell, outer, &dirty.tri_list);
 }

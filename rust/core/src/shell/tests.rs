@@ -75,18 +75,18 @@ fn bunny_is_clean() {
 }
 
 #[test]
-fn a_director_along_the_surface_at_the_floor_turns_to_the_normal() {
+fn a_short_director_along_the_surface_turns_to_the_normal() {
     // Shortening cannot unfold a cell whose corner's director lies nearly in the
-    // surface (as trajectories bent by self-intersecting input do): at the floor the
-    // repair turns it to the vertex normal.
+    // surface (as trajectories bent by self-intersecting input do): once that short
+    // the repair turns it to the vertex normal instead of pressing it flat.
     let mesh = tm::plane(4);
     let n = mesh.vertex_count();
     let target = vec![1.0f32; n];
-    let mut directors = vec![Vec3::Z * repair::FLOOR; n];
+    let mut directors = vec![Vec3::Z * repair::TURN_AT; n];
     let odd = 12; // an interior vertex
                   // Along the surface, and straight back into it.
     for wrong in [Vec3::new(1.0, 0.0, -0.05).normalize(), -Vec3::Z] {
-        directors[odd] = wrong * repair::FLOOR;
+        directors[odd] = wrong * repair::TURN_AT;
         let achieved = directors.iter().map(|d| d.length()).collect();
         let mut shell = Shell {
             side: Side::Exterior,
@@ -94,13 +94,16 @@ fn a_director_along_the_surface_at_the_floor_turns_to_the_normal() {
             directors: directors.clone(),
             achieved,
             target: target.clone(),
+            check: Default::default(),
         };
         assert!(shell_report(&mesh, &shell).inverted_cells > 0);
         repair::untangle(&mesh, &mut shell, 4, directors::REPAIR_FACTOR);
         let r = shell_report(&mesh, &shell);
         assert_eq!((r.inverted_cells, r.outer_self_intersections, r.outer_base_intersections), (0, 0, 0), "{wrong}: {r:?}");
-        assert!(shell.directors[odd].normalize().dot(Vec3::Z) > 0.999 && (shell.achieved[odd] - repair::FLOOR).abs() < 1e-6);
-        assert!((0..n).filter(|&v| v != odd).all(|v| shell.directors[v] == Vec3::Z * repair::FLOOR), "only the folding corner turns");
+        assert!(shell.directors[odd].normalize().dot(Vec3::Z) > 0.999 && (shell.achieved[odd] - repair::TURN_AT).abs() < 1e-6);
+        let near: Vec<usize> = mesh.faces().filter(|f| f.contains(&(odd as u32))).flatten().map(|&v| v as usize).collect();
+        assert!((0..n).filter(|v| !near.contains(v)).all(|v| shell.directors[v] == Vec3::Z * repair::TURN_AT), "only the fold changes");
+        assert!(near.iter().all(|&v| shell.directors[v].normalize().dot(Vec3::Z) > 0.999), "the fold's corners keep pointing up");
     }
 }
 
@@ -424,4 +427,145 @@ fn a_moved_loose_vertex_keeps_a_zero_director() {
     assert_eq!((stats.changed, stats.retraced), (1, 1), "{stats:?}");
     assert_eq!(inc.shell().directors[loose], Vec3::ZERO);
     assert_eq!(inc.shell().achieved[loose], 0.0);
+}
+
+/// The sides and thicknesses (fraction of the bounding-box diagonal) every mesh is
+/// held to: exterior 10% and 20%, interior 5% and 10%, envelope 10%.
+pub(crate) const HARD_CASES: [(f32, Side); 5] =
+    [(0.1, Side::Exterior), (0.2, Side::Exterior), (0.05, Side::Interior), (0.1, Side::Interior), (0.1, Side::Envelope)];
+
+/// A per-vertex thickness factor that varies smoothly over the mesh (a vertex group).
+pub(crate) fn wavy_factors(mesh: &Mesh) -> Vec<f32> {
+    let (lo, hi) = mesh.bounds();
+    mesh.positions().iter().map(|p| 0.5 + 0.5 * (((*p - lo) / (hi - lo).max(Vec3::splat(1e-6))).dot(Vec3::new(3.0, 2.0, 1.0)) * 2.0).sin().abs()).collect()
+}
+
+/// No defect at all, for every side and thickness, uniform and per-vertex.
+pub(crate) fn assert_never_folds(name: &str, mesh: &Mesh) {
+    for (frac, side) in HARD_CASES {
+        for factors in [None, Some(wavy_factors(mesh))] {
+            let t = Thickness::relative(frac).per_vertex(mesh, factors.as_deref()).unwrap();
+            let s = build_shell(mesh, &t, side, &ShellParams::default()).unwrap();
+            let r = shell_report(mesh, &s);
+            let what = format!("{name} {side:?} {frac} factors={}: {r:?} {:?}", factors.is_some(), s.check);
+            assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{what}");
+            assert!(s.check.clean, "{what}");
+            let room = mean_room(mesh, &s);
+            assert!(r.mean_ratio as f64 > 0.5 * room, "{what}: mean room {room}");
+        }
+    }
+}
+
+/// The mean share of its target each vertex could reach if the shells of two facing
+/// parts met halfway along the normal line (the gap found by a ray along the normal,
+/// outward for exterior shells, inward for interior ones, both for envelopes).
+pub(crate) fn mean_room(mesh: &Mesh, shell: &Shell) -> f64 {
+    let room = crate::hard_meshes::normal_room(mesh);
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for (v, [out, inn]) in room.into_iter().enumerate().filter(|(v, _)| shell.target[*v] > 0.0) {
+        let t = shell.target[v];
+        let share = match shell.side {
+            Side::Exterior => out / (2.0 * t),
+            Side::Interior => inn / (2.0 * t),
+            Side::Envelope => (out / t).min(inn / t),
+        };
+        sum += share.min(1.0) as f64;
+        n += 1;
+    }
+    sum / n.max(1) as f64
+}
+
+#[test]
+fn generated_meshes_never_fold_at_any_side_or_thickness() {
+    for (name, mesh) in [("head", tm::bumpy_head(3)), ("notch", tm::notched_box(2)), ("comb", tm::comb(2)), ("saddle", tm::saddle(16))] {
+        assert_never_folds(name, &mesh);
+    }
+}
+
+#[test]
+fn hard_meshes_never_fold_at_any_side_or_thickness() {
+    // Close fingers, a thin-walled cup, close strands, nearly touching parts, a sharp blade.
+    for (name, mesh) in crate::hard_meshes::all_closed().into_iter().filter(|(n, _)| !matches!(*n, "bunny" | "comb")) {
+        assert_never_folds(name, &mesh);
+    }
+}
+
+#[test]
+fn many_separate_open_cards_never_fold() {
+    // Open parts, one in five 0.02-0.08 from a near-parallel neighbour: at a tenth of a
+    // card and at a whole card of thickness.
+    let mesh = crate::hard_meshes::cards(400, 7);
+    for (thickness, side) in [(0.1, Side::Exterior), (1.0, Side::Exterior), (0.5, Side::Envelope), (0.1, Side::Interior)] {
+        let t = Thickness::absolute(thickness).per_vertex(&mesh, None).unwrap();
+        let s = build_shell(&mesh, &t, side, &ShellParams::default()).unwrap();
+        let r = shell_report(&mesh, &s);
+        let what = format!("{side:?} {thickness}: {r:?} {:?}", s.check);
+        assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{what}");
+        assert!(s.check.clean && r.base_self_intersections == 0, "{what}");
+        assert!(r.mean_ratio > 0.5, "{what}");
+    }
+}
+
+#[test]
+fn bunny_never_folds_at_any_side_or_thickness() {
+    assert_never_folds("bunny", &tm::bunny());
+}
+
+/// Two spheres overlapping each other in one mesh (as sculpts and game assets do).
+fn overlapping_spheres() -> Mesh {
+    let s = tm::icosphere(3);
+    let n = s.vertex_count() as u32;
+    let mut p = s.positions().to_vec();
+    p.extend(s.positions().iter().map(|q| *q * 0.6 + Vec3::new(1.1, 0.0, 0.0)));
+    let tris = s.triangulate().triangles;
+    let all: Vec<[u32; 3]> = tris.iter().copied().chain(tris.iter().map(|t| t.map(|v| v + n))).collect();
+    Mesh::from_triangles(p, &all).unwrap()
+}
+
+#[test]
+fn a_base_that_crosses_itself_gets_no_new_crossings() {
+    let mesh = overlapping_spheres();
+    let (pairs, faces) = report::self_intersecting_faces(&mesh);
+    assert!(pairs > 0 && !faces.is_empty());
+    for (frac, side) in HARD_CASES {
+        let t = Thickness::relative(frac).per_vertex(&mesh, None).unwrap();
+        let s = build_shell(&mesh, &t, side, &ShellParams::default()).unwrap();
+        let r = shell_report(&mesh, &s);
+        assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{side:?} {frac}: {r:?}");
+        assert_eq!(r.base_self_intersections, pairs);
+        assert!(r.inherited_intersections > 0, "{r:?}");
+        // Away from the crossing the shell keeps its thickness.
+        assert!(r.mean_ratio > 0.6, "{side:?} {frac}: {r:?}");
+    }
+}
+
+#[test]
+fn zero_thickness_is_valid_and_touching_parts_press_the_shell_flat() {
+    // A pressed-flat shell (zero directors) has no inverted cell and no crossing.
+    let mesh = tm::bunny();
+    let n = mesh.vertex_count();
+    for side in [Side::Exterior, Side::Interior, Side::Envelope] {
+        let mut flat = Shell::from_directors(vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        flat.side = side;
+        let r = shell_report(&mesh, &flat);
+        assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{side:?}: {r:?}");
+    }
+    // Two boxes 0.2% of the diagonal apart: between them the shell goes to (nearly) zero.
+    let boxes = tm::voxels([7, 3, 3], 2, |i, _, _| i != 3);
+    let gap = 0.004 * boxes.bbox_diagonal();
+    let moved: Vec<Vec3> = boxes.positions().iter().map(|p| if p.x > 3.5 { *p - Vec3::X * (1.0 - gap) } else { *p }).collect();
+    let mesh = Mesh::new(moved, &boxes.face_sizes(), boxes.corners().to_vec(), None).unwrap();
+    let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+    let s = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    let r = shell_report(&mesh, &s);
+    assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{r:?}");
+    // Inside the facing side (its rim's directors leave the gap sideways).
+    let inside = |c: f32| c > 0.25 && c < 2.75;
+    let facing = (0..mesh.vertex_count()).filter(|&v| {
+        let q = mesh.positions()[v];
+        (q.x - 3.0).abs() < 1e-4 && inside(q.y) && inside(q.z)
+    });
+    for v in facing {
+        assert!(s.achieved[v] <= gap, "v{v}: {} in a gap of {gap}", s.achieved[v]);
+    }
 }

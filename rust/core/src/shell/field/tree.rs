@@ -12,6 +12,7 @@
 
 use super::exact::triangle_p3;
 use super::quadrature::Quadrature;
+use crate::shell::intersect::{segment_crosses_triangle, segment_meets_box};
 use glam::DVec3;
 
 const LEAF: usize = 4;
@@ -311,6 +312,38 @@ impl PatchTree {
         self.nodes[n].centroid = centroid;
         self.nodes[n].second = second;
         self.nodes[n].radius = radius;
+    }
+
+    /// Whether segment `a`-`b` properly crosses one of the triangles. The field is
+    /// singular on every one of them, so a trajectory (4.4) never crosses them; a
+    /// step that would is too long.
+    pub fn segment_crosses(&self, a: DVec3, b: DVec3) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let inv = DVec3::ONE / (b - a);
+        let mut stack = [0u32; 64];
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let n = stack[sp] as usize;
+            let (lo, hi) = self.boxes[n];
+            if !segment_meets_box(a, b, inv, lo, hi) {
+                continue;
+            }
+            let node = self.nodes[n];
+            if node.count > 0 {
+                let r = node.index as usize..(node.index + node.count) as usize;
+                if self.tris[r].iter().any(|t| segment_crosses_triangle(a, b, t)) {
+                    return true;
+                }
+            } else {
+                stack[sp] = n as u32 + 1;
+                stack[sp + 1] = node.index;
+                sp += 2;
+            }
+        }
+        false
     }
 
     pub fn total_area(&self) -> f64 {
