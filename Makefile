@@ -4,6 +4,7 @@
 PYTHON ?= python3.11
 BPY_VERSION ?= 5.0.1
 BPY_LTS_VERSION ?= 4.2.0
+BENCH_FLAGS ?=
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.thicket-$(BPY_VERSION)
@@ -79,6 +80,7 @@ bench: vulkan setup
 	$(PY) tests/bench/bench_shell.py
 	$(PY) tests/bench/bench_render.py
 	cargo run --release -q -p thicket-core --example shell_bench
+	cargo run --release -q -p thicket-core --example cards_scaling -- --n 2000,8000,32000 $(BENCH_FLAGS)
 	cargo run --release -q -p thicket-core --example bake_bench
 	cargo run --release -q -p thicket-render --example render_bench
 

@@ -26,7 +26,7 @@ from .stack import live_shells
 from .stack import settings as S
 from .stack.regenerate import regenerate as _regenerate
 
-__all__ = ["add_thick_surface", "add_volumetric_texture", "bake_frames", "export_texture", "render_preview", "render_frames", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]
+__all__ = ["crossing_faces", "add_thick_surface", "add_volumetric_texture", "bake_frames", "export_texture", "render_preview", "render_frames", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]
 
 
 def __getattr__(name):
@@ -41,6 +41,21 @@ def _require_mesh(obj):
         raise TypeError(f"Thicket works on mesh objects; '{getattr(obj, 'name', obj)}' is {kind}")
     if obj.thicket.source is not None:
         raise TypeError(f"'{obj.name}' is a Thicket result; add thick surfaces to its source '{obj.thicket.source.name}'")
+
+
+def crossing_faces(obj):
+    """Indices (int32 array) of the faces of `obj`'s mesh that cross another part of
+    the same mesh: a shell inherits those crossings (it cannot remove them)."""
+    if obj is None or obj.type != "MESH":
+        raise TypeError(f"'{getattr(obj, 'name', obj)}' is not a mesh object")
+    if obj.mode == "EDIT":
+        obj.update_from_editmode()
+    from . import mesh_io
+
+    arrays = mesh_io.read_mesh(obj.data)
+    if arrays.face_count == 0:
+        return arrays.face_sizes[:0]
+    return native.get().self_intersections(arrays.vertices, arrays.face_sizes, arrays.corners)["faces"]
 
 
 def add_item(obj, kind="OFFSET_SHELL", **settings):

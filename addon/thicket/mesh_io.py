@@ -168,3 +168,26 @@ def read_solid(obj: bpy.types.Object, space: bpy.types.Object, depsgraph):
     matrix = np.array(space.matrix_world.inverted() @ obj.matrix_world, dtype=np.float64)
     vertices = vertices.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
     return np.ascontiguousarray(vertices, dtype=np.float32), triangles.reshape(-1, 3)
+
+
+def select_faces(mesh: bpy.types.Mesh, faces) -> None:
+    """Selects exactly `faces` (indices) of `mesh`, with their edges and vertices."""
+    face_flags = np.zeros(len(mesh.polygons), dtype=bool)
+    face_flags[np.asarray(faces, dtype=np.int64)] = True
+    mesh.polygons.foreach_set("select", face_flags)
+    corner_flags = np.repeat(face_flags, _face_sizes(mesh))
+    corners = np.empty(len(mesh.loops), dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", corners)
+    vertex_flags = np.zeros(len(mesh.vertices), dtype=bool)
+    vertex_flags[corners[corner_flags]] = True
+    mesh.vertices.foreach_set("select", vertex_flags)
+    edge_vertices = np.empty(len(mesh.edges) * 2, dtype=np.int32)
+    mesh.edges.foreach_get("vertices", edge_vertices)
+    mesh.edges.foreach_set("select", vertex_flags[edge_vertices].reshape(-1, 2).all(axis=1))
+    mesh.update()
+
+
+def _face_sizes(mesh: bpy.types.Mesh):
+    sizes = np.empty(len(mesh.polygons), dtype=np.int32)
+    mesh.polygons.foreach_get("loop_total", sizes)
+    return sizes

@@ -1,10 +1,12 @@
-"""`make bench`: the L_p-field shell vs Blender's Solidify on concave meshes.
+"""`make bench`: the L_p-field shell vs Blender's Solidify, in one run.
 
-For each mesh: self-intersecting outer-layer face pairs, outer-vs-base intersections,
-inverted prisms, min/mean achieved-thickness ratio and time, for Thicket's Shell and
-Solidify Simple (with Even Thickness, with and without Clamp). All measured by
-`thicket_native.shell_report` in this run. Complex mode changes vertex counts, so it
-has no per-vertex directors to report on and is timed only.
+For each mesh (generated hard shapes with thin parts and narrow gaps, Suzanne whose
+eyes cross its head, the bunny scan) and each case (exterior 10% and 20%, interior
+5% of the bounding-box diagonal): crossing face pairs and inverted cells found with
+Blender's own tools (`BVHTree.overlap`, tetrahedron orientation; `tests/blender_checks.py`,
+crossings inherited from a self-intersecting base not counted), min/mean achieved
+thickness ratio and time, for Thicket's Shell and for Solidify Simple with Even
+Thickness, Clamp off and on. The last column is Solidify's time over Thicket's.
 """
 
 import pathlib
@@ -18,15 +20,19 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 import thicket  # noqa: E402
+from blender_checks import blender_check, loop_triangles, overlapping  # noqa: E402
 from blender_objects import mesh_object  # noqa: E402
 from thicket import mesh_io, native  # noqa: E402
 
 EXTERIOR = 0.10  # fraction of the bounding-box diagonal, as in the issue
+CASES = (("exterior", 0.10), ("exterior", 0.20), ("interior", 0.05))
+HARD = ("hand", "cup", "comb", "coil", "torus_knot", "two_spheres", "touching_cubes", "blade")
 
 
-def solidify(obj, thickness, **settings):
+def solidify(obj, thickness, side, **settings):
+    """Solidify's offset vertices (rim off; offset +1 outward, -1 inward) and its time."""
     modifier = obj.modifiers.new("bench", "SOLIDIFY")
-    modifier.thickness, modifier.offset, modifier.use_rim = thickness, 1.0, False
+    modifier.thickness, modifier.offset, modifier.use_rim = thickness, 1.0 if side == "exterior" else -1.0, False
     for key, value in settings.items():
         setattr(modifier, key, value)
     t = time.perf_counter()
@@ -40,80 +46,48 @@ def solidify(obj, thickness, **settings):
     return out, elapsed
 
 
-def row(name, report, seconds):
-    if report is None:
-        print(f"  {name:28s} {'-':>8s} {'-':>8s} {'-':>8s} {'-':>7s} {'-':>7s} {seconds * 1e3:9.1f}")
+def row(name, found, ratio, seconds, ours):
+    if found is None:
+        print(f"  {name:26s} {'-':>7s} {'-':>7s} {'-':>8s} {'-':>6s} {'-':>6s} {seconds * 1e3:9.1f} {seconds / ours:7.2f}")
         return
-    print(f"  {name:28s} {report['outer_self_intersections']:8d} {report['outer_base_intersections']:8d} "
-          f"{report['inverted_cells']:8d} {report['min_ratio']:7.3f} {report['mean_ratio']:7.3f} {seconds * 1e3:9.1f}")
+    print(f"  {name:26s} {found['self']:7d} {found['base']:7d} {found['inverted']:8d} "
+          f"{ratio.min():6.3f} {ratio.mean():6.3f} {seconds * 1e3:9.1f} {seconds / ours:7.2f}")
 
 
 def bench(obj):
+    """Prints the table for `obj`; returns Thicket's time at exterior 10%."""
     tn = native.get()
     a = mesh_io.read_mesh(obj.data)
     n = a.vertex_count
+    tris = loop_triangles(obj.data)
     diag = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
-    target = np.full(n, EXTERIOR * diag, np.float32)
-    print(f"\n{obj.name}: {n} vertices, exterior {EXTERIOR:.0%} of diagonal")
-    print(f"  {'method':28s} {'selfX':>8s} {'baseX':>8s} {'inverted':>8s} {'min':>7s} {'mean':>7s} {'ms':>9s}")
-    t = time.perf_counter()
-    shell = tn.shell(a.vertices, a.face_sizes, a.corners, EXTERIOR, relative=True)
-    ours = time.perf_counter() - t
-    row("Thicket Shell (L_p field)", tn.shell_report(a.vertices, a.face_sizes, a.corners, shell["directors"], shell["target"]), ours)
-    for name, settings in (
-        ("Solidify Simple", {}),
-        ("Solidify Simple+Even", {"use_even_offset": True}),
-        ("Solidify Simple+Even+Clamp", {"use_even_offset": True, "thickness_clamp": 1.0}),
-        ("Solidify Complex", {"solidify_mode": "NON_MANIFOLD"}),
-    ):
-        out, seconds = solidify(obj, EXTERIOR * diag, **settings)
-        report = None
-        if len(out) == 2 * n:
-            directors = np.ascontiguousarray(out[:n] - a.vertices)
-            report = tn.shell_report(a.vertices, a.face_sizes, a.corners, directors, target)
-        row(name, report, seconds)
-    return ours
-
-
-def voxel_object(name, dims, sub, filled):
-    """The closed quad surface of unit voxels, each face split into sub x sub quads:
-    the notched box and comb of the Rust tests (`testmeshes::voxels`)."""
-    def inside(c):
-        return all(0 <= c[a] < dims[a] for a in range(3)) and filled(*c)
-
-    index, verts, faces = {}, [], []
-
-    def vid(q):
-        if q not in index:
-            index[q] = len(verts)
-            verts.append(tuple(x / sub for x in q))
-        return index[q]
-
-    for c in np.ndindex(*dims):
-        if not inside(c):
-            continue
-        for a in range(3):
-            for sign in (1, -1):
-                nb = list(c)
-                nb[a] += sign
-                if inside(nb):
-                    continue
-                u, v = (a + 1) % 3, (a + 2) % 3
-                base = [x * sub for x in c]
-                if sign > 0:
-                    base[a] += sub
-                for du in range(sub):
-                    for dv in range(sub):
-                        def at(x, y):
-                            q = list(base)
-                            q[u] += x
-                            q[v] += y
-                            return tuple(q)
-                        quad = [at(du, dv), at(du + 1, dv), at(du + 1, dv + 1), at(du, dv + 1)]
-                        if sign < 0:
-                            quad.reverse()
-                        faces.append([vid(q) for q in quad])
-    return mesh_object(name, verts, faces)
+    own = len(np.unique(overlapping(a.vertices, a.vertices, tris, same=True)))
+    print(f"\n{obj.name}: {n} vertices" + (f" ({own} triangles crossing the mesh itself)" if own else ""))
+    print(f"  {'method':26s} {'selfX':>7s} {'baseX':>7s} {'inverted':>8s} {'min':>6s} {'mean':>6s} {'ms':>9s} {'vs ours':>7s}")
+    first = None
+    for side, fraction in CASES:
+        print(f"  -- {side} {fraction:.0%}")
+        t = time.perf_counter()
+        shell = tn.shell(a.vertices, a.face_sizes, a.corners, fraction, side=side, relative=True)
+        ours = time.perf_counter() - t
+        first = ours if first is None else first
+        row("Thicket Shell (L_p field)", blender_check(a.vertices, shell, side, tris), shell["achieved"] / shell["target"], ours, ours)
+        for name, settings in (
+            ("Solidify Even", {"use_even_offset": True}),
+            ("Solidify Even+Clamp", {"use_even_offset": True, "thickness_clamp": 1.0}),
+        ):
+            out, seconds = solidify(obj, fraction * diag, side, **settings)
+            found = ratio = None
+            if len(out) == 2 * n:
+                directors = np.ascontiguousarray(out[:n] - a.vertices)
+                flipped = side == "interior" and np.linalg.norm(directors, axis=1).sum() == 0
+                if flipped:  # Blender puts the offset copy second
+                    directors = np.ascontiguousarray(out[n:] - a.vertices)
+                result = {"base_offset": np.zeros_like(directors), "directors": directors}
+                found = blender_check(a.vertices, result, side, tris)
+                ratio = np.linalg.norm(directors, axis=1) / (fraction * diag)
+            row(name, found, ratio, seconds, ours)
+    return first
 
 
 def saddle_object(n=24):
@@ -129,12 +103,10 @@ def saddle_object(n=24):
 def main():
     thicket.register()
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    for obj in (
-        voxel_object("Notched box", (10, 6, 6), 2, lambda i, j, k: not (i == 5 and j >= 2)),
-        voxel_object("Comb (fins 2 apart)", (13, 6, 4), 2, lambda i, j, k: j == 0 or i % 3 == 0),
-        saddle_object(),
-    ):
-        bench(obj)
+    for name in HARD:
+        bpy.ops.wm.obj_import(filepath=str(ROOT / "tests" / "data" / "hard" / f"{name}.obj"))
+        bench(bpy.context.selected_objects[0])
+    bench(saddle_object())
     bpy.ops.mesh.primitive_monkey_add()
     head = bpy.context.active_object
     head.name = "Suzanne (subdiv 1)"

@@ -10,6 +10,7 @@ from .regenerate import THICKET_OT_regenerate
 from .live_preview import THICKET_OT_live_preview
 from .remove_stack import THICKET_OT_remove
 from .render_preview import THICKET_OT_render_preview
+from .select_crossings import THICKET_OT_select_crossings
 
 CLASSES = (
     THICKET_OT_add_thick_surface,
@@ -22,4 +23,5 @@ CLASSES = (
     THICKET_OT_export_texture,
     THICKET_OT_render_preview,
     THICKET_OT_live_preview,
+    THICKET_OT_select_crossings,
 )

@@ -16,6 +16,10 @@ DIRECTOR_ATTRIBUTE = "thicket_director"
 TEXCOORD_ATTRIBUTE = "thicket_texcoord"
 LAYER_ATTRIBUTE = "thicket_layer"
 THICKNESS_ATTRIBUTE = "thicket_thickness"
+RATIO_ATTRIBUTE = "thicket_ratio"
+
+#: Below this share of its target a vertex counts as compressed.
+COMPRESSED_BELOW = 0.95
 
 
 class ShellContext:
@@ -40,7 +44,42 @@ def _shell_result(out):
     }
     if "achieved" in out:
         result.point_attributes[THICKNESS_ATTRIBUTE] = out["achieved"][source]
+        result.point_attributes[RATIO_ATTRIBUTE] = thickness_ratio(out)[source]
     return result, source
+
+
+def thickness_ratio(out):
+    """Achieved / target thickness per base vertex (1 where the target is zero)."""
+    target = out["target"]
+    ratio = np.ones_like(target)
+    np.divide(out["achieved"], target, out=ratio, where=target > 0)
+    return ratio
+
+
+def shell_summary(label, out):
+    """What a field shell's final check found and how much it compressed, for the panel."""
+    ratio = thickness_ratio(out)[out["target"] > 0]
+    check = out["check"]
+    return {
+        "label": label,
+        "min_ratio": float(ratio.min()) if ratio.size else 1.0,
+        "mean_ratio": float(ratio.mean()) if ratio.size else 1.0,
+        "compressed": int((ratio < COMPRESSED_BELOW).sum()),
+        "vertices": int(ratio.size),
+        **check,
+    }
+
+
+def summary_text(s) -> str:
+    """One panel line for a `shell_summary`."""
+    verdict = "no folds or crossings" if s["clean"] else "defects left"
+    text = (
+        f"{s['label']}: thickness min {s['min_ratio']:.0%}, mean {s['mean_ratio']:.0%} of target; "
+        f"{s['compressed']:,} of {s['vertices']:,} vertices compressed; final check: {verdict}"
+    )
+    if s["check_shortened"]:
+        text += f" ({s['check_shortened']:,} shortened by it)"
+    return text
 
 
 def _common_args(mesh: MeshArrays, item, factors):
@@ -185,6 +224,7 @@ def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_
     origin = np.arange(source.vertex_count)  # source vertex of each current vertex
     shell = None  # the latest shell, for Volumetric Texture items
     notes = []
+    summaries = []  # field shells' final checks
     for i, item in enumerate(items):
         is_texture = isinstance(item, S.VolumetricTexture)
         if is_texture and shell is None:
@@ -203,10 +243,13 @@ def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_
                 raise StackError(f"'{item.label}' cannot follow a Volumetric Texture")
             current, provenance, out = SHELL_STEPS[type(item)](current, item, factors)
             shell = ShellContext(base, out, base_origin)
+            if "check" in out:
+                summaries.append(shell_summary(item.label, out))
             origin = origin[provenance]
         if progress:
             progress(i + 1)
-    current.notes = notes
     if current is source:
         current = MeshArrays(source.vertices, source.face_sizes, source.corners)
+    current.notes = notes
+    current.shell_summaries = summaries
     return current

@@ -184,6 +184,8 @@ class ThicketStack(bpy.types.PropertyGroup):
     auto_update: BoolProperty(name="Auto Update", description="Regenerate when the source or a setting changes", default=True)
     last_error: StringProperty(name="Last Error", description="Why the last regeneration failed (empty when it worked)")
     last_note: StringProperty(name="Note", description="What the user should know about the last result")
+    last_report: StringProperty(name="Shell Report", description="Per field shell: thickness kept and what the final check found")
+    source_crossings: IntProperty(name="Crossing Faces", description="Faces of the source that cross another part of the source", min=0)
 
     @property
     def has_stack(self):

@@ -4,7 +4,7 @@ import bpy
 
 from .. import mesh_io
 from .auto_update import suspended
-from .evaluate import evaluate_stack
+from .evaluate import evaluate_stack, summary_text
 
 
 def result_name(source: bpy.types.Object) -> str:
@@ -60,4 +60,16 @@ def regenerate(source: bpy.types.Object, depsgraph=None, progress=None, ask=Fals
         note = "; ".join(result_arrays.notes)
         if source.thicket.last_note != note:
             source.thicket.last_note = note
+        _store_summaries(source.thicket, result_arrays.shell_summaries)
     return result
+
+
+def _store_summaries(stack, summaries):
+    """The field shells' final-check lines, and how many source faces cross the
+    source itself, for the panel (written only when they change: no extra updates)."""
+    report = "\n".join(summary_text(s) for s in summaries)
+    crossing = max((s["base_crossing_faces"] for s in summaries), default=0)
+    if stack.last_report != report:
+        stack.last_report = report
+    if stack.source_crossings != crossing:
+        stack.source_crossings = crossing

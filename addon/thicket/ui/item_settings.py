@@ -57,6 +57,12 @@ def draw_status(layout, obj):
         box.label(text=stack.last_error, icon="ERROR")
     if stack.last_note:
         layout.label(text=stack.last_note, icon="INFO")
+    for line in filter(None, stack.last_report.split("\n")):
+        _wrapped(layout.column(align=True), line, "ERROR" if "defects left" in line else "CHECKMARK")
+    if stack.source_crossings:
+        box = layout.box()
+        _wrapped(box.column(align=True), f"{stack.source_crossings:,} faces of the source cross the source itself; the shell keeps those crossings", "ERROR")
+        box.operator("thicket.select_crossings", icon="RESTRICT_SELECT_OFF")
     if stack.result is not None:
         layout.label(text=f"Result: {stack.result.name}", icon="OUTLINER_OB_MESH")
 
@@ -66,3 +72,16 @@ def _group(col, obj, item, prop, selection_role, text):
     row = col.row()
     row.active = item.face_selection != selection_role
     row.prop_search(item, prop, obj, "vertex_groups", text=text)
+
+
+def _wrapped(col, text, icon, width=70):
+    """A long status line as several labels (panels do not wrap text)."""
+    words, line, first = text.split(), "", True
+    for word in words:
+        if line and len(line) + len(word) + 1 > width:
+            col.label(text=line, icon=icon if first else "BLANK1")
+            line, first = word, False
+        else:
+            line = f"{line} {word}" if line else word
+    if line:
+        col.label(text=line, icon=icon if first else "BLANK1")

@@ -1,0 +1,70 @@
+"""A shell's crossings and inverted cells found with Blender's own tools, independent
+of the project's checker: `BVHTree.overlap` on Blender's triangulation for skin/skin
+and skin/base crossings, and a numpy orientation test of every cell's tetrahedra.
+Shared by the tests and `make bench`."""
+
+import numpy as np
+from mathutils.bvhtree import BVHTree
+
+
+def loop_triangles(mesh):
+    """Blender's own triangulation (vertex triples)."""
+    mesh.calc_loop_triangles()
+    tris = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get("vertices", tris)
+    return tris.reshape(-1, 3)
+
+
+def overlapping(a_points, b_points, tris, same):
+    """Crossing triangle pairs by Blender's BVHTree.overlap (pairs sharing a vertex
+    index are dropped for a tree against itself)."""
+    a = BVHTree.FromPolygons(a_points.tolist(), tris.tolist(), all_triangles=True)
+    b = a if same else BVHTree.FromPolygons(b_points.tolist(), tris.tolist(), all_triangles=True)
+    pairs = np.array(a.overlap(b), dtype=np.int64).reshape(-1, 2)
+    if same and len(pairs):
+        shared = (tris[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
+        pairs = pairs[~shared & (pairs[:, 0] != pairs[:, 1])]
+    return pairs
+
+
+def inverted_cells(bottom, top, tris, orientation):
+    """Prisms (a b c | a' b' c') split as (a b c a') (b c a' b') (c a' b' c'): a
+    tetrahedron of non-positive oriented volume inverts its cell, unless two of its
+    corners coincide (a zero director: the cell is pressed flat there)."""
+    a, b, c = (bottom[tris[:, k]] for k in range(3))
+    a2, b2, c2 = (top[tris[:, k]] for k in range(3))
+    bad = np.zeros(len(tris), bool)
+    for t in ((a, b, c, a2), (b, c, a2, b2), (c, a2, b2, c2)):
+        p = [x.astype(np.float64) for x in t]
+        volume = np.einsum("ij,ij->i", np.cross(p[1] - p[0], p[2] - p[0]), p[3] - p[0]) * orientation
+        flat = np.zeros(len(tris), bool)
+        for i in range(4):
+            for j in range(i + 1, 4):
+                flat |= (t[i] == t[j]).all(axis=1)
+        bad |= (volume <= 0) & ~flat
+    area = np.linalg.norm(np.cross((b - a).astype(np.float64), (c - a).astype(np.float64)), axis=1)
+    return int((bad & (area > 0)).sum())
+
+
+def blender_check(base, out, side, tris):
+    """Crossings and inverted cells of a shell result, found with Blender's tools.
+    Crossings involving a base triangle that crosses the base itself are inherited."""
+    offset, directors = out["base_offset"], out["directors"]
+    skins = [base + offset + directors] + ([base + offset] if side == "envelope" else [])
+    own = np.unique(overlapping(base, base, tris, same=True))
+    flat = np.linalg.norm(directors, axis=1) + np.linalg.norm(offset, axis=1) == 0
+    self_pairs = base_pairs = 0
+    for i, skin in enumerate(skins):
+        for j, other in enumerate(skins[i:], start=i):
+            pairs = overlapping(skin, other, tris, same=True) if i == j else overlapping(skin, other, tris, same=False)
+            if i != j:  # inner and outer of one envelope: pairs over cells sharing a vertex are the cell's own
+                shared = (tris[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
+                pairs = pairs[~shared]
+            self_pairs += int((~np.isin(pairs, own).any(axis=1)).sum())
+        pairs = overlapping(skin, base, tris, same=False)
+        # A skin triangle touches the base where a shared corner is pressed flat.
+        touching = ((tris[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]) & flat[tris[pairs[:, 0]]][:, :, None]).any(axis=(1, 2))
+        base_pairs += int((~touching & ~np.isin(pairs, own).any(axis=1)).sum())
+    orientation = -1.0 if side == "interior" else 1.0
+    inverted = inverted_cells(base + offset, base + offset + directors, tris, orientation)
+    return {"self": self_pairs, "base": base_pairs, "inverted": inverted, "own": len(own)}

@@ -1,0 +1,172 @@
+"""Shells that never fold (thick surfaces, chapter 4's promise, made a guarantee).
+
+Every shell here is checked with Blender's own tools, independently of the project's
+checker: `BVHTree.overlap` for skin/skin and skin/base crossings on Blender's own
+triangulation of meshes read by Blender's OBJ importer, and a numpy orientation test
+of every cell's tetrahedra. Meshes: generated hard shapes (tests/data/hard: thin
+parts, narrow gaps, sharp creases), the scanned bunny and Suzanne (whose eyes cross
+its head: a base with intersections of its own).
+"""
+
+import bpy
+import numpy as np
+import pytest
+import thicket_native as tn
+from blender_checks import blender_check, loop_triangles, overlapping
+from conftest import DATA, add, positions
+from mathutils.bvhtree import BVHTree
+
+from thicket import api, mesh_io
+from thicket.stack import live_shells
+
+CASES = [("exterior", 0.1), ("exterior", 0.2), ("interior", 0.05), ("interior", 0.1), ("envelope", 0.1)]
+HARD = sorted(p.stem for p in (DATA / "hard").glob("*.obj") if p.stem != "cards")
+
+
+def load(name):
+    """A test mesh as a Blender object: Blender's OBJ importer, or Suzanne."""
+    if name == "suzanne":
+        head = add("monkey")
+        head.modifiers.new("subdivide", "SUBSURF").levels = 1
+        bpy.ops.object.modifier_apply(modifier="subdivide")
+        return head
+    path = DATA / ("bunny-3k.obj" if name == "bunny" else f"hard/{name}.obj")
+    bpy.ops.wm.obj_import(filepath=str(path))
+    return bpy.context.selected_objects[0]
+
+
+def normal_gaps(obj):
+    """Per vertex, the distance along Blender's vertex normal to the mesh, outward and
+    inward (BVHTree.ray_cast; the bounding-box diagonal where nothing is hit)."""
+    mesh = obj.data
+    p, n = positions(obj), np.empty((len(mesh.vertices), 3), np.float32)
+    mesh.vertices.foreach_get("normal", n.ravel())
+    diag = float(np.linalg.norm(np.ptp(p, axis=0)))
+    tree = BVHTree.FromPolygons(p.tolist(), loop_triangles(mesh).tolist(), all_triangles=True)
+    gaps = np.full((len(p), 2), diag)
+    for k, sign in enumerate((1.0, -1.0)):
+        for v in range(len(p)):  # a test-side reference, not product code
+            d = n[v] * sign
+            hit = tree.ray_cast((p[v] + d * 1e-5 * diag).tolist(), d.tolist(), diag)
+            if hit[0] is not None:
+                gaps[v, k] = hit[3]
+    return gaps
+
+
+def room(gaps, side, target):
+    """The mean share of its target each vertex could keep if the shells of facing
+    parts met halfway along the normal line."""
+    out, inn = gaps[:, 0] / target, gaps[:, 1] / target
+    share = {"exterior": out / 2, "interior": inn / 2, "envelope": np.minimum(out, inn)}[side]
+    return float(np.minimum(share, 1.0).mean())
+
+
+@pytest.mark.parametrize("name", HARD + ["bunny", "suzanne"])
+def test_shells_never_fold_by_blenders_own_checks(scene, name):
+    obj = load(name)
+    a = mesh_io.read_mesh(obj.data)
+    tris = loop_triangles(obj.data)
+    gaps = normal_gaps(obj)
+    weights = (0.5 + 0.5 * np.abs(np.sin(a.vertices @ np.array([3.0, 2.0, 1.0], np.float32)))).astype(np.float32)
+    for side, fraction in CASES:
+        for factors in (None, weights):
+            out = tn.shell(a.vertices, a.face_sizes, a.corners, fraction, side=side, relative=True, factors=factors)
+            found = blender_check(a.vertices, out, side, tris)
+            what = f"{name} {side} {fraction} {'weighted' if factors is not None else 'uniform'}: {found} {out['check']}"
+            assert (found["self"], found["base"], found["inverted"]) == (0, 0, 0), what
+            assert out["check"]["clean"], what
+            ratio = out["achieved"] / out["target"]
+            # Compressed only as far as the geometry requires: at least half of the room.
+            assert ratio.max() <= 1.0 + 1e-4 and ratio.mean() > 0.5 * room(gaps, side, out["target"]), what
+            if name != "suzanne":
+                assert found["own"] == 0 and out["check"]["base_crossing_faces"] == 0, what
+
+
+def test_thickness_is_kept_where_the_normal_line_has_room(scene):
+    """Where normal displacement would itself be valid, 95% of the target (the
+    report's criterion), on the hard meshes at 10% exterior / 5% interior."""
+    for name in HARD:
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        a = mesh_io.read_mesh(load(name).data)
+        for side, fraction in (("exterior", 0.1), ("interior", 0.05)):
+            out = tn.shell(a.vertices, a.face_sizes, a.corners, fraction, side=side, relative=True)
+            r = tn.shell_report(a.vertices, a.face_sizes, a.corners, out["directors"], out["target"], base_offset=out["base_offset"], side=side)
+            # Not yet every one (issue 14 stays open): on the hand 2 of 2,012 such
+            # vertices and on the torus knot 0.5% (exterior) stay short, where the shell
+            # of the part beside leans into their room.
+            assert r["normal_valid_at_95"] >= 0.99, (name, side, r)
+
+
+def test_a_self_intersecting_base_is_reported_and_its_faces_selected(scene):
+    head = load("suzanne")
+    expected = np.unique(overlapping(positions(head), positions(head), loop_triangles(head.data), same=True))
+    faces = api.crossing_faces(head)
+    # Blender's own overlap finds the same crossing faces (by its loop triangles' faces).
+    head.data.calc_loop_triangles()
+    polygon = np.empty(len(head.data.loop_triangles), np.int32)
+    head.data.loop_triangles.foreach_get("polygon_index", polygon)
+    assert len(faces) > 0 and set(faces.tolist()) == set(np.unique(polygon[expected]).tolist())
+    api.add_thick_surface(head, kind="SHELL", thickness=0.1)
+    assert head.thicket.source_crossings == len(faces)
+    assert "final check: no folds or crossings" in head.thicket.last_report
+    bpy.ops.object.select_all(action="DESELECT")
+    bpy.context.view_layer.objects.active = head
+    assert bpy.ops.thicket.select_crossings() == {"FINISHED"}
+    assert head.mode == "EDIT"
+    bpy.ops.object.mode_set(mode="OBJECT")
+    selected = np.empty(len(head.data.polygons), bool)
+    head.data.polygons.foreach_get("select", selected)
+    assert set(np.flatnonzero(selected).tolist()) == set(faces.tolist())
+    # A clean mesh: nothing to select, and the panel says nothing about crossings.
+    sphere = add("ico_sphere", subdivisions=3)
+    api.add_thick_surface(sphere, kind="SHELL", thickness=0.1)
+    assert sphere.thicket.source_crossings == 0 and len(api.crossing_faces(sphere)) == 0
+
+
+def test_the_result_carries_the_achieved_ratio_and_the_panel_reports_it(scene):
+    bpy.ops.wm.obj_import(filepath=str(DATA / "hard" / "comb.obj"))
+    comb = bpy.context.selected_objects[0]
+    result = api.add_thick_surface(comb, kind="SHELL", thickness=0.1, output="SOLID")
+    n = len(result.data.vertices)
+    ratio, achieved = np.empty(n, np.float32), np.empty(n, np.float32)
+    result.data.attributes["thicket_ratio"].data.foreach_get("value", ratio)
+    result.data.attributes["thicket_thickness"].data.foreach_get("value", achieved)
+    diag = float(np.linalg.norm(np.ptp(positions(comb), axis=0)))
+    np.testing.assert_allclose(ratio, achieved / (0.1 * diag), rtol=1e-4)
+    assert ratio.min() < 0.95 < ratio.max() <= 1.0001  # the comb's gaps compress it
+    report = comb.thicket.last_report
+    compressed = int(((ratio[: n // 2]) < 0.95).sum())
+    assert f"{compressed:,} of {n // 2:,} vertices compressed" in report, report
+    assert f"min {ratio.min():.0%}" in report and "final check: no folds or crossings" in report
+
+
+def test_incremental_edits_pushing_two_parts_together_stay_clean(scene):
+    """Two spheres pushed into each other edit by edit: the live shell updates
+    incrementally and is clean after every update, also once the spheres overlap
+    (their crossing is then inherited)."""
+    bpy.ops.wm.obj_import(filepath=str(DATA / "hard" / "two_spheres.obj"))
+    obj = bpy.context.selected_objects[0]
+    base = positions(obj).copy()
+    left = base[:, 0] < base[:, 0].mean()
+    tip = base[left, 0].max()
+    radius = 0.5 * np.ptp(base[left, 0])
+    # A sculpt-like grab: the cap of the left sphere facing the right one moves
+    # towards it, most at the tip, smoothly less to the cap's rim.
+    weight = np.where(left, np.clip(1.0 - (tip - base[:, 0]) / (0.4 * radius), 0.0, 1.0) ** 2, 0.0)
+    assert 0 < (weight > 0).sum() < 0.15 * len(base)
+    api.add_thick_surface(obj, kind="SHELL", thickness=0.1, output="OUTER")
+    live_shells.recent.clear()
+    tris = loop_triangles(obj.data)
+    for step in np.linspace(0.0, 0.2 * radius, 7)[1:]:
+        moved = base.copy()
+        moved[:, 0] += step * weight
+        obj.data.vertices.foreach_set("co", moved.ravel())
+        obj.data.update()
+        api.regenerate(obj)
+        outer = positions(obj.thicket.result)
+        out = {"base_offset": np.zeros_like(moved), "directors": outer - moved}
+        found = blender_check(moved, out, "exterior", tris)
+        assert (found["self"], found["base"], found["inverted"]) == (0, 0, 0), (step, found)
+    assert found["own"] > 0, "the last edits push the spheres into each other"
+    updates = [s for s in live_shells.recent if s is not None]
+    assert len(updates) >= 6 and not any(s["rebuilt"] for s in updates), list(live_shells.recent)
