@@ -211,6 +211,10 @@ pub(crate) struct Trace {
 
 pub(crate) const TRACE_SAMPLES: usize = 4;
 
+/// A step moving less than this share of the thickness is accepted without checking
+/// the turn of the field direction.
+const STALL: f64 = 1e-3;
+
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct Sample {
     pub at: Vec3,
@@ -329,7 +333,11 @@ impl Tracer {
                 lo = lo.min(xn);
                 hi = hi.max(xn);
                 let Some((gn, sn, pn)) = self.sample(xn, radius, g) else { break 'outer };
-                if gn.dot(g) >= cos_eps || halvings >= params.max_halvings || evals >= params.max_evaluations {
+                // A step that hardly moves (a trajectory stalled near the medial axis,
+                // where the direction swings) is accepted whatever the turn: halving it
+                // would only spend evaluations on no motion.
+                let still = speed * delta <= STALL * h;
+                if gn.dot(g) >= cos_eps || still || halvings >= params.max_halvings || evals >= params.max_evaluations {
                     t += delta;
                     (x, g, speed, push) = (xn, gn, sn, pn);
                     if slot < TRACE_SAMPLES - 1 && t >= h * slot as f64 / (TRACE_SAMPLES - 1) as f64 {

@@ -34,7 +34,7 @@ const REACH: f32 = 0.96;
 
 /// Neighbours without room of their own (tried only to make room) stop after these
 /// attempts, and are looked for within these rings of a vertex with room.
-const NEIGHBOUR_ATTEMPTS: usize = 2;
+const NEIGHBOUR_ATTEMPTS: usize = 1;
 const NEIGHBOUR_RINGS: u32 = 2;
 
 /// A director's shape: its base offset and director.
