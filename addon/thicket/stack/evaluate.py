@@ -152,17 +152,20 @@ def _volumetric_texture(shell: ShellContext, item: S.VolumetricTexture, weights,
     if item.combine:
         textures.append((_texture(tn, item.combine, item), tuple(float(v) for v in item.offset)))
     base = shell.base
-    if ask:
-        estimate = tn.estimate_bake(base.vertices, base.face_sizes, base.corners, textures[0], tiling=float(item.tiling), resolution=int(item.resolution), layers=int(item.layers))
-        if estimate > item.confirm_above:
-            raise BakeNeedsConfirmation(item.label, estimate, item.confirm_above)
-    out = tn.bake_texture(
-        base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures,
+    # One argument list for the estimate and the bake, so the estimate sees what the
+    # bake will (UVs, region, holes, cutter, moved region).
+    args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures)
+    settings = dict(
         uvs=base.uvs, tiling=float(item.tiling), resolution=int(item.resolution), layers=int(item.layers),
         region=weights["region"], holes=weights["holes"], cutter=item.cutter,
         move_region=weights["move"], move_offset=tuple(float(v) for v in item.move_offset),
         max_triangles=int(item.max_triangles),
     )
+    if ask:
+        estimate = tn.estimate_bake(*args, **settings)
+        if estimate > item.confirm_above:
+            raise BakeNeedsConfirmation(item.label, estimate, item.confirm_above)
+    out = tn.bake_texture(*args, **settings)
     result = MeshArrays.from_native(out)
     result.normals = out["normals"]
     result.point_attributes = {TEXCOORD_ATTRIBUTE: out["texcoords"]}

@@ -12,7 +12,7 @@ use thicket_render::mipmap::Mipmaps;
 use thicket_render::reference::{render, RenderParams};
 use thicket_render::{Camera, Frame, ShellScene};
 
-use crate::errors::{run_detached, ThicketError};
+use crate::errors::{run_detached, to_py, ThicketError};
 
 /// Pixels the renderer accepts in one frame (16384 x 16384).
 const MAX_PIXELS: u64 = 1 << 28;
@@ -140,6 +140,10 @@ pub fn render_shell<'py>(
         return Err(ThicketError::new_err(format!("{width}x{height} pixels are too many for one frame")));
     }
     let light = Vec3::new(light.0, light.1, light.2);
+    if let Some(mode) = mode {
+        // Bad settings are the caller's error, not a reason to fall back to the CPU.
+        SliceParams { slices, mode, light, ambient, mipmaps, ..Default::default() }.validate().map_err(to_py)?;
+    }
     let auto = method == "auto";
     let (frame, per_face_tiles, renderer, fallback) = run_detached(py, move || {
         let camera = Camera::new(view, projection, width, height)?;

@@ -6,7 +6,7 @@ use pyo3::types::PyDict;
 use thicket_core::glam::Vec2;
 use thicket_core::shell::Shell;
 use thicket_core::Mesh;
-use thicket_core::texture::bake::{bake, estimate_triangles_for, Cutter, MovedRegion, TextureLayer};
+use thicket_core::texture::bake::{bake, estimate_triangles, Cutter, MovedRegion, TextureLayer};
 use thicket_core::texture::{BakeParams, Generator, Pattern, VolumeTexture};
 
 use crate::arrays;
@@ -94,6 +94,63 @@ fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyReadonlyArray
     Ok(Shell::from_directors(base_offset, directors))
 }
 
+/// Everything a bake is given, read from Python and checked against the mesh; the
+/// cutter's mesh is turned into a [`Cutter`] (a BVH) only once the GIL is released.
+struct BakeInputs {
+    mesh: Mesh,
+    shell: Shell,
+    textures: Vec<TextureLayer>,
+    cutter: Option<(Vec<thicket_core::glam::Vec3>, Vec<u32>)>,
+    params: BakeParams,
+}
+
+impl BakeInputs {
+    #[allow(clippy::too_many_arguments)]
+    fn read<'py>(
+        vertices: &PyReadonlyArray2<'py, f32>,
+        face_sizes: &Bound<'py, PyAny>,
+        corners: &Bound<'py, PyAny>,
+        base_offset: &PyReadonlyArray2<'py, f32>,
+        directors: &PyReadonlyArray2<'py, f32>,
+        textures: &Bound<'py, PyAny>,
+        uvs: Option<&PyReadonlyArray2<'py, f32>>,
+        (tiling, resolution, layers): (f32, u32, u32),
+        region: Option<&Bound<'py, PyAny>>,
+        base_layer: f32,
+        holes: Option<&Bound<'py, PyAny>>,
+        cutter: Option<&(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
+        move_region: Option<&Bound<'py, PyAny>>,
+        move_offset: (f32, f32),
+        max_triangles: usize,
+    ) -> PyResult<Self> {
+        let (mesh, shell, textures) = textured_shell(vertices, face_sizes, corners, uvs, base_offset, directors, textures)?;
+        let n = mesh.vertex_count();
+        let region = region.map(|r| arrays::per_vertex_or_scalar(r, n, "region")).transpose()?;
+        let holes = holes.map(|r| arrays::per_vertex_or_scalar(r, n, "holes")).transpose()?;
+        let moved = move_region
+            .map(|r| arrays::per_vertex_or_scalar(r, n, "move_region"))
+            .transpose()?
+            .map(|weights| MovedRegion { weights, offset: Vec2::new(move_offset.0, move_offset.1) });
+        let cutter = match cutter {
+            Some((v, t)) => Some((arrays::positions(v)?, arrays::indices(t, "cutter triangles")?)),
+            None => None,
+        };
+        let params = BakeParams { resolution, layers, tiling, region, base_layer, holes, cutter: None, moved, max_triangles };
+        Ok(Self { mesh, shell, textures, cutter, params })
+    }
+
+    /// `work` given the inputs, the cutter built first (heavy: call without the GIL).
+    fn run<T>(mut self, work: impl FnOnce(&Mesh, &Shell, &[TextureLayer], &BakeParams) -> thicket_core::Result<T>) -> thicket_core::Result<T> {
+        if let Some((v, t)) = self.cutter.take() {
+            if t.len() % 3 != 0 {
+                return Err(thicket_core::Error::InvalidParameter("cutter triangles: three indices per triangle".into()));
+            }
+            self.params.cutter = Some(Cutter::new(&v, &t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect::<Vec<_>>())?);
+        }
+        work(&self.mesh, &self.shell, &self.textures, &self.params)
+    }
+}
+
 /// bake_texture(vertices, face_sizes, corners, base_offset, directors, textures,
 ///              uvs=None, tiling=1.0, resolution=8, layers=16, region=None,
 ///              base_layer=0.1, holes=None, cutter=None, move_region=None,
@@ -132,31 +189,11 @@ pub fn bake_texture<'py>(
     move_offset: (f32, f32),
     max_triangles: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (mesh, shell, layers_in) = textured_shell(&vertices, face_sizes, corners, uvs.as_ref(), &base_offset, &directors, textures)?;
-    let n = mesh.vertex_count();
-    let region = region.map(|r| arrays::per_vertex_or_scalar(r, n, "region")).transpose()?;
-    let holes = holes.map(|r| arrays::per_vertex_or_scalar(r, n, "holes")).transpose()?;
-    let moved = move_region
-        .map(|r| arrays::per_vertex_or_scalar(r, n, "move_region"))
-        .transpose()?
-        .map(|weights| MovedRegion { weights, offset: Vec2::new(move_offset.0, move_offset.1) });
-    let cutter = match &cutter {
-        Some((v, t)) => Some((arrays::positions(v)?, arrays::indices(t, "cutter triangles")?)),
-        None => None,
-    };
-    let out = run_detached(py, move || {
-        let cutter = match cutter {
-            Some((v, t)) => {
-                if t.len() % 3 != 0 {
-                    return Err(thicket_core::Error::InvalidParameter("cutter triangles: three indices per triangle".into()));
-                }
-                Some(Cutter::new(&v, &t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect::<Vec<_>>())?)
-            }
-            None => None,
-        };
-        let params = BakeParams { resolution, layers, tiling, region, base_layer, holes, cutter, moved, max_triangles };
-        bake(&mesh, &shell, &layers_in, &params)
-    })?;
+    let inputs = BakeInputs::read(
+        &vertices, face_sizes, corners, &base_offset, &directors, textures, uvs.as_ref(), (tiling, resolution, layers),
+        region, base_layer, holes, cutter.as_ref(), move_region, move_offset, max_triangles,
+    )?;
+    let out = run_detached(py, move || inputs.run(bake))?;
     let d = PyDict::new(py);
     let count = out.triangles.len();
     d.set_item("vertices", arrays::vec3_array(py, out.positions)?)?;
@@ -168,23 +205,40 @@ pub fn bake_texture<'py>(
     Ok(d)
 }
 
-/// estimate_bake(vertices, face_sizes, corners, texture, tiling=1.0, resolution=8,
-///               layers=16) -> int
+/// estimate_bake(vertices, face_sizes, corners, base_offset, directors, textures,
+///               uvs=None, tiling=1.0, resolution=8, layers=16, region=None,
+///               base_layer=0.1, holes=None, cutter=None, move_region=None,
+///               move_offset=(0.0, 0.0), max_triangles=20_000_000) -> int
 ///
-/// The triangle count a bake of `texture` is expected to make, before baking it.
+/// The triangle count `bake_texture` is expected to make when given the same
+/// arguments (checked alike), before baking: the bake's own field on a sample of
+/// its cells. `max_triangles` is accepted so both take one argument list.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, texture, tiling=1.0, resolution=8, layers=16))]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), max_triangles=20_000_000))]
 #[allow(clippy::too_many_arguments)]
-pub fn estimate_bake(
-    vertices: PyReadonlyArray2<'_, f32>,
-    face_sizes: &Bound<'_, PyAny>,
-    corners: &Bound<'_, PyAny>,
-    texture: &Bound<'_, PyAny>,
+pub fn estimate_bake<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+    base_offset: PyReadonlyArray2<'py, f32>,
+    directors: PyReadonlyArray2<'py, f32>,
+    textures: &Bound<'py, PyAny>,
+    uvs: Option<PyReadonlyArray2<'py, f32>>,
     tiling: f32,
     resolution: u32,
     layers: u32,
+    region: Option<&Bound<'py, PyAny>>,
+    base_layer: f32,
+    holes: Option<&Bound<'py, PyAny>>,
+    cutter: Option<(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
+    move_region: Option<&Bound<'py, PyAny>>,
+    move_offset: (f32, f32),
+    max_triangles: usize,
 ) -> PyResult<usize> {
-    let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
-    let layer = [TextureLayer { texture: volume(texture)?, offset: Vec2::ZERO }];
-    Ok(estimate_triangles_for(&mesh, &layer, &BakeParams { resolution, layers, tiling, ..Default::default() }))
+    let inputs = BakeInputs::read(
+        &vertices, face_sizes, corners, &base_offset, &directors, textures, uvs.as_ref(), (tiling, resolution, layers),
+        region, base_layer, holes, cutter.as_ref(), move_region, move_offset, max_triangles,
+    )?;
+    run_detached(py, move || inputs.run(estimate_triangles))
 }

@@ -82,7 +82,8 @@ impl Default for SliceParams {
 }
 
 impl SliceParams {
-    fn validate(&self) -> Result<()> {
+    /// Settings in range (slices, light, ambient), before any GPU work.
+    pub fn validate(&self) -> Result<()> {
         let bad = |m: String| Err(Error::InvalidParameter(m));
         if !(slices::MIN_SLICES..=slices::MAX_SLICES).contains(&self.slices) {
             return bad(format!(

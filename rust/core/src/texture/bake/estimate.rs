@@ -1,37 +1,44 @@
 //! The triangle count a bake is expected to make, told to the user before a large bake
-//! and checked against the budget: the marching-prism cases of a sample of the cells,
-//! each sampled on its own lattice as the bake would (textures only: no shell, region
-//! or holes), scaled to all cells.
+//! and checked against the budget: the bake's own occupancy field (textures, region,
+//! holes, cutter, moved region) and marching-prism cases on a sample of the cells,
+//! scaled to all cells.
 
+use super::field::Field;
 use super::lattice::Lattice;
-use super::{field, prism_table};
-use super::TextureLayer;
+use super::prism_table;
+use crate::shell::Shell;
+use crate::texture::mapping::CellMap;
+use crate::Mesh;
 
-/// Texture samples the estimate may take: a few milliseconds, far below a bake.
+/// Field samples the estimate may take: a few milliseconds, far below a bake.
 const BUDGET: usize = 200_000;
 
-pub(super) fn estimate_triangles(lattice: &Lattice, textures: &[TextureLayer], layers: u32) -> usize {
+pub(super) fn estimate_triangles(mesh: &Mesh, shell: &Shell, lattice: &Lattice, field: &Field, layers: u32) -> usize {
     let cells = lattice.tris.len();
-    if textures.is_empty() || cells == 0 {
+    if cells == 0 {
         return 0;
     }
     let (n, m) = (lattice.n, layers as usize);
     let points: Vec<(u32, u32)> = lattice.local_points().collect();
-    let picked = (BUDGET / (points.len() * (m + 1))).clamp(1, 64).min(cells);
+    let picked = (BUDGET / (points.len() * (m + 1))).clamp(1, 256).min(cells);
     let mut triangles = 0usize;
     let mut values = vec![0.0f32; points.len() * (m + 1)];
-    let mut footprint = Vec::with_capacity(textures.len());
+    let mut scratch = Vec::new();
     for p in 0..picked {
-        // Cells evenly spread over the mesh, so UV scales vary as they do in the bake.
-        let [a, b, c] = lattice.st[p * cells / picked];
+        // Cells evenly spread over the mesh, so UV scales and weights vary as they do
+        // in the bake.
+        let t = p * cells / picked;
+        let cell = CellMap::new(mesh, shell, &lattice.tris[t], &lattice.st[t]);
         for (k, &(i, j)) in points.iter().enumerate() {
-            let st = a + (b - a) * (i as f32 / n as f32) + (c - a) * (j as f32 / n as f32);
-            footprint.clear();
-            field::footprints(textures, st, &mut footprint);
-            // The shell's base and outer layer are outside, as in the bake.
-            for (l, v) in values[k * (m + 1)..][..m + 1].iter_mut().enumerate() {
-                *v = if l > 0 && l < m { field::union(textures, &footprint, l as f32 / m as f32) } else { 0.0 };
+            let column = &mut values[k * (m + 1)..][..m + 1];
+            if lattice.boundary[lattice.key(t, i, j)] {
+                column.fill(0.0);
+                continue;
             }
+            field.column(t, &cell, (i as f32 / n as f32, j as f32 / n as f32), column, &mut scratch);
+            // The shell's base and outer layer are outside, as in the bake.
+            column[0] = 0.0;
+            column[m] = 0.0;
         }
         let column = |k: usize| &values[k * (m + 1)..][..m + 1];
         for [a, b, c] in lattice.small_triangles().map(|t| t.map(column)) {

@@ -18,7 +18,7 @@ pub(super) struct Field<'a> {
     pub holes: Option<&'a [f32]>,
     pub cutter: Option<&'a Cutter>,
     /// Where the moved piece came from (a mask in `(s, t)`) and how far it went.
-    pub moved: Option<(UvMask, Vec2)>,
+    pub moved: Option<(&'a UvMask, Vec2)>,
     /// Top of the base slab, in `r`.
     pub base_layer: f32,
     /// Layers along the directors (the slab's edge is one layer wide).
@@ -26,14 +26,14 @@ pub(super) struct Field<'a> {
 }
 
 /// Each texture's footprint at `st` (its offset added), appended to `out`.
-pub(super) fn footprints(layers: &[TextureLayer], st: Vec2, out: &mut Vec<Column>) {
+fn footprints(layers: &[TextureLayer], st: Vec2, out: &mut Vec<Column>) {
     out.extend(layers.iter().map(|l| l.texture.column(st + l.offset)));
 }
 
 /// Union of the placed textures (max alpha, chapter 7.3) at height `r` over
 /// `footprints` (one per layer).
 #[inline]
-pub(super) fn union(layers: &[TextureLayer], footprints: &[Column], r: f32) -> f32 {
+fn union(layers: &[TextureLayer], footprints: &[Column], r: f32) -> f32 {
     layers.iter().zip(footprints).map(|(l, f)| l.texture.sample_column(f, r)).fold(0.0, f32::max)
 }
 

@@ -103,75 +103,116 @@ pub struct BakedMesh {
     pub per_face_tiles: bool,
 }
 
-/// Bakes the iso-surface. `layers`: the textures (at least one), unioned.
-pub fn bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<BakedMesh> {
-    mesh.require_faces()?;
-    if textures.is_empty() {
-        return Err(Error::InvalidParameter("no texture to bake".into()));
+impl BakeParams {
+    /// The checks every bake and estimate makes before any work: settings in range,
+    /// per-vertex weights that fit `mesh`, a shell that belongs to it, a texture.
+    fn check(&self, mesh: &Mesh, shell: &Shell, textures: &[TextureLayer]) -> Result<()> {
+        mesh.require_faces()?;
+        if textures.is_empty() {
+            return Err(Error::InvalidParameter("no texture to bake".into()));
+        }
+        if shell.directors.len() != mesh.vertex_count() {
+            return Err(Error::InvalidParameter("the shell does not belong to this mesh".into()));
+        }
+        if !(1..=64).contains(&self.resolution) || !(2..=256).contains(&self.layers) {
+            return Err(Error::InvalidParameter("resolution must be in 1..=64 and layers in 2..=256".into()));
+        }
+        if !(self.tiling > 0.0 && self.tiling.is_finite()) {
+            return Err(Error::InvalidParameter("tiling must be a positive number".into()));
+        }
+        if !self.base_layer.is_finite() {
+            return Err(Error::InvalidParameter("base_layer must be a finite number".into()));
+        }
+        let n_vertices = mesh.vertex_count();
+        let weights = [("region", self.region.as_deref()), ("holes", self.holes.as_deref()), ("moved region", self.moved.as_ref().map(|m| &m.weights[..]))];
+        for (what, w) in weights {
+            if w.is_some_and(|w| w.len() != n_vertices || w.iter().any(|x| !x.is_finite())) {
+                return Err(Error::InvalidParameter(format!("{what} weights: one finite value per vertex")));
+            }
+        }
+        if self.moved.as_ref().is_some_and(|m| !m.offset.is_finite()) {
+            return Err(Error::InvalidParameter("the moved region's offset must be finite".into()));
+        }
+        Ok(())
     }
-    if shell.directors.len() != mesh.vertex_count() {
-        return Err(Error::InvalidParameter("the shell does not belong to this mesh".into()));
+}
+
+/// What a bake and its estimate share: the checked settings' lattice and the
+/// moved region's mask, from which the occupancy [`Field`] is made.
+struct Setup {
+    coords: TextureCoordinates,
+    lattice: Lattice,
+    moved: Option<(UvMask, Vec2)>,
+}
+
+impl Setup {
+    fn new(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Self> {
+        params.check(mesh, shell, textures)?;
+        let coords = TextureCoordinates::of(mesh, params.tiling);
+        if params.moved.is_some() && coords.per_face_tiles {
+            return Err(Error::InvalidParameter("moving a texture region needs a UV map".into()));
+        }
+        let n = params.resolution;
+        let lattice = Lattice::new(mesh, &coords, n);
+        let moved = params.moved.as_ref().map(|mv| {
+            let res = ((lattice.tris.len() as f32).sqrt() as usize * n as usize * 2).clamp(256, 4096);
+            (UvMask::new(&lattice.tris, &lattice.st, &mv.weights, res), mv.offset * params.tiling)
+        });
+        Ok(Self { coords, lattice, moved })
     }
-    if !(1..=64).contains(&params.resolution) || !(2..=256).contains(&params.layers) {
-        return Err(Error::InvalidParameter("resolution must be in 1..=64 and layers in 2..=256".into()));
-    }
-    if !(params.tiling > 0.0 && params.tiling.is_finite()) {
-        return Err(Error::InvalidParameter("tiling must be a positive number".into()));
-    }
-    let n_vertices = mesh.vertex_count();
-    let weights =
-        [("region", &params.region), ("holes", &params.holes), ("moved region", &params.moved.as_ref().map(|m| m.weights.clone()))];
-    for (what, w) in weights {
-        if w.as_ref().is_some_and(|w| w.len() != n_vertices || w.iter().any(|x| !x.is_finite())) {
-            return Err(Error::InvalidParameter(format!("{what} weights: one finite value per vertex")));
+
+    fn field<'a>(&'a self, textures: &'a [TextureLayer], params: &'a BakeParams) -> Field<'a> {
+        let m = params.layers;
+        Field {
+            layers: textures,
+            tris: &self.lattice.tris,
+            region: params.region.as_deref(),
+            holes: params.holes.as_deref(),
+            cutter: params.cutter.as_ref(),
+            moved: self.moved.as_ref().map(|(mask, d)| (mask, *d)),
+            base_layer: params.base_layer.max(1.5 / m as f32),
+            layers_r: m as f32,
         }
     }
-    let coords = TextureCoordinates::of(mesh, params.tiling);
-    if params.moved.is_some() && coords.per_face_tiles {
-        return Err(Error::InvalidParameter("moving a texture region needs a UV map".into()));
-    }
-    let (n, m) = (params.resolution, params.layers);
-    let lattice = Lattice::new(mesh, &coords, n);
-    let estimate = estimate::estimate_triangles(&lattice, textures, m);
+}
+
+/// Bakes the iso-surface. `textures`: at least one, united.
+pub fn bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<BakedMesh> {
+    let setup = Setup::new(mesh, shell, textures, params)?;
+    let field = setup.field(textures, params);
+    let (lattice, m) = (&setup.lattice, params.layers);
+    let estimate = estimate::estimate_triangles(mesh, shell, lattice, &field, m);
     if estimate > params.max_triangles {
         return Err(Error::InvalidParameter(format!(
             "this bake would make about {estimate} triangles, over the limit of {}; lower the resolution or layers",
             params.max_triangles
         )));
     }
-    let moved = params.moved.as_ref().map(|mv| {
-        let res = ((lattice.tris.len() as f32).sqrt() as usize * n as usize * 2).clamp(256, 4096);
-        (UvMask::new(&lattice.tris, &lattice.st, &mv.weights, res), mv.offset * params.tiling)
-    });
-    let field = Field {
-        layers: textures,
-        tris: &lattice.tris,
-        region: params.region.as_deref(),
-        holes: params.holes.as_deref(),
-        cutter: params.cutter.as_ref(),
-        moved,
-        base_layer: params.base_layer.max(1.5 / m as f32),
-        layers_r: m as f32,
-    };
-    let values = sample_lattice(mesh, shell, &lattice, &field, m);
-
-    let cells = Cells { mesh, shell, lattice: &lattice, values: &values, layers: m };
+    let values = sample_lattice(mesh, shell, lattice, &field, m);
+    let cells = Cells { mesh, shell, lattice, values: &values, layers: m };
     let pieces: Vec<_> = (0..lattice.tris.len()).into_par_iter().map_init(Scratch::default, |s, t| cells.polygonize(s, t)).collect();
     drop(values);
     let mut out = merge::merge(pieces);
-    out.per_face_tiles = coords.per_face_tiles;
+    out.per_face_tiles = setup.coords.per_face_tiles;
     Ok(out)
 }
 
-/// The triangle count a bake is expected to make ([`estimate`]).
-pub fn estimate_triangles_for(mesh: &Mesh, textures: &[TextureLayer], params: &BakeParams) -> usize {
-    let coords = TextureCoordinates::of(mesh, params.tiling);
-    estimate::estimate_triangles(&Lattice::new(mesh, &coords, params.resolution), textures, params.layers)
+/// The triangle count [`bake`] is expected to make with the same arguments (checked
+/// alike): the bake's own field on a sample of its cells ([`estimate`]).
+pub fn estimate_triangles(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<usize> {
+    let setup = Setup::new(mesh, shell, textures, params)?;
+    Ok(estimate::estimate_triangles(mesh, shell, &setup.lattice, &setup.field(textures, params), params.layers))
 }
 
+/// Least distance of a sample from the iso-level 0.5. Values nearer (blends of a
+/// region, holes or the base slab give exactly 0.5 midway between weights 1 and 0) are
+/// moved to this distance on their own side, so iso-vertices stay about 1% of a
+/// lattice edge from lattice points: no coincident vertices, and no triangles around
+/// one lattice point that touch without sharing a vertex.
+const OFF_ISO: f32 = 0.01;
+
 /// `alpha` at every lattice point (point key × (layers + 1)), each computed in the
-/// cell that owns the point so shared points get one value. Values are kept off
-/// exactly 0.5 so no iso-vertex lands on a lattice point (no coincident vertices).
+/// cell that owns the point so shared points get one value, kept [`OFF_ISO`] off 0.5.
 fn sample_lattice(mesh: &Mesh, shell: &Shell, lattice: &Lattice, field: &Field, m: u32) -> Vec<f32> {
     let owner = lattice.owners();
     let n = lattice.n as f32;
@@ -189,8 +230,8 @@ fn sample_lattice(mesh: &Mesh, shell: &Shell, lattice: &Lattice, field: &Field, 
         column[0] = 0.0;
         column[m as usize] = 0.0;
         for a in column.iter_mut() {
-            if (*a - 0.5).abs() < 1e-6 {
-                *a = 0.5 + 1e-6;
+            if (*a - 0.5).abs() < OFF_ISO {
+                *a = if *a >= 0.5 { 0.5 + OFF_ISO } else { 0.5 - OFF_ISO };
             }
         }
     });

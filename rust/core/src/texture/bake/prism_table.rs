@@ -2,10 +2,11 @@
 //! the prism's nine edges. Built once from the prism's faces: on every face the
 //! crossing points are joined by segments that keep the inside on their right (seen
 //! from outside the prism); the segments link into closed loops, and each loop is
-//! fanned into triangles facing from inside to outside. A side quad whose inside
-//! corners lie on a diagonal is ambiguous; it is resolved by the face's mean value,
-//! which the neighbouring prism sharing that face computes identically, so the
-//! surface has no cracks. Compared with splitting each prism into three tetrahedra
+//! triangulated (facing from inside to outside) so that no triangle lies in a prism
+//! face, where the prism across it could make the same triangle facing the other way.
+//! A side quad whose inside corners lie on a diagonal is ambiguous; it is resolved by
+//! the face's mean value, which the neighbouring prism sharing that face computes
+//! identically, so the surface has no cracks. Compared with splitting each prism into three tetrahedra
 //! this uses no diagonal edges and makes about half as many triangles.
 //!
 //! Corners: `0, 1, 2` the bottom triangle (counter-clockwise seen from above), `3, 4, 5`
@@ -87,6 +88,49 @@ fn face_segments(face: &[usize], inside: impl Fn(usize) -> bool, connected: bool
     }
 }
 
+/// Whether the edges `tri` all lie on one face of the prism: such a triangle lies in
+/// that face, and the neighbouring prism across it may make the same triangle facing
+/// the other way (coincident opposite faces, edges used four times).
+fn in_one_face(tri: [usize; 3]) -> bool {
+    let on = |face: &[usize], e: usize| face.contains(&EDGES[e][0]) && face.contains(&EDGES[e][1]);
+    SIDES.iter().map(|f| &f[..]).chain(CAPS.iter().map(|f| &f[..])).any(|f| tri.iter().all(|&e| on(f, e)))
+}
+
+/// All triangulations of the polygon `ring` (by the diagonal from its first and last
+/// vertex's triangle), as triangle lists; loops have at most nine vertices.
+fn triangulations(ring: &[usize]) -> Vec<Vec<[usize; 3]>> {
+    if ring.len() < 3 {
+        return vec![vec![]];
+    }
+    let (first, last) = (ring[0], ring[ring.len() - 1]);
+    let mut out = Vec::new();
+    for apex in 1..ring.len() - 1 {
+        for left in triangulations(&ring[..=apex]) {
+            for right in triangulations(&ring[apex..]) {
+                let mut t = vec![[first, ring[apex], last]];
+                t.extend(left.iter().chain(&right));
+                out.push(t);
+            }
+        }
+    }
+    out
+}
+
+/// A loop's triangles with none lying in a prism face: a fan from the first vertex
+/// that allows it, else any triangulation that does (one always exists: tested).
+fn triangulate(ring: &[usize]) -> Vec<[usize; 3]> {
+    let fan = |start: usize| -> Vec<[usize; 3]> {
+        let k = ring.len();
+        (1..k - 1).map(|i| [ring[start], ring[(start + i) % k], ring[(start + i + 1) % k]]).collect()
+    };
+    let clean = |tris: &Vec<[usize; 3]>| !tris.iter().any(|t| in_one_face(*t));
+    (0..ring.len())
+        .map(fan)
+        .find(clean)
+        .or_else(|| triangulations(ring).into_iter().find(clean))
+        .unwrap_or_else(|| fan(0))
+}
+
 fn build() -> Vec<Case> {
     (0..512usize)
         .map(|index| {
@@ -116,8 +160,8 @@ fn build() -> Vec<Case> {
                     ring.push(e);
                     e = next[e];
                 }
-                for i in 1..ring.len() - 1 {
-                    case.tris[case.count as usize] = [ring[0] as u8, ring[i] as u8, ring[i + 1] as u8];
+                for t in triangulate(&ring) {
+                    case.tris[case.count as usize] = t.map(|e| e as u8);
                     case.count += 1;
                 }
             }
@@ -159,6 +203,11 @@ mod tests {
                 }
                 for (&(a, b), &n) in &directed {
                     assert_eq!(n, 1, "edge {a}-{b} twice in one direction, case {inside:06b}");
+                }
+                // No triangle lies in a prism face (the prism across it could make
+                // the same triangle facing the other way).
+                for tri in &t.tris[..t.count as usize] {
+                    assert!(!in_one_face(tri.map(|e| e as usize)), "case {inside:06b}/{connected:03b}: {tri:?} lies in a face");
                 }
                 // Orientation: every triangle's normal points away from the inside
                 // corners' centroid of its own loop, checked on single-loop cases.
