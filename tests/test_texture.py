@@ -61,6 +61,16 @@ def test_without_uvs_each_face_is_a_tile_and_the_user_is_told(scene):
     assert "no UV map" in cube.thicket.last_note
 
 
+def test_an_empty_bake_tells_the_user_why(scene):
+    # Eight tiles per face edge at 8 lattice steps: chain mail's rings fall between
+    # the samples. The user is told instead of getting nothing silently.
+    cube = add("cube", size=2.0)
+    cube.data.uv_layers.remove(cube.data.uv_layers[0])
+    result = api.add_volumetric_texture(cube, "chain_mail", shell_thickness=0.05, tiling=8, resolution=8)
+    assert len(result.data.polygons) == 0
+    assert "baked no geometry" in cube.thicket.last_note and "Resolution" in cube.thicket.last_note
+
+
 def test_texture_without_a_shell_is_a_clear_error_and_changes_nothing(scene):
     sphere = add("ico_sphere", subdivisions=2)
     api.add_item(sphere, "VOLUMETRIC_TEXTURE", pattern="weave")

@@ -240,6 +240,9 @@ def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_
             origin = None  # baked vertices come from no single source vertex
             if per_face:
                 notes.append("the mesh has no UV map: each face got its own texture tile")
+            if current.face_count == 0:
+                # Not an error (a hole group may cut everything away), but rarely wanted.
+                notes.append(f"'{item.label}' baked no geometry: its features may be finer than the bake lattice; raise Resolution or Feature Thickness, or lower Tiling")
         else:
             base, base_origin = current, origin
             if origin is None:
