@@ -79,6 +79,60 @@ def test_shell_stack_item_in_blender(scene):
     assert np.linalg.norm(positions(sphere.thicket.result), axis=1).max() < 1.0 + 1e-4
 
 
+def uv_map(mesh, name):
+    uv = np.empty(len(mesh.loops) * 2, np.float32)
+    mesh.uv_layers[name].data.foreach_get("uv", uv)
+    return uv.reshape(-1, 2)
+
+
+def face_values(mesh, prop, dtype):
+    out = np.empty(len(mesh.polygons), dtype)
+    mesh.polygons.foreach_get(prop, out)
+    return out
+
+
+@pytest.mark.parametrize("kind", ["OFFSET_SHELL", "SHELL"])
+@pytest.mark.parametrize("output", ["OUTER", "SOLID", "LAYERS"])
+def test_shell_results_keep_the_uv_maps_and_material_indices_of_their_base(scene, kind, output):
+    # A grid (open: a solid gets rims) with two UV maps and two materials.
+    grid = add("grid", x_subdivisions=4, y_subdivisions=3, size=2.0)
+    mesh = grid.data
+    second = mesh.uv_layers.new(name="Second")
+    shifted = uv_map(mesh, "UVMap") * 2.0 + 0.25
+    second.data.foreach_set("uv", shifted.ravel())
+    for name in ("Red", "Blue"):
+        mesh.materials.append(bpy.data.materials.new(name))
+    materials = (np.arange(len(mesh.polygons)) % 2).astype(np.int32)
+    mesh.polygons.foreach_set("material_index", materials)
+    base_uv = {name: uv_map(mesh, name) for name in ("UVMap", "Second")}
+    result = api.add_thick_surface(grid, kind=kind, thickness=0.1, thickness_mode="ABSOLUTE", output=output, layers=2)
+    out = result.data
+    assert [layer.name for layer in out.uv_layers] == ["UVMap", "Second"]
+    assert [m.name for m in out.materials] == ["Red", "Blue"]
+    # Each result face is a copy of a base face (same corner count, UVs and material
+    # in the same or reversed order) or a rim quad, whose UVs are its edge's.
+    f = len(mesh.polygons)
+    copies = len(out.polygons) // f if output != "SOLID" else 2
+    sizes = face_values(out, "loop_total", np.int32)
+    out_materials = face_values(out, "material_index", np.int32)
+    np.testing.assert_array_equal(out_materials[: copies * f], np.tile(materials, copies))
+    if output == "SOLID":
+        assert len(out.polygons) > 2 * f and set(out_materials[2 * f :]) <= {0, 1}
+    for name, uv in base_uv.items():
+        got = uv_map(out, name)
+        start = 0
+        for face in range(copies * f):
+            n = sizes[face]
+            src = mesh.polygons[face % f]
+            expected = uv[src.loop_start : src.loop_start + n]
+            here = got[start : start + n]
+            assert np.allclose(here, expected) or np.allclose(here, expected[::-1]), f"{name} face {face}"
+            start += n
+        # Rim corners take UVs the base has.
+        rims = got[start:]
+        assert all(np.isclose(uv, r).all(axis=1).any() for r in rims)
+
+
 @pytest.mark.parametrize("side", ["sideways", ""])
 def test_bad_side_is_a_clear_error(side):
     v = np.eye(3, dtype=np.float32)

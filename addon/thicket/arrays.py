@@ -23,6 +23,16 @@ class MeshArrays:
     uvs: np.ndarray | None = None  # (c, 2) float32: the active UV map per corner, or None
     normals: np.ndarray | None = None  # (n, 3) float32 custom vertex normals to write, or None
     notes: list = field(default_factory=list)  # things the user should be told about the result
+    uv_maps: dict = field(default_factory=dict)  # UV map name -> (c, 2) float32, every map
+    material_index: np.ndarray | None = None  # (f,) int32 per face, or None
+
+    def carried_to(self, result: "MeshArrays", source_corner, source_face) -> "MeshArrays":
+        """`result` given this mesh's UV maps and material indices through provenance
+        (the corner and face of this mesh each corner and face of `result` comes from)."""
+        result.uv_maps = {name: uv[source_corner] for name, uv in self.uv_maps.items()}
+        result.uvs = None if self.uvs is None else self.uvs[source_corner]
+        result.material_index = None if self.material_index is None else self.material_index[source_face]
+        return result
 
     @property
     def vertex_count(self) -> int:

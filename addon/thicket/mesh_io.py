@@ -26,12 +26,19 @@ def read_mesh(mesh: bpy.types.Mesh, float_attributes=()) -> MeshArrays:
             values = np.empty(n, dtype=np.float32)
             attr.data.foreach_get("value", values)
             attrs[name] = values
-    uvs = None
-    if mesh.uv_layers.active is not None and c > 0:
-        uvs = np.empty(c * 2, dtype=np.float32)
-        mesh.uv_layers.active.data.foreach_get("uv", uvs)
-        uvs = uvs.reshape(c, 2)
-    return MeshArrays(vertices.reshape(n, 3), face_sizes, corners, attrs, uvs)
+    uv_maps = {}
+    for layer in mesh.uv_layers if c > 0 else ():
+        uv = np.empty(c * 2, dtype=np.float32)
+        layer.data.foreach_get("uv", uv)
+        uv_maps[layer.name] = uv.reshape(c, 2)
+    active = mesh.uv_layers.active
+    uvs = uv_maps.get(active.name) if active is not None else None
+    material_index = np.empty(f, dtype=np.int32)
+    mesh.polygons.foreach_get("material_index", material_index)
+    arrays = MeshArrays(vertices.reshape(n, 3), face_sizes, corners, attrs, uvs)
+    arrays.uv_maps = uv_maps
+    arrays.material_index = material_index
+    return arrays
 
 
 def write_mesh(mesh: bpy.types.Mesh, arrays: MeshArrays) -> None:
@@ -51,6 +58,11 @@ def write_mesh(mesh: bpy.types.Mesh, arrays: MeshArrays) -> None:
         # Custom normals (Blender 4.1+ needs no auto smooth for them to show).
         mesh.polygons.foreach_set("use_smooth", np.ones(f, dtype=bool))
         mesh.normals_split_custom_set_from_vertices(np.ascontiguousarray(arrays.normals, dtype=np.float32))
+    for name, uv in arrays.uv_maps.items():
+        layer = mesh.uv_layers.new(name=name, do_init=False)
+        layer.data.foreach_set("uv", np.ascontiguousarray(uv, dtype=np.float32).ravel())
+    if arrays.material_index is not None and f > 0:
+        mesh.polygons.foreach_set("material_index", np.ascontiguousarray(arrays.material_index, dtype=np.int32))
     for name, values in arrays.point_attributes.items():
         values = np.ascontiguousarray(values, dtype=np.float32)
         vector = values.ndim == 2

@@ -34,9 +34,10 @@ class ShellContext:
         self.origin = origin  # source vertex of each base vertex
 
 
-def _shell_result(out):
-    """Mesh arrays of a native shell result, with per-vertex shell attributes."""
-    result = MeshArrays.from_native(out)
+def _shell_result(out, base: MeshArrays):
+    """Mesh arrays of a native shell result, with per-vertex shell attributes and the
+    base's UV maps and material indices (outer, inner and rim faces alike)."""
+    result = base.carried_to(MeshArrays.from_native(out), out["source_corner"], out["source_face"])
     source = out["source_vertex"]
     result.point_attributes = {
         DIRECTOR_ATTRIBUTE: out["directors"][source],
@@ -91,13 +92,13 @@ def _common_args(mesh: MeshArrays, item, factors):
 def _offset_shell(mesh: MeshArrays, item: S.OffsetShell, factors):
     args, kwargs = _common_args(mesh, item, factors)
     out = native.get().offset_shell(*args, **kwargs)
-    return (*_shell_result(out), out)
+    return (*_shell_result(out, mesh), out)
 
 
 def _field_shell(mesh: MeshArrays, item: S.FieldShell, factors):
     args, kwargs = _common_args(mesh, item, factors)
     out = live_shells.field_shell(args, dict(kwargs, side=item.side))
-    return (*_shell_result(out), out)
+    return (*_shell_result(out, mesh), out)
 
 
 _loaded = {}  # (path, modification time) -> texture array: files are read once

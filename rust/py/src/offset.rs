@@ -59,8 +59,10 @@ pub fn parse_output(output: &str, layers: u32) -> PyResult<ShellOutput> {
 /// "solid" (closed: offset + reversed base + rims) or "layers" (`layers` copies).
 ///
 /// Returns vertices (m,3) float32, face_sizes and corners int32, source_vertex int32
-/// (base vertex of each output vertex), layer float32 (r in [0,1]) and directors
-/// (n,3) float32 for the base vertices.
+/// (base vertex of each output vertex), layer float32 (r in [0,1]), source_corner
+/// and source_face int32 (the base corner and face each output corner and face comes
+/// from: UV maps and material indices carry over) and directors (n,3) float32 for the
+/// base vertices.
 #[pyfunction]
 #[pyo3(signature = (vertices, face_sizes, corners, thickness, relative=false, factors=None, output="outer", layers=1))]
 #[allow(clippy::too_many_arguments)]
@@ -80,9 +82,18 @@ pub fn offset_shell<'py>(
         let directors = normal_offset_directors(&req.mesh, &req.per_vertex()?);
         Ok((build_geometry(&req.mesh, &directors, req.output)?, directors))
     })?;
+    let d = shell_mesh_dict(py, shell)?;
+    d.set_item("directors", arrays::vec3_array(py, directors)?)?;
+    Ok(d)
+}
+
+/// Shell geometry as a dict: the mesh arrays and where each part came from
+/// (source_vertex, layer, source_corner, source_face).
+pub fn shell_mesh_dict(py: Python<'_>, shell: thicket_core::shell::ShellMesh) -> PyResult<Bound<'_, PyDict>> {
     let d = arrays::mesh_dict(py, shell.mesh)?;
     d.set_item("source_vertex", arrays::u32_as_i32_array(py, shell.source_vertex))?;
     d.set_item("layer", shell.layer.into_pyarray(py))?;
-    d.set_item("directors", arrays::vec3_array(py, directors)?)?;
+    d.set_item("source_corner", arrays::u32_as_i32_array(py, shell.source_corner))?;
+    d.set_item("source_face", arrays::u32_as_i32_array(py, shell.source_face))?;
     Ok(d)
 }

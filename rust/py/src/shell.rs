@@ -50,7 +50,8 @@ pub fn build_shell<'py>(
 /// The L_p-field shell of a polygon mesh with shell geometry, as `offset_shell` but
 /// with field-integrated directors. Returns the geometry arrays plus base_offset and
 /// directors (n,3) (layer r of vertex v at v + base_offset + r * director), achieved
-/// and target thickness (n,), source_vertex and layer per output vertex.
+/// and target thickness (n,), source_vertex and layer per output vertex, source_corner
+/// and source_face per output corner and face.
 #[pyfunction]
 #[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", layers=1, p=3.0))]
 #[allow(clippy::too_many_arguments)]
@@ -78,9 +79,7 @@ pub fn shell<'py>(
 
 /// The dict `shell()` returns: geometry arrays plus the shell's per-vertex arrays.
 pub fn shell_dict<'py>(py: Python<'py>, geometry: core::ShellMesh, shell: core::Shell) -> PyResult<Bound<'py, PyDict>> {
-    let d = arrays::mesh_dict(py, geometry.mesh)?;
-    d.set_item("source_vertex", arrays::u32_as_i32_array(py, geometry.source_vertex))?;
-    d.set_item("layer", geometry.layer.into_pyarray(py))?;
+    let d = crate::offset::shell_mesh_dict(py, geometry)?;
     d.set_item("base_offset", arrays::vec3_array(py, shell.base_offset)?)?;
     d.set_item("directors", arrays::vec3_array(py, shell.directors)?)?;
     d.set_item("check", check_dict(py, &shell.check)?)?;

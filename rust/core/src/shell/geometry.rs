@@ -26,6 +26,12 @@ pub struct ShellMesh {
     pub source_vertex: Vec<u32>,
     /// Shell parameter r of each output vertex (0 = base, 1 = outer surface).
     pub layer: Vec<f32>,
+    /// Base-mesh face corner each output face corner comes from (a rim's corners: the
+    /// corners of the face along that boundary edge), so UV maps carry over.
+    pub source_corner: Vec<u32>,
+    /// Base-mesh face each output face comes from (a rim: the face along its edge),
+    /// so material indices carry over.
+    pub source_face: Vec<u32>,
 }
 
 /// Largest number of layers one request may ask for.
@@ -93,35 +99,53 @@ fn layered_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput, at: im
 
     let mut sizes = Vec::new();
     let mut corners = Vec::new();
+    let mut source_corner = Vec::new();
+    let mut source_face = Vec::new();
     for (k, &r) in layers.iter().enumerate() {
         // In a solid the base layer (r = 0) faces the other way than the outer layer.
         let reverse = flip ^ (output == ShellOutput::Solid && r == 0.0);
         let base = (k * nv) as u32;
-        for face in mesh.faces() {
+        for (f, face) in mesh.faces().enumerate() {
             sizes.push(face.len() as u32);
+            source_face.push(f as u32);
+            let range = mesh.face_corner_range(f);
             let mapped = face.iter().map(|&v| base + remap[v as usize]);
             if reverse {
                 corners.extend(mapped.rev());
+                source_corner.extend(range.rev().map(|c| c as u32));
             } else {
                 corners.extend(mapped);
+                source_corner.extend(range.map(|c| c as u32));
             }
         }
     }
     if output == ShellOutput::Solid {
         let (outer, inner) = (0u32, nv as u32);
+        // The face and corners along each boundary edge: (face, corner of a, corner of b).
+        let mut along = std::collections::HashMap::new();
+        for (f, face) in mesh.faces().enumerate() {
+            let start = mesh.face_corner_range(f).start as u32;
+            for i in 0..face.len() {
+                let j = (i + 1) % face.len();
+                along.insert((face[i], face[j]), (f as u32, start + i as u32, start + j as u32));
+            }
+        }
         for (a, b) in boundary_edges(mesh) {
+            let (f, ca, cb) = along.get(&(a, b)).copied().or_else(|| along.get(&(b, a)).map(|&(f, cb, ca)| (f, ca, cb))).unwrap_or((0, 0, 0));
             let (a, b) = (remap[a as usize], remap[b as usize]);
-            let quad = if flip {
-                [inner + b, inner + a, outer + a, outer + b]
+            let (quad, from) = if flip {
+                ([inner + b, inner + a, outer + a, outer + b], [cb, ca, ca, cb])
             } else {
-                [inner + a, inner + b, outer + b, outer + a]
+                ([inner + a, inner + b, outer + b, outer + a], [ca, cb, cb, ca])
             };
             sizes.push(4);
             corners.extend(quad);
+            source_corner.extend(from);
+            source_face.push(f);
         }
     }
     let mesh = Mesh::new(positions, &sizes, corners, None)?;
-    Ok(ShellMesh { mesh, source_vertex, layer })
+    Ok(ShellMesh { mesh, source_vertex, layer, source_corner, source_face })
 }
 
 /// One volumetric cell of a shell: the slab over one base face (chapter 3.1, "each
