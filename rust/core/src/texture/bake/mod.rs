@@ -206,8 +206,8 @@ pub fn estimate_triangles(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
 
 /// Least distance of a sample from the iso-level 0.5. Values nearer (blends of a
 /// region, holes or the base slab give exactly 0.5 midway between weights 1 and 0) are
-/// moved to this distance on their own side, so iso-vertices stay about 1% of a
-/// lattice edge from lattice points: no coincident vertices, and no triangles around
+/// moved to this distance on their own side, so iso-vertices stay at least about 2%
+/// of a lattice edge from lattice points: no coincident vertices, and no triangles around
 /// one lattice point that touch without sharing a vertex.
 const OFF_ISO: f32 = 0.01;
 

@@ -96,6 +96,21 @@ fn in_one_face(tri: [usize; 3]) -> bool {
     SIDES.iter().map(|f| &f[..]).chain(CAPS.iter().map(|f| &f[..])).any(|f| tri.iter().all(|&e| on(f, e)))
 }
 
+/// Whether a triangle edge between the crossings on prism edges `a` and `b` (not a
+/// segment of the loop) is a chord across a side quad that the prism on the other
+/// side could draw too: both crossings on one side quad, other than {bottom, right}
+/// or {top, right} (its right edge, seen from outside, is the other prism's left, so
+/// the two never draw the same chord and no edge is used four times).
+fn shared_chord(a: usize, b: usize) -> bool {
+    SIDES.iter().any(|f| {
+        let side = |k: usize| edge_of(f[k], f[(k + 1) % 4]);
+        let (bottom, right, top, left) = (side(0), side(1), side(2), side(3));
+        let on = |e: usize| [bottom, right, top, left].contains(&e);
+        let allowed = [(bottom, right), (top, right)].iter().any(|&(x, y)| (a, b) == (x, y) || (a, b) == (y, x));
+        on(a) && on(b) && !allowed
+    })
+}
+
 /// All triangulations of the polygon `ring` (by the diagonal from its first and last
 /// vertex's triangle), as triangle lists; loops have at most nine vertices.
 fn triangulations(ring: &[usize]) -> Vec<Vec<[usize; 3]>> {
@@ -116,14 +131,19 @@ fn triangulations(ring: &[usize]) -> Vec<Vec<[usize; 3]>> {
     out
 }
 
-/// A loop's triangles with none lying in a prism face: a fan from the first vertex
-/// that allows it, else any triangulation that does (one always exists: tested).
+/// A loop's triangles with none lying in a prism face and no chord a neighbour could
+/// share ([`shared_chord`]): a fan from the first vertex that allows it, else any
+/// triangulation that does (one always exists: tested).
 fn triangulate(ring: &[usize]) -> Vec<[usize; 3]> {
     let fan = |start: usize| -> Vec<[usize; 3]> {
         let k = ring.len();
         (1..k - 1).map(|i| [ring[start], ring[(start + i) % k], ring[(start + i + 1) % k]]).collect()
     };
-    let clean = |tris: &Vec<[usize; 3]>| !tris.iter().any(|t| in_one_face(*t));
+    let k = ring.len();
+    let on_loop = |a: usize, b: usize| (0..k).any(|i| (ring[i], ring[(i + 1) % k]) == (a, b) || (ring[i], ring[(i + 1) % k]) == (b, a));
+    let clean = |tris: &Vec<[usize; 3]>| {
+        tris.iter().all(|t| !in_one_face(*t) && (0..3).all(|i| on_loop(t[i], t[(i + 1) % 3]) || !shared_chord(t[i], t[(i + 1) % 3])))
+    };
     (0..ring.len())
         .map(fan)
         .find(clean)
@@ -208,6 +228,11 @@ mod tests {
                 // the same triangle facing the other way).
                 for tri in &t.tris[..t.count as usize] {
                     assert!(!in_one_face(tri.map(|e| e as usize)), "case {inside:06b}/{connected:03b}: {tri:?} lies in a face");
+                }
+                // Edges inside the loop's triangulation (used by two of its triangles)
+                // are no chords the neighbouring prism could draw as well.
+                for (&(a, b), _) in directed.iter().filter(|(&(a, b), _)| directed.contains_key(&(b, a))) {
+                    assert!(!shared_chord(a as usize, b as usize), "case {inside:06b}/{connected:03b}: chord {a}-{b}");
                 }
                 // Orientation: every triangle's normal points away from the inside
                 // corners' centroid of its own loop, checked on single-loop cases.
