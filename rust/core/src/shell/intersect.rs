@@ -1,7 +1,8 @@
 //! Triangle intersection tests for shell reports: an AABB tree over triangles and a
 //! tri–tri test built from orientation determinants in f64 (two triangles intersect
 //! when an edge of one properly crosses the other). Pairs that merely touch, and
-//! coplanar overlaps, are not counted.
+//! coplanar overlaps, are not counted by [`triangles_intersect`]; [`triangles_meet`]
+//! counts them too, from exact point-triangle and segment-segment distances.
 
 use glam::DVec3;
 
@@ -26,6 +27,90 @@ pub fn segment_crosses_triangle(p: DVec3, q: DVec3, t: &[DVec3; 3]) -> bool {
 /// Whether two triangles intersect (an edge of either properly crosses the other).
 pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     (0..3).any(|i| segment_crosses_triangle(a[i], a[(i + 1) % 3], b)) || (0..3).any(|i| segment_crosses_triangle(b[i], b[(i + 1) % 3], a))
+}
+
+/// Squared distance from `p` to the closed triangle `t` (closest point by Voronoi
+/// regions, Ericson, *Real-Time Collision Detection*, 5.1.5).
+pub fn point_triangle_distance2(p: DVec3, t: &[DVec3; 3]) -> f64 {
+    let [a, b, c] = *t;
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return ap.length_squared();
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return bp.length_squared();
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return (p - (a + ab * (d1 / (d1 - d3)))).length_squared();
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return cp.length_squared();
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return (p - (a + ac * (d2 / (d2 - d6)))).length_squared();
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return (p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))))).length_squared();
+    }
+    let denom = va + vb + vc;
+    if denom.abs() < f64::MIN_POSITIVE {
+        // A degenerate triangle: its edges.
+        return [(a, b), (b, c), (c, a)].iter().map(|&(u, v)| segment_segment_distance2(p, p, u, v)).fold(f64::MAX, f64::min);
+    }
+    (p - (a + ab * (vb / denom) + ac * (vc / denom))).length_squared()
+}
+
+/// Squared distance between segments `p1 q1` and `p2 q2` (Ericson 5.1.9).
+pub fn segment_segment_distance2(p1: DVec3, q1: DVec3, p2: DVec3, q2: DVec3) -> f64 {
+    let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
+    let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
+    let tiny = f64::MIN_POSITIVE;
+    let (s, t) = if a <= tiny && e <= tiny {
+        (0.0, 0.0)
+    } else if a <= tiny {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = d1.dot(r);
+        if e <= tiny {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = d1.dot(d2);
+            let denom = a * e - b * b;
+            let mut s = if denom > 0.0 { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+            let mut t = (b * s + f) / e;
+            if t < 0.0 {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if t > 1.0 {
+                t = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            (s, t)
+        }
+    };
+    ((p1 + d1 * s) - (p2 + d2 * t)).length_squared()
+}
+
+/// Whether two triangles cross, touch or come within `eps` of each other: an edge of
+/// either properly crosses the other, or the least distance between them (from the
+/// vertex-triangle and edge-edge pairs, exact for triangles that do not cross) is at
+/// most `eps`. Unlike [`triangles_intersect`] this sees touching and coplanar
+/// overlapping pairs, which a closed mesh's non-adjacent triangles must not have either.
+pub fn triangles_meet(a: &[DVec3; 3], b: &[DVec3; 3], eps: f64) -> bool {
+    if triangles_intersect(a, b) {
+        return true;
+    }
+    let e2 = eps * eps;
+    (0..3).any(|i| point_triangle_distance2(a[i], b) <= e2 || point_triangle_distance2(b[i], a) <= e2)
+        || (0..3).any(|i| (0..3).any(|j| segment_segment_distance2(a[i], a[(i + 1) % 3], b[j], b[(j + 1) % 3]) <= e2))
 }
 
 /// Whether segment `a`-`b` meets the box `[lo, hi]` (slab test; `inv` is
@@ -263,5 +348,60 @@ mod tests {
         assert_eq!(query(&partial), vec![0, 1]);
         partial.refit_items(std::iter::once((2, tri_box(&crossing))));
         assert_eq!(query(&partial), vec![0, 1, 2]);
+    }
+
+    /// Least distance between two triangles by dense sampling (a reference: never
+    /// below the true distance, and close to it at this density).
+    fn sampled_distance(a: &[DVec3; 3], b: &[DVec3; 3]) -> f64 {
+        let points = |t: &[DVec3; 3]| {
+            let n = 60;
+            let mut out = Vec::new();
+            for i in 0..=n {
+                for j in 0..=n - i {
+                    let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+                    out.push(t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v);
+                }
+            }
+            out
+        };
+        let (pa, pb) = (points(a), points(b));
+        pa.iter().flat_map(|p| pb.iter().map(move |q| p.distance(*q))).fold(f64::MAX, f64::min)
+    }
+
+    #[test]
+    fn distances_agree_with_sampling_and_touching_pairs_meet() {
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for _ in 0..60 {
+            let a = [DVec3::new(rnd(), rnd(), rnd()), DVec3::new(rnd(), rnd(), rnd()), DVec3::new(rnd(), rnd(), rnd())];
+            let shift = DVec3::new(rnd(), rnd(), rnd()) * 2.0;
+            let b = [DVec3::new(rnd(), rnd(), rnd()) + shift, DVec3::new(rnd(), rnd(), rnd()) + shift, DVec3::new(rnd(), rnd(), rnd()) + shift];
+            let sampled = sampled_distance(&a, &b);
+            if triangles_intersect(&a, &b) {
+                assert!(sampled < 0.1, "crossing triangles sampled {sampled} apart");
+                continue;
+            }
+            let exact = (0..3)
+                .map(|i| point_triangle_distance2(a[i], &b).min(point_triangle_distance2(b[i], &a)))
+                .chain((0..3).flat_map(|i| (0..3).map(move |j| segment_segment_distance2(a[i], a[(i + 1) % 3], b[j], b[(j + 1) % 3]))))
+                .fold(f64::MAX, f64::min)
+                .sqrt();
+            assert!(exact <= sampled + 1e-9 && sampled - exact < 0.06, "exact {exact}, sampled {sampled}");
+            assert_eq!(triangles_meet(&a, &b, 0.0), exact == 0.0);
+            assert!(triangles_meet(&a, &b, exact * 1.001 + 1e-12));
+        }
+        // A vertex resting on another triangle, and two coplanar overlapping triangles:
+        // no proper crossing, but they meet.
+        let a = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let resting = [DVec3::new(0.2, 0.2, 0.0), DVec3::new(0.2, 0.2, 1.0), DVec3::new(0.5, 0.0, 1.0)];
+        let coplanar = [DVec3::new(0.1, 0.1, 0.0), DVec3::new(1.0, 0.5, 0.0), DVec3::new(0.5, 1.0, 0.0)];
+        for b in [resting, coplanar] {
+            assert!(!triangles_intersect(&a, &b) && triangles_meet(&a, &b, 1e-12));
+        }
+        let apart = coplanar.map(|p| p + DVec3::Z * 0.01);
+        assert!(!triangles_meet(&a, &apart, 0.005) && triangles_meet(&a, &apart, 0.0101));
     }
 }
