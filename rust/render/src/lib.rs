@@ -11,6 +11,8 @@
 //!   transparency levels with directional alpha and normal-distribution ellipsoids.
 //! - [`image_out`]: the rendered frame (colour, alpha, depth, normal) and its PNG and
 //!   OpenEXR outputs.
+//! - [`silhouette`]: pixel coverage of a mesh or a frame and their intersection over
+//!   union: a bake's fidelity to the reference render of its shell.
 
 pub mod camera;
 pub mod gpu;
@@ -18,6 +20,7 @@ pub mod image_out;
 pub mod mipmap;
 pub mod reference;
 pub mod scene;
+pub mod silhouette;
 
 pub use camera::Camera;
 pub use image_out::Frame;

@@ -87,15 +87,16 @@ pub fn render(scene: &ShellScene, camera: &Camera, params: &RenderParams) -> Res
     }))
 }
 
-/// Pixel rays, computed in double precision from the inverse view-projection.
-struct Rays {
+/// Pixel rays, computed in double precision from the inverse view-projection (shared
+/// with [`crate::silhouette`], so both use one pixel convention).
+pub(crate) struct Rays {
     inverse: DMat4,
     width: f64,
     height: f64,
 }
 
 impl Rays {
-    fn new(camera: &Camera) -> Result<Self> {
+    pub(crate) fn new(camera: &Camera) -> Result<Self> {
         let inverse = (camera.projection.as_dmat4() * camera.view.as_dmat4()).inverse();
         if !inverse.is_finite() {
             return Err(Error::InvalidParameter("the camera matrices are not invertible".into()));
@@ -105,7 +106,7 @@ impl Rays {
 
     /// Origin on the near plane, unit direction and distance to the far plane of pixel
     /// `(x, y)` (row 0 at the top), as [`Camera::ray`] gives them.
-    fn ray(&self, x: usize, y: usize) -> Option<(DVec3, DVec3, f64)> {
+    pub(crate) fn ray(&self, x: usize, y: usize) -> Option<(DVec3, DVec3, f64)> {
         let nx = 2.0 * (x as f64 + 0.5) / self.width - 1.0;
         let ny = 1.0 - 2.0 * (y as f64 + 0.5) / self.height;
         let near = self.inverse.project_point3(DVec3::new(nx, ny, -1.0));
