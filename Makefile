@@ -82,6 +82,7 @@ bench: vulkan setup
 	cargo run --release -q -p thicket-core --example shell_bench
 	cargo run --release -q -p thicket-core --example cards_scaling -- --n 2000,8000,32000 $(BENCH_FLAGS)
 	cargo run --release -q -p thicket-core --example bake_bench
+	cargo run --release -q -p thicket-render --example bake_fidelity
 	cargo run --release -q -p thicket-render --example render_bench
 
 clean:

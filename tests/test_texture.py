@@ -2,6 +2,7 @@
 
 import os
 
+import bmesh
 import bpy
 import numpy as np
 import pytest
@@ -62,13 +63,32 @@ def test_without_uvs_each_face_is_a_tile_and_the_user_is_told(scene):
 
 
 def test_an_empty_bake_tells_the_user_why(scene):
-    # Eight tiles per face edge at 8 lattice steps: chain mail's rings fall between
-    # the samples. The user is told instead of getting nothing silently.
+    # Eight tiles per face edge at exactly 8 lattice steps (Follow Texture off): chain
+    # mail's rings fall between the samples. The user is told instead of getting
+    # nothing silently.
     cube = add("cube", size=2.0)
     cube.data.uv_layers.remove(cube.data.uv_layers[0])
-    result = api.add_volumetric_texture(cube, "chain_mail", shell_thickness=0.05, tiling=8, resolution=8)
+    result = api.add_volumetric_texture(cube, "chain_mail", shell_thickness=0.05, tiling=8, resolution=8, follow_texture=False)
     assert len(result.data.polygons) == 0
     assert "baked no geometry" in cube.thicket.last_note and "Resolution" in cube.thicket.last_note
+
+
+def test_a_texture_following_bake_keeps_what_a_coarse_lattice_loses(scene):
+    # The same bake at the default (Follow Texture on): the lattice refines toward the
+    # texture's texels, so the rings survive; 512 texels per face edge are more than
+    # its most steps, and the note says the texture is still finer than the lattice.
+    cube = add("cube", size=2.0)
+    cube.data.uv_layers.remove(cube.data.uv_layers[0])
+    result = api.add_volumetric_texture(cube, "chain_mail", shell_thickness=0.05, tiling=8, resolution=8, triangle_budget=200_000)
+    assert len(result.data.polygons) > 10_000
+    note = cube.thicket.last_note
+    assert "finer than the bake lattice" in note and "baked no geometry" not in note
+    bm = bmesh.new()
+    bm.from_mesh(result.data)
+    try:
+        assert all(e.is_manifold for e in bm.edges)
+    finally:
+        bm.free()
 
 
 def test_texture_without_a_shell_is_a_clear_error_and_changes_nothing(scene):

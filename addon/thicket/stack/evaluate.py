@@ -160,6 +160,7 @@ def _volumetric_texture(shell: ShellContext, item: S.VolumetricTexture, weights,
         uvs=base.uvs, tiling=float(item.tiling), resolution=int(item.resolution), layers=int(item.layers),
         region=weights["region"], holes=weights["holes"], cutter=item.cutter,
         move_region=weights["move"], move_offset=tuple(float(v) for v in item.move_offset),
+        follow_texture=bool(item.follow_texture), triangle_budget=int(item.triangle_budget),
         max_triangles=int(item.max_triangles),
     )
     if ask:
@@ -170,7 +171,16 @@ def _volumetric_texture(shell: ShellContext, item: S.VolumetricTexture, weights,
     result = MeshArrays.from_native(out)
     result.normals = out["normals"]
     result.point_attributes = {TEXCOORD_ATTRIBUTE: out["texcoords"]}
-    return result, out["per_face_tiles"]
+    notes = []
+    if out["per_face_tiles"]:
+        notes.append("the mesh has no UV map: each face got its own texture tile")
+    if out["texture_finer_than_lattice"]:
+        steps = out["lattice_steps"][0]
+        notes.append(
+            f"'{item.label}': the texture is finer than the bake lattice ({steps} steps per face edge) on many faces, so thin features may be lost; "
+            "raise Sample Limit or lower Tiling or Texture Size"
+        )
+    return result, notes
 
 
 SHELL_STEPS = {S.OffsetShell: _offset_shell, S.FieldShell: _field_shell}
@@ -237,10 +247,9 @@ def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_
         factors = _group_weights(source, item.vertex_group, at, item.label)
         if is_texture:
             weights = {"region": factors, "holes": _group_weights(source, item.hole_group, at, item.label), "move": _group_weights(source, item.move_group, at, item.label)}
-            current, per_face = (texture_step or _volumetric_texture)(shell, item, weights, ask)
+            current, bake_notes = (texture_step or _volumetric_texture)(shell, item, weights, ask)
             origin = None  # baked vertices come from no single source vertex
-            if per_face:
-                notes.append("the mesh has no UV map: each face got its own texture tile")
+            notes.extend(bake_notes)
             if current.face_count == 0:
                 # Not an error (a hole group may cut everything away), but rarely wanted.
                 notes.append(f"'{item.label}' baked no geometry: its features may be finer than the bake lattice; raise Resolution or Feature Thickness, or lower Tiling")

@@ -130,8 +130,27 @@ class ThicketItem(bpy.types.PropertyGroup):
         default="NONE",
         update=_changed,
     )
-    confirm_above: IntProperty(name="Ask Above", description="In the interface, ask before baking more than this many (estimated) triangles", min=1000, default=1_000_000, update=_changed)
-    max_triangles: IntProperty(name="Triangle Budget", description="Refuse bakes estimated above this many triangles", min=1000, default=5_000_000, update=_changed)
+    follow_texture: BoolProperty(
+        name="Follow Texture",
+        description="Sample the bake at the texture's own texel spacing (at least Resolution and Layers), so thin strands and wires survive; off: exactly Resolution and Layers (quick, coarse)",
+        default=True,
+        update=_changed,
+    )
+    triangle_budget: IntProperty(
+        name="Triangle Budget",
+        description="Simplify the bake toward this many triangles, never moving its surface by more than a quarter of a sample step (0: keep every triangle)",
+        min=0,
+        default=1_000_000,
+        update=_changed,
+    )
+    confirm_above: IntProperty(name="Ask Above", description="In the interface, ask before baking more than this many (estimated) triangles", min=1000, default=3_000_000, update=_changed)
+    max_triangles: IntProperty(
+        name="Sample Limit",
+        description="The most triangles the bake may sample before simplifying: a finer lattice is coarsened to fit, and bakes over it even at Resolution are refused",
+        min=1000,
+        default=20_000_000,
+        update=_changed,
+    )
 
     def texture_time(self, scene=None):
         """The time the pattern is baked at: the scene's (seconds x speed) when following frames."""
@@ -158,7 +177,8 @@ class ThicketItem(bpy.types.PropertyGroup):
                 texture_size=self.texture_size, tiling=self.tiling, resolution=self.resolution, layers=self.texture_layers,
                 vertex_group=SELECTED_FACES if self.face_selection == "REGION" else self.vertex_group,
                 combine="" if self.combine == "NONE" else self.combine,
-                offset=tuple(self.offset), max_triangles=self.max_triangles, confirm_above=self.confirm_above,
+                offset=tuple(self.offset), follow_texture=self.follow_texture, triangle_budget=self.triangle_budget,
+                max_triangles=self.max_triangles, confirm_above=self.confirm_above,
                 filepath=bpy.path.abspath(self.filepath) if self.source == "FILE" else "",
                 hole_group=SELECTED_FACES if self.face_selection == "HOLES" else self.hole_group,
                 move_group=SELECTED_FACES if self.face_selection == "MOVE" else self.move_group,

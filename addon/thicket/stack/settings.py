@@ -64,8 +64,12 @@ class VolumetricTexture(_Item):
     .exr volume). Editing (chapter 7): hole_group zeroes the texture by weight, cutter
     (vertices, triangles) of a closed mesh in the source's space zeroes it inside;
     move_group's piece of texture moves by move_offset (UV units), its trace showing
-    the base. confirm_above: bakes estimated above it raise BakeNeedsConfirmation
-    when the caller asks (the UI); max_triangles: refused outright.
+    the base. follow_texture: sample at the texture's own texel spacing (at least
+    `resolution` and `layers` steps), so thin features survive; triangle_budget: the
+    bake is simplified toward it (0: no simplification); max_triangles: the most
+    triangles the lattice may make before simplification (a texture-following lattice
+    is coarsened to fit; over it even at `resolution`, refused). confirm_above: bakes
+    estimated above it raise BakeNeedsConfirmation when the caller asks (the UI).
     """
 
     pattern: str = "chain_mail"
@@ -84,8 +88,10 @@ class VolumetricTexture(_Item):
     cutter: object = None
     move_group: str = ""
     move_offset: tuple = (0.0, 0.0)
-    confirm_above: int = 1_000_000
-    max_triangles: int = 5_000_000
+    follow_texture: bool = True
+    triangle_budget: int = 1_000_000
+    confirm_above: int = 3_000_000
+    max_triangles: int = 20_000_000
 
     def vertex_groups(self):
         return [g for g in (self.vertex_group, self.hole_group, self.move_group) if g]

@@ -48,7 +48,8 @@ fn main() {
     let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
     let texture = Generator::new(Pattern::ChainMail).generate([64, 64, 32]).unwrap();
     let layers = [TextureLayer { texture: texture.clone(), offset: Vec2::ZERO }];
-    let params = BakeParams { resolution: 8, layers: 16, ..Default::default() };
+    // The fixed lattice, unsimplified: the polygonizer's throughput at a known sample count.
+    let params = BakeParams { resolution: 8, layers: 16, follow_texture: false, triangle_budget: 0, ..Default::default() };
     let faces = mesh.face_count();
     // Lattice samples: vertices, edge points, face points, times layers + 1.
     let edges = faces * 3 / 2;

@@ -121,7 +121,7 @@ impl BakeInputs {
         cutter: Option<&(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
         move_region: Option<&Bound<'py, PyAny>>,
         move_offset: (f32, f32),
-        max_triangles: usize,
+        (follow_texture, triangle_budget, max_triangles): (bool, usize, usize),
     ) -> PyResult<Self> {
         let (mesh, shell, textures) = textured_shell(vertices, face_sizes, corners, uvs, base_offset, directors, textures)?;
         let n = mesh.vertex_count();
@@ -135,7 +135,19 @@ impl BakeInputs {
             Some((v, t)) => Some((arrays::positions(v)?, arrays::indices(t, "cutter triangles")?)),
             None => None,
         };
-        let params = BakeParams { resolution, layers, tiling, region, base_layer, holes, cutter: None, moved, max_triangles };
+        let params = BakeParams {
+            resolution,
+            layers,
+            follow_texture,
+            tiling,
+            region,
+            base_layer,
+            holes,
+            cutter: None,
+            moved,
+            triangle_budget,
+            max_triangles,
+        };
         Ok(Self { mesh, shell, textures, cutter, params })
     }
 
@@ -154,7 +166,8 @@ impl BakeInputs {
 /// bake_texture(vertices, face_sizes, corners, base_offset, directors, textures,
 ///              uvs=None, tiling=1.0, resolution=8, layers=16, region=None,
 ///              base_layer=0.1, holes=None, cutter=None, move_region=None,
-///              move_offset=(0.0, 0.0), max_triangles=20_000_000) -> dict
+///              move_offset=(0.0, 0.0), follow_texture=True,
+///              triangle_budget=1_000_000, max_triangles=20_000_000) -> dict
 ///
 /// Bakes the alpha = 0.5 iso-surface of volumetric textures mapped into a shell (layer
 /// r of vertex v at v + base_offset + r * director) into one closed, crack-free mesh.
@@ -164,10 +177,18 @@ impl BakeInputs {
 /// where the texture is cut away. `cutter`: (vertices float32 (k,3), triangles (t,3))
 /// of a closed mesh in the same coordinates; the texture is cut away inside it.
 /// `move_region`: float32 (n,), the piece of texture moved by `move_offset` (UV
-/// units; needs `uvs`), its trace showing the base. Returns vertices,
-/// face_sizes, corners, normals (n,3), texcoords (n,3) = (s, t, r), per_face_tiles.
+/// units; needs `uvs`), its trace showing the base. `follow_texture`: sample at the
+/// texture's own texel spacing (at least `resolution` steps per cell edge and `layers`
+/// across the shell), so features a texel wide survive; False: exactly those steps.
+/// `triangle_budget`: simplify toward this many triangles without moving the surface
+/// by more than a quarter of a lattice step (0: keep every triangle).
+/// `max_triangles`: the most triangles the lattice may make before simplification; a
+/// texture-following lattice is coarsened to fit, a bake over it even at `resolution`
+/// steps is refused. Returns vertices, face_sizes, corners, normals (n,3),
+/// texcoords (n,3) = (s, t, r), per_face_tiles, lattice_steps (per cell edge,
+/// across the shell) and texture_finer_than_lattice (thin features may be lost).
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), max_triangles=20_000_000))]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true, triangle_budget=1_000_000, max_triangles=20_000_000))]
 #[allow(clippy::too_many_arguments)]
 pub fn bake_texture<'py>(
     py: Python<'py>,
@@ -187,11 +208,14 @@ pub fn bake_texture<'py>(
     cutter: Option<(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
     move_region: Option<&Bound<'py, PyAny>>,
     move_offset: (f32, f32),
+    follow_texture: bool,
+    triangle_budget: usize,
     max_triangles: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let inputs = BakeInputs::read(
         &vertices, face_sizes, corners, &base_offset, &directors, textures, uvs.as_ref(), (tiling, resolution, layers),
-        region, base_layer, holes, cutter.as_ref(), move_region, move_offset, max_triangles,
+        region, base_layer, holes, cutter.as_ref(), move_region, move_offset,
+        (follow_texture, triangle_budget, max_triangles),
     )?;
     let out = run_detached(py, move || inputs.run(bake))?;
     let d = PyDict::new(py);
@@ -202,19 +226,22 @@ pub fn bake_texture<'py>(
     d.set_item("normals", arrays::vec3_array(py, out.normals)?)?;
     d.set_item("texcoords", arrays::vec3_array(py, out.texcoords)?)?;
     d.set_item("per_face_tiles", out.per_face_tiles)?;
+    d.set_item("lattice_steps", (out.lattice[0], out.lattice[1]))?;
+    d.set_item("texture_finer_than_lattice", out.texture_finer_than_lattice)?;
     Ok(d)
 }
 
 /// estimate_bake(vertices, face_sizes, corners, base_offset, directors, textures,
 ///               uvs=None, tiling=1.0, resolution=8, layers=16, region=None,
 ///               base_layer=0.1, holes=None, cutter=None, move_region=None,
-///               move_offset=(0.0, 0.0), max_triangles=20_000_000) -> int
+///               move_offset=(0.0, 0.0), follow_texture=True,
+///               triangle_budget=1_000_000, max_triangles=20_000_000) -> int
 ///
 /// The triangle count `bake_texture` is expected to make when given the same
-/// arguments (checked alike), before baking: the bake's own field on a sample of
-/// its cells. `max_triangles` is accepted so both take one argument list.
+/// arguments (checked alike, refused alike), before baking: the bake's own lattice,
+/// field and simplification on a sample of its cells.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), max_triangles=20_000_000))]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true, triangle_budget=1_000_000, max_triangles=20_000_000))]
 #[allow(clippy::too_many_arguments)]
 pub fn estimate_bake<'py>(
     py: Python<'py>,
@@ -234,11 +261,14 @@ pub fn estimate_bake<'py>(
     cutter: Option<(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
     move_region: Option<&Bound<'py, PyAny>>,
     move_offset: (f32, f32),
+    follow_texture: bool,
+    triangle_budget: usize,
     max_triangles: usize,
 ) -> PyResult<usize> {
     let inputs = BakeInputs::read(
         &vertices, face_sizes, corners, &base_offset, &directors, textures, uvs.as_ref(), (tiling, resolution, layers),
-        region, base_layer, holes, cutter.as_ref(), move_region, move_offset, max_triangles,
+        region, base_layer, holes, cutter.as_ref(), move_region, move_offset,
+        (follow_texture, triangle_budget, max_triangles),
     )?;
     run_detached(py, move || inputs.run(estimate_triangles))
 }

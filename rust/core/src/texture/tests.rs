@@ -146,10 +146,13 @@ fn bad_bakes_are_errors() {
     assert!(bake(&mesh, &s, &tex, &BakeParams { resolution: 0, ..Default::default() }).is_err());
     assert!(bake(&mesh, &s, &tex, &BakeParams { tiling: f32::NAN, ..Default::default() }).is_err());
     assert!(bake(&mesh, &s, &tex, &BakeParams { region: Some(vec![1.0]), ..Default::default() }).is_err());
+    // Over the limit even at `resolution` steps: the bake and its estimate refuse alike,
+    // naming the count of the coarsest lattice, which the estimate at that lattice gives.
     let small = BakeParams { max_triangles: 100, ..Default::default() };
-    let estimate = estimate_triangles(&mesh, &s, &tex, &small).unwrap();
     let err = bake(&mesh, &s, &tex, &small).unwrap_err().to_string();
-    assert!(estimate > 100 && err.contains(&estimate.to_string()), "{err}");
+    assert_eq!(estimate_triangles(&mesh, &s, &tex, &small).unwrap_err().to_string(), err);
+    let count: usize = err.split("about ").nth(1).and_then(|r| r.split(' ').next()).and_then(|n| n.parse().ok()).unwrap_or(0);
+    assert!(count > 100 && err.contains("limit of 100"), "{err}");
     let other = tm::icosphere(2);
     assert!(bake(&other, &s, &tex, &BakeParams::default()).is_err(), "shell of another mesh");
 }
@@ -224,7 +227,8 @@ fn a_full_region_bakes_the_same_surface_as_none() {
     let mesh = tm::icosphere(2);
     let s = shell(&mesh, 0.1);
     let tex = layer(Generator::new(Pattern::Rivets).generate([32, 32, 16]).unwrap());
-    let p = BakeParams { resolution: 4, layers: 12, ..Default::default() };
+    // No simplification: the lattices' surfaces compared vertex for vertex.
+    let p = BakeParams { resolution: 4, layers: 12, triangle_budget: 0, ..Default::default() };
     let fast = bake(&mesh, &s, &tex, &p).unwrap();
     let general = bake(&mesh, &s, &tex, &BakeParams { region: Some(vec![1.0; mesh.vertex_count()]), ..p }).unwrap();
     assert_eq!(fast.triangles.len(), general.triangles.len());
@@ -311,9 +315,38 @@ fn textures_finer_than_the_lattice_still_bake_closed_manifolds() {
             ((h >> 8) & 0xffff) as f32 / 65535.0
         })
         .unwrap();
-        let b = bake(&mesh, &s, &layer(noise), &BakeParams { resolution: 4, layers: 8, ..Default::default() }).unwrap();
+        let b = bake(&mesh, &s, &layer(noise), &BakeParams { resolution: 4, layers: 8, follow_texture: false, ..Default::default() }).unwrap();
         assert!(!b.triangles.is_empty());
         let r = as_mesh(&b).report();
         assert!(r.is_closed_manifold(), "seed {seed}: {r:?}");
     }
+}
+
+#[test]
+fn culling_empty_blocks_changes_nothing_and_the_fine_lattice_keeps_thin_strands() {
+    // Fur (sparse: most blocks are culled) on a small sphere, one tile per face: the
+    // bake with culling equals the bake that samples every block, vertex for vertex.
+    let mesh = tm::icosphere(1);
+    let s = shell(&mesh, 0.05);
+    let tex = layer(Generator::new(Pattern::Fur).generate([32, 32, 16]).unwrap());
+    let p = BakeParams { triangle_budget: 0, ..Default::default() };
+    let culled = super::bake::bake_culled(&mesh, &s, &tex, &p, true).unwrap();
+    let full = super::bake::bake_culled(&mesh, &s, &tex, &p, false).unwrap();
+    assert_eq!(culled.triangles, full.triangles);
+    assert_eq!(culled.positions, full.positions);
+    // Thin strands: the texture-following lattice keeps far more of them than the
+    // fixed one (8 steps per edge), and both are closed manifolds.
+    let fixed = bake(&mesh, &s, &tex, &BakeParams { follow_texture: false, ..p.clone() }).unwrap();
+    assert!(culled.lattice[0] > 8 && fixed.lattice == [8, 16], "{:?} {:?}", culled.lattice, fixed.lattice);
+    assert!(culled.triangles.len() > 20 * fixed.triangles.len().max(1), "{} vs {}", culled.triangles.len(), fixed.triangles.len());
+    assert!(as_mesh(&culled).report().is_closed_manifold());
+    // Simplified to a budget: fewer triangles, still a closed manifold, within the
+    // estimate's 1.5x.
+    let budget = BakeParams { triangle_budget: culled.triangles.len() / 4, ..p };
+    let small = bake(&mesh, &s, &tex, &budget).unwrap();
+    let r = as_mesh(&small).report();
+    assert!(small.triangles.len() < culled.triangles.len() * 3 / 4 && r.is_closed_manifold(), "{} {r:?}", small.triangles.len());
+    let estimate = estimate_triangles(&mesh, &s, &tex, &budget).unwrap() as f64;
+    let made = small.triangles.len() as f64;
+    assert!(estimate < made * 1.5 && estimate > made / 1.5, "estimate {estimate}, made {made}");
 }

@@ -4,6 +4,7 @@
 //! height `r` is fixed on a column, so each texture's `(s, t)` footprint, the region,
 //! move and hole weights are found once and only the heights vary.
 
+use super::bounds::MaxPyramid;
 use super::cutter::Cutter;
 use super::uv_mask::UvMask;
 use super::TextureLayer;
@@ -23,6 +24,10 @@ pub(super) struct Field<'a> {
     pub base_layer: f32,
     /// Layers along the directors (the slab's edge is one layer wide).
     pub layers_r: f32,
+    /// Heights `r` of the lattice's layers, one per sample of a column.
+    pub heights: &'a [f32],
+    /// Per placed texture, its occupancy bounds.
+    pub bounds: &'a [MaxPyramid],
 }
 
 /// Each texture's footprint at `st` (its offset added), appended to `out`.
@@ -54,7 +59,29 @@ impl Field<'_> {
         union(self.layers, footprints, r)
     }
 
-    /// Occupancy at the heights `r = l / (out.len() - 1)` of the column at `(u, v)` of
+    /// An upper bound of the occupancy anywhere in the column over the triangle with
+    /// corners `uv` (cell parameters) of cell `t`, all heights. Every factor of the
+    /// blend in [`Self::column`] is bounded on its own: the per-vertex weights are linear
+    /// in `(u, v)` (extremes at the corners), the textures by their [`MaxPyramid`] over
+    /// the `(s, t)` box of the corners; the base slab (partial or moved regions) reaches 1.
+    pub fn upper_bound(&self, t: usize, cell: &CellMap, uv: [(f32, f32); 3]) -> f32 {
+        let w = uv.map(|(u, v)| cell.weights(u, v));
+        let range = |values: Option<&[f32]>| {
+            w.iter().filter_map(|w| self.per_vertex(values, t, w)).fold(None, |r: Option<(f32, f32)>, x| {
+                Some(r.map_or((x, x), |(lo, hi)| (lo.min(x), hi.max(x))))
+            })
+        };
+        let st = uv.map(|(u, v)| cell.texture(Vec3::new(u, v, 0.0)).truncate());
+        let (lo, hi) = (st[0].min(st[1]).min(st[2]), st[0].max(st[1]).max(st[2]));
+        let textures = || self.layers.iter().zip(self.bounds).map(|(l, b)| b.max_over(lo + l.offset, hi + l.offset)).fold(0.0, f32::max);
+        // A moved region or a partial one shows the base slab.
+        let full_presence = range(self.region).is_none_or(|(lo, _)| lo >= 1.0) && self.moved.is_none();
+        let bound = if full_presence { textures() } else { 1.0 };
+        let kept = range(self.holes).map_or(1.0, |(lo, _)| 1.0 - lo);
+        bound * kept
+    }
+
+    /// Occupancy at the lattice's [`Self::heights`] of the column at `(u, v)` of
     /// cell `t` (`cell` is its map), into `out`; `scratch` holds footprints.
     pub fn column(&self, t: usize, cell: &CellMap, (u, v): (f32, f32), out: &mut [f32], scratch: &mut Vec<Column>) {
         let w = cell.weights(u, v);
@@ -74,9 +101,7 @@ impl Field<'_> {
         }
         let kept = 1.0 - self.per_vertex(self.holes, t, &w).unwrap_or(0.0);
         let (here, there) = scratch.split_at(self.layers.len());
-        let last = (out.len() - 1) as f32;
-        for (l, a) in out.iter_mut().enumerate() {
-            let r = l as f32 / last;
+        for (a, &r) in out.iter_mut().zip(self.heights) {
             if self.cutter.is_some_and(|c| c.contains(cell.world(Vec3::new(u, v, r)))) {
                 *a = 0.0;
                 continue;

@@ -1,9 +1,11 @@
 //! The bake's sample lattice: every cell (a triangle of the triangulated base) gets
 //! `n` steps per base edge, and lattice points are numbered globally — a mesh vertex,
 //! a point on a mesh edge, or one inside a face — so neighbouring cells share the
-//! samples on their common faces (no cracks).
+//! samples on their common faces (no cracks). A point's samples are computed in the
+//! cell that owns it (the first cell containing it), so shared points get one value
+//! even where the cells' texture coordinates differ (per-face tiles, UV seams).
 
-use super::super::mapping::{TextureCoordinates, TriangleCells};
+use super::super::mapping::TriangleCells;
 use crate::Mesh;
 use glam::Vec2;
 use std::collections::HashMap;
@@ -15,13 +17,17 @@ pub(super) struct Lattice {
     pub st: Vec<[Vec2; 3]>,
     edges: HashMap<(u32, u32), u32>,
     vertex_count: u32,
-    /// Points on the shell's side walls (open boundary edges and their vertices).
-    pub boundary: Vec<bool>,
+    /// Per mesh vertex and per edge: on the shell's side walls (open boundary edges).
+    vertex_on_wall: Vec<bool>,
+    edge_on_wall: Vec<bool>,
+    /// Per mesh vertex: the first cell containing it and its corner there.
+    vertex_owner: Vec<(u32, u8)>,
+    /// Per edge: the first cell containing it.
+    edge_owner: Vec<u32>,
 }
 
 impl Lattice {
-    pub fn new(mesh: &Mesh, coords: &TextureCoordinates, n: u32) -> Self {
-        let cells = TriangleCells::new(mesh, coords);
+    pub fn new(mesh: &Mesh, cells: TriangleCells, n: u32) -> Self {
         let mut edges = HashMap::new();
         let mut uses: Vec<u32> = Vec::new();
         for t in &cells.triangles {
@@ -35,19 +41,89 @@ impl Lattice {
                 uses[e as usize] += 1;
             }
         }
-        let mut me = Self { n, tris: cells.triangles, st: cells.st, edges, vertex_count: mesh.vertex_count() as u32, boundary: Vec::new() };
-        let mut boundary = vec![false; me.key_count()];
-        for (&(a, b), &e) in &me.edges {
+        let mut vertex_on_wall = vec![false; mesh.vertex_count()];
+        let mut edge_on_wall = vec![false; edges.len()];
+        for (&(a, b), &e) in &edges {
             if uses[e as usize] == 1 {
-                boundary[a as usize] = true;
-                boundary[b as usize] = true;
-                for k in 1..n {
-                    boundary[me.edge_key(a, b, k)] = true;
-                }
+                (vertex_on_wall[a as usize], vertex_on_wall[b as usize], edge_on_wall[e as usize]) = (true, true, true);
             }
         }
-        me.boundary = boundary;
-        me
+        let mut vertex_owner = vec![(u32::MAX, 0u8); mesh.vertex_count()];
+        let mut edge_owner = vec![u32::MAX; edges.len()];
+        for (t, tri) in cells.triangles.iter().enumerate().rev() {
+            for k in 0..3 {
+                vertex_owner[tri[k] as usize] = (t as u32, k as u8);
+                let (a, b) = (tri[k].min(tri[(k + 1) % 3]), tri[k].max(tri[(k + 1) % 3]));
+                edge_owner[edges[&(a, b)] as usize] = t as u32;
+            }
+        }
+        Self {
+            n,
+            tris: cells.triangles,
+            st: cells.st,
+            edges,
+            vertex_count: mesh.vertex_count() as u32,
+            vertex_on_wall,
+            edge_on_wall,
+            vertex_owner,
+            edge_owner,
+        }
+    }
+
+    /// Local `(i, j)` of corner `k` (a, b, c).
+    fn corner(&self, k: usize) -> (u32, u32) {
+        [(0, 0), (self.n, 0), (0, self.n)][k.min(2)]
+    }
+
+    /// Whether local point `(i, j)` of cell `t` lies on the shell's side walls.
+    pub fn on_wall(&self, t: usize, i: u32, j: u32) -> bool {
+        let [a, b, c] = self.tris[t];
+        let n = self.n;
+        let edge = |p: u32, q: u32| self.edge_on_wall[self.edges[&(p.min(q), p.max(q))] as usize];
+        match (i, j) {
+            (0, 0) => self.vertex_on_wall[a as usize],
+            _ if i == n => self.vertex_on_wall[b as usize],
+            _ if j == n => self.vertex_on_wall[c as usize],
+            (_, 0) => edge(a, b),
+            (0, _) => edge(a, c),
+            _ if i + j == n => edge(b, c),
+            _ => false,
+        }
+    }
+
+    /// The cell that computes the samples of local point `(i, j)` of cell `t`, and the
+    /// point's local coordinates there.
+    pub fn owner(&self, t: usize, i: u32, j: u32) -> (usize, u32, u32) {
+        let tri = self.tris[t];
+        let n = self.n;
+        let vertex = |v: u32| {
+            let (o, k) = self.vertex_owner[v as usize];
+            let (i, j) = self.corner(k as usize);
+            (o as usize, i, j)
+        };
+        // The point `step` lattice steps from corner `from` toward corner `to`.
+        let on_edge = |from: usize, to: usize, step: u32| {
+            let (p, q) = (tri[from], tri[to]);
+            let o = self.edge_owner[self.edges[&(p.min(q), p.max(q))] as usize] as usize;
+            if o == t {
+                return (t, i, j);
+            }
+            let other = self.tris[o];
+            let at = |v: u32| self.corner(other.iter().position(|c| *c == v).unwrap_or(0));
+            let (pa, pb) = (at(p), at(q));
+            // Corners sit at 0 or n, so the step moves by exactly `step` per axis.
+            let go = |a: u32, b: u32| if b > a { a + step } else if b < a { a - step } else { a };
+            (o, go(pa.0, pb.0), go(pa.1, pb.1))
+        };
+        match (i, j) {
+            (0, 0) => vertex(tri[0]),
+            _ if i == n => vertex(tri[1]),
+            _ if j == n => vertex(tri[2]),
+            (_, 0) => on_edge(0, 1, i),
+            (0, _) => on_edge(0, 2, j),
+            _ if i + j == n => on_edge(1, 2, j),
+            _ => (t, i, j),
+        }
     }
 
     fn interior_per_face(&self) -> usize {
@@ -57,11 +133,6 @@ impl Lattice {
         } else {
             (n - 1) * (n - 2) / 2
         }
-    }
-
-    /// Number of lattice points (without the layer index).
-    pub fn key_count(&self) -> usize {
-        self.vertex_count as usize + self.edges.len() * (self.n as usize - 1) + self.tris.len() * self.interior_per_face()
     }
 
     /// Point `k` steps from `a` on edge `a-b`.
@@ -102,37 +173,6 @@ impl Lattice {
         let (i, j, n) = (i as usize, j as usize, self.n as usize);
         i * (n + 1) - i * (i.saturating_sub(1)) / 2 + j
     }
-
-    /// The small triangles of a cell's lattice (`n^2` of them, counter-clockwise),
-    /// as indices of their corners in [`Self::local_points`] order; each is the base of
-    /// one column of prisms.
-    pub fn small_triangles(&self) -> impl Iterator<Item = [usize; 3]> + '_ {
-        let n = self.n;
-        (0..n)
-            .flat_map(move |i| {
-                (0..n - i).flat_map(move |j| {
-                    let up = [(i, j), (i + 1, j), (i, j + 1)];
-                    let down = [(i + 1, j), (i + 1, j + 1), (i, j + 1)];
-                    [up, down].into_iter().take(if i + j + 2 <= n { 2 } else { 1 })
-                })
-            })
-            .map(|t| t.map(|(i, j)| self.local_index(i, j)))
-    }
-
-    /// For every lattice point, the first cell containing it and its local `(i, j)`
-    /// there: where its samples are computed, so shared points get one value.
-    pub fn owners(&self) -> Vec<(u32, u16, u16)> {
-        let mut owner = vec![(u32::MAX, 0u16, 0u16); self.key_count()];
-        for t in 0..self.tris.len() {
-            for (i, j) in self.local_points() {
-                let k = self.key(t, i, j);
-                if owner[k].0 == u32::MAX {
-                    owner[k] = (t as u32, i as u16, j as u16);
-                }
-            }
-        }
-        owner
-    }
 }
 
 #[cfg(test)]
@@ -142,27 +182,24 @@ mod tests {
     #[test]
     fn local_indices_follow_the_point_order() {
         let m = crate::testmeshes::icosphere(0);
-        let coords = TextureCoordinates::of(&m, 1.0);
+        let coords = crate::texture::TextureCoordinates::of(&m, 1.0);
         for n in 1..6 {
-            let l = Lattice::new(&m, &coords, n);
+            let l = Lattice::new(&m, TriangleCells::new(&m, &coords), n);
             for (k, (i, j)) in l.local_points().enumerate() {
                 assert_eq!(l.local_index(i, j), k, "n {n} ({i},{j})");
             }
-            // n^2 small triangles, each counter-clockwise in (i, j), covering the cell.
-            let pts: Vec<(u32, u32)> = l.local_points().collect();
-            let area2: i64 = l
-                .small_triangles()
-                .map(|t| {
-                    let [a, b, c] = t.map(|k| (pts[k].0 as i64, pts[k].1 as i64));
-                    let cross = (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
-                    assert_eq!(cross, 1, "n {n}: {t:?}");
-                    cross
-                })
-                .sum();
-            assert_eq!(area2, (n * n) as i64);
-            // Closed icosphere: every key is owned, none on a boundary.
-            assert!(l.owners().iter().all(|o| o.0 != u32::MAX));
-            assert!(!l.boundary.iter().any(|b| *b));
+            // Closed icosphere: no point on a wall; every point's owner has it at the
+            // same global key and is the first cell holding that key.
+            for t in 0..l.tris.len() {
+                for (i, j) in l.local_points() {
+                    assert!(!l.on_wall(t, i, j));
+                    let (o, oi, oj) = l.owner(t, i, j);
+                    assert_eq!(l.key(o, oi, oj), l.key(t, i, j), "n {n} cell {t} ({i},{j})");
+                    assert!(o <= t);
+                    let first = (0..l.tris.len()).find(|&u| l.local_points().any(|(a, b)| l.key(u, a, b) == l.key(t, i, j)));
+                    assert_eq!(first, Some(o));
+                }
+            }
         }
     }
 }

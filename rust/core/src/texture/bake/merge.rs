@@ -23,7 +23,7 @@ fn chunks_mut<T>(mut v: &mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&
 /// area-weighted face normal where the gradient vanishes.
 pub(super) fn merge(mut pieces: Vec<Piece>) -> BakedMesh {
     // Boundary vertices: sorted by key, one output vertex per distinct key.
-    let mut shared: Vec<(u64, u32, u32)> = pieces
+    let mut shared: Vec<(u128, u32, u32)> = pieces
         .par_iter()
         .enumerate()
         .flat_map_iter(|(pi, p)| {
@@ -68,7 +68,7 @@ pub(super) fn merge(mut pieces: Vec<Piece>) -> BakedMesh {
                     pos[k] = p.pos[i];
                     tex[k] = p.tex[i];
                     nrm[k] = p.grad[i];
-                    p.keys[i] = (start + k) as u64;
+                    p.keys[i] = (start + k) as u128;
                     k += 1;
                 }
             }
@@ -81,7 +81,7 @@ pub(super) fn merge(mut pieces: Vec<Piece>) -> BakedMesh {
             out.texcoords[id] = p.tex[i as usize];
         }
         out.normals[id] += p.grad[i as usize];
-        p.keys[i as usize] = id as u64;
+        p.keys[i as usize] = id as u128;
     }
     let tri_counts: Vec<usize> = pieces.iter().map(|p| p.tris.len()).collect();
     out.triangles = vec![[0; 3]; tri_counts.iter().sum()];

@@ -1,26 +1,35 @@
 //! Marching prisms over one cell's lattice (the triangles per case come from
-//! [`super::prism_table`]). Iso-vertices are computed once per lattice edge within the
-//! cell (a dense slot table indexed by the edge's lower endpoint and direction); those
-//! on the cell's boundary carry a global edge key so [`super::merge`] can join them
-//! with the neighbour's.
+//! [`super::prism_table`]), sampled only where the occupancy can change: the cell is
+//! split into blocks (`block` lattice steps per edge, all heights); a block whose
+//! [`Field::upper_bound`] stays below the iso-level and whose rim samples (computed by
+//! their owner cells) do too holds no surface and is skipped, so the neighbour sees the
+//! same empty face. The other blocks are sampled and polygonized at the full lattice
+//! resolution. Iso-vertices are computed once per lattice edge within the cell (a dense
+//! slot table indexed by the edge's lower endpoint and direction); those on the cell's
+//! rim carry a global edge key so [`super::merge`] can join them with the neighbour's.
 
+use super::field::Field;
 use super::lattice::Lattice;
 use super::prism_table::{self, EDGES};
+use super::OFF_ISO;
 use crate::texture::mapping::CellMap;
+use crate::texture::volume::Column;
 use crate::{shell::Shell, Mesh};
 use glam::{IVec3, Vec3};
 
 /// Key of an iso-vertex that no other cell shares.
-pub(super) const UNSHARED: u64 = u64::MAX;
+pub(super) const UNSHARED: u128 = u128::MAX;
 
 /// One cell's output before the global merge.
 #[derive(Default)]
 pub(super) struct Piece {
-    pub keys: Vec<u64>,
+    pub keys: Vec<u128>,
     pub pos: Vec<Vec3>,
     pub tex: Vec<Vec3>,
     pub grad: Vec<Vec3>,
     pub tris: Vec<[u32; 3]>,
+    /// Simplified ([`super::simplify`]): its triangles are no longer the lattice's.
+    pub simplified: bool,
 }
 
 /// Everything a cell needs, shared by all cells.
@@ -28,9 +37,21 @@ pub(super) struct Cells<'a> {
     pub mesh: &'a Mesh,
     pub shell: &'a Shell,
     pub lattice: &'a Lattice,
-    /// `alpha` per lattice point and layer.
-    pub values: &'a [f32],
-    pub layers: u32,
+    pub field: &'a Field<'a>,
+    /// Heights `r` of the lattice's layers (texel centres when following the texture).
+    pub heights: &'a [f32],
+    /// Lattice steps per block edge (divides the lattice's `n`).
+    pub block: u32,
+    /// Skip blocks the bounds prove empty (off only to test that culling changes nothing).
+    pub cull: bool,
+}
+
+/// A block of a cell: the corners of its triangle (local lattice points), its small
+/// triangles and the local points on the cell's rim.
+struct Block {
+    corners: [(u32, u32); 3],
+    smalls: std::ops::Range<usize>,
+    rim: Vec<usize>,
 }
 
 /// Per-thread buffers, reused from cell to cell.
@@ -38,6 +59,10 @@ pub(super) struct Cells<'a> {
 pub(super) struct Scratch {
     ids: Vec<u64>,
     vals: Vec<f32>,
+    /// Per local point: its column has been sampled.
+    sampled: Vec<bool>,
+    needed: Vec<usize>,
+    footprints: Vec<Column>,
     slots: Vec<u32>,
     touched: Vec<usize>,
     ij: Vec<(u32, u32)>,
@@ -50,8 +75,11 @@ pub(super) struct Scratch {
     /// Per local column: bit `l` set when layer `l` is inside (columns of at most 64
     /// layers); else 1 when any layer is.
     masks: Vec<u64>,
-    /// The lattice's small triangles ([`Lattice::small_triangles`]), listed once.
+    /// The blocks and, block by block, their small triangles.
+    blocks: Vec<Block>,
     smalls: Vec<[usize; 3]>,
+    /// Blocks of this cell that may hold surface.
+    mixed: Vec<usize>,
 }
 
 impl Piece {
@@ -62,52 +90,181 @@ impl Piece {
             tex: Vec::with_capacity(vertices),
             grad: Vec::with_capacity(vertices),
             tris: Vec::with_capacity(triangles),
+            simplified: false,
+        }
+    }
+}
+
+impl Scratch {
+    /// The cell-independent tables: local points and blocks with their small triangles.
+    fn prepare(&mut self, lat: &Lattice, layers: usize, block: u32) {
+        if !self.ij.is_empty() {
+            return;
+        }
+        self.ij = lat.local_points().collect();
+        self.ijl = self.ij.iter().flat_map(|&(i, j)| (0..layers as i32).map(move |l| IVec3::new(i as i32, j as i32, l))).collect();
+        let (n, k) = (lat.n, block);
+        let on_rim = |(i, j): (u32, u32)| i == 0 || j == 0 || i + j == n;
+        for bi in 0..n / k {
+            for bj in 0..n / k - bi {
+                // The block's lower triangle, then its upper one where it exists.
+                for upper in [false, true] {
+                    if upper && bi + bj + 2 > n / k {
+                        continue;
+                    }
+                    let (i0, j0) = (bi * k, bj * k);
+                    let corners = if upper { [(i0 + k, j0), (i0 + k, j0 + k), (i0, j0 + k)] } else { [(i0, j0), (i0 + k, j0), (i0, j0 + k)] };
+                    let start = self.smalls.len();
+                    let mut rim = Vec::new();
+                    for a in 0..k {
+                        for b in 0..k {
+                            let s = a + b;
+                            let lower_small = if upper { s >= k } else { s < k };
+                            let upper_small = if upper { s + 1 >= k } else { s + 1 < k };
+                            let (i, j) = (i0 + a, j0 + b);
+                            if lower_small && i + j < n {
+                                self.smalls.push([(i, j), (i + 1, j), (i, j + 1)].map(|(i, j)| lat.local_index(i, j)));
+                            }
+                            if upper_small && i + j + 1 < n {
+                                self.smalls.push([(i + 1, j), (i + 1, j + 1), (i, j + 1)].map(|(i, j)| lat.local_index(i, j)));
+                            }
+                        }
+                    }
+                    for (i, j) in lat.local_points() {
+                        let inside = if upper {
+                            i <= i0 + k && j <= j0 + k && i + j >= i0 + j0 + k
+                        } else {
+                            i >= i0 && j >= j0 && i + j <= i0 + j0 + k
+                        };
+                        if inside && on_rim((i, j)) {
+                            rim.push(lat.local_index(i, j));
+                        }
+                    }
+                    self.blocks.push(Block { corners, smalls: start..self.smalls.len(), rim });
+                }
+            }
         }
     }
 }
 
 impl Cells<'_> {
-    pub fn polygonize(&self, s: &mut Scratch, t: usize) -> Piece {
-        let (lat, n, m) = (self.lattice, self.lattice.n, self.layers);
-        let lm = m as usize + 1;
-        if s.ij.is_empty() {
-            s.ij = lat.local_points().collect();
-            s.smalls = lat.small_triangles().collect();
-            s.ijl = s.ij.iter().flat_map(|&(i, j)| (0..lm as i32).map(move |l| IVec3::new(i as i32, j as i32, l))).collect();
+    /// `alpha` along the column at local point `(i, j)` of cell `t` (map `cell`), from
+    /// the cell that owns the point, kept [`OFF_ISO`] off 0.5. The shell's base and
+    /// outer layer and its side walls are outside.
+    fn sample_column(&self, t: usize, cell: &CellMap, (i, j): (u32, u32), out: &mut [f32], footprints: &mut Vec<Column>) {
+        let lat = self.lattice;
+        if lat.on_wall(t, i, j) {
+            out.fill(0.0);
+            return;
         }
-        let points = s.ij.len() * lm;
-        s.ids.clear();
-        s.vals.clear();
-        for &(i, j) in &s.ij {
-            let g = lat.key(t, i, j) * lm;
-            s.ids.extend((0..lm).map(|l| (g + l) as u64));
-            s.vals.extend_from_slice(&self.values[g..g + lm]);
-        }
-        let bitwise = lm <= 64;
-        s.masks.clear();
-        s.masks.extend(s.vals.chunks_exact(lm).map(|c| {
-            if bitwise {
-                c.iter().enumerate().fold(0u64, |bits, (l, a)| bits | (u64::from(*a >= 0.5) << l))
-            } else {
-                u64::from(c.iter().any(|a| *a >= 0.5))
+        let (o, oi, oj) = lat.owner(t, i, j);
+        let owner = if o == t { *cell } else { CellMap::new(self.mesh, self.shell, &lat.tris[o], &lat.st[o]) };
+        let n = lat.n as f32;
+        self.field.column(o, &owner, (oi as f32 / n, oj as f32 / n), out, footprints);
+        let m = out.len() - 1;
+        out[0] = 0.0;
+        out[m] = 0.0;
+        for a in out.iter_mut() {
+            if (*a - 0.5).abs() < OFF_ISO {
+                *a = if *a >= 0.5 { 0.5 + OFF_ISO } else { 0.5 - OFF_ISO };
             }
-        }));
+        }
+    }
+
+    /// Samples local point `p`'s column unless done, and its mask.
+    fn ensure(&self, s: &mut Scratch, t: usize, cell: &CellMap, p: usize) {
+        if s.sampled[p] {
+            return;
+        }
+        let lm = self.heights.len();
+        let column = &mut s.vals[p * lm..(p + 1) * lm];
+        self.sample_column(t, cell, s.ij[p], column, &mut s.footprints);
+        s.masks[p] = if lm <= 64 {
+            column.iter().enumerate().fold(0u64, |bits, (l, a)| bits | (u64::from(*a >= 0.5) << l))
+        } else {
+            u64::from(column.iter().any(|a| *a >= 0.5))
+        };
+        let (i, j) = s.ij[p];
+        let g = self.lattice.key(t, i, j) as u64 * lm as u64;
+        s.ids[p * lm..(p + 1) * lm].iter_mut().enumerate().for_each(|(l, id)| *id = g + l as u64);
+        s.sampled[p] = true;
+    }
+
+    /// Finds the blocks of cell `t` that may hold surface and samples their columns
+    /// (and the columns beside them, for gradients).
+    fn sample(&self, s: &mut Scratch, t: usize, cell: &CellMap) {
+        let lat = self.lattice;
+        let (n, lm) = (lat.n, self.heights.len());
+        s.prepare(lat, lm, self.block);
+        let points = s.ij.len();
+        s.vals.resize(points * lm, 0.0);
+        s.ids.resize(points * lm, 0);
+        s.masks.clear();
+        s.masks.resize(points, 0);
+        s.sampled.clear();
+        s.sampled.resize(points, false);
+        s.mixed.clear();
+        let blocks = std::mem::take(&mut s.blocks);
+        for (b, block) in blocks.iter().enumerate() {
+            let corners = block.corners.map(|(i, j)| (i as f32 / n as f32, j as f32 / n as f32));
+            let mut mixed = !self.cull || self.field.upper_bound(t, cell, corners) >= 0.5;
+            if !mixed {
+                // The rim's samples come from the owner cells: check them as they are.
+                for &p in &block.rim {
+                    self.ensure(s, t, cell, p);
+                    mixed |= s.masks[p] != 0;
+                }
+            }
+            if mixed {
+                s.mixed.push(b);
+            }
+        }
+        // Every corner of a mixed block's small triangles, and its neighbours in (i, j).
+        s.needed.clear();
+        for &b in &s.mixed {
+            for small in &s.smalls[blocks[b].smalls.clone()] {
+                s.needed.extend_from_slice(small);
+            }
+        }
+        let mut needed = std::mem::take(&mut s.needed);
+        for k in 0..needed.len() {
+            let (i, j) = s.ij[needed[k]];
+            for (di, dj) in [(1i32, 0i32), (-1, 0), (0, 1), (0, -1)] {
+                let (a, b) = (i as i32 + di, j as i32 + dj);
+                if a >= 0 && b >= 0 && a + b <= n as i32 {
+                    needed.push(lat.local_index(a as u32, b as u32));
+                }
+            }
+        }
+        for &p in &needed {
+            self.ensure(s, t, cell, p);
+        }
+        s.needed = needed;
+        s.blocks = blocks;
+    }
+
+    pub fn polygonize(&self, s: &mut Scratch, t: usize) -> Piece {
+        let (lat, n, heights) = (self.lattice, self.lattice.n, self.heights);
+        let lm = heights.len();
+        let m = lm as u32 - 1;
+        let cell = CellMap::new(self.mesh, self.shell, &lat.tris[t], &lat.st[t]);
+        self.sample(s, t, &cell);
+        let points = s.ij.len() * lm;
+        let bitwise = lm <= 64;
         if s.slots.len() < points * 27 {
             s.slots = vec![u32::MAX; points * 27];
         }
-        let cell = CellMap::new(self.mesh, self.shell, &lat.tris[t], &lat.st[t]);
         let mut piece = Piece::with_capacity(s.last.0 + s.last.0 / 4, s.last.1 + s.last.1 / 4);
         // Orientation: triangles face from inside to outside in parameter space, flipped
         // where the cell map reverses orientation (interior shells).
         let flip = cell.jacobians(Vec3::new(1.0 / 3.0, 1.0 / 3.0, 0.5)).0.determinant() < 0.0;
-        let total = self.values.len() as u64;
         let ijl = &s.ijl;
         let param = |lp: usize| ijl[lp];
         let on_rim = |lp: usize| {
             let p = ijl[lp];
             p.x == 0 || p.y == 0 || p.x + p.y == n as i32
         };
-        let to_q = |p: IVec3| p.as_vec3() / Vec3::new(n as f32, n as f32, m as f32);
+        let to_q = |p: IVec3| Vec3::new(p.x as f32 / n as f32, p.y as f32 / n as f32, heights[p.z as usize]);
         s.grads.clear();
         s.grads.resize(points, std::cell::Cell::new(Vec3::NAN));
         let grads = &s.grads;
@@ -116,7 +273,8 @@ impl Cells<'_> {
             let ok = p.x >= 0 && p.y >= 0 && p.x + p.y <= n as i32 && (0..=m as i32).contains(&p.z);
             ok.then(|| vals[lat.local_index(p.x as u32, p.y as u32) * lm + p.z as usize])
         };
-        // d alpha / d (i, j, l) at a lattice point, per lattice step.
+        // d alpha / d (u, v, r) at a lattice point: differences over the neighbouring
+        // lattice points (one-sided at the lattice's ends).
         let lattice_gradient = |lp: usize| {
             let cached = grads[lp].get();
             if !cached.x.is_nan() {
@@ -124,12 +282,21 @@ impl Cells<'_> {
             }
             let p = param(lp);
             let d = |e: IVec3| match (value(p + e), value(p - e)) {
-                (Some(a), Some(b)) => (a - b) / 2.0,
-                (Some(a), None) => a - vals[lp],
-                (None, Some(b)) => vals[lp] - b,
-                (None, None) => 0.0,
+                (Some(a), Some(b)) => (a - b, 2),
+                (Some(a), None) => (a - vals[lp], 1),
+                (None, Some(b)) => (vals[lp] - b, 1),
+                (None, None) => (0.0, 1),
             };
-            let g = Vec3::new(d(IVec3::X), d(IVec3::Y), d(IVec3::Z));
+            let (dr, steps) = d(IVec3::Z);
+            let l = p.z as usize;
+            let span = match steps {
+                2 => heights[l + 1] - heights[l - 1],
+                _ if l + 1 < heights.len() && value(p + IVec3::Z).is_some() => heights[l + 1] - heights[l],
+                _ => heights[l] - heights[l.saturating_sub(1)],
+            };
+            let (du, su) = d(IVec3::X);
+            let (dv, sv) = d(IVec3::Y);
+            let g = Vec3::new(du * n as f32 / su as f32, dv * n as f32 / sv as f32, if span > 0.0 { dr / span } else { 0.0 });
             grads[lp].set(g);
             g
         };
@@ -145,10 +312,10 @@ impl Cells<'_> {
             let q = qa.lerp(qb, f);
             // Gradient: the lattice's central differences (one-sided on the cell's rim)
             // interpolated along the edge, carried to world space by the cell map.
-            let g = lattice_gradient(lo).lerp(lattice_gradient(hi), f) * Vec3::new(n as f32, n as f32, m as f32);
+            let g = lattice_gradient(lo).lerp(lattice_gradient(hi), f);
             let grad = -cell.parameter_gradient_to_world(q, g);
             let idx = piece.pos.len() as u32;
-            piece.keys.push(if on_rim(lo) && on_rim(hi) { ids[lo] * total + ids[hi] } else { UNSHARED });
+            piece.keys.push(if on_rim(lo) && on_rim(hi) { (u128::from(ids[lo]) << 64) | u128::from(ids[hi]) } else { UNSHARED });
             piece.pos.push(cell.world(q));
             piece.tex.push(cell.texture(q));
             piece.grad.push(grad);
@@ -173,7 +340,8 @@ impl Cells<'_> {
                 piece.tris.push(if flip { [t[0], t[2], t[1]] } else { t });
             }
         };
-        for &columns in &s.smalls {
+        let (blocks, smalls, mixed) = (&s.blocks, &s.smalls, &s.mixed);
+        for &columns in mixed.iter().flat_map(|&b| &smalls[blocks[b].smalls.clone()]) {
             let base = columns.map(|c| c * lm);
             let mut prism = |l: usize| {
                 emit(&mut piece, [base[0] + l, base[1] + l, base[2] + l, base[0] + l + 1, base[1] + l + 1, base[2] + l + 1])
@@ -198,5 +366,43 @@ impl Cells<'_> {
         }
         s.last = (piece.pos.len(), piece.tris.len());
         piece
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::texture::{TextureCoordinates, TriangleCells};
+
+    #[test]
+    fn blocks_tile_the_cell_with_counter_clockwise_small_triangles() {
+        let m = crate::testmeshes::icosphere(0);
+        let coords = TextureCoordinates::of(&m, 1.0);
+        for (n, block) in [(1, 1), (4, 1), (4, 2), (6, 3), (8, 8), (12, 4)] {
+            let l = Lattice::new(&m, TriangleCells::new(&m, &coords), n);
+            let mut s = Scratch::default();
+            s.prepare(&l, 3, block);
+            let pts: Vec<(u32, u32)> = l.local_points().collect();
+            assert_eq!(s.blocks.len() as u32, (n / block) * (n / block), "n {n} block {block}");
+            let mut seen = std::collections::HashSet::new();
+            for b in &s.blocks {
+                // Each small triangle lies in its block's triangle.
+                let [a, bb, c] = b.corners.map(|(i, j)| glam::Vec2::new(i as f32, j as f32));
+                for t in &s.smalls[b.smalls.clone()] {
+                    let [p, q, r] = t.map(|k| (pts[k].0 as i64, pts[k].1 as i64));
+                    assert_eq!((q.0 - p.0) * (r.1 - p.1) - (q.1 - p.1) * (r.0 - p.0), 1, "counter-clockwise");
+                    let centre = glam::Vec2::new((p.0 + q.0 + r.0) as f32, (p.1 + q.1 + r.1) as f32) / 3.0;
+                    let side = |u: glam::Vec2, v: glam::Vec2| (v - u).perp_dot(centre - u) > 0.0;
+                    assert!(side(a, bb) && side(bb, c) && side(c, a), "n {n} block {block}: small triangle outside its block");
+                    assert!(seen.insert(*t), "small triangle in two blocks");
+                }
+                // The rim list: exactly the block's points on the cell's rim.
+                for &p in &b.rim {
+                    let (i, j) = pts[p];
+                    assert!(i == 0 || j == 0 || i + j == n);
+                }
+            }
+            assert_eq!(seen.len() as u32, n * n, "n {n} block {block}: the blocks cover the cell");
+        }
     }
 }

@@ -1,0 +1,282 @@
+//! Simplification of one cell's piece of a bake to its share of the triangle budget:
+//! meshoptimizer's quadric edge collapse, within an absolute error (a fraction of a
+//! lattice step, so the silhouette stays where the sampling put it). The vertices on
+//! the cell's rim and their neighbours are locked, so every rim vertex keeps its whole
+//! one-ring: the rim stays as the neighbouring piece has it, and no collapse can draw
+//! a chord between two rim vertices across the cell's face (the neighbour could draw
+//! the same one, and the edge would be used four times). A result that is not a
+//! manifold piece with the same rim (edge collapse does not test the link condition:
+//! a thin strand can close into a sheet) is refused; the vertices around the faults
+//! are locked and the piece simplified again, or in the end kept whole.
+
+use super::polygonize::{Piece, UNSHARED};
+use crate::shell::intersect::{tri_box, triangles_meet, TriBvh};
+use glam::DVec3;
+use meshopt::{SimplifyOptions, VertexDataAdapter};
+use rayon::prelude::*;
+
+/// Attempts before a piece whose simplification keeps failing is kept whole.
+const ATTEMPTS: usize = 6;
+
+/// Simplifies `piece` toward `target` triangles, moving the surface by at most `error`
+/// (world units).
+pub(super) fn simplify(piece: Piece, target: usize, error: f32) -> Piece {
+    if target >= piece.tris.len() || piece.tris.len() < 8 {
+        return piece;
+    }
+    let indices: &[u32] = bytemuck::cast_slice(&piece.tris);
+    let Ok(adapter) = VertexDataAdapter::new(bytemuck::cast_slice(&piece.pos), std::mem::size_of::<glam::Vec3>(), 0) else {
+        return piece;
+    };
+    let ring = OneRings::new(&piece.tris, piece.pos.len());
+    let on_rim = |v: u32| piece.keys[v as usize] != UNSHARED;
+    let mut lock: Vec<bool> = (0..piece.pos.len() as u32).map(on_rim).collect();
+    for v in (0..piece.pos.len() as u32).filter(|&v| on_rim(v)) {
+        ring.of(v).iter().for_each(|&w| lock[w as usize] = true);
+    }
+    let before = Shape::of(&piece.tris);
+    for _ in 0..ATTEMPTS {
+        let kept = meshopt::simplify_with_locks(indices, &adapter, &lock, target * 3, error, SimplifyOptions::ErrorAbsolute, None);
+        let tris: Vec<[u32; 3]> = bytemuck::cast_slice(&kept).to_vec();
+        if tris.len() == piece.tris.len() {
+            break;
+        }
+        let faulty = faults(&piece, &before, &tris);
+        if faulty.is_empty() {
+            return compact(piece, tris);
+        }
+        // Lock two rings around each fault.
+        for v in faulty {
+            lock[v as usize] = true;
+            for &w in ring.of(v) {
+                lock[w as usize] = true;
+                ring.of(w).iter().for_each(|&x| lock[x as usize] = true);
+            }
+        }
+    }
+    piece
+}
+
+/// Each vertex's neighbours, in one array (compressed rows).
+struct OneRings {
+    start: Vec<u32>,
+    neighbours: Vec<u32>,
+}
+
+impl OneRings {
+    fn new(tris: &[[u32; 3]], vertices: usize) -> Self {
+        let mut pairs: Vec<(u32, u32)> = tris.iter().flat_map(|t| (0..3).flat_map(move |k| [(t[k], t[(k + 1) % 3]), (t[(k + 1) % 3], t[k])])).collect();
+        pairs.sort_unstable();
+        pairs.dedup();
+        let mut start = vec![0u32; vertices + 1];
+        for &(a, _) in &pairs {
+            start[a as usize + 1] += 1;
+        }
+        for v in 0..vertices {
+            start[v + 1] += start[v];
+        }
+        Self { start, neighbours: pairs.into_iter().map(|(_, b)| b).collect() }
+    }
+
+    fn of(&self, v: u32) -> &[u32] {
+        &self.neighbours[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
+    }
+}
+
+fn edge(a: u32, b: u32) -> u64 {
+    (u64::from(a) << 32) | u64::from(b)
+}
+
+fn ends(e: u64) -> [u32; 2] {
+    [(e >> 32) as u32, e as u32]
+}
+
+/// A triangle list's sorted directed edges, its open ones (no reverse), and its
+/// triangles sorted.
+struct Shape {
+    directed: Vec<u64>,
+    open: Vec<u64>,
+    tris: Vec<[u32; 3]>,
+}
+
+impl Shape {
+    fn of(tris: &[[u32; 3]]) -> Self {
+        let mut directed: Vec<u64> = tris.iter().flat_map(|t| (0..3).map(move |k| edge(t[k], t[(k + 1) % 3]))).collect();
+        directed.sort_unstable();
+        let open = directed.iter().copied().filter(|&e| {
+            let [a, b] = ends(e);
+            directed.binary_search(&edge(b, a)).is_err()
+        });
+        let open = open.collect();
+        let mut sorted = tris.to_vec();
+        sorted.sort_unstable();
+        Self { directed, open, tris: sorted }
+    }
+
+    fn has_edge(&self, a: u32, b: u32) -> bool {
+        self.directed.binary_search(&edge(a, b)).is_ok() || self.directed.binary_search(&edge(b, a)).is_ok()
+    }
+}
+
+/// The vertices of `after` where it is not a manifold piece with the rim of `piece`
+/// (whose shape is `before`): on directed edges used twice, on edges open in one and
+/// not the other, on new edges joining two rim vertices, in degenerate or new flat
+/// triangles (zero area), in coincident ones (also
+/// opposite: equal vertex sets), or in [`crossings`].
+fn faults(piece: &Piece, before: &Shape, after: &[[u32; 3]]) -> Vec<u32> {
+    let now = Shape::of(after);
+    let mut bad: Vec<u32> = now.directed.windows(2).filter(|w| w[0] == w[1]).flat_map(|w| ends(w[0])).collect();
+    // Open edges changed: merge the two sorted lists.
+    let (mut i, mut j) = (0, 0);
+    while i < before.open.len() || j < now.open.len() {
+        match (before.open.get(i), now.open.get(j)) {
+            (Some(a), Some(b)) if a == b => (i, j) = (i + 1, j + 1),
+            (Some(a), Some(b)) if a < b => {
+                bad.extend(ends(*a));
+                i += 1;
+            }
+            (Some(a), None) => {
+                bad.extend(ends(*a));
+                i += 1;
+            }
+            (_, Some(b)) => {
+                bad.extend(ends(*b));
+                j += 1;
+            }
+            (None, None) => unreachable!(),
+        }
+    }
+    let on_rim = |v: u32| piece.keys[v as usize] != UNSHARED;
+    bad.extend(now.directed.iter().map(|&e| ends(e)).filter(|&[a, b]| on_rim(a) && on_rim(b) && !before.has_edge(a, b)).flatten());
+    let flat_and_new = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(|v| piece.pos[v as usize]);
+        (b - a).cross(c - a) == glam::Vec3::ZERO && before.tris.binary_search(t).is_err()
+    };
+    bad.extend(after.iter().filter(|t| t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || flat_and_new(t)).flatten());
+    let mut sets: Vec<[u32; 3]> = after
+        .iter()
+        .map(|t| {
+            let mut t = *t;
+            t.sort_unstable();
+            t
+        })
+        .collect();
+    sets.sort_unstable();
+    bad.extend(sets.windows(2).filter(|w| w[0] == w[1]).flat_map(|w| w[0]));
+    bad.extend(crossings(piece, before, after));
+    bad.sort_unstable();
+    bad.dedup();
+    bad
+}
+
+/// How close two triangles sharing no vertex may come before they count as touching.
+/// Contacts within `f32` rounding (about 1e-7 of the coordinates) are ambiguous, and
+/// common after collapses among the lattice's regular vertices; Blender's own overlap
+/// test sees them only where a needle lies along a neighbour (its plane is
+/// ill-defined). So 1e-6 of the longer triangle's longest edge where either is a
+/// needle (least altitude under 1e-4 of its longest edge, found on the bakes where
+/// Blender reported contacts), else 1e-9: exact contacts (a vertex on another
+/// triangle's plane in `f32` coordinates) are caught either way.
+fn touch(a: &[DVec3; 3], b: &[DVec3; 3]) -> f64 {
+    let longest = |t: &[DVec3; 3]| (0..3).map(|k| t[k].distance_squared(t[(k + 1) % 3])).fold(0.0, f64::max).sqrt();
+    let needle = |t: &[DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).length() < 1e-4 * longest(t) * longest(t);
+    let scale = longest(a).max(longest(b));
+    if needle(a) || needle(b) {
+        1e-6 * scale
+    } else {
+        1e-9 * scale
+    }
+}
+
+/// The vertices of the new triangles of `after` (those not in `before`) that cross or
+/// touch ([`triangles_meet`]) another triangle of `after` sharing no vertex with it,
+/// and of those they meet. A collapse moves the surface by up to the error, which can push
+/// it through a sheet closer than that.
+fn crossings(piece: &Piece, before: &Shape, after: &[[u32; 3]]) -> Vec<u32> {
+    let corners = |t: &[u32; 3]| t.map(|v| piece.pos[v as usize].as_dvec3());
+    let tris: Vec<[DVec3; 3]> = after.iter().map(corners).collect();
+    let tree = TriBvh::build(&tris);
+    let mut bad = Vec::new();
+    for (i, t) in after.iter().enumerate().filter(|(_, t)| before.tris.binary_search(t).is_err()) {
+        let (lo, hi) = tri_box(&tris[i]);
+        tree.query(lo, hi, |j| {
+            let u = &after[j as usize];
+            if !u.iter().any(|v| t.contains(v)) && triangles_meet(&tris[i], &tris[j as usize], touch(&tris[i], &tris[j as usize])) {
+                bad.extend(t.iter().chain(u));
+            }
+        });
+    }
+    bad
+}
+
+/// The piece with only `tris` and the vertices they use.
+fn compact(piece: Piece, tris: Vec<[u32; 3]>) -> Piece {
+    let mut map = vec![u32::MAX; piece.pos.len()];
+    let mut out = Piece::default();
+    for &v in tris.iter().flatten() {
+        if map[v as usize] == u32::MAX {
+            map[v as usize] = out.pos.len() as u32;
+            out.keys.push(piece.keys[v as usize]);
+            out.pos.push(piece.pos[v as usize]);
+            out.tex.push(piece.tex[v as usize]);
+            out.grad.push(piece.grad[v as usize]);
+        }
+    }
+    out.tris = tris.into_iter().map(|t| t.map(|v| map[v as usize])).collect();
+    out.simplified = true;
+    out
+}
+
+/// The simplified pieces with a triangle crossing or touching ([`triangles_meet`]) a
+/// triangle of another piece (triangles joined at a rim vertex, whose keys match, do
+/// not count). Each
+/// piece checked its own triangles ([`crossings`]), and its rim is kept, but near the
+/// rim a simplified triangle may still pass through a neighbour's where the surface
+/// runs along the cell's curved side face. The bake puts such pieces back unsimplified,
+/// and checks again until none is left (the lattice's own surface has no crossings).
+pub(super) fn crossing_pieces(pieces: &[Piece]) -> Vec<usize> {
+    if !pieces.iter().any(|p| p.simplified) {
+        return Vec::new();
+    }
+    let owner: Vec<(u32, u32)> = pieces.iter().enumerate().flat_map(|(p, piece)| (0..piece.tris.len() as u32).map(move |t| (p as u32, t))).collect();
+    let corners = |(p, t): (u32, u32)| {
+        let piece = &pieces[p as usize];
+        piece.tris[t as usize].map(|v| piece.pos[v as usize].as_dvec3())
+    };
+    let tris: Vec<[DVec3; 3]> = owner.par_iter().map(|&o| corners(o)).collect();
+    let tree = TriBvh::build(&tris);
+    // A vertex's identity across pieces: its rim key, or (piece, index) inside.
+    let id = |p: u32, v: u32| {
+        let key = pieces[p as usize].keys[v as usize];
+        if key == UNSHARED {
+            (u128::from(p) << 32 | u128::from(v), false)
+        } else {
+            (key, true)
+        }
+    };
+    let mut bad: Vec<usize> = (0..owner.len())
+        .into_par_iter()
+        .filter(|&i| pieces[owner[i].0 as usize].simplified)
+        .flat_map_iter(|i| {
+            let (p, t) = owner[i];
+            let ids = pieces[p as usize].tris[t as usize].map(|v| id(p, v));
+            let (lo, hi) = tri_box(&tris[i]);
+            let mut found = Vec::new();
+            tree.query(lo, hi, |j| {
+                let (q, u) = owner[j as usize];
+                if q == p {
+                    return;
+                }
+                let shares = pieces[q as usize].tris[u as usize].iter().any(|&w| ids.contains(&id(q, w)));
+                if !shares && triangles_meet(&tris[i], &tris[j as usize], touch(&tris[i], &tris[j as usize])) {
+                    found.extend([p as usize, q as usize]);
+                }
+            });
+            found
+        })
+        .collect();
+    bad.sort_unstable();
+    bad.dedup();
+    bad.retain(|&p| pieces[p].simplified);
+    bad
+}

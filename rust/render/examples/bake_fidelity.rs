@@ -1,0 +1,85 @@
+//! Bake fidelity: for every built-in pattern at the add-on's default bake settings
+//! (64 x 64 x 32 texture, resolution 8, 16 layers, tiling 1, default triangle budget),
+//! the silhouette IoU between the reference ray marcher of the textured shell and the
+//! baked mesh, seen by the same camera close up and at a grazing angle; with the
+//! triangle count, triangles per tile and bake time. Issue 15's target: IoU >= 0.95.
+//! Beside it, in the same run, the fixed lattice the bake used before (exactly
+//! `resolution` steps per edge and `layers` across, no simplification), as a ratio.
+//!
+//! `cargo run -p thicket-render --release --example bake_fidelity [-- --budget N] [--size PIXELS]`
+
+use std::time::Instant;
+use thicket_core::glam::{Mat4, Vec2, Vec3};
+use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
+use thicket_core::testmeshes;
+use thicket_core::texture::bake::{bake, TextureLayer};
+use thicket_core::texture::{BakeParams, Generator, Pattern};
+use thicket_render::silhouette::bake_silhouettes;
+use thicket_render::Camera;
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let flag = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse::<usize>().ok());
+    let size = flag("--size").unwrap_or(160) as u32;
+    let mesh = testmeshes::bumpy_head(flag("--level").unwrap_or(2) as u32);
+    let t = Thickness::relative(0.05).per_vertex(&mesh, None).unwrap();
+    let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    let mut params = BakeParams { max_triangles: 500_000_000, ..Default::default() };
+    if let Some(b) = flag("--budget") {
+        params.triangle_budget = b;
+    }
+    let fixed = BakeParams { follow_texture: false, triangle_budget: 0, ..params.clone() };
+    let (lo, hi) = mesh.positions().iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let (centre, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+    // Close: a quarter of the head fills the view. Grazing: the view skims the top.
+    let views = [
+        ("close", Mat4::look_at_rh(centre + Vec3::new(0.3, -1.2, 0.4) * radius, centre + Vec3::new(0.1, -0.5, 0.2) * radius, Vec3::Z), 0.6),
+        ("grazing", Mat4::look_at_rh(centre + Vec3::new(-2.5, -0.2, 0.75) * radius, centre + Vec3::new(0.0, 0.0, 0.7) * radius, Vec3::Z), 0.5),
+    ];
+    println!(
+        "mesh: {} faces, one tile per face; exterior shell 5%; texture 64x64x32; budget {}; IoU close / grazing at {size}^2",
+        mesh.face_count(),
+        params.triangle_budget
+    );
+    println!(
+        "{:11} {:>10} {:>9} {:>7} {:>13} | {:>10} {:>7} {:>13} | {:>12}",
+        "pattern", "triangles", "per tile", "bake s", "IoU", "fixed tris", "bake s", "fixed IoU", "IoU ratio"
+    );
+    for p in Pattern::ALL {
+        if std::env::var("ONLY").is_ok_and(|o| !o.contains(p.name())) {
+            continue;
+        }
+        let texture = Generator::new(p).generate([64, 64, 32]).unwrap();
+        let layers = [TextureLayer { texture, offset: Vec2::ZERO }];
+        let run = |params: &BakeParams| {
+            let start = Instant::now();
+            let b = bake(&mesh, &shell, &layers, params).unwrap();
+            let secs = start.elapsed().as_secs_f64();
+            let ious: Vec<f64> = views
+                .iter()
+                .map(|(_, view, fov)| {
+                    let camera = Camera::new(*view, Mat4::perspective_rh_gl(*fov, 1.0, 0.01 * radius, 20.0 * radius), size, size).unwrap();
+                    bake_silhouettes(&mesh, &shell, &layers, params.tiling, (&b.positions, &b.triangles), &camera, 0.01).unwrap().iou()
+                })
+                .collect();
+            (b.triangles.len(), secs, ious)
+        };
+        let (tris, secs, iou) = run(&params);
+        let (fixed_tris, fixed_secs, fixed_iou) = run(&fixed);
+        println!(
+            "{:11} {:>10} {:>9.0} {:>7.2} {:>6.3} {:>6.3} | {:>10} {:>7.2} {:>6.3} {:>6.3} | {:>5.2} {:>6.2}",
+            p.name(),
+            tris,
+            tris as f64 / mesh.face_count() as f64,
+            secs,
+            iou[0],
+            iou[1],
+            fixed_tris,
+            fixed_secs,
+            fixed_iou[0],
+            fixed_iou[1],
+            iou[0] / fixed_iou[0].max(1e-9),
+            iou[1] / fixed_iou[1].max(1e-9)
+        );
+    }
+}
