@@ -91,6 +91,53 @@ def test_a_texture_following_bake_keeps_what_a_coarse_lattice_loses(scene):
         bm.free()
 
 
+def test_bakes_keep_the_sources_materials_and_uvs(scene):
+    # A UV sphere with two materials (top half 1, bottom half 0) and a renamed UV map,
+    # tiling 2: each baked triangle takes the material of the face it grew from, and a
+    # UV map of the source's name carries the source's UVs (the texture's (s, t) / 2).
+    sphere = add("uv_sphere", segments=16, ring_count=8)
+    sphere.data.uv_layers.active.name = "Skin"
+    for name in ("Bottom", "Top"):
+        sphere.data.materials.append(bpy.data.materials.new(name))
+    z = np.array([p.center.z for p in sphere.data.polygons])
+    sphere.data.polygons.foreach_set("material_index", (z > 0).astype(np.int32))
+    result = api.add_volumetric_texture(sphere, "weave", shell_thickness=0.05, tiling=2.0, triangle_budget=100_000)
+    mesh = result.data
+    assert [m.name for m in mesh.materials] == ["Bottom", "Top"]
+    index = np.empty(len(mesh.polygons), np.int32)
+    mesh.polygons.foreach_get("material_index", index)
+    centre = np.empty(len(mesh.polygons) * 3, np.float32)
+    mesh.polygons.foreach_get("center", centre)
+    cz = centre.reshape(-1, 3)[:, 2]
+    clear = np.abs(cz) > 0.1  # away from the equator, where the halves meet
+    assert np.array_equal(index[clear], (cz[clear] > 0).astype(np.int32))
+    assert "Skin" in mesh.uv_layers
+    uv = np.empty(len(mesh.loops) * 2, np.float32)
+    mesh.uv_layers["Skin"].data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    source_uv = np.empty(len(sphere.data.loops) * 2, np.float32)
+    sphere.data.uv_layers["Skin"].data.foreach_get("uv", source_uv)
+    source_uv = source_uv.reshape(-1, 2)
+    assert np.all(uv >= source_uv.min(axis=0) - 1e-4) and np.all(uv <= source_uv.max(axis=0) + 1e-4)
+    # The UV follows the surface: corners of one triangle lie close together in UV
+    # (no triangle spans a seam), and the baked (s, t) of each vertex is twice its UV.
+    tris = uv.reshape(-1, 3, 2)
+    assert np.ptp(tris, axis=1).max() < 0.2
+    texcoord = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.attributes[TEXCOORD_ATTRIBUTE].data.foreach_get("vector", texcoord)
+    corners = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get("vertex_index", corners)
+    same = np.isclose(texcoord.reshape(-1, 3)[corners, :2], uv * 2.0, atol=1e-4).all(axis=1)
+    assert same.mean() > 0.95  # all but corners on UV seams, where a vertex has two UVs
+    # Without a UV map each face is a tile: the UV map holds each corner's tile (s, t).
+    bare = add("ico_sphere", subdivisions=1)
+    bare.data.uv_layers.remove(bare.data.uv_layers[0])
+    baked = api.add_volumetric_texture(bare, "rivets", shell_thickness=0.05, triangle_budget=50_000)
+    tile = np.empty(len(baked.data.loops) * 2, np.float32)
+    baked.data.uv_layers["UVMap"].data.foreach_get("uv", tile)
+    assert tile.min() >= -1e-4 and tile.max() <= 1.0 + 1e-4
+
+
 def test_texture_without_a_shell_is_a_clear_error_and_changes_nothing(scene):
     sphere = add("ico_sphere", subdivisions=2)
     api.add_item(sphere, "VOLUMETRIC_TEXTURE", pattern="weave")

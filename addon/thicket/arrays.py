@@ -25,6 +25,7 @@ class MeshArrays:
     notes: list = field(default_factory=list)  # things the user should be told about the result
     uv_maps: dict = field(default_factory=dict)  # UV map name -> (c, 2) float32, every map
     material_index: np.ndarray | None = None  # (f,) int32 per face, or None
+    uv_name: str = "UVMap"  # the active UV map's name (what `uvs` holds)
 
     def carried_to(self, result: "MeshArrays", source_corner, source_face) -> "MeshArrays":
         """`result` given this mesh's UV maps and material indices through provenance
@@ -32,6 +33,7 @@ class MeshArrays:
         result.uv_maps = {name: uv[source_corner] for name, uv in self.uv_maps.items()}
         result.uvs = None if self.uvs is None else self.uvs[source_corner]
         result.material_index = None if self.material_index is None else self.material_index[source_face]
+        result.uv_name = self.uv_name
         return result
 
     @property

@@ -38,6 +38,8 @@ def read_mesh(mesh: bpy.types.Mesh, float_attributes=()) -> MeshArrays:
     arrays = MeshArrays(vertices.reshape(n, 3), face_sizes, corners, attrs, uvs)
     arrays.uv_maps = uv_maps
     arrays.material_index = material_index
+    if active is not None:
+        arrays.uv_name = active.name
     return arrays
 
 

@@ -171,6 +171,13 @@ def _volumetric_texture(shell: ShellContext, item: S.VolumetricTexture, weights,
     result = MeshArrays.from_native(out)
     result.normals = out["normals"]
     result.point_attributes = {TEXCOORD_ATTRIBUTE: out["texcoords"]}
+    # Shaded like the base: each triangle takes the material of the face it grew from,
+    # and a UV map carries the base's UVs (the texture's (s, t) over Tiling), or each
+    # face's own tile where the base has no UV map.
+    if base.material_index is not None:
+        result.material_index = base.material_index[out["source_face"]]
+    st = out["corner_texcoords"][:, :2]
+    result.uv_maps = {base.uv_name: st if base.uvs is None else st / np.float32(item.tiling)}
     notes = []
     if out["per_face_tiles"]:
         notes.append("the mesh has no UV map: each face got its own texture tile")

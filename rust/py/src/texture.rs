@@ -185,8 +185,11 @@ impl BakeInputs {
 /// `max_triangles`: the most triangles the lattice may make before simplification; a
 /// texture-following lattice is coarsened to fit, a bake over it even at `resolution`
 /// steps is refused. Returns vertices, face_sizes, corners, normals (n,3),
-/// texcoords (n,3) = (s, t, r), per_face_tiles, lattice_steps (per cell edge,
-/// across the shell) and texture_finer_than_lattice (thin features may be lost).
+/// texcoords (n,3) = (s, t, r), corner_texcoords (corners,3) = (s, t, r) of each
+/// corner in its own cell (UV seams and tile edges kept apart), source_face
+/// (triangles,) = the base face each triangle grew from, per_face_tiles,
+/// lattice_steps (per cell edge, across the shell) and texture_finer_than_lattice
+/// (thin features may be lost).
 #[pyfunction]
 #[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true, triangle_budget=1_000_000, max_triangles=20_000_000))]
 #[allow(clippy::too_many_arguments)]
@@ -225,6 +228,8 @@ pub fn bake_texture<'py>(
     d.set_item("corners", arrays::u32_as_i32_array(py, out.triangles.into_iter().flatten().collect()))?;
     d.set_item("normals", arrays::vec3_array(py, out.normals)?)?;
     d.set_item("texcoords", arrays::vec3_array(py, out.texcoords)?)?;
+    d.set_item("corner_texcoords", arrays::vec3_array(py, out.corner_texcoords.into_iter().flatten().collect())?)?;
+    d.set_item("source_face", arrays::u32_as_i32_array(py, out.source_face))?;
     d.set_item("per_face_tiles", out.per_face_tiles)?;
     d.set_item("lattice_steps", (out.lattice[0], out.lattice[1]))?;
     d.set_item("texture_finer_than_lattice", out.texture_finer_than_lattice)?;

@@ -44,6 +44,8 @@ impl TextureCoordinates {
 pub struct TriangleCells {
     pub triangles: Vec<[u32; 3]>,
     pub st: Vec<[Vec2; 3]>,
+    /// The mesh face each triangle comes from.
+    pub faces: Vec<u32>,
 }
 
 impl TriangleCells {
@@ -55,7 +57,7 @@ impl TriangleCells {
             let face = mesh.face(*f as usize);
             st.push(t.map(|v| coords.corner_st[range.start + face.iter().position(|c| *c == v).unwrap_or(0)]));
         }
-        Self { triangles: tri.triangles, st }
+        Self { triangles: tri.triangles, st, faces: tri.face_of_triangle }
     }
 
     /// The map of cell `t` of `shell`.

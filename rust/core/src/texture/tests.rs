@@ -350,3 +350,38 @@ fn culling_empty_blocks_changes_nothing_and_the_fine_lattice_keeps_thin_strands(
     let made = small.triangles.len() as f64;
     assert!(estimate < made * 1.5 && estimate > made / 1.5, "estimate {estimate}, made {made}");
 }
+
+#[test]
+fn baked_triangles_know_their_face_and_keep_each_cells_texture_coordinates() {
+    // One tile per face of an icosphere (radial exterior shell): every triangle lies in
+    // the cone of the face it names, and its corners' (s, t) lie in that face's tile
+    // (half the unit square), even where the vertex is shared with the next tile.
+    let mesh = tm::icosphere(1);
+    let s = shell(&mesh, 0.05);
+    let tex = layer(Generator::new(Pattern::Weave).generate([16, 16, 8]).unwrap());
+    let b = bake(&mesh, &s, &tex, &BakeParams { triangle_budget: 20_000, ..Default::default() }).unwrap();
+    assert_eq!(b.source_face.len(), b.triangles.len());
+    assert_eq!(b.corner_texcoords.len(), b.triangles.len());
+    let faces: Vec<Vec<u32>> = mesh.faces().map(|f| f.to_vec()).collect();
+    let mut inside = 0;
+    for (t, &f) in b.triangles.iter().zip(&b.source_face) {
+        let centroid = t.iter().map(|&v| b.positions[v as usize]).sum::<Vec3>() / 3.0;
+        let [p, q, r] = [0, 1, 2].map(|k| mesh.positions()[faces[f as usize][k] as usize]);
+        // Barycentric coordinates of the centroid's direction in the face's cone.
+        let m = glam::Mat3::from_cols(p, q, r);
+        let w = m.inverse() * centroid;
+        inside += usize::from(w.min_element() > -0.02);
+    }
+    assert!(inside as f64 > 0.99 * b.triangles.len() as f64, "{inside} of {} in their face's cone", b.triangles.len());
+    let mut seams = 0;
+    for (t, c) in b.triangles.iter().zip(&b.corner_texcoords) {
+        for (k, st) in c.iter().enumerate() {
+            assert!(st.x >= -1e-4 && st.y >= -1e-4 && st.x + st.y <= 1.0 + 1e-4 || st.x <= 1.0 + 1e-4 && st.y <= 1.0 + 1e-4 && st.x + st.y >= 1.0 - 1e-4, "{st}");
+            assert!(st.z > 0.0 && st.z < 1.0);
+            seams += usize::from((*st - b.texcoords[t[k] as usize]).length() > 1e-4);
+        }
+    }
+    // Vertices on tile edges keep the first cell's (s, t); their corners in the other
+    // cell differ.
+    assert!(seams > 0);
+}

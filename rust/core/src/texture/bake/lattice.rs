@@ -15,6 +15,8 @@ pub(super) struct Lattice {
     pub tris: Vec<[u32; 3]>,
     /// Corner `(s, t)` of each triangle.
     pub st: Vec<[Vec2; 3]>,
+    /// The mesh face of each cell.
+    pub faces: Vec<u32>,
     edges: HashMap<(u32, u32), u32>,
     vertex_count: u32,
     /// Per mesh vertex and per edge: on the shell's side walls (open boundary edges).
@@ -61,6 +63,7 @@ impl Lattice {
             n,
             tris: cells.triangles,
             st: cells.st,
+            faces: cells.faces,
             edges,
             vertex_count: mesh.vertex_count() as u32,
             vertex_on_wall,

@@ -21,7 +21,8 @@ fn chunks_mut<T>(mut v: &mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&
 
 /// Normals: the texture gradients summed over a vertex's copies, normalized; the
 /// area-weighted face normal where the gradient vanishes.
-pub(super) fn merge(mut pieces: Vec<Piece>) -> BakedMesh {
+/// `faces`: each piece's base face (pieces in cell order).
+pub(super) fn merge(mut pieces: Vec<Piece>, faces: &[u32]) -> BakedMesh {
     // Boundary vertices: sorted by key, one output vertex per distinct key.
     let mut shared: Vec<(u128, u32, u32)> = pieces
         .par_iter()
@@ -84,12 +85,19 @@ pub(super) fn merge(mut pieces: Vec<Piece>) -> BakedMesh {
         p.keys[i as usize] = id as u128;
     }
     let tri_counts: Vec<usize> = pieces.iter().map(|p| p.tris.len()).collect();
-    out.triangles = vec![[0; 3]; tri_counts.iter().sum()];
-    let tris = chunks_mut(&mut out.triangles, tri_counts.into_iter());
-    pieces.par_iter().zip(tris).for_each(|(p, dst)| {
-        for (d, t) in dst.iter_mut().zip(&p.tris) {
+    let total_tris = tri_counts.iter().sum();
+    out.triangles = vec![[0; 3]; total_tris];
+    out.corner_texcoords = vec![[Vec3::ZERO; 3]; total_tris];
+    out.source_face = vec![0; total_tris];
+    let tris = chunks_mut(&mut out.triangles, tri_counts.iter().copied());
+    let corner_tex = chunks_mut(&mut out.corner_texcoords, tri_counts.iter().copied());
+    let face_of = chunks_mut(&mut out.source_face, tri_counts.iter().copied());
+    pieces.par_iter().zip(tris).zip(corner_tex).zip(face_of).enumerate().for_each(|(pi, (((p, dst), tex), face))| {
+        for ((d, c), t) in dst.iter_mut().zip(tex.iter_mut()).zip(&p.tris) {
             *d = t.map(|i| p.keys[i as usize] as u32);
+            *c = t.map(|i| p.tex[i as usize]);
         }
+        face.fill(faces[pi]);
     });
     // Freeing thousands of pieces takes a while; the caller need not wait for it.
     rayon::spawn(move || drop(pieces));

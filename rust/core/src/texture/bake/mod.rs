@@ -115,8 +115,13 @@ pub struct BakedMesh {
     pub positions: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
     pub normals: Vec<Vec3>,
-    /// `(s, t, r)` of each vertex.
+    /// `(s, t, r)` of each vertex (where cells meet, the first cell's).
     pub texcoords: Vec<Vec3>,
+    /// `(s, t, r)` of each triangle corner, in its own cell: across UV seams and tile
+    /// edges each side keeps its own, as a UV map needs.
+    pub corner_texcoords: Vec<[Vec3; 3]>,
+    /// The base mesh face each triangle grew from (its cell's face).
+    pub source_face: Vec<u32>,
     /// True when the mesh had no UVs and each face got its own tile.
     pub per_face_tiles: bool,
     /// Lattice steps used: per cell edge, and across the shell.
@@ -249,7 +254,7 @@ impl Setup {
     /// The same setup with `block` steps per block edge (a coarser lattice): the
     /// texture is then finer than the lattice.
     fn with_block(self, mesh: &Mesh, block: u32) -> Self {
-        let cells = TriangleCells { triangles: self.lattice.tris, st: self.lattice.st };
+        let cells = TriangleCells { triangles: self.lattice.tris, st: self.lattice.st, faces: self.lattice.faces };
         let lattice = Lattice::new(mesh, cells, self.resolution * block);
         Self { lattice, block, texture_finer_than_lattice: true, ..self }
     }
@@ -393,7 +398,7 @@ pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
             pieces[t] = piece;
         }
     }
-    let mut out = merge::merge(pieces);
+    let mut out = merge::merge(pieces, &setup.lattice.faces);
     out.per_face_tiles = setup.coords.per_face_tiles;
     out.lattice = [setup.lattice.n, setup.heights.len() as u32 - 1];
     out.texture_finer_than_lattice = setup.texture_finer_than_lattice;
