@@ -1,10 +1,12 @@
 """Headless batch use: the API on many files, the demo script, `blender -c thicket`."""
 
 import pathlib
+import re
 import subprocess
 import sys
 
 import bpy
+import numpy as np
 from conftest import FIXTURES, ROOT
 
 import thicket
@@ -48,4 +50,17 @@ def test_demo_script_in_plain_python(tmp_path):
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert (tmp_path / "demo_thicket.blend").stat().st_size > 0
     assert (tmp_path / "demo_thicket.glb").stat().st_size > 0
-    assert "Sheet" in proc.stdout
+    # Each fixture mesh baked with a texture and previewed; the previews show it (the
+    # side-by-side picture is not the flat background alone).
+    for name in ("Bunny", "Sheet", "Suzanne", "Torus"):
+        assert re.search(rf"{name} +(chain_mail|grass) +-> {name}_thicket: [\d,]+ triangles", proc.stdout), proc.stdout
+        assert (tmp_path / f"{name}_preview.png").stat().st_size > 0
+    image = bpy.data.images.load(str(tmp_path / "demo_previews.png"))
+    try:
+        px = np.empty(image.size[0] * image.size[1] * 4, np.float32)
+        image.pixels.foreach_get(px)
+        grey = px.reshape(-1, 4)[:, :3]
+        assert image.size[0] == 4 * image.size[1]
+        assert (np.abs(grey - grey[0]).max(axis=1) > 0.1).mean() > 0.02
+    finally:
+        bpy.data.images.remove(image)
