@@ -9,7 +9,7 @@ import pytest
 import thicket_native as tn
 from conftest import add, positions, select_only
 
-from thicket import api
+from thicket import api, mesh_io
 from thicket.stack.evaluate import TEXCOORD_ATTRIBUTE
 
 
@@ -136,6 +136,33 @@ def test_bakes_keep_the_sources_materials_and_uvs(scene):
     tile = np.empty(len(baked.data.loops) * 2, np.float32)
     baked.data.uv_layers["UVMap"].data.foreach_get("uv", tile)
     assert tile.min() >= -1e-4 and tile.max() <= 1.0 + 1e-4
+
+
+def test_a_bake_reports_progress_and_can_be_cancelled(scene):
+    sphere = add("ico_sphere", subdivisions=3)
+    sphere.data.uv_layers.remove(sphere.data.uv_layers[0])
+    base = mesh_io.read_mesh(sphere.data)
+    shell = tn.shell(base.vertices, base.face_sizes, base.corners, 0.05, relative=True)
+    args = (base.vertices, base.face_sizes, base.corners, shell["base_offset"], shell["directors"], [tn.texture("weave")])
+    seen = []
+    out = tn.bake_texture(*args, triangle_budget=0, progress=seen.append)
+    assert len(out["corners"]) > 0
+    assert seen and seen == sorted(seen) and 0.0 <= seen[0] and seen[-1] <= 1.0
+    # Returning False cancels; so does an exception, which comes back to the caller.
+    with pytest.raises(tn.ThicketError, match="cancelled"):
+        tn.bake_texture(*args, triangle_budget=0, progress=lambda fraction: False)
+
+    class Stop(Exception):
+        pass
+
+    def stop(fraction):
+        raise Stop(fraction)
+
+    with pytest.raises(Stop):
+        tn.bake_texture(*args, triangle_budget=0, progress=stop)
+    # The same bake still runs after a cancelled one.
+    again = tn.bake_texture(*args, triangle_budget=0)
+    assert np.array_equal(again["corners"], out["corners"])
 
 
 def test_texture_without_a_shell_is_a_clear_error_and_changes_nothing(scene):

@@ -15,6 +15,9 @@ pub enum Error {
     /// A texture file or folder that cannot be read or written; `path` names it.
     #[error("{path}: {message}")]
     File { path: String, message: String },
+    /// The work was cancelled through its [`crate::progress::Progress`].
+    #[error("cancelled")]
+    Cancelled,
 }
 
 pub type Result<T> = std::result::Result<T, Error>;

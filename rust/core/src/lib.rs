@@ -7,6 +7,7 @@
 
 pub mod error;
 pub mod mesh;
+pub mod progress;
 pub mod shell;
 pub mod texture;
 #[doc(hidden)]

@@ -18,14 +18,62 @@ pub fn to_py(e: thicket_core::Error) -> PyErr {
 /// `ThicketError` instead of pyo3's `PanicException` (a BaseException that
 /// `except Exception` in an operator would not catch).
 pub fn run_detached<T: Send>(py: Python<'_>, work: impl FnOnce() -> thicket_core::Result<T> + Send) -> PyResult<T> {
-    py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)))
-        .map_err(|panic| {
-            let what = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".into());
-            ThicketError::new_err(format!("internal error in thicket-native (please report): {what}"))
-        })?
-        .map_err(to_py)
+    py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(work))).map_err(panic_error)?.map_err(to_py)
+}
+
+/// A panic's message as a `ThicketError`.
+fn panic_error(panic: Box<dyn std::any::Any + Send>) -> PyErr {
+    let what = panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into());
+    ThicketError::new_err(format!("internal error in thicket-native (please report): {what}"))
+}
+
+/// Runs heavy core work on a worker thread, like [`run_detached`], while this thread
+/// calls `callback(fraction)` about ten times a second with the GIL held (fraction
+/// from `progress`). A callback that returns `False` or raises, or a signal such as
+/// Ctrl-C, cancels the work; an exception is raised once the work has stopped.
+pub fn run_watched<T: Send>(
+    py: Python<'_>,
+    callback: &Bound<'_, PyAny>,
+    progress: &thicket_core::progress::Progress,
+    work: impl FnOnce() -> thicket_core::Result<T> + Send,
+) -> PyResult<T> {
+    let (result, raised) = std::thread::scope(|scope| {
+        let worker = scope.spawn(move || std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)));
+        let mut raised: Option<PyErr> = None;
+        loop {
+            py.detach(|| {
+                let start = std::time::Instant::now();
+                while !worker.is_finished() && start.elapsed() < std::time::Duration::from_millis(100) {
+                    std::thread::sleep(std::time::Duration::from_millis(2));
+                }
+            });
+            if worker.is_finished() {
+                break;
+            }
+            if raised.is_some() {
+                continue;
+            }
+            let answer = py.check_signals().and_then(|_| callback.call1((progress.fraction(),)));
+            match answer {
+                Ok(v) if v.is(&pyo3::types::PyBool::new(py, false)) => progress.cancel(),
+                Ok(_) => {}
+                Err(e) => {
+                    progress.cancel();
+                    raised = Some(e);
+                }
+            }
+        }
+        (worker.join(), raised)
+    });
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    match result {
+        Ok(Ok(value)) => value.map_err(to_py),
+        Ok(Err(panic)) | Err(panic) => Err(panic_error(panic)),
+    }
 }

@@ -10,7 +10,9 @@ use thicket_core::texture::bake::{bake, estimate_triangles, Cutter, MovedRegion,
 use thicket_core::texture::{BakeParams, Generator, Pattern, VolumeTexture};
 
 use crate::arrays;
-use crate::errors::{run_detached, to_py, ThicketError};
+use crate::errors::{run_detached, run_watched, to_py, ThicketError};
+use std::sync::Arc;
+use thicket_core::progress::Progress;
 
 /// texture(pattern, size=(64, 64, 32), seed=0, time=1.0, thickness=1.0) -> float32 (nz, ny, nx)
 ///
@@ -145,6 +147,7 @@ impl BakeInputs {
             holes,
             cutter: None,
             moved,
+            progress: None,
             triangle_budget,
             max_triangles,
         };
@@ -167,7 +170,8 @@ impl BakeInputs {
 ///              uvs=None, tiling=1.0, resolution=8, layers=16, region=None,
 ///              base_layer=0.1, holes=None, cutter=None, move_region=None,
 ///              move_offset=(0.0, 0.0), follow_texture=True,
-///              triangle_budget=1_000_000, max_triangles=20_000_000) -> dict
+///              triangle_budget=1_000_000, max_triangles=20_000_000,
+///              progress=None) -> dict
 ///
 /// Bakes the alpha = 0.5 iso-surface of volumetric textures mapped into a shell (layer
 /// r of vertex v at v + base_offset + r * director) into one closed, crack-free mesh.
@@ -189,9 +193,12 @@ impl BakeInputs {
 /// corner in its own cell (UV seams and tile edges kept apart), source_face
 /// (triangles,) = the base face each triangle grew from, per_face_tiles,
 /// lattice_steps (per cell edge, across the shell) and texture_finer_than_lattice
-/// (thin features may be lost).
+/// (thin features may be lost). `progress`: a callable given the share of cells baked
+/// (0 to 1) about ten times a second; returning False cancels the bake (as does an
+/// exception from it, raised once the bake stops, or Ctrl-C), which then raises
+/// ThicketError("cancelled").
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true, triangle_budget=1_000_000, max_triangles=20_000_000))]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true, triangle_budget=1_000_000, max_triangles=20_000_000, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn bake_texture<'py>(
     py: Python<'py>,
@@ -214,13 +221,21 @@ pub fn bake_texture<'py>(
     follow_texture: bool,
     triangle_budget: usize,
     max_triangles: usize,
+    progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let inputs = BakeInputs::read(
+    let mut inputs = BakeInputs::read(
         &vertices, face_sizes, corners, &base_offset, &directors, textures, uvs.as_ref(), (tiling, resolution, layers),
         region, base_layer, holes, cutter.as_ref(), move_region, move_offset,
         (follow_texture, triangle_budget, max_triangles),
     )?;
-    let out = run_detached(py, move || inputs.run(bake))?;
+    let out = match progress {
+        Some(callback) => {
+            let watch = Arc::new(Progress::default());
+            inputs.params.progress = Some(watch.clone());
+            run_watched(py, &callback, &watch, move || inputs.run(bake))?
+        }
+        None => run_detached(py, move || inputs.run(bake))?,
+    };
     let d = PyDict::new(py);
     let count = out.triangles.len();
     d.set_item("vertices", arrays::vec3_array(py, out.positions)?)?;

@@ -385,3 +385,17 @@ fn baked_triangles_know_their_face_and_keep_each_cells_texture_coordinates() {
     // cell differ.
     assert!(seams > 0);
 }
+
+#[test]
+fn a_bake_counts_its_cells_and_stops_when_cancelled() {
+    let mesh = tm::icosphere(1);
+    let s = shell(&mesh, 0.05);
+    let tex = layer(Generator::new(Pattern::Weave).generate([16, 16, 8]).unwrap());
+    let progress = std::sync::Arc::new(crate::progress::Progress::default());
+    let p = BakeParams { progress: Some(progress.clone()), ..Default::default() };
+    assert_eq!(progress.fraction(), 0.0);
+    assert!(!bake(&mesh, &s, &tex, &p).unwrap().triangles.is_empty());
+    assert_eq!(progress.fraction(), 1.0);
+    progress.cancel();
+    assert_eq!(bake(&mesh, &s, &tex, &p).unwrap_err(), crate::Error::Cancelled);
+}

@@ -32,6 +32,7 @@ mod uv_mask;
 use super::mapping::{TextureCoordinates, TriangleCells};
 use super::VolumeTexture;
 use crate::shell::Shell;
+use crate::progress::Progress;
 use crate::{Error, Mesh, Result};
 pub use cutter::Cutter;
 use bounds::MaxPyramid;
@@ -73,6 +74,8 @@ pub struct BakeParams {
     pub cutter: Option<Cutter>,
     /// A texture region moved along the surface (chapter 7.2).
     pub moved: Option<MovedRegion>,
+    /// Counts the cells baked, and stops the bake when cancelled.
+    pub progress: Option<std::sync::Arc<Progress>>,
     /// Simplify toward this many triangles (each cell its share), never moving the
     /// surface by more than [`SIMPLIFY_ERROR`] lattice steps; 0: no simplification.
     pub triangle_budget: usize,
@@ -103,6 +106,7 @@ impl Default for BakeParams {
             holes: None,
             cutter: None,
             moved: None,
+            progress: None,
             triangle_budget: 1_000_000,
             max_triangles: 20_000_000,
         }
@@ -382,10 +386,26 @@ pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
     let field = setup.field(textures, params);
     let cells = setup.cells(mesh, shell, &field, cull);
     let share = share_of(params.triangle_budget, sampled);
+    let progress = params.progress.as_deref();
+    if let Some(p) = progress {
+        p.start(setup.lattice.tris.len());
+    }
     let mut pieces: Vec<_> = (0..setup.lattice.tris.len())
         .into_par_iter()
-        .map_init(Scratch::default, |s, t| setup.simplified(mesh, shell, t, cells.polygonize(s, t), share, params.triangle_budget))
+        .map_init(Scratch::default, |s, t| {
+            if progress.is_some_and(Progress::is_cancelled) {
+                return polygonize::Piece::default();
+            }
+            let piece = setup.simplified(mesh, shell, t, cells.polygonize(s, t), share, params.triangle_budget);
+            if let Some(p) = progress {
+                p.step();
+            }
+            piece
+        })
         .collect();
+    if let Some(p) = progress {
+        p.check()?;
+    }
     // Simplified pieces whose triangles cross a neighbour's go back to the lattice's
     // own; each round unsimplifies at least one, so this ends.
     loop {
