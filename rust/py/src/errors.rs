@@ -32,8 +32,8 @@ fn panic_error(panic: Box<dyn std::any::Any + Send>) -> PyErr {
 }
 
 /// Runs heavy core work on a worker thread, like [`run_detached`], while this thread
-/// calls `callback(fraction)` about ten times a second with the GIL held (fraction
-/// from `progress`). A callback that returns `False` or raises, or a signal such as
+/// calls `callback(fraction)` at once, then about ten times a second, with the GIL held
+/// (fraction from `progress`), and with 1.0 when the work succeeded. A callback that returns `False` or raises, or a signal such as
 /// Ctrl-C, cancels the work; an exception is raised once the work has stopped.
 pub fn run_watched<T: Send>(
     py: Python<'_>,
@@ -44,15 +44,19 @@ pub fn run_watched<T: Send>(
     let (result, raised) = std::thread::scope(|scope| {
         let worker = scope.spawn(move || std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)));
         let mut raised: Option<PyErr> = None;
+        let mut first = true;
         loop {
-            py.detach(|| {
-                let start = std::time::Instant::now();
-                while !worker.is_finished() && start.elapsed() < std::time::Duration::from_millis(100) {
-                    std::thread::sleep(std::time::Duration::from_millis(2));
+            // The callback hears at once, then every 100 ms.
+            if !std::mem::take(&mut first) {
+                py.detach(|| {
+                    let start = std::time::Instant::now();
+                    while !worker.is_finished() && start.elapsed() < std::time::Duration::from_millis(100) {
+                        std::thread::sleep(std::time::Duration::from_millis(2));
+                    }
+                });
+                if worker.is_finished() {
+                    break;
                 }
-            });
-            if worker.is_finished() {
-                break;
             }
             if raised.is_some() {
                 continue;
@@ -73,7 +77,12 @@ pub fn run_watched<T: Send>(
         return Err(e);
     }
     match result {
-        Ok(Ok(value)) => value.map_err(to_py),
+        Ok(Ok(Ok(value))) => {
+            // Finished: the callback hears 1.0 (its answer no longer matters).
+            callback.call1((1.0,))?;
+            Ok(value)
+        }
+        Ok(Ok(Err(e))) => Err(to_py(e)),
         Ok(Err(panic)) | Err(panic) => Err(panic_error(panic)),
     }
 }

@@ -24,7 +24,7 @@ fn main() {
     let mesh = testmeshes::bumpy_head(flag("--level").unwrap_or(2) as u32);
     let t = Thickness::relative(0.05).per_vertex(&mesh, None).unwrap();
     let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
-    let mut params = BakeParams { max_triangles: 500_000_000, ..Default::default() };
+    let mut params = BakeParams::default();
     if let Some(b) = flag("--budget") {
         params.triangle_budget = b;
     }

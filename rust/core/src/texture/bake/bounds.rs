@@ -2,7 +2,7 @@
 //! bake skips the blocks of its lattice where no sample can reach the iso-level (empty
 //! space), so it samples at the texture's own resolution only where the occupancy
 //! changes. A max-pyramid over the texture's columns (`max` over `r`), halved per
-//! level, answers a query from at most 4 x 4 entries of one level.
+//! level, answers a query from at most 5 x 5 entries of one level.
 
 use crate::texture::VolumeTexture;
 use glam::Vec2;
@@ -50,7 +50,9 @@ impl MaxPyramid {
         // Texels a bilinear footprint inside the rectangle can touch (centres at (i + ½)/n).
         let span = |a: f32, b: f32, n: usize| -> Option<(i64, i64)> {
             let (a, b) = ((a * n as f32 - 0.5).floor(), (b * n as f32 - 0.5).floor() + 1.0);
-            (a.is_finite() && b.is_finite() && b - a + 1.0 < n as f32).then(|| (a as i64, b as i64))
+            // Beyond 1e6 texels the sampler reads texel 0 (`VolumeTexture::column`).
+            let near = a.abs() < 1e6 && b.abs() < 1e6;
+            (near && b - a + 1.0 < n as f32).then(|| (a as i64, b as i64))
         };
         let (Some(sx), Some(sy)) = (span(lo.x, hi.x, nx), span(lo.y, hi.y, ny)) else {
             return self.global_max();

@@ -45,9 +45,19 @@ fn union(layers: &[TextureLayer], footprints: &[Column], r: f32) -> f32 {
 impl Field<'_> {
     /// A per-vertex weight interpolated at barycentric weights `w` of cell `t`.
     #[inline]
+    /// A per-vertex weight interpolated at barycentric `w` in cell `t`: exactly the
+    /// corners' value where they agree (a region of weight 1 everywhere must blend in
+    /// nothing, not a rounding error that moves samples across the iso-level).
     fn per_vertex(&self, values: Option<&[f32]>, t: usize, w: &[f32; 4]) -> Option<f32> {
         let c = self.tris[t];
-        values.map(|v| (0..3).map(|k| v[c[k] as usize].clamp(0.0, 1.0) * w[k]).sum())
+        values.map(|v| {
+            let corner = c.map(|i| v[i as usize].clamp(0.0, 1.0));
+            if corner[0] == corner[1] && corner[1] == corner[2] {
+                corner[0]
+            } else {
+                (0..3).map(|k| corner[k] * w[k]).sum::<f32>().clamp(0.0, 1.0)
+            }
+        })
     }
 
     fn footprints(&self, st: Vec2, out: &mut Vec<Column>) {

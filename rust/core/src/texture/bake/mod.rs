@@ -147,6 +147,10 @@ pub const MAX_STEPS: u32 = 192;
 /// (0.007) with `bake_fidelity` (fur: IoU 0.85 at one step per texel, 0.93 at two; grass 0.93, 0.95).
 const THIN_SHARE: f32 = 0.05;
 
+/// The most lattice samples (points times layers) of one cell: its dense iso-vertex
+/// slot table takes 108 bytes a sample, about 110 MiB per worker thread at most.
+const MAX_CELL_SAMPLES: usize = 1 << 20;
+
 impl BakeParams {
     /// The checks every bake and estimate makes before any work: settings in range,
     /// per-vertex weights that fit `mesh`, a shell that belongs to it, a texture.
@@ -199,11 +203,10 @@ struct Setup {
 /// The lattice for the cells with corner coordinates `st`: steps per cell edge, the
 /// heights `r` of its layers, steps per block edge, and whether the texture is finer
 /// than the lattice on many cells. Following the texture, a cell edge gets a step per
-/// texel it spans (two for textures with thin features) (the 90th percentile over cells, so a few huge cells do not inflate
-/// every cell), rounded up to a multiple of `resolution`, whose steps become the
-/// culling blocks; the layers sit on the texel centres of the deepest texture, where
-/// the trilinear occupancy is linear in `r` between layers (so no feature is lost
-/// along the directors), with the shell's base and outer layer added.
+/// texel it spans, two for textures with thin features (the 90th percentile over
+/// cells, so a few huge cells do not inflate every cell), rounded up to a multiple of
+/// `resolution`, whose steps become the culling blocks; the layers lie on the texture's
+/// slices ([`texel_layers`]). A cell's lattice stays under [`MAX_CELL_SAMPLES`].
 fn lattice_steps(st: &[[Vec2; 3]], textures: &[TextureLayer], params: &BakeParams) -> (u32, Vec<f32>, u32, bool) {
     let (n0, m0) = (params.resolution, params.layers);
     let uniform = |m: u32| (0..=m).map(|l| l as f32 / m as f32).collect::<Vec<f32>>();
@@ -217,24 +220,29 @@ fn lattice_steps(st: &[[Vec2; 3]], textures: &[TextureLayer], params: &BakeParam
     let at = (spans.len() * 9 / 10).min(spans.len() - 1);
     let (_, span, _) = spans.select_nth_unstable_by(at, f32::total_cmp);
     let span = if span.is_finite() { *span } else { 0.0 };
-    let block = ((span / n0 as f32).ceil() as u32).clamp(1, (MAX_STEPS / n0).max(1));
+    let heights = texel_layers(textures, m0);
+    let points = |n: u32| (n as usize + 1) * (n as usize + 2) / 2;
+    let mut block = ((span / n0 as f32).ceil() as u32).clamp(1, (MAX_STEPS / n0).max(1));
+    while block > 1 && points(n0 * block) * heights.len() > MAX_CELL_SAMPLES {
+        block -= 1;
+    }
     let finer = span > (n0 * block) as f32 * 1.5;
-    (n0 * block, texel_layers(textures, m0), block, finer)
+    (n0 * block, heights, block, finer)
 }
 
-/// Layer heights on the texel centres `(k + ½) / depth` of the deepest texture, with
-/// `r = 0` and `r = 1`, each interval split evenly so there are at least `m0`; uniform
-/// when that would exceed [`MAX_STEPS`].
+/// Layer heights on the slices `k / (depth - 1)` of the deepest texture (where
+/// [`VolumeTexture::sample`] puts them: the first and last on the shell's faces), so the
+/// trilinear occupancy is linear in `r` between layers and nothing one slice thick is
+/// lost across the shell; each interval split evenly so there are at least `m0`
+/// (uniform when that would exceed [`MAX_STEPS`]).
 fn texel_layers(textures: &[TextureLayer], m0: u32) -> Vec<f32> {
-    let depth = textures.iter().map(|l| l.texture.dims()[2] as u32).max().unwrap_or(1).max(1);
-    let split = m0.div_ceil(depth + 1).max(1);
-    if (depth + 1) * split > MAX_STEPS {
+    let intervals = textures.iter().map(|l| l.texture.dims()[2] as u32).max().unwrap_or(2).max(2) - 1;
+    let split = m0.div_ceil(intervals).max(1);
+    if intervals * split > MAX_STEPS {
         return (0..=MAX_STEPS).map(|l| l as f32 / MAX_STEPS as f32).collect();
     }
-    let knots: Vec<f32> = std::iter::once(0.0).chain((0..depth).map(|k| (k as f32 + 0.5) / depth as f32)).chain(std::iter::once(1.0)).collect();
-    let mut heights: Vec<f32> = knots.windows(2).flat_map(|w| (0..split).map(move |i| w[0] + (w[1] - w[0]) * i as f32 / split as f32)).collect();
-    heights.push(1.0);
-    heights
+    let steps = intervals * split;
+    (0..=steps).map(|l| l as f32 / steps as f32).collect()
 }
 
 impl Setup {
@@ -271,7 +279,7 @@ impl Setup {
             holes: params.holes.as_deref(),
             cutter: params.cutter.as_ref(),
             moved: self.moved.as_ref().map(|(mask, d)| (mask, *d)),
-            base_layer: params.base_layer.max(1.5 / params.layers as f32),
+            base_layer: params.base_layer.max(1.5 / (self.heights.len() - 1) as f32),
             layers_r: (self.heights.len() - 1) as f32,
             heights: &self.heights,
             bounds: &self.bounds,

@@ -38,7 +38,7 @@ pub(super) struct Cells<'a> {
     pub shell: &'a Shell,
     pub lattice: &'a Lattice,
     pub field: &'a Field<'a>,
-    /// Heights `r` of the lattice's layers (texel centres when following the texture).
+    /// Heights `r` of the lattice's layers (on the texture's slices when following it).
     pub heights: &'a [f32],
     /// Lattice steps per block edge (divides the lattice's `n`).
     pub block: u32,
