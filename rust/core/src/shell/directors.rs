@@ -314,8 +314,12 @@ impl Tracer {
         let mut slot = 1;
         let cos_eps = params.max_turn.cos();
         let step0 = h / params.steps as f64;
+        // The step grows back by at most a factor of two after a turn: a trajectory
+        // bending through a concavity would otherwise retry the full step (and halve
+        // it again, an evaluation each time) at every step.
+        let mut last = step0;
         'outer: while t < h * (1.0 - 1e-7) && evals < params.max_evaluations {
-            let mut delta = (h - t).min(step0);
+            let mut delta = (h - t).min(step0).min(2.0 * last);
             let mut halvings = 0;
             loop {
                 let xn = x + g * (speed * delta);
@@ -339,6 +343,7 @@ impl Tracer {
                 let still = speed * delta <= STALL * h;
                 if gn.dot(g) >= cos_eps || still || halvings >= params.max_halvings || evals >= params.max_evaluations {
                     t += delta;
+                    last = delta;
                     (x, g, speed, push) = (xn, gn, sn, pn);
                     if slot < TRACE_SAMPLES - 1 && t >= h * slot as f64 / (TRACE_SAMPLES - 1) as f64 {
                         samples[slot] = Sample { at: x.as_vec3(), push: push as f32 };

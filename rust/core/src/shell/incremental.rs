@@ -236,8 +236,8 @@ impl IncrementalShell {
     }
 
     /// The integration triangles that changed, as (index, old, new), written into
-    /// `tris` and the patch tree, and whether a face's diagonals changed (the checker,
-    /// which holds the triangulation, is then rebuilt). `None`: a face's triangle
+    /// `tris` and the patch tree, and whether a face other than a quad was split
+    /// anew (the checker, which holds the triangulation, is then rebuilt). `None`: a face's triangle
     /// count changed; rebuild.
     #[allow(clippy::type_complexity)]
     fn changed_triangles(
@@ -257,8 +257,11 @@ impl IncrementalShell {
             if scratch.1.len() != range.len() {
                 return None;
             }
+            // The checker holds both splits of every quad (and its cells are the
+            // quads themselves): only another split of a larger face changes it.
+            let quad = self.mesh.face(f).len() == 4;
             for (i, t) in range.zip(&scratch.1) {
-                retriangulated |= self.checker.tris[i] != *t;
+                retriangulated |= !quad && self.checker.tris[i] != *t;
                 changes.push((i, t.map(|k| p[k as usize].as_dvec3())));
             }
         }
