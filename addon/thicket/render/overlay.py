@@ -1,8 +1,10 @@
 """Live preview in the 3D view: the active source's thick surface, rendered by the
 native renderer from each 3D view's angle and drawn over it (chapter 5: seen without
-baking). A timer watches the views; when one changes, it is rendered again (at most
-every THROTTLE seconds, at half resolution) on a worker thread — the native call
-releases the GIL — so the interface never waits for it."""
+baking). A timer watches the views and what is shown; when either changes (the view,
+the object's placement, its stack settings, or anything that changes its result: mesh
+edits, modifiers, vertex groups, a cutter object), it is rendered again (at most every
+THROTTLE seconds, at half resolution) on a worker thread — the native call releases
+the GIL — so the interface never waits for it."""
 
 import threading
 import time
@@ -16,7 +18,7 @@ from . import camera, lights
 THROTTLE = 0.25
 SCALE = 0.5
 
-_state = {"handle": None, "views": {}, "prepared": None, "error": ""}
+_state = {"handle": None, "views": {}, "prepared": None, "error": "", "generation": 0}
 
 
 def is_enabled():
@@ -26,6 +28,7 @@ def is_enabled():
 def enable():
     if is_enabled() or bpy.app.background:
         return
+    watch()
     _state["handle"] = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_PIXEL")
     bpy.app.timers.register(_tick, first_interval=0.05)
 
@@ -33,10 +36,49 @@ def enable():
 def disable():
     if _state["handle"] is not None:
         bpy.types.SpaceView3D.draw_handler_remove(_state["handle"], "WINDOW")
+    unwatch()
     _state.update(handle=None, views={}, prepared=None, error="")
     if bpy.app.timers.is_registered(_tick):
         bpy.app.timers.unregister(_tick)
     _redraw_all()
+
+
+def _has_stack(obj):
+    return obj is not None and obj.type == "MESH" and len(obj.thicket.items) > 0
+
+
+@bpy.app.handlers.persistent
+def on_depsgraph_update(scene, depsgraph):
+    """Counts the updates that change what a preview shows (see `generation`)."""
+    from ..stack.auto_update import changed_sources
+
+    if changed_sources(scene, depsgraph, _has_stack):
+        _state["generation"] += 1
+
+
+def watch():
+    """Follows changes of every stack's result (`generation`), for the preview."""
+    if on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
+
+
+def unwatch():
+    if on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
+
+
+def generation():
+    """How many changes of a stack source's result were seen since watching began."""
+    return _state["generation"]
+
+
+def content_key(obj):
+    """What `obj`'s preview shows, besides the view and the object's placement: its
+    stack settings and the changes of its result seen so far."""
+    from ..stack.regenerate import enabled_settings
+
+    settings = repr([(type(i).__name__, {k: v for k, v in vars(i).items() if k != "cutter"}) for i in enabled_settings(obj)])
+    return (obj.name, settings, _state["generation"])
 
 
 def _redraw_all():
@@ -53,17 +95,15 @@ def _source():
 
 
 def _prepared(obj):
-    """(key, shell, item, textures) of `obj`, rebuilt only when its mesh or stack
-    settings changed (the shell is the expensive part)."""
+    """(key, shell, item, textures) of `obj`, rebuilt only when its `content_key`
+    changed (the shell is the expensive part)."""
     from ..stack.evaluate import texture_setup
     from ..stack.regenerate import enabled_settings
     from .. import mesh_io
     from ..stack.auto_update import suspended
 
-    co = np.empty(len(obj.data.vertices) * 3, np.float32)
-    obj.data.vertices.foreach_get("co", co)
     items = enabled_settings(obj)
-    key = (obj.name, hash(co.tobytes()), repr([(type(i).__name__, {k: v for k, v in vars(i).items() if k != "cutter"}) for i in items]))
+    key = content_key(obj)
     cached = _state["prepared"]
     if cached is None or cached[0] != key:
         with suspended():
@@ -92,7 +132,7 @@ def _tick():
                 continue
             view = _state["views"].setdefault(area.as_pointer(), {"key": None, "busy": False, "last": 0.0, "result": None, "texture": None})
             width, height = max(1, int(region.width * SCALE)), max(1, int(region.height * SCALE))
-            key = (tuple(map(tuple, r3d.view_matrix)), tuple(map(tuple, r3d.window_matrix)), width, height, obj.name)
+            key = (tuple(map(tuple, r3d.view_matrix)), tuple(map(tuple, r3d.window_matrix)), width, height, tuple(map(tuple, obj.matrix_world)), content_key(obj))
             if view["result"] is not None:
                 _upload(view)
                 area.tag_redraw()

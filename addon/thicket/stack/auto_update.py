@@ -71,16 +71,15 @@ def flush() -> None:
                 obj.thicket.last_error = str(exc)
 
 
-@persistent
-def on_depsgraph_update(scene, depsgraph):
-    if _busy:
-        return
-    # One depsgraph update can name a source twice (its object and its mesh):
-    # collect first, so that it regenerates once.
+def changed_sources(scene, depsgraph, is_source=_is_source):
+    """The objects passing `is_source` whose result this depsgraph update changes: those
+    whose geometry changed (mesh edits, modifiers, vertex groups, shape keys), and
+    those whose Volumetric Texture cuts with an object that moved or changed. Each
+    once, though an update can name a source twice (its object and its mesh)."""
     sources = []
 
     def add(obj):
-        if obj not in sources:
+        if is_source(obj) and obj not in sources:
             sources.append(obj)
 
     for update in depsgraph.updates:
@@ -88,7 +87,7 @@ def on_depsgraph_update(scene, depsgraph):
         if isinstance(original, bpy.types.Object) and (update.is_updated_geometry or update.is_updated_transform):
             # A cutter moved or changed: its sources cut again.
             for obj in scene.objects:
-                if obj != original and _is_source(obj) and any(i.cutter == original for i in obj.thicket.items if i.kind == "VOLUMETRIC_TEXTURE"):
+                if obj != original and obj.type == "MESH" and any(i.cutter == original for i in obj.thicket.items if i.kind == "VOLUMETRIC_TEXTURE"):
                     add(obj)
         if not update.is_updated_geometry:
             continue
@@ -98,7 +97,14 @@ def on_depsgraph_update(scene, depsgraph):
             for obj in scene.objects:
                 if obj.data == original:
                     add(obj)
-    for obj in sources:
+    return sources
+
+
+@persistent
+def on_depsgraph_update(scene, depsgraph):
+    if _busy:
+        return
+    for obj in changed_sources(scene, depsgraph):
         schedule(obj)
 
 

@@ -10,6 +10,7 @@ use thicket_core::glam::{Mat4, Vec3, Vec4};
 use thicket_render::gpu::{GpuRenderer, SliceMode, SliceParams};
 use thicket_render::mipmap::Mipmaps;
 use thicket_render::reference::{render, RenderParams};
+use thicket_core::texture::bake::effects as bake_effects;
 use thicket_render::{Camera, Frame, ShellScene};
 
 use crate::errors::{run_detached, to_py, ThicketError};
@@ -76,7 +77,9 @@ fn render_on_gpu(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> s
 /// render_shell(vertices, face_sizes, corners, base_offset, directors, textures,
 ///              view, projection, width, height, uvs=None, tiling=1.0,
 ///              method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25,
-///              step=0.05, mipmaps="double") -> dict
+///              step=0.05, mipmaps="double", resolution=8, layers=16,
+///              region=None, base_layer=0.1, holes=None, cutter=None,
+///              move_region=None, move_offset=(0.0, 0.0), follow_texture=True) -> dict
 ///
 /// Renders the alpha = 0.5 iso-surface of volumetric textures mapped into a shell
 /// (layer r of vertex v at v + base_offset + r * director) without baking it.
@@ -95,9 +98,12 @@ fn render_on_gpu(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> s
 /// (linear colour, straight alpha, row 0 at the top), depth float32 (height, width)
 /// (distance along the view axis, inf where empty), normal float32 (height, width,
 /// 3), per_face_tiles, renderer (what drew it) and fallback (why the GPU was not
-/// used, or "").
+/// used, or ""). `resolution`, `layers`, `region`, `base_layer`, `holes`, `cutter`,
+/// `move_region`, `move_offset` and `follow_texture` are `bake_texture`'s: the frame
+/// shows what the bake makes of them (partial region, holes, cut and moved texture).
+/// The slice renderer does not draw those yet, so "auto" renders them on the CPU.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, view, projection, width, height, uvs=None, tiling=1.0, method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05, mipmaps="double"))]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, view, projection, width, height, uvs=None, tiling=1.0, method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05, mipmaps="double", resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true))]
 #[allow(clippy::too_many_arguments)]
 pub fn render_shell<'py>(
     py: Python<'py>,
@@ -119,6 +125,15 @@ pub fn render_shell<'py>(
     ambient: f32,
     step: f32,
     mipmaps: &str,
+    resolution: u32,
+    layers: u32,
+    region: Option<&Bound<'py, PyAny>>,
+    base_layer: f32,
+    holes: Option<&Bound<'py, PyAny>>,
+    cutter: Option<(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
+    move_region: Option<&Bound<'py, PyAny>>,
+    move_offset: (f32, f32),
+    follow_texture: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mipmaps = match mipmaps {
         "double" => Mipmaps::Double,
@@ -132,8 +147,12 @@ pub fn render_shell<'py>(
         "reference" => None,
         other => return Err(ThicketError::new_err(format!("unknown render method {other:?}; one of auto, interpolating, plain, reference"))),
     };
-    let (mesh, shell, layers) =
-        crate::texture::textured_shell(&vertices, face_sizes, corners, uvs.as_ref(), &base_offset, &directors, textures)?;
+    // The bake's own inputs: the preview applies the same region, holes, cutter and
+    // moved region as the bake (`thicket_core::texture::bake::effects`).
+    let inputs = crate::texture::BakeInputs::read(
+        &vertices, face_sizes, corners, &base_offset, &directors, textures, uvs.as_ref(), (tiling, resolution, layers),
+        region, base_layer, holes, cutter.as_ref(), move_region, move_offset, (follow_texture, 0, usize::MAX),
+    )?;
     let view = matrix(view, "view")?;
     let projection = matrix(projection, "projection")?;
     if width as u64 * height as u64 > MAX_PIXELS {
@@ -147,13 +166,24 @@ pub fn render_shell<'py>(
     let auto = method == "auto";
     let (frame, per_face_tiles, renderer, fallback) = run_detached(py, move || {
         let camera = Camera::new(view, projection, width, height)?;
-        let scene = ShellScene::new(&mesh, &shell, layers, tiling)?;
+        let scene = inputs.run(|mesh, shell, layers, params| {
+            let effects = bake_effects(mesh, shell, layers, params)?;
+            Ok(ShellScene::new(mesh, shell, layers.to_vec(), tiling)?.with_effects(effects))
+        })?;
+        // The slice renderer draws the textures as placed: a stack that blends, moves or
+        // cuts them is drawn by the reference, which applies what the bake applies.
+        let mode = if auto && !scene.effects.is_none() { None } else { mode };
+        let effects_note = if mode.is_none() && auto && !scene.effects.is_none() {
+            "the stack has a region, holes, a cutter or a moved region, which the GPU slice renderer does not draw yet; rendered on the CPU".to_string()
+        } else {
+            String::new()
+        };
         let reference = |why: String| -> thicket_core::Result<(Frame, String, String)> {
             let params = RenderParams { step, light, ambient, ..Default::default() };
             Ok((render(&scene, &camera, &params)?, "CPU reference renderer".to_string(), why))
         };
         let (frame, renderer, fallback) = match mode {
-            None => reference(String::new())?,
+            None => reference(effects_note)?,
             Some(mode) => {
                 let params = SliceParams { slices, mode, light, ambient, mipmaps, ..Default::default() };
                 match render_on_gpu(&scene, &camera, &params) {

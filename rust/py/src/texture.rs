@@ -98,7 +98,7 @@ fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyReadonlyArray
 
 /// Everything a bake is given, read from Python and checked against the mesh; the
 /// cutter's mesh is turned into a [`Cutter`] (a BVH) only once the GIL is released.
-struct BakeInputs {
+pub(crate) struct BakeInputs {
     mesh: Mesh,
     shell: Shell,
     textures: Vec<TextureLayer>,
@@ -108,7 +108,7 @@ struct BakeInputs {
 
 impl BakeInputs {
     #[allow(clippy::too_many_arguments)]
-    fn read<'py>(
+    pub(crate) fn read<'py>(
         vertices: &PyReadonlyArray2<'py, f32>,
         face_sizes: &Bound<'py, PyAny>,
         corners: &Bound<'py, PyAny>,
@@ -155,7 +155,7 @@ impl BakeInputs {
     }
 
     /// `work` given the inputs, the cutter built first (heavy: call without the GIL).
-    fn run<T>(mut self, work: impl FnOnce(&Mesh, &Shell, &[TextureLayer], &BakeParams) -> thicket_core::Result<T>) -> thicket_core::Result<T> {
+    pub(crate) fn run<T>(mut self, work: impl FnOnce(&Mesh, &Shell, &[TextureLayer], &BakeParams) -> thicket_core::Result<T>) -> thicket_core::Result<T> {
         if let Some((v, t)) = self.cutter.take() {
             if t.len() % 3 != 0 {
                 return Err(thicket_core::Error::InvalidParameter("cutter triangles: three indices per triangle".into()));

@@ -59,7 +59,7 @@ fn main() {
                 .iter()
                 .map(|(_, view, fov)| {
                     let camera = Camera::new(*view, Mat4::perspective_rh_gl(*fov, 1.0, 0.01 * radius, 20.0 * radius), size, size).unwrap();
-                    bake_silhouettes(&mesh, &shell, &layers, params.tiling, (&b.positions, &b.triangles), &camera, 0.01).unwrap().iou()
+                    bake_silhouettes(&mesh, &shell, &layers, params, (&b.positions, &b.triangles), &camera, 0.01).unwrap().iou()
                 })
                 .collect();
             (b.triangles.len(), secs, ious)

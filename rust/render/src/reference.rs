@@ -332,7 +332,7 @@ impl<'a> Marcher<'a> {
             active[i].q = q;
             if contains(cell.count, q) {
                 active.swap(0, i);
-                let alpha = self.scene.alpha(cell.texture(q)).0;
+                let alpha = self.scene.occupancy(c, q);
                 return Sample { alpha, inside: Some((a.cell, q)) };
             }
         }
@@ -768,7 +768,7 @@ mod tests {
         ] {
             assert!(render(&scene, &camera, &p).is_err(), "{p:?}");
         }
-        let empty = ShellScene { cells: vec![], bounds: vec![], textures: layer(slab()), per_face_tiles: true };
+        let empty = ShellScene { cells: vec![], bounds: vec![], textures: layer(slab()), per_face_tiles: true, effects: Default::default() };
         assert!(render(&empty, &camera, &RenderParams::default()).is_err());
         let flat = {
             let mesh = tm::plane(4);
@@ -818,7 +818,7 @@ mod tests {
                 corners.fold((Vec3::MAX, Vec3::MIN), |(a, b), p| (a.min(p), b.max(p)))
             })
             .collect();
-        let quads = ShellScene { cells, bounds, textures: layer(slab()), per_face_tiles: false };
+        let quads = ShellScene { cells, bounds, textures: layer(slab()), per_face_tiles: false, effects: Default::default() };
         let quads = render(&quads, &camera, &RenderParams::default()).unwrap();
         let differ = triangles.rgba.iter().zip(&quads.rgba).filter(|(a, b)| (a.w - b.w).abs() > 0.5).count();
         assert!(differ <= 16, "{differ} pixels differ");

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use thicket_core::shell::Shell;
-use thicket_core::texture::bake::TextureLayer;
+use thicket_core::texture::bake::{Effects, TextureLayer};
 use thicket_core::texture::{CellMap, TextureCoordinates, TriangleCells};
 use thicket_core::{Error, Mesh, Result};
 
@@ -15,6 +15,9 @@ pub struct ShellScene {
     pub textures: Vec<TextureLayer>,
     /// True when the mesh had no UVs and each face got its own tile.
     pub per_face_tiles: bool,
+    /// The stack's region, holes, cutter and moved region, applied as the bake does
+    /// ([`Effects`]; none by default).
+    pub effects: Effects,
 }
 
 impl ShellScene {
@@ -42,7 +45,31 @@ impl ShellScene {
                 (lo - pad, hi + pad)
             })
             .collect();
-        Ok(Self { cells, bounds, textures, per_face_tiles: coords.per_face_tiles })
+        Ok(Self { cells, bounds, textures, per_face_tiles: coords.per_face_tiles, effects: Effects::default() })
+    }
+
+    /// The scene with the stack's effects ([`thicket_core::texture::bake::effects`]
+    /// of the same mesh, textures and settings as the bake).
+    pub fn with_effects(self, effects: Effects) -> Self {
+        Self { effects, ..self }
+    }
+
+    /// The occupancy at parameters `q = (u, v, r)` of cell `c`: the united textures
+    /// with the stack's effects applied, exactly as the bake samples it.
+    pub fn occupancy(&self, c: usize, q: Vec3) -> f32 {
+        let cell = &self.cells[c];
+        if self.effects.is_none() {
+            return self.alpha(cell.texture(q)).0;
+        }
+        if self.effects.cut(cell.world(q)) {
+            return 0.0;
+        }
+        let st = cell.texture(Vec3::new(q.x, q.y, 0.0)).truncate();
+        let site = self.effects.site(c, &cell.weights(q.x, q.y), st);
+        let (here, there) = site.needs();
+        let here = if here { self.alpha(st.extend(q.z)).0 } else { 0.0 };
+        let there = if there { self.alpha(site.from.extend(q.z)).0 } else { 0.0 };
+        site.blend(&self.effects, q.z, here, there)
     }
 
     /// Union of the textures at texture point `c` (max alpha) and the index of the

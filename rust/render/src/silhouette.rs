@@ -9,7 +9,8 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use thicket_core::shell::Shell;
-use thicket_core::texture::bake::TextureLayer;
+use thicket_core::texture::bake::{effects, TextureLayer};
+use thicket_core::texture::BakeParams;
 use thicket_core::{Mesh, Result};
 
 use crate::camera::Camera;
@@ -73,19 +74,20 @@ impl Silhouettes {
 }
 
 /// The silhouettes of the baked mesh `baked` (positions, triangles) and of the
-/// reference render of `textures` in `shell` over `mesh` at `tiling` (the bake's
-/// own), both seen by `camera`; `step` is the reference's march step
-/// ([`RenderParams::step`], a fraction of the shell thickness).
+/// reference render of `textures` in `shell` over `mesh` with the bake's own `params`
+/// (tiling, region, holes, cutter, moved region: [`effects`]), both seen by `camera`;
+/// `step` is the reference's march step ([`RenderParams::step`], a fraction of the
+/// shell thickness).
 pub fn bake_silhouettes(
     mesh: &Mesh,
     shell: &Shell,
     textures: &[TextureLayer],
-    tiling: f32,
+    params: &BakeParams,
     baked: (&[Vec3], &[[u32; 3]]),
     camera: &Camera,
     step: f32,
 ) -> Result<Silhouettes> {
-    let scene = ShellScene::new(mesh, shell, textures.to_vec(), tiling)?;
+    let scene = ShellScene::new(mesh, shell, textures.to_vec(), params.tiling)?.with_effects(effects(mesh, shell, textures, params)?);
     let frame = reference::render(&scene, camera, &RenderParams { step, ..Default::default() })?;
     Ok(Silhouettes { reference: frame_coverage(&frame), baked: mesh_coverage(baked.0, baked.1, camera) })
 }
@@ -96,13 +98,13 @@ pub fn bake_iou(
     mesh: &Mesh,
     shell: &Shell,
     textures: &[TextureLayer],
-    tiling: f32,
+    params: &BakeParams,
     baked_positions: &[Vec3],
     baked_triangles: &[[u32; 3]],
     camera: &Camera,
     step: f32,
 ) -> Result<f64> {
-    Ok(bake_silhouettes(mesh, shell, textures, tiling, (baked_positions, baked_triangles), camera, step)?.iou())
+    Ok(bake_silhouettes(mesh, shell, textures, params, (baked_positions, baked_triangles), camera, step)?.iou())
 }
 
 /// A bounding volume hierarchy over triangles (median splits, small leaves) for
@@ -236,6 +238,7 @@ mod tests {
     use glam::{Mat4, Vec2};
     use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
     use thicket_core::testmeshes as tm;
+    use thicket_core::texture::bake::MovedRegion;
     use thicket_core::texture::VolumeTexture;
 
     /// An orthographic camera on +Z looking down at the origin: 4 world units across
@@ -329,15 +332,73 @@ mod tests {
         let tris: Vec<[u32; 3]> = sphere.faces().map(|f| [f[0], f[1], f[2]]).collect();
         let view = Mat4::look_at_rh(Vec3::new(0.5, -4.0, 0.3), Vec3::ZERO, Vec3::Z);
         let camera = Camera::new(view, Mat4::perspective_rh_gl(0.8, 1.0, 0.01, 100.0), 96, 96).unwrap();
-        let s = bake_silhouettes(&mesh, &shell, &layers, 1.0, (&positions, &tris), &camera, 0.05).unwrap();
+        let s = bake_silhouettes(&mesh, &shell, &layers, &BakeParams::default(), (&positions, &tris), &camera, 0.05).unwrap();
         assert!(coverage(&s.reference) > 0.3);
         assert!(s.iou() > 0.97, "IoU {}", s.iou());
         // A smaller sphere: the IoU falls to the ratio of the projected discs' areas,
         // `ρ² / (D² − ρ²)` each for a sphere of radius `ρ` at distance `D`.
         let small: Vec<Vec3> = positions.iter().map(|p| *p * 0.8).collect();
-        let i = bake_iou(&mesh, &shell, &layers, 1.0, &small, &tris, &camera, 0.05).unwrap();
+        let i = bake_iou(&mesh, &shell, &layers, &BakeParams::default(), &small, &tris, &camera, 0.05).unwrap();
         let disc = |rho: f32| rho * rho / (Vec3::new(0.5, -4.0, 0.3).length_squared() - rho * rho);
         let expected = (disc(0.8 * r) / disc(r)) as f64;
         assert!((i - expected).abs() < 0.03, "IoU {i}, expected {expected}");
+    }
+
+    /// Silhouette IoUs of a bake of `params` against the reference with the same
+    /// params (preview = bake) and against the reference of the textures as placed.
+    fn with_and_without(mesh: &Mesh, shell: &Shell, layers: &[TextureLayer], params: &BakeParams, camera: &Camera) -> (f64, f64) {
+        let b = thicket_core::texture::bake(mesh, shell, layers, params).unwrap();
+        let baked = (&b.positions[..], &b.triangles[..]);
+        let placed = BakeParams { tiling: params.tiling, ..Default::default() };
+        let same = bake_silhouettes(mesh, shell, layers, params, baked, camera, 0.02).unwrap();
+        let plain = bake_silhouettes(mesh, shell, layers, &placed, baked, camera, 0.02).unwrap();
+        assert!(coverage(&same.baked) > 0.02, "the bake shows");
+        (same.iou(), plain.iou())
+    }
+
+    #[test]
+    fn the_reference_shows_region_holes_cutter_and_moved_region_as_the_bake_does() {
+        // Preview = bake: the reference renderer applies the stack's effects through
+        // the bake's own definition. Each effect changes the silhouette (the plain
+        // reference disagrees with the bake), and the reference with the effect agrees.
+        let mesh = tm::icosphere(3);
+        let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+        let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+        let slab = VolumeTexture::from_fn([8, 8, 17], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap();
+        let layers = [TextureLayer { texture: slab, offset: Vec2::ZERO }];
+        let view = Mat4::look_at_rh(Vec3::new(0.4, -4.0, 0.6), Vec3::ZERO, Vec3::Z);
+        let camera = Camera::new(view, Mat4::perspective_rh_gl(0.8, 1.0, 0.01, 100.0), 96, 96).unwrap();
+        let upper: Vec<f32> = mesh.positions().iter().map(|p| if p.z > 0.2 { 1.0 } else { 0.0 }).collect();
+        let box_corners: Vec<Vec3> = (0..8).map(|i| Vec3::new(if i & 1 == 0 { -2.0 } else { 0.3 }, if i & 2 == 0 { -2.0 } else { 2.0 }, if i & 4 == 0 { -2.0 } else { 2.0 })).collect();
+        let box_faces = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let box_tris: Vec<[u32; 3]> = box_faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect();
+        let cases = [
+            ("holes", BakeParams { holes: Some(upper.clone()), ..Default::default() }),
+            ("region", BakeParams { region: Some(upper.iter().map(|w| 1.0 - w).collect()), ..Default::default() }),
+            ("cutter", BakeParams { cutter: Some(thicket_core::texture::bake::Cutter::new(&box_corners, &box_tris).unwrap()), ..Default::default() }),
+        ];
+        for (what, params) in cases {
+            let (same, plain) = with_and_without(&mesh, &shell, &layers, &params, &camera);
+            eprintln!("{what}: same {same:.3} plain {plain:.3}");
+            assert!(same > 0.95, "{what}: the reference with the effect against the bake: IoU {same}");
+            assert!(plain < same - 0.05, "{what}: the effect must show: IoU {plain} without it, {same} with it");
+        }
+        // A moved region (needs UVs): stripes along s on a plane seen from above, the
+        // stripes over x < 0 moved by a quarter period.
+        let grid = tm::plane(12);
+        let uvs: Vec<Vec2> = grid.corners().iter().map(|&v| grid.positions()[v as usize].truncate() * 0.5 + 0.5).collect();
+        let grid = Mesh::new(grid.positions().to_vec(), &grid.face_sizes(), grid.corners().to_vec(), Some(uvs)).unwrap();
+        let t = Thickness::relative(0.05).per_vertex(&grid, None).unwrap();
+        let shell = build_shell(&grid, &t, Side::Exterior, &ShellParams::default()).unwrap();
+        let stripes = VolumeTexture::from_fn([16, 16, 9], |c| if c.x < 0.5 && c.z < 0.6 { 1.0 } else { 0.0 }).unwrap();
+        let layers = [TextureLayer { texture: stripes, offset: Vec2::ZERO }];
+        let left: Vec<f32> = grid.positions().iter().map(|p| if p.x < -0.05 { 1.0 } else { 0.0 }).collect();
+        let params = BakeParams { tiling: 3.0, moved: Some(MovedRegion { weights: left, offset: Vec2::new(0.25 / 3.0, 0.0) }), ..Default::default() };
+        let view = Mat4::look_at_rh(Vec3::new(0.0, -0.3, 3.0), Vec3::ZERO, Vec3::Y);
+        let camera = Camera::new(view, Mat4::perspective_rh_gl(0.7, 1.0, 0.01, 100.0), 96, 96).unwrap();
+        let (same, plain) = with_and_without(&grid, &shell, &layers, &params, &camera);
+        eprintln!("moved: same {same:.3} plain {plain:.3}");
+        assert!(same > 0.9, "moved region: IoU {same}");
+        assert!(plain < same - 0.05, "moved region must show: IoU {plain} without it, {same} with it");
     }
 }

@@ -210,6 +210,7 @@ fn check_union(name: &str, united: &ShellScene) -> (f32, f32) {
         bounds: united.bounds.clone(),
         textures: united.textures[..1].to_vec(),
         per_face_tiles: united.per_face_tiles,
+        effects: Default::default(),
     };
     let camera = close_view(128);
     let p = slice_params(32, SliceMode::Interpolating);
@@ -329,11 +330,11 @@ fn bad_input_is_an_error_not_a_panic() {
     }
     // An empty shell, a shell without texture, a shell of zero thickness.
     let slab = || VolumeTexture::from_fn([4, 4, 33], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap();
-    let empty = ShellScene { cells: vec![], bounds: vec![], textures: layer(slab()), per_face_tiles: true };
+    let empty = ShellScene { cells: vec![], bounds: vec![], textures: layer(slab()), per_face_tiles: true, effects: Default::default() };
     let e = r.render(&empty, &camera, &good).unwrap_err();
     eprintln!("empty shell: {e}");
     let bare =
-        ShellScene { cells: scene.cells.clone(), bounds: scene.bounds.clone(), textures: vec![], per_face_tiles: true };
+        ShellScene { cells: scene.cells.clone(), bounds: scene.bounds.clone(), textures: vec![], per_face_tiles: true, effects: Default::default() };
     assert!(r.render(&bare, &camera, &good).is_err());
     let flat = {
         let mesh = tm::plane(4);
@@ -357,6 +358,7 @@ fn bad_input_is_an_error_not_a_panic() {
         bounds: scene.bounds.clone(),
         textures: layer(slab()),
         per_face_tiles: true,
+        effects: Default::default(),
     };
     broken.cells[0].base[1] = Vec3::NAN;
     broken.cells[1].director[2] = Vec3::splat(f32::INFINITY);

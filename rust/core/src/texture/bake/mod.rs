@@ -8,8 +8,9 @@
 //!   `layers` along the directors.
 //! - [`bounds`]: where the occupancy cannot reach the iso-level, whole blocks of the
 //!   lattice are skipped, so sampling that fine costs only where the surface is.
-//! - [`field`]: the occupancy sampled there: textures united, partial regions blended
-//!   with a base slab (figure 3.3), a moved region and holes (chapter 7).
+//! - [`field`]: the occupancy sampled there: textures united, then the stack's
+//!   [`effects`] (partial regions blended with a base slab, figure 3.3; a moved
+//!   region and holes, chapter 7), which the renderers apply alike.
 //! - [`polygonize`]: marching prisms ([`prism_table`]), one cell at a time.
 //! - [`merge`]: iso-vertices shared by cells joined through their lattice-edge keys.
 //! - [`cutter`] and [`uv_mask`]: a closed mesh's inside, and a vertex group in `(s, t)`.
@@ -21,6 +22,7 @@
 
 mod bounds;
 pub mod cutter;
+pub mod effects;
 mod field;
 mod lattice;
 mod merge;
@@ -35,13 +37,13 @@ use crate::shell::Shell;
 use crate::progress::Progress;
 use crate::{Error, Mesh, Result};
 pub use cutter::Cutter;
+pub use effects::{Effects, Site};
 use bounds::MaxPyramid;
 use field::Field;
 use glam::{Vec2, Vec3};
 use lattice::Lattice;
 use polygonize::{Cells, Scratch};
 use rayon::prelude::*;
-use uv_mask::UvMask;
 
 /// A texture placed in the shell: `(s, t)` offset (editing: move, combine).
 #[derive(Debug, Clone)]
@@ -185,12 +187,12 @@ impl BakeParams {
     }
 }
 
-/// What a bake and its estimate share: the checked settings' lattice, the moved
-/// region's mask and the textures' bounds, from which the occupancy [`Field`] is made.
+/// What a bake and its estimate share: the checked settings' lattice, the stack's
+/// effects and the textures' bounds, from which the occupancy [`Field`] is made.
 struct Setup {
     coords: TextureCoordinates,
     lattice: Lattice,
-    moved: Option<(UvMask, Vec2)>,
+    effects: Effects,
     bounds: Vec<MaxPyramid>,
     /// Heights `r` of the lattice's layers (from 0 to 1), and steps per block edge.
     heights: Vec<f32>,
@@ -230,6 +232,26 @@ fn lattice_steps(st: &[[Vec2; 3]], textures: &[TextureLayer], params: &BakeParam
     (n0 * block, heights, block, finer)
 }
 
+/// Texels of a moved region's mask along the longer side of the `(s, t)` box, for
+/// `cells` cells sampled with `n` steps per edge.
+fn mask_resolution(cells: usize, n: u32) -> usize {
+    ((cells as f32).sqrt() as usize * n as usize * 2).clamp(256, 4096)
+}
+
+/// The stack's effects as the bake applies them ([`Effects`]), for anything else that
+/// shows the textured shell (the renderers): the same cells, layers across the shell
+/// and moved-region mask as a bake of `params`.
+pub fn effects(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Effects> {
+    params.check(mesh, shell, textures)?;
+    let coords = TextureCoordinates::of(mesh, params.tiling);
+    if params.moved.is_some() && coords.per_face_tiles {
+        return Err(Error::InvalidParameter("moving a texture region needs a UV map".into()));
+    }
+    let cells = TriangleCells::new(mesh, &coords);
+    let (n, heights, _, _) = lattice_steps(&cells.st, textures, params);
+    Ok(Effects::new(&cells.triangles, &cells.st, params, heights.len() - 1, mask_resolution(cells.triangles.len(), n)))
+}
+
 /// Layer heights on the slices `k / (depth - 1)` of the deepest texture (where
 /// [`VolumeTexture::sample`] puts them: the first and last on the shell's faces), so the
 /// trilinear occupancy is linear in `r` between layers and nothing one slice thick is
@@ -255,12 +277,9 @@ impl Setup {
         let cells = TriangleCells::new(mesh, &coords);
         let (n, heights, block, texture_finer_than_lattice) = lattice_steps(&cells.st, textures, params);
         let lattice = Lattice::new(mesh, cells, n);
-        let moved = params.moved.as_ref().map(|mv| {
-            let res = ((lattice.tris.len() as f32).sqrt() as usize * n as usize * 2).clamp(256, 4096);
-            (UvMask::new(&lattice.tris, &lattice.st, &mv.weights, res), mv.offset * params.tiling)
-        });
+        let effects = Effects::new(&lattice.tris, &lattice.st, params, heights.len() - 1, mask_resolution(lattice.tris.len(), n));
         let bounds = textures.iter().map(|l| MaxPyramid::new(&l.texture)).collect();
-        Ok(Self { coords, lattice, moved, bounds, heights, block, texture_finer_than_lattice, resolution: params.resolution })
+        Ok(Self { coords, lattice, effects, bounds, heights, block, texture_finer_than_lattice, resolution: params.resolution })
     }
 
     /// The same setup with `block` steps per block edge (a coarser lattice): the
@@ -271,19 +290,8 @@ impl Setup {
         Self { lattice, block, texture_finer_than_lattice: true, ..self }
     }
 
-    fn field<'a>(&'a self, textures: &'a [TextureLayer], params: &'a BakeParams) -> Field<'a> {
-        Field {
-            layers: textures,
-            tris: &self.lattice.tris,
-            region: params.region.as_deref(),
-            holes: params.holes.as_deref(),
-            cutter: params.cutter.as_ref(),
-            moved: self.moved.as_ref().map(|(mask, d)| (mask, *d)),
-            base_layer: params.base_layer.max(1.5 / (self.heights.len() - 1) as f32),
-            layers_r: (self.heights.len() - 1) as f32,
-            heights: &self.heights,
-            bounds: &self.bounds,
-        }
+    fn field<'a>(&'a self, textures: &'a [TextureLayer]) -> Field<'a> {
+        Field { layers: textures, effects: &self.effects, heights: &self.heights, bounds: &self.bounds }
     }
 
     fn cells<'a>(&'a self, mesh: &'a Mesh, shell: &'a Shell, field: &'a Field<'a>, cull: bool) -> Cells<'a> {
@@ -367,7 +375,7 @@ fn share_of(budget: usize, sampled: usize) -> f64 {
 fn fitted_setup(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<(Setup, usize)> {
     let mut setup = Setup::new(mesh, shell, textures, params)?;
     loop {
-        let field = setup.field(textures, params);
+        let field = setup.field(textures);
         let sampled = setup.sampled(&setup.cells(mesh, shell, &field, true));
         if sampled <= params.max_triangles {
             return Ok((setup, sampled));
@@ -391,7 +399,7 @@ pub fn bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &Bake
 
 pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams, cull: bool) -> Result<BakedMesh> {
     let (setup, sampled) = fitted_setup(mesh, shell, textures, params)?;
-    let field = setup.field(textures, params);
+    let field = setup.field(textures);
     let cells = setup.cells(mesh, shell, &field, cull);
     let share = share_of(params.triangle_budget, sampled);
     let progress = params.progress.as_deref();
@@ -437,7 +445,7 @@ pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
 /// bake's own lattice, field and simplification on a sample of its cells.
 pub fn estimate_bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Estimate> {
     let (setup, _) = fitted_setup(mesh, shell, textures, params)?;
-    let field = setup.field(textures, params);
+    let field = setup.field(textures);
     Ok(setup.estimate(mesh, shell, &setup.cells(mesh, shell, &field, true), params.triangle_budget))
 }
 

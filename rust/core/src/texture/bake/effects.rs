@@ -1,0 +1,135 @@
+//! What a stack does to its placed textures besides placing them (thick surfaces,
+//! chapter 7): a partial region blended with a base slab (figure 3.3), a region moved
+//! along the surface (7.2), and holes, painted on vertices or cut by a closed mesh
+//! (7.3). One definition of the occupancy for the bake, its estimate and the
+//! renderers, so a preview shows what the bake makes.
+//!
+//! Everything but the height `r` is fixed along a column of a cell: [`Effects::site`]
+//! finds that part once (the weights at the column, where a moved piece came from),
+//! and [`Site::blend`] combines the textures' occupancy at each height.
+
+use super::cutter::Cutter;
+use super::uv_mask::UvMask;
+use super::BakeParams;
+use glam::{Vec2, Vec3};
+
+/// The effects of one stack over the cells (triangles of the triangulated base).
+#[derive(Default)]
+pub struct Effects {
+    tris: Vec<[u32; 3]>,
+    region: Option<Vec<f32>>,
+    holes: Option<Vec<f32>>,
+    cutter: Option<Cutter>,
+    /// Where the moved piece came from (a mask in `(s, t)`) and how far it went.
+    moved: Option<(UvMask, Vec2)>,
+    /// Top of the base slab, in `r`.
+    base_layer: f32,
+    /// Layers along the directors (the slab's edge is one layer wide).
+    layers: f32,
+}
+
+/// The part of the occupancy fixed along a column.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Site {
+    /// The texture in place (1) or the base slab (0).
+    pub presence: f32,
+    /// How much of a moved piece landed here.
+    pub arrived: f32,
+    /// What the holes leave (1: no hole).
+    pub kept: f32,
+    /// Where in `(s, t)` the piece that landed here came from.
+    pub from: Vec2,
+}
+
+impl Effects {
+    /// The effects of `params` over cells `tris` with corner texture coordinates `st`,
+    /// sampled with `layers` layers across the shell; a moved region's mask has
+    /// `mask_resolution` texels along the longer side of the `(s, t)` box.
+    pub fn new(tris: &[[u32; 3]], st: &[[Vec2; 3]], params: &BakeParams, layers: usize, mask_resolution: usize) -> Self {
+        let layers = layers.max(1) as f32;
+        Self {
+            tris: tris.to_vec(),
+            region: params.region.clone(),
+            holes: params.holes.clone(),
+            cutter: params.cutter.clone(),
+            moved: params.moved.as_ref().map(|mv| (UvMask::new(tris, st, &mv.weights, mask_resolution), mv.offset * params.tiling)),
+            base_layer: params.base_layer.max(1.5 / layers),
+            layers,
+        }
+    }
+
+    /// Whether the textures show everywhere as placed (nothing to blend, move or cut).
+    pub fn is_none(&self) -> bool {
+        self.region.is_none() && self.holes.is_none() && self.cutter.is_none() && self.moved.is_none()
+    }
+
+    /// A per-vertex weight interpolated at barycentric `w` in cell `t`: exactly the
+    /// corners' value where they agree (a region of weight 1 everywhere must blend in
+    /// nothing, not a rounding error that moves samples across the iso-level).
+    fn per_vertex(&self, values: Option<&[f32]>, t: usize, w: &[f32; 4]) -> Option<f32> {
+        let c = self.tris[t];
+        values.map(|v| {
+            let corner = c.map(|i| v[i as usize].clamp(0.0, 1.0));
+            if corner[0] == corner[1] && corner[1] == corner[2] {
+                corner[0]
+            } else {
+                (0..3).map(|k| corner[k] * w[k]).sum::<f32>().clamp(0.0, 1.0)
+            }
+        })
+    }
+
+    /// The column at barycentric weights `w` of cell `t`, whose texture point is `st`.
+    pub fn site(&self, t: usize, w: &[f32; 4], st: Vec2) -> Site {
+        let mut presence = self.per_vertex(self.region.as_deref(), t, w).unwrap_or(1.0);
+        let (mut arrived, mut from) = (0.0, st);
+        if let Some((mask, d)) = &self.moved {
+            presence *= 1.0 - mask.sample(st);
+            arrived = mask.sample(st - *d);
+            from = st - *d;
+        }
+        let kept = 1.0 - self.per_vertex(self.holes.as_deref(), t, w).unwrap_or(0.0);
+        Site { presence, arrived, kept, from }
+    }
+
+    /// Whether world point `p` lies inside the cutter (a hole through the shell).
+    pub fn cut(&self, p: Vec3) -> bool {
+        self.cutter.as_ref().is_some_and(|c| c.contains(p))
+    }
+
+    pub fn has_cutter(&self) -> bool {
+        self.cutter.is_some()
+    }
+
+    /// Bounds over the triangle of cell `t` with corner weights `w`: whether the
+    /// textures alone bound the occupancy (no base slab shows), and the most the holes
+    /// keep. Per-vertex weights are linear, so their extremes are at the corners.
+    pub fn bounds(&self, t: usize, w: &[[f32; 4]; 3]) -> (bool, f32) {
+        let range = |values: Option<&[f32]>| {
+            w.iter().filter_map(|w| self.per_vertex(values, t, w)).fold(None, |r: Option<(f32, f32)>, x| {
+                Some(r.map_or((x, x), |(lo, hi)| (lo.min(x), hi.max(x))))
+            })
+        };
+        let textures_only = range(self.region.as_deref()).is_none_or(|(lo, _)| lo >= 1.0) && self.moved.is_none();
+        (textures_only, range(self.holes.as_deref()).map_or(1.0, |(lo, _)| 1.0 - lo))
+    }
+
+    /// The base slab's occupancy at height `r`.
+    fn base(&self, r: f32) -> f32 {
+        ((self.base_layer - r) * self.layers + 0.5).clamp(0.0, 1.0)
+    }
+}
+
+impl Site {
+    /// Whether the textures in place, and those of the piece that landed, matter.
+    pub fn needs(&self) -> (bool, bool) {
+        (self.presence > 0.0, self.arrived > 0.0)
+    }
+
+    /// The occupancy at height `r`, given the textures' occupancy in place (`here`)
+    /// and where the landed piece came from (`there`).
+    #[inline]
+    pub fn blend(&self, effects: &Effects, r: f32, here: f32, there: f32) -> f32 {
+        let (here, there) = (if self.presence > 0.0 { here } else { 0.0 }, if self.arrived > 0.0 { there } else { 0.0 });
+        self.kept * (self.arrived * there + (1.0 - self.arrived) * (self.presence * here + (1.0 - self.presence) * effects.base(r)))
+    }
+}
