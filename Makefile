@@ -84,6 +84,7 @@ bench: vulkan setup
 	cargo run --release -q -p thicket-core --example bake_bench
 	cargo run --release -q -p thicket-render --example bake_fidelity
 	cargo run --release -q -p thicket-render --example render_bench
+	cargo run --release -q -p thicket-render --example shell_texturing_bench
 
 clean:
 	rm -rf build dist out target $(VENV) $(VENV_LTS)

@@ -24,6 +24,7 @@ pub mod passes;
 pub mod pipeline;
 pub mod readback;
 pub mod scene_data;
+pub mod shell_texturing;
 pub mod slices;
 
 use std::time::{Duration, Instant};
@@ -43,6 +44,8 @@ use passes::{Draws, HazeDraws, Targets};
 use pipeline::{Globals, Pipelines, HAZE_BINDINGS, LAYER_BINDINGS, MAX_LAYERS};
 use scene_data::{GpuCell, GpuFrames};
 use slices::{Eye, Family, Templates};
+
+pub use shell_texturing::{ShellTexturingParams, ShellTexturingRenderer, ShellTexturingScene};
 
 /// Plain slicing or chapter 5's interpolating two-pass algorithm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
