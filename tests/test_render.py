@@ -79,6 +79,46 @@ def test_silhouettes_agree_with_cycles_from_the_same_camera(scene, tmp_path, nam
     assert score >= 0.98, f"{name}: IoU {score:.4f}"
 
 
+@pytest.mark.parametrize("effect", ["holes", "region", "cutter"])
+def test_the_preview_shows_holes_regions_and_cutters_as_cycles_shows_the_bake(scene, tmp_path, effect):
+    # Preview = bake (issue 15): the preview used to draw the texture everywhere,
+    # whatever the stack cut away or left to the base slab.
+    sphere = slab_sphere(tmp_path)
+    item = sphere.thicket.items[-1]
+    if effect == "cutter":
+        cutter = add("cube", size=2.0, location=(-1.2, 0.0, 0.0))
+        cutter.hide_render = True
+        item.cutter = cutter
+    else:
+        group = sphere.vertex_groups.new(name="upper")
+        upper = [v.index for v in sphere.data.vertices if v.co.z > 0.2]
+        group.add(upper, 1.0, "REPLACE")
+        if effect == "holes":
+            item.hole_group = "upper"
+        else:
+            lower = sphere.vertex_groups.new(name="lower")
+            lower.add([v.index for v in sphere.data.vertices if v.co.z <= 0.2], 1.0, "REPLACE")
+            item.vertex_group = "lower"  # the texture below, the base slab above
+    api.regenerate(sphere)
+    sphere.hide_render = True
+    bpy.ops.object.camera_add(location=(0.4, -6.0, 1.2), rotation=(math.radians(80), 0.0, math.radians(4)))
+    scene.camera = bpy.context.object
+    width, height = 128, 96
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
+    bpy.context.view_layer.update()
+    baked = cycles_alpha(scene, str(tmp_path / "cycles.png")) > 0.5
+    view, projection = camera.scene_camera(scene, bpy.context.evaluated_depsgraph_get(), sphere, width, height)
+    out = preview.render_arrays(sphere, view, projection, width, height)
+    ours = out["rgba"][:, :, 3] > 0.5
+    assert "CPU" in out["renderer"], out["renderer"]  # the slice renderer does not draw effects yet
+    # Without the effect the preview shows more than the bake does.
+    item.cutter, item.hole_group, item.vertex_group = None, "", ""
+    plain = preview.render_arrays(sphere, view, projection, width, height, method="reference")["rgba"][:, :, 3] > 0.5
+    assert 0.02 < baked.mean() < 0.9
+    assert iou(ours, baked) >= 0.95, f"{effect}: IoU {iou(ours, baked):.3f}"
+    assert iou(plain, baked) < iou(ours, baked) - 0.03, f"{effect}: the effect must show ({iou(plain, baked):.3f})"
+
+
 def test_render_preview_makes_an_image_and_files(scene, tmp_path):
     sphere = slab_sphere(tmp_path)
     bpy.ops.object.camera_add(location=(0.0, -6.0, 0.0), rotation=(math.radians(90), 0.0, 0.0))
@@ -132,14 +172,14 @@ def test_live_preview_worker_renders_off_the_main_thread(scene, tmp_path):
 
     sphere = slab_sphere(tmp_path)
     bpy.context.view_layer.objects.active = sphere
-    key, shell, item, textures = overlay._prepared(sphere)
+    key, (shell, item, textures, settings) = overlay._prepared(sphere)
     assert overlay._prepared(sphere)[0] == key, "unchanged source: cached"
     view = np.array(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, -6), (0, 0, 0, 1)), np.float32)  # looking along +y from y = -6
     projection = np.array(((2, 0, 0, 0), (0, 2, 0, 0), (0, 0, -1.02, -0.2), (0, 0, -1, 0)), np.float32)
     base = shell.base
     args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures, view, projection, 40, 30)
     state = {"busy": True, "result": None}
-    worker = threading.Thread(target=overlay._work, args=(state, args, dict(uvs=base.uvs, tiling=float(item.tiling))))
+    worker = threading.Thread(target=overlay._work, args=(state, args, settings))
     worker.start()
     worker.join(60)
     assert not state["busy"] and state["result"].shape == (30, 40, 4)

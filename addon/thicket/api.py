@@ -15,6 +15,17 @@ Every function raises `ThicketError` (from thicket_native, a ValueError) for bad
 geometry or settings, `TypeError` for non-mesh objects and `KeyError` for missing
 vertex groups; the source mesh is never modified by any of them except `apply`,
 which only removes its stack.
+
+Progress and cancel: the functions that build shells, bake or render take
+`progress`, a callable given the share done as a float in [0, 1] that never
+decreases (at once, about ten times a second during shells and bakes, and 1.0 at the
+end). Returning False cancels: the work stops at its next check and
+`thicket_native.Cancelled` (a `ThicketError`) is raised, or the exception the
+callback raised; Ctrl-C cancels too. A cancelled call leaves the source and the
+previous result as they were. The callback runs on the calling thread:
+
+    th.regenerate(obj, progress=lambda f: print(f"{f:.0%}"))
+    th.regenerate(obj, progress=lambda f: f < 0.5)   # stops halfway: Cancelled
 """
 
 import os
@@ -74,41 +85,47 @@ def add_item(obj, kind="OFFSET_SHELL", **settings):
     return item
 
 
-def add_thick_surface(obj, thickness=S.OffsetShell.thickness, thickness_mode="RELATIVE", output="OUTER", layers=S.OffsetShell.layers, vertex_group="", kind="OFFSET_SHELL", side="EXTERIOR"):
+def add_thick_surface(obj, thickness=S.OffsetShell.thickness, thickness_mode="RELATIVE", output="OUTER", layers=S.OffsetShell.layers, vertex_group="", kind="OFFSET_SHELL", side="EXTERIOR", progress=None):
     """Gives `obj` a stack with one item of `kind` ("OFFSET_SHELL", or "SHELL" with a
-    `side`) if it has none yet, and generates its result object, which is returned."""
+    `side`) if it has none yet, and generates its result object, which is returned.
+    `progress`: see the module docs (a cancel keeps the new stack, without result)."""
     _require_mesh(obj)
     if not obj.thicket.items:
         extra = {"side": side} if kind == "SHELL" else {}
         add_item(obj, kind, thickness=thickness, thickness_mode=thickness_mode, output=output, layers=layers, vertex_group=vertex_group, **extra)
-    return _regenerate(obj)
+    return _regenerate(obj, progress=progress)
 
 
-def add_volumetric_texture(obj, pattern="chain_mail", shell_thickness=0.05, side="EXTERIOR", **texture_settings):
+def add_volumetric_texture(obj, pattern="chain_mail", shell_thickness=0.05, side="EXTERIOR", progress=None, **texture_settings):
     """Adds a Volumetric Texture item (names of `ThicketItem`: tiling, resolution,
     texture_layers, vertex_group, combine, offset, time, follow_frame...) to `obj`'s
     stack, after a Shell item of `shell_thickness` (relative) that is added first when
-    the stack has no shell yet; regenerates and returns the result object."""
+    the stack has no shell yet; regenerates and returns the result object.
+    `progress`: see the module docs (a cancel keeps the new items, and the previous
+    result)."""
     _require_mesh(obj)
     if not any(i.kind in ("SHELL", "OFFSET_SHELL") for i in obj.thicket.items):
         add_item(obj, "SHELL", thickness=shell_thickness, side=side)
     add_item(obj, "VOLUMETRIC_TEXTURE", pattern=pattern, **texture_settings)
-    return _regenerate(obj)
+    return _regenerate(obj, progress=progress)
 
 
-def bake_frames(obj, frame_start, frame_end, directory, step=1):
+def bake_frames(obj, frame_start, frame_end, directory, step=1, progress=None):
     """Bakes `obj`'s stack at every frame of the range (animated textures follow the
     frame when their item has `follow_frame`) and writes `<object>_<frame>.glb` files
-    into `directory`; returns the paths. The scene's frame is restored afterwards."""
+    into `directory`; returns the paths. The scene's frame is restored afterwards.
+    `progress`: over all frames (see the module docs); a cancel keeps the files
+    already written."""
     _require_mesh(obj)
     scene = bpy.context.scene
     previous = scene.frame_current
     directory = bpy.path.abspath(directory)
+    frames = range(int(frame_start), int(frame_end) + 1, max(1, int(step)))
     paths = []
     try:
-        for frame in range(int(frame_start), int(frame_end) + 1, max(1, int(step))):
+        for i, frame in enumerate(frames):
             scene.frame_set(frame)
-            result = _regenerate(obj)
+            result = _regenerate(obj, progress=_part(progress, i, len(frames)))
             paths.append(export_glb([result], os.path.join(directory, f"{obj.name}_{frame:04d}.glb")))
     finally:
         scene.frame_set(previous)
@@ -131,14 +148,22 @@ def export_texture(obj, path, index=None):
     return native.get().save_texture(bpy.path.abspath(path), item_texture(item.to_settings()))
 
 
-def render_preview(obj, path=None, width=None, height=None, method="auto", slices=16, image="Thicket Preview", mipmaps="double"):
+def _part(progress, i, n):
+    """`progress` for part `i` of `n` equal parts of the work."""
+    return None if progress is None else (lambda f: progress((i + f) / n))
+
+
+def render_preview(obj, path=None, width=None, height=None, method="auto", slices=16, image="Thicket Preview", mipmaps="double", progress=None):
     """Renders `obj`'s thick surface (its first Volumetric Texture over its shell, not
     baked) from the scene camera into the Blender image `image`, which is returned.
     Size: the scene's output size unless given. `method`: "auto" (GPU slices, or the
     CPU reference without a GPU), "interpolating", "plain" or "reference".
     `mipmaps`: "double" (far detail turns semi-transparent instead of vanishing),
     "linear" or "off". `path`:
-    also written to a file: .exr (colour, alpha, depth and normal layers) or .png."""
+    also written to a file: .exr (colour, alpha, depth and normal layers) or .png.
+    `progress`: see the module docs; it covers the shells (cancellable) and then the
+    native render in one step (it has no progress of its own and cannot be stopped:
+    a cancel during it takes effect when it returns, before the image is written)."""
     from .render import camera, preview
 
     _require_mesh(obj)
@@ -147,7 +172,7 @@ def render_preview(obj, path=None, width=None, height=None, method="auto", slice
     if width is None or height is None:
         width, height = camera.render_size(scene)
     view, projection = camera.scene_camera(scene, depsgraph, obj, width, height)
-    out = preview.render_arrays(obj, view, projection, width, height, depsgraph=depsgraph, method=method, slices=slices, mipmaps=mipmaps)
+    out = preview.render_arrays(obj, view, projection, width, height, depsgraph=depsgraph, method=method, slices=slices, mipmaps=mipmaps, progress=progress)
     result = preview.to_image(out["rgba"], image)
     if path:
         native.get().save_render(bpy.path.abspath(path), out["rgba"], out["depth"], out["normal"])
@@ -175,6 +200,8 @@ def render_frames(obj, frame_start, frame_end, directory, step=1, extension=".pn
 
 def regenerate(obj, progress=None, ask=False, fresh=False):
     """Recomputes `obj`'s result from its current mesh and stack; returns the result.
+    `progress(fraction)`: the share of the stack done, in [0, 1]; returning False
+    cancels with `thicket_native.Cancelled`, leaving the previous result (module docs).
     `ask`: raise `BakeNeedsConfirmation` (with `.estimate`) instead of baking more
     triangles than a Volumetric Texture item's `confirm_above`. Shells follow edits
     incrementally (only the directors an edit can reach are traced again); `fresh`

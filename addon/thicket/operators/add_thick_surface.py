@@ -33,7 +33,7 @@ class THICKET_OT_add_thick_surface(bpy.types.Operator):
             for i, obj in enumerate(meshes):
                 try:
                     api.add_thick_surface(obj, thickness=self.thickness, thickness_mode=self.thickness_mode, output=self.output,
-                                          kind=self.kind, side=self.side)
+                                          kind=self.kind, side=self.side, progress=lambda f, i=i: update(i + f))
                 except user_errors() as exc:
                     obj.thicket.last_error = error_text(exc)
                     failed.append(f"{obj.name}: {error_text(exc)}")

@@ -1,43 +1,81 @@
 import bpy
 
-from .. import api
-from ..stack.evaluate import BakeNeedsConfirmation
-from .common import StackOperator, active_stack_source, error_text, progress, user_errors
+from ..stack import live_shells
+from ..stack.evaluate import BakeNeedsConfirmation, evaluate_stack
+from ..stack.regenerate import read_source, write_result
+from .common import Job, JobWatch, StackOperator, WatchedOperator, active_stack_source, error_text
 
 
-class THICKET_OT_regenerate(StackOperator, bpy.types.Operator):
-    """Recompute the Thicket result of the active object from its mesh and stack"""
+class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):
+    """Recompute the Thicket result of the active object from its mesh and stack
+    (Esc cancels and keeps the previous result)"""
 
     bl_idname = "thicket.regenerate"
     bl_label = "Regenerate"
 
     estimate: bpy.props.IntProperty(options={"HIDDEN", "SKIP_SAVE"})
+    confirmed: bpy.props.BoolProperty(options={"HIDDEN", "SKIP_SAVE"})
 
     def invoke(self, context, event):
-        # Interactive: bakes over an item's "Ask Above" wait for the user's OK.
-        status = self._run(context, ask=True)
         if self.estimate:
+            # A run found a bake over its item's "Ask Above": the user decides.
             return context.window_manager.invoke_props_dialog(self, title="Large bake", confirm_text="Bake")
-        return status
+        if context.window is None:
+            return self.execute(context)
+        # Interactive: the stack evaluates on a worker thread while Blender shows the
+        # progress; Esc cancels. Bakes over "Ask Above" wait for the user's OK.
+        return self.run_watched(context, self._watch(context, ask=not self.confirmed))
 
     def draw(self, context):
         self.layout.label(text=f"This bake makes about {self.estimate:,} triangles.", icon="ERROR")
         self.layout.label(text="It may take a while and a lot of memory. Bake it?")
 
     def execute(self, context):
-        return self._run(context, ask=False)
+        if self.estimate and context.window is not None:
+            # "Bake" in the dialog: run it watched, with progress and Esc.
+            bpy.ops.thicket.regenerate("INVOKE_DEFAULT", confirmed=True)
+            return {"CANCELLED"}  # the run it started makes the undo step
+        watch = self._watch(context, ask=False)
+        return {"CANCELLED"} if watch is None else watch.run_blocking(context)
 
-    def _run(self, context, ask):
-        obj = active_stack_source(context)
-        self.estimate = 0
-        try:
-            with progress(context, len(obj.thicket.items)) as update:
-                api.regenerate(obj, progress=update, ask=ask, fresh=True)
-        except BakeNeedsConfirmation as exc:
-            self.estimate = exc.estimate
+    def _watch(self, context, ask):
+        return watched_regeneration(context, active_stack_source(context), ask, self.report)
+
+
+def watched_regeneration(context, obj, ask, report):
+    """The regeneration of `obj` as a watched job (None when its source cannot be
+    read, reported): the source is read here (main thread), the stack evaluates in the
+    job, the result is written only when it succeeded and was not cancelled."""
+    name = obj.name
+    try:
+        arrays, items = read_source(obj, context.evaluated_depsgraph_get())
+    except (KeyError, TypeError, ValueError) as exc:
+        _failed(obj, exc, report)
+        return None
+    live_shells.clear()  # built from scratch, as asked for
+    job = Job(lambda job: evaluate_stack(arrays, items, job.progress, ask))
+
+    def finish(result_arrays):
+        source = bpy.data.objects.get(name)
+        if source is None:
+            report({"WARNING"}, f"'{name}' was deleted while it regenerated")
             return {"CANCELLED"}
-        except user_errors() as exc:
-            obj.thicket.last_error = error_text(exc)
-            self.report({"ERROR"}, f"{obj.name}: {error_text(exc)}")
-            return {"CANCELLED"}
+        write_result(source, result_arrays)
         return {"FINISHED"}
+
+    def fail(exc):
+        if isinstance(exc, BakeNeedsConfirmation):
+            if bpy.context.window is not None:  # ask, then bake watched (see invoke)
+                bpy.ops.thicket.regenerate("INVOKE_DEFAULT", estimate=exc.estimate)
+            return {"CANCELLED"}
+        return _failed(bpy.data.objects.get(name), exc, report)
+
+    return JobWatch(job, f"Regenerating '{name}'", report, finish, fail, expected=(BakeNeedsConfirmation,))
+
+
+def _failed(obj, exc, report):
+    """Reported, and kept on the stack for the panel; the previous result stays."""
+    if obj is not None:
+        obj.thicket.last_error = error_text(exc)
+    report({"ERROR"}, f"{getattr(obj, 'name', '?')}: {error_text(exc)}")
+    return {"CANCELLED"}

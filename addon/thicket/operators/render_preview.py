@@ -1,13 +1,15 @@
+import time
+
 import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty
 
 from ..render import camera, preview
-from .common import active_stack_source, error_text, user_errors
+from .common import Job, JobWatch, WatchedOperator, active_stack_source, error_text, user_errors
 
 
-class THICKET_OT_render_preview(bpy.types.Operator):
+class THICKET_OT_render_preview(WatchedOperator, bpy.types.Operator):
     """Render the active object's thick surface (shell and texture, not baked) into the
-    'Thicket Preview' image, from the scene camera or the 3D view"""
+    'Thicket Preview' image, from the scene camera or the 3D view (Esc cancels)"""
 
     bl_idname = "thicket.render_preview"
     bl_label = "Render Preview"
@@ -42,9 +44,18 @@ class THICKET_OT_render_preview(bpy.types.Operator):
 
     def invoke(self, context, event):
         self.use_view = context.region_data is not None and context.space_data is not None and context.space_data.type == "VIEW_3D"
-        return self.execute(context)
+        # The shells and the render run on a worker thread while Blender shows the
+        # progress; Esc cancels the shells (the native render itself cannot be
+        # stopped: a cancel during it takes effect when it returns).
+        return self.run_watched(context, self._watch(context))
 
     def execute(self, context):
+        watch = self._watch(context)
+        return {"CANCELLED"} if watch is None else watch.run_blocking(context)
+
+    def _watch(self, context):
+        """The render as a watched job: camera and source read here (main thread), the
+        shells and the render in the job, the image written when it succeeded."""
         obj = active_stack_source(context)
         depsgraph = context.evaluated_depsgraph_get()
         try:
@@ -54,18 +65,26 @@ class THICKET_OT_render_preview(bpy.types.Operator):
             else:
                 width, height = camera.render_size(context.scene)
                 view, projection = camera.scene_camera(context.scene, depsgraph, obj, width, height)
-            image, seconds, renderer, fallback = preview.render_to_image(
-                obj, view, projection, width, height, depsgraph=depsgraph, method=self.method, slices=self.slices,
-                mipmaps=self.mipmaps,
-            )
+            source, items, light = preview.render_inputs(obj, depsgraph)
         except user_errors() as exc:
             self.report({"ERROR"}, f"{obj.name}: {error_text(exc)}")
-            return {"CANCELLED"}
-        if fallback:
-            self.report({"WARNING"}, fallback)
-        self.report({"INFO"}, f"'{image.name}': {width}x{height} in {seconds:.2f} s ({renderer})")
-        for area in context.screen.areas if context.screen else ():
-            if area.type == "IMAGE_EDITOR":
-                area.spaces.active.image = image
-                break
-        return {"FINISHED"}
+            return None
+        method, slices, mipmaps = self.method, self.slices, self.mipmaps
+        start = time.perf_counter()
+
+        def work(job):
+            return preview.render_native(source, items, light, view, projection, width, height, method, slices, mipmaps, job.progress)
+
+        def finish(out):
+            image = preview.to_image(out["rgba"])
+            if out["fallback"]:
+                self.report({"WARNING"}, out["fallback"])
+            self.report({"INFO"}, f"'{image.name}': {width}x{height} in {time.perf_counter() - start:.2f} s ({out['renderer']})")
+            screen = bpy.context.screen
+            for area in screen.areas if screen else ():
+                if area.type == "IMAGE_EDITOR":
+                    area.spaces.active.image = image
+                    break
+            return {"FINISHED"}
+
+        return JobWatch(Job(work), f"Rendering '{obj.name}'", self.report, finish)

@@ -95,8 +95,8 @@ def _source():
 
 
 def _prepared(obj):
-    """(key, shell, item, textures) of `obj`, rebuilt only when its `content_key`
-    changed (the shell is the expensive part)."""
+    """(key, TexturedShell) of `obj`, rebuilt only when its `content_key` changed
+    (the shell is the expensive part)."""
     from ..stack.evaluate import texture_setup
     from ..stack.regenerate import enabled_settings
     from .. import mesh_io
@@ -110,7 +110,7 @@ def _prepared(obj):
             depsgraph = bpy.context.evaluated_depsgraph_get()
             groups = sorted({g for item in items for g in item.vertex_groups()})
             source = mesh_io.read_evaluated(obj, depsgraph, groups)
-        _state["prepared"] = (key, *texture_setup(source, items))
+        _state["prepared"] = (key, texture_setup(source, items))
     return _state["prepared"]
 
 
@@ -139,7 +139,7 @@ def _tick():
             if view["busy"] or (key == view["key"] and _state["prepared"] is not None) or now - view["last"] < THROTTLE:
                 continue
             try:
-                _, shell, item, textures = _prepared(obj)
+                _, (shell, _, textures, settings) = _prepared(obj)
                 v, p = camera.viewport_camera(r3d, obj)
                 light = lights.scene_light(bpy.context.evaluated_depsgraph_get(), obj)
             except Exception as exc:  # shown in the view; never raised into Blender's loop
@@ -149,7 +149,7 @@ def _tick():
             view.update(key=key, busy=True, last=now)
             base = shell.base
             args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures, v, p, width, height)
-            kwargs = dict(uvs=base.uvs, tiling=float(item.tiling), light=light)
+            kwargs = dict(settings, light=light)
             threading.Thread(target=_work, args=(view, args, kwargs), daemon=True).start()
     return 0.1
 

@@ -8,18 +8,25 @@ import numpy as np
 from .. import mesh_io, native
 from . import lights
 from ..stack.auto_update import suspended
-from ..stack.evaluate import texture_setup
+from ..stack.evaluate import cancelled_error, texture_setup
 from ..stack.regenerate import enabled_settings
 
 PREVIEW_IMAGE = "Thicket Preview"
 
 
-def render_arrays(obj, view, projection, width, height, depsgraph=None, method="auto", slices=16, mipmaps="double", light=None):
+def render_arrays(obj, view, projection, width, height, depsgraph=None, method="auto", slices=16, mipmaps="double", light=None, progress=None):
     """The native render of `obj`'s first Volumetric Texture over its shell: a dict
     with rgba (h, w, 4, row 0 at the top), depth, normal, renderer, fallback.
     `mipmaps`: "double", "linear" or "off" (see `thicket_native.render_shell`).
     `light`: direction toward the light in `obj`'s space; the scene's main light
-    (`lights.scene_light`) unless given."""
+    (`lights.scene_light`) unless given. `progress`: see `render_native`."""
+    source, items, light = render_inputs(obj, depsgraph, light)
+    return render_native(source, items, light, view, projection, width, height, method, slices, mipmaps, progress)
+
+
+def render_inputs(obj, depsgraph=None, light=None):
+    """What a render reads from Blender (main thread only): the evaluated source mesh,
+    the enabled items' settings and the light direction, all plain data."""
     with suspended():
         depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
         items = enabled_settings(obj, depsgraph)
@@ -27,13 +34,31 @@ def render_arrays(obj, view, projection, width, height, depsgraph=None, method="
         source = mesh_io.read_evaluated(obj, depsgraph, groups)
         if light is None:
             light = lights.scene_light(depsgraph, obj)
-    shell, item, textures = texture_setup(source, items)
+    return source, items, light
+
+
+#: Share of a render's progress that its shells take; the native render has no
+#: progress callback of its own (nor a cancel check), so it is the rest in one step.
+SHELL_SHARE = 0.5
+
+
+def render_native(source, items, light, view, projection, width, height, method="auto", slices=16, mipmaps="double", progress=None):
+    """`render_arrays` on what `render_inputs` read, without bpy (any thread).
+    `progress`: as in `evaluate_stack`, up to `SHELL_SHARE` over the shells, then 1.0
+    after the render; False cancels the shells, or the render before it starts."""
+    scaled = None if progress is None else (lambda f: progress(SHELL_SHARE * f))
+    shell, _, textures, settings = texture_setup(source, items, scaled)
+    if progress is not None and progress(SHELL_SHARE) is False:
+        raise cancelled_error()
     base = shell.base
-    return native.get().render_shell(
+    out = native.get().render_shell(
         base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures,
-        view, projection, int(width), int(height), uvs=base.uvs, tiling=float(item.tiling), method=method, slices=int(slices),
-        mipmaps=mipmaps, light=tuple(float(v) for v in light),
+        view, projection, int(width), int(height), method=method, slices=int(slices),
+        mipmaps=mipmaps, light=tuple(float(v) for v in light), **settings,
     )
+    if progress is not None:
+        progress(1.0)
+    return out
 
 
 def to_image(rgba, name=PREVIEW_IMAGE):

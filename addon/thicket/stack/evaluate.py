@@ -4,6 +4,7 @@ No bpy here: the same function serves operators, the headless API and tests.
 """
 
 import os
+from typing import NamedTuple
 
 import numpy as np
 
@@ -89,15 +90,15 @@ def _common_args(mesh: MeshArrays, item, factors):
     return args, kwargs
 
 
-def _offset_shell(mesh: MeshArrays, item: S.OffsetShell, factors):
+def _offset_shell(mesh: MeshArrays, item: S.OffsetShell, factors, progress=None):
     args, kwargs = _common_args(mesh, item, factors)
     out = native.get().offset_shell(*args, **kwargs)
     return (*_shell_result(out, mesh), out)
 
 
-def _field_shell(mesh: MeshArrays, item: S.FieldShell, factors):
+def _field_shell(mesh: MeshArrays, item: S.FieldShell, factors, progress=None):
     args, kwargs = _common_args(mesh, item, factors)
-    out = live_shells.field_shell(args, dict(kwargs, side=item.side))
+    out = live_shells.field_shell(args, dict(kwargs, side=item.side), progress)
     return (*_shell_result(out, mesh), out)
 
 
@@ -145,29 +146,43 @@ class BakeNeedsConfirmation(Exception):
         self.estimate = estimate
 
 
-def _volumetric_texture(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False):
-    """Bakes the item's texture(s) over `shell` (thick surfaces, chapter 3);
-    `weights`: per-vertex region, holes and move arrays (or None) by name."""
-    tn = native.get()
+def placed_textures(item: S.VolumetricTexture):
+    """The item's texture, and the texture it combines with at its offset (united)."""
     textures = [item_texture(item)]
     if item.combine:
-        textures.append((_texture(tn, item.combine, item), tuple(float(v) for v in item.offset)))
+        textures.append((_texture(native.get(), item.combine, item), tuple(float(v) for v in item.offset)))
+    return textures
+
+
+def texture_settings(shell: ShellContext, item: S.VolumetricTexture, weights):
+    """What the bake, its estimate and the renderers take besides the shell and the
+    textures: one argument list, so a preview shows what the bake makes (UVs, tiling,
+    region, holes, cutter, moved region). `weights`: per-vertex region, holes and
+    move arrays (or None) by name."""
+    return dict(
+        uvs=shell.base.uvs, tiling=float(item.tiling), resolution=int(item.resolution), layers=int(item.layers),
+        region=weights["region"], holes=weights["holes"], cutter=item.cutter,
+        move_region=weights["move"], move_offset=tuple(float(v) for v in item.move_offset),
+        follow_texture=bool(item.follow_texture),
+    )
+
+
+def _volumetric_texture(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, progress=None):
+    """Bakes the item's texture(s) over `shell` (thick surfaces, chapter 3);
+    `weights`: per-vertex region, holes and move arrays (or None) by name;
+    `progress`: the bake's callback (see `evaluate_stack`)."""
+    tn = native.get()
+    textures = placed_textures(item)
     base = shell.base
     # One argument list for the estimate and the bake, so the estimate sees what the
     # bake will (UVs, region, holes, cutter, moved region).
     args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures)
-    settings = dict(
-        uvs=base.uvs, tiling=float(item.tiling), resolution=int(item.resolution), layers=int(item.layers),
-        region=weights["region"], holes=weights["holes"], cutter=item.cutter,
-        move_region=weights["move"], move_offset=tuple(float(v) for v in item.move_offset),
-        follow_texture=bool(item.follow_texture), triangle_budget=int(item.triangle_budget),
-        max_triangles=int(item.max_triangles),
-    )
+    settings = dict(texture_settings(shell, item, weights), triangle_budget=int(item.triangle_budget), max_triangles=int(item.max_triangles))
     if ask:
         estimate = tn.estimate_bake(*args, **settings)
         if estimate > item.confirm_above:
             raise BakeNeedsConfirmation(item.label, estimate, item.confirm_above)
-    out = tn.bake_texture(*args, **settings)
+    out = tn.bake_texture(*args, **settings, progress=progress)
     result = MeshArrays.from_native(out)
     result.normals = out["normals"]
     result.point_attributes = {TEXCOORD_ATTRIBUTE: out["texcoords"]}
@@ -215,21 +230,55 @@ class _TextureReached(Exception):
         self.found = found
 
 
-def texture_setup(source: MeshArrays, items):
-    """Runs the shell items up to the first Volumetric Texture item and returns
-    (shell, item, textures) without baking: what a renderer draws directly."""
+class TexturedShell(NamedTuple):
+    """What a renderer draws: a shell, its Volumetric Texture item, the placed
+    textures and the settings the bake would take (`texture_settings`)."""
 
-    def reached(shell, item, weights, ask):
-        textures = [item_texture(item)]
-        if item.combine:
-            textures.append((_texture(native.get(), item.combine, item), tuple(float(v) for v in item.offset)))
-        raise _TextureReached((shell, item, textures))
+    shell: ShellContext
+    item: S.VolumetricTexture
+    textures: list
+    settings: dict
+
+
+def texture_setup(source: MeshArrays, items, progress=None) -> TexturedShell:
+    """Runs the shell items up to the first Volumetric Texture item and returns what a
+    renderer draws directly, without baking. `progress`: as in `evaluate_stack`, over
+    those shells."""
+
+    def reached(shell, item, weights, ask, progress):
+        raise _TextureReached(TexturedShell(shell, item, placed_textures(item), texture_settings(shell, item, weights)))
 
     try:
-        evaluate_stack(source, items, texture_step=reached)
+        evaluate_stack(source, items, progress=progress, texture_step=reached)
     except _TextureReached as done:
         return done.found
     raise StackError("the stack has no enabled Volumetric Texture item to render")
+
+
+#: Share of the progress bar each kind of item takes, relative to the others (a bake
+#: usually takes longest; an offset shell is instantaneous).
+PROGRESS_WEIGHTS = {S.OffsetShell: 0.1, S.FieldShell: 1.0, S.VolumetricTexture: 3.0}
+
+
+def progress_spans(items, bakes=True):
+    """The (start, end) share of the whole that each item covers; Volumetric Texture
+    items take none when nothing is baked (`bakes` False: a renderer draws them)."""
+    weights = [PROGRESS_WEIGHTS[type(item)] if bakes or not isinstance(item, S.VolumetricTexture) else 0.0 for item in items]
+    total = sum(weights) or 1.0
+    ends = np.cumsum(weights) / total
+    return [(float(end - w / total), float(end)) for w, end in zip(weights, ends)]
+
+
+def cancelled_error():
+    """The core's `Cancelled` error (a ThicketError), raised where Python stops work."""
+    return native.get().Cancelled("cancelled")
+
+
+def _scaled(progress, start, end):
+    """`progress` seen by one item: its fractions mapped into [start, end]."""
+    if progress is None:
+        return None
+    return lambda fraction: progress(start + (end - start) * min(max(float(fraction), 0.0), 1.0))
 
 
 def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_step=None) -> MeshArrays:
@@ -237,10 +286,21 @@ def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_
 
     Vertex-group weights are looked up on the source mesh and followed through the
     items by provenance (`source_vertex`), so a group keeps meaning after the first
-    item. `progress(i)` is called after each item. An empty list returns the source.
-    `ask`: raise `BakeNeedsConfirmation` before a bake estimated over its item's
-    `confirm_above` (the interface then asks the user).
+    item. An empty list returns the source. `ask`: raise `BakeNeedsConfirmation`
+    before a bake estimated over its item's `confirm_above` (the interface then asks
+    the user).
+
+    `progress`: a callable given the share of the whole stack done, a float in [0, 1]
+    that never decreases: at once, during field shells and bakes (about ten times a
+    second, from the calling thread), after each item, and 1.0 at the end (when the
+    answer no longer matters). Returning False cancels: the work stops at its next
+    check and `thicket_native.Cancelled` (a `ThicketError`) is raised, or the
+    callback's own exception if it raised one. Nothing is returned, and a field shell
+    whose build was cancelled is not kept for later edits.
     """
+    spans = progress_spans(items, bakes=texture_step is None)
+    if progress is not None and progress(0.0) is False:
+        raise cancelled_error()
     current = source
     origin = np.arange(source.vertex_count)  # source vertex of each current vertex
     shell = None  # the latest shell, for Volumetric Texture items
@@ -254,7 +314,7 @@ def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_
         factors = _group_weights(source, item.vertex_group, at, item.label)
         if is_texture:
             weights = {"region": factors, "holes": _group_weights(source, item.hole_group, at, item.label), "move": _group_weights(source, item.move_group, at, item.label)}
-            current, bake_notes = (texture_step or _volumetric_texture)(shell, item, weights, ask)
+            current, bake_notes = (texture_step or _volumetric_texture)(shell, item, weights, ask, _scaled(progress, *spans[i]))
             origin = None  # baked vertices come from no single source vertex
             notes.extend(bake_notes)
             if current.face_count == 0:
@@ -264,13 +324,15 @@ def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_
             base, base_origin = current, origin
             if origin is None:
                 raise StackError(f"'{item.label}' cannot follow a Volumetric Texture")
-            current, provenance, out = SHELL_STEPS[type(item)](current, item, factors)
+            current, provenance, out = SHELL_STEPS[type(item)](current, item, factors, _scaled(progress, *spans[i]))
             shell = ShellContext(base, out, base_origin)
             if "check" in out:
                 summaries.append(shell_summary(item.label, out))
             origin = origin[provenance]
-        if progress:
-            progress(i + 1)
+        if progress is not None and progress(spans[i][1]) is False and i + 1 < len(items):
+            raise cancelled_error()
+    if progress is not None:
+        progress(1.0)
     if current is source:
         current = MeshArrays(source.vertices, source.face_sizes, source.corners)
     current.notes = notes

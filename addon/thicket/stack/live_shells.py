@@ -25,10 +25,11 @@ def clear() -> None:
     _kept.clear()
 
 
-def field_shell(args, kwargs) -> dict:
+def field_shell(args, kwargs, progress=None) -> dict:
     """`thicket_native.shell(*args, **kwargs)`'s result, updated from a kept shell of
     the same topology and settings when there is one (only the positions in `args`
-    and the `factors` may differ)."""
+    and the `factors` may differ). `progress`: the callback of a shell built from
+    scratch (`thicket_native.shell`'s); a cancelled build keeps nothing."""
     vertices, face_sizes, corners, thickness = args
     factors = kwargs["factors"]
     settings = (thickness, *(kwargs[k] for k in sorted(kwargs) if k != "factors"), factors is None)
@@ -44,7 +45,7 @@ def field_shell(args, kwargs) -> dict:
             _kept.move_to_end(key, last=False)
             recent.append(stats)
             return shell.result()
-    shell = native.get().IncrementalShell(*args, **kwargs)
+    shell = native.get().IncrementalShell(*args, **kwargs, progress=progress)
     recent.append(None)
     _kept[key] = (face_sizes.copy(), corners.copy(), shell)
     _kept.move_to_end(key, last=False)

@@ -41,18 +41,34 @@ def ensure_result(source: bpy.types.Object) -> bpy.types.Object:
 def regenerate(source: bpy.types.Object, depsgraph=None, progress=None, ask=False) -> bpy.types.Object:
     """Evaluates the source's stack and writes the result object's mesh.
 
-    The result is written only after the whole stack succeeded: on error the previous
-    result stays, the source is never modified, and the exception propagates. `ask`:
-    stop with `BakeNeedsConfirmation` before a bake over its item's `confirm_above`.
+    The result is written only after the whole stack succeeded: on error or cancel the
+    previous result stays, the source is never modified, and the exception
+    propagates. `progress`: see `evaluate_stack` (a float in [0, 1]; False cancels).
+    `ask`: stop with `BakeNeedsConfirmation` before a bake over its item's
+    `confirm_above`.
     """
+    with suspended():
+        arrays, items = read_source(source, depsgraph)
+        return write_result(source, evaluate_stack(arrays, items, progress, ask))
+
+
+def read_source(source: bpy.types.Object, depsgraph=None):
+    """What evaluating the stack needs, read on the main thread: the evaluated source
+    mesh (with the vertex groups its items use) and the enabled items' settings.
+    Both are plain data, so `evaluate_stack` may run on another thread."""
     if source.type != "MESH":
         raise TypeError(f"'{source.name}' is a {source.type.lower()}, not a mesh")
     with suspended():
         depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
         items = enabled_settings(source, depsgraph)
         groups = sorted({g for item in items for g in item.vertex_groups()})
-        arrays = mesh_io.read_evaluated(source, depsgraph, groups)
-        result_arrays = evaluate_stack(arrays, items, progress, ask)
+        return mesh_io.read_evaluated(source, depsgraph, groups), items
+
+
+def write_result(source: bpy.types.Object, result_arrays) -> bpy.types.Object:
+    """Writes an evaluated stack into the source's result object (created when
+    missing) and its notes and shell reports into the stack; returns the result."""
+    with suspended():
         result = ensure_result(source)
         mesh_io.write_mesh(result.data, result_arrays)
         if source.thicket.last_error:

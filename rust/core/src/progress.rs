@@ -1,5 +1,5 @@
-//! Progress and cancellation of long work (bakes), shared between the worker threads
-//! and whoever watches them: counters the work advances, a flag it checks.
+//! Progress and cancellation of long work (bakes, shells), shared between the worker
+//! threads and whoever watches them: counters the work advances, a flag it checks.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -20,7 +20,12 @@ impl Progress {
     }
 
     pub fn step(&self) {
-        self.done.fetch_add(1, Ordering::Relaxed);
+        self.advance(1);
+    }
+
+    /// `n` more steps done.
+    pub fn advance(&self, n: usize) {
+        self.done.fetch_add(n, Ordering::Relaxed);
     }
 
     /// The share done, in `[0, 1]` (0 before a stage starts).
@@ -49,5 +54,83 @@ impl Progress {
         } else {
             Ok(())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Progress;
+    use crate::shell::incremental::IncrementalShell;
+    use crate::shell::{build_shell, build_shell_watched, ShellParams, Side, Thickness};
+    use crate::testmeshes as tm;
+    use crate::Error;
+
+    #[test]
+    fn a_shell_counts_its_vertices_up_to_one_and_matches_the_unwatched_build() {
+        let mesh = tm::icosphere(4);
+        let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+        let progress = Progress::default();
+        let seen = std::sync::Mutex::new(Vec::new());
+        let shell = std::thread::scope(|s| {
+            let watcher = s.spawn(|| loop {
+                seen.lock().unwrap().push(progress.fraction());
+                std::thread::sleep(std::time::Duration::from_micros(200));
+                if progress.fraction() >= 1.0 {
+                    break;
+                }
+            });
+            let shell = build_shell_watched(&mesh, &t, Side::Envelope, &ShellParams::default(), Some(&progress));
+            watcher.join().unwrap();
+            shell.unwrap()
+        });
+        assert_eq!(progress.fraction(), 1.0);
+        let seen = seen.into_inner().unwrap();
+        assert!(seen.windows(2).all(|w| w[0] <= w[1]), "not monotone: {seen:?}");
+        assert!(seen.iter().any(|&f| f > 0.0 && f < 1.0), "no fraction between 0 and 1 seen: {seen:?}");
+        assert!(shell == build_shell(&mesh, &t, Side::Envelope, &ShellParams::default()).unwrap());
+    }
+
+    #[test]
+    fn cancelling_from_another_thread_stops_a_big_shell_early() {
+        let mesh = tm::icosphere(6); // 40,962 vertices
+        let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+        let progress = Progress::default();
+        let (result, at_cancel) = std::thread::scope(|s| {
+            let canceller = s.spawn(|| {
+                while progress.fraction() < 0.05 {
+                    std::thread::yield_now();
+                }
+                let at = progress.fraction();
+                progress.cancel();
+                at
+            });
+            let result = build_shell_watched(&mesh, &t, Side::Exterior, &ShellParams::default(), Some(&progress));
+            (result, canceller.join().unwrap())
+        });
+        assert_eq!(result.unwrap_err(), Error::Cancelled);
+        // Each thread finishes at most the vertex it was tracing.
+        let stopped = progress.fraction();
+        let threads = rayon::current_num_threads() as f64;
+        assert!(stopped < at_cancel + (threads + 1.0) / (mesh.vertex_count() as f64), "stopped at {stopped}, cancelled at {at_cancel}");
+        assert!(stopped < 0.5);
+    }
+
+    #[test]
+    fn a_cancelled_watch_stops_shells_before_tracing() {
+        let mesh = tm::icosphere(2);
+        let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+        let progress = Progress::default();
+        progress.cancel();
+        let err = build_shell_watched(&mesh, &t, Side::Exterior, &ShellParams::default(), Some(&progress)).unwrap_err();
+        assert_eq!(err, Error::Cancelled);
+        assert_eq!(progress.fraction(), 0.0);
+        let kept = IncrementalShell::new_watched(mesh.clone(), t.clone(), Side::Exterior, ShellParams::default(), Some(&progress));
+        assert_eq!(kept.err(), Some(Error::Cancelled));
+        // Watched but not cancelled: the kept shell is the unwatched one's, and the count is full.
+        let fresh = Progress::default();
+        let kept = IncrementalShell::new_watched(mesh.clone(), t.clone(), Side::Exterior, ShellParams::default(), Some(&fresh)).unwrap();
+        assert_eq!(fresh.fraction(), 1.0);
+        let plain = IncrementalShell::new(mesh, t, Side::Exterior, ShellParams::default()).unwrap();
+        assert!(kept.shell() == plain.shell());
     }
 }

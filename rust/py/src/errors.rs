@@ -10,8 +10,18 @@ pyo3::create_exception!(
     "Invalid input or a failure inside Thicket's geometry core; the message says which."
 );
 
+pyo3::create_exception!(
+    thicket_native,
+    Cancelled,
+    ThicketError,
+    "The work was cancelled through its progress callback (it returned False) or by Ctrl-C."
+);
+
 pub fn to_py(e: thicket_core::Error) -> PyErr {
-    ThicketError::new_err(e.to_string())
+    match e {
+        thicket_core::Error::Cancelled => Cancelled::new_err(e.to_string()),
+        e => ThicketError::new_err(e.to_string()),
+    }
 }
 
 /// Runs heavy core work with the GIL released, turning a Rust panic into a
@@ -29,6 +39,22 @@ fn panic_error(panic: Box<dyn std::any::Any + Send>) -> PyErr {
         .or_else(|| panic.downcast_ref::<String>().cloned())
         .unwrap_or_else(|| "unknown panic".into());
     ThicketError::new_err(format!("internal error in thicket-native (please report): {what}"))
+}
+
+/// [`run_watched`] when the caller gave a `progress` callable (None: [`run_detached`]);
+/// `work` gets the [`Progress`](thicket_core::progress::Progress) to report to, if any.
+pub fn run_maybe_watched<T: Send>(
+    py: Python<'_>,
+    progress: Option<&Bound<'_, PyAny>>,
+    work: impl FnOnce(Option<&thicket_core::progress::Progress>) -> thicket_core::Result<T> + Send,
+) -> PyResult<T> {
+    match progress {
+        Some(callback) => {
+            let watch = thicket_core::progress::Progress::default();
+            run_watched(py, callback, &watch, || work(Some(&watch)))
+        }
+        None => run_detached(py, || work(None)),
+    }
 }
 
 /// Runs heavy core work on a worker thread, like [`run_detached`], while this thread
@@ -63,7 +89,7 @@ pub fn run_watched<T: Send>(
             }
             let answer = py.check_signals().and_then(|_| callback.call1((progress.fraction(),)));
             match answer {
-                Ok(v) if v.is(&pyo3::types::PyBool::new(py, false)) => progress.cancel(),
+                Ok(v) if v.is(pyo3::types::PyBool::new(py, false)) => progress.cancel(),
                 Ok(_) => {}
                 Err(e) => {
                     progress.cancel();

@@ -8,19 +8,19 @@ use thicket_core::shell::incremental::{IncrementalShell as Core, DEFAULT_TOLERAN
 use thicket_core::shell::{shell_geometry, ShellOutput, Side, Thickness};
 
 use crate::arrays;
-use crate::errors::{run_detached, ThicketError};
+use crate::errors::{run_detached, run_maybe_watched, ThicketError};
 use crate::offset::ShellRequest;
 use crate::shell::{params, shell_dict};
 
 /// IncrementalShell(vertices, face_sizes, corners, thickness, side="exterior",
 ///                  relative=False, factors=None, output="outer", layers=1, p=3.0,
-///                  tolerance=0.03)
+///                  tolerance=0.03, progress=None)
 ///
 /// The shell of `shell()`, kept for updates: `update(vertices, factors=None)` moves
 /// the base vertices (same faces) and retraces only the directors the change can
 /// reach; `result()` returns the same dict as `shell()`. `tolerance` is the largest
 /// relative change of the field a kept director may see (0: retrace everything
-/// within the field's support).
+/// within the field's support). `progress`: the first build's, as in `shell()`.
 #[pyclass(module = "thicket_native")]
 pub struct IncrementalShell {
     inner: Option<Core>,
@@ -44,7 +44,7 @@ fn failed() -> PyErr {
 #[pymethods]
 impl IncrementalShell {
     #[new]
-    #[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", layers=1, p=3.0, tolerance=DEFAULT_TOLERANCE))]
+    #[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", layers=1, p=3.0, tolerance=DEFAULT_TOLERANCE, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -59,6 +59,7 @@ impl IncrementalShell {
         layers: u32,
         p: f64,
         tolerance: f64,
+        progress: Option<Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         if !(tolerance >= 0.0 && tolerance.is_finite()) {
             return Err(ThicketError::new_err(format!("tolerance must be a finite number >= 0, got {tolerance}")));
@@ -66,9 +67,9 @@ impl IncrementalShell {
         let req = ShellRequest::new(&vertices, face_sizes, corners, thickness, relative, factors, output, layers)?;
         let side = Side::parse(side).map_err(crate::errors::to_py)?;
         let (spec, output) = (req.thickness, req.output);
-        let mut inner = run_detached(py, move || {
+        let mut inner = run_maybe_watched(py, progress.as_ref(), move |watch| {
             let t = req.per_vertex()?;
-            Core::new(req.mesh, t, side, params(p))
+            Core::new_watched(req.mesh, t, side, params(p), watch)
         })?;
         inner.tolerance = tolerance;
         Ok(Self { inner: Some(inner), thickness: spec, output })

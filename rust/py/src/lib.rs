@@ -22,6 +22,7 @@ use pyo3::prelude::*;
 fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("ThicketError", m.py().get_type::<errors::ThicketError>())?;
+    m.add("Cancelled", m.py().get_type::<errors::Cancelled>())?;
     m.add_function(wrap_pyfunction!(report::mesh_report, m)?)?;
     m.add_function(wrap_pyfunction!(offset::offset_shell, m)?)?;
     m.add_function(wrap_pyfunction!(shell::build_shell, m)?)?;

@@ -6,7 +6,7 @@ use thicket_core::shell::{self as core, report::{self_intersecting_faces, shell_
 use thicket_core::Mesh;
 
 use crate::arrays;
-use crate::errors::{run_detached, ThicketError};
+use crate::errors::{run_detached, run_maybe_watched, ThicketError};
 use crate::offset::ShellRequest;
 
 fn triangle_mesh(vertices: &PyReadonlyArray2<'_, f32>, triangles: &Bound<'_, PyAny>) -> PyResult<Mesh> {
@@ -22,38 +22,46 @@ pub fn params(p: f64) -> ShellParams {
     ShellParams { p, ..ShellParams::default() }
 }
 
-/// build_shell(vertices, triangles, thickness, side) -> directors
+/// build_shell(vertices, triangles, thickness, side, progress=None) -> directors
 ///
 /// The L_p-field shell (thick surfaces, chapter 4): `vertices` float32 (n,3),
 /// `triangles` int32/uint32 (m,3), `thickness` a float or float32 (n,) (absolute
 /// lengths), `side` "exterior" | "interior" | "envelope". Returns float32 (n,3): the
-/// outer shell position of each vertex is `vertex + director`.
+/// outer shell position of each vertex is `vertex + director`. `progress`: as in
+/// `shell`.
 #[pyfunction]
+#[pyo3(signature = (vertices, triangles, thickness, side, progress=None))]
 pub fn build_shell<'py>(
     py: Python<'py>,
     vertices: PyReadonlyArray2<'py, f32>,
     triangles: &Bound<'py, PyAny>,
     thickness: &Bound<'py, PyAny>,
     side: &str,
+    progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyArray2<f32>>> {
     let mesh = triangle_mesh(&vertices, triangles)?;
     let thickness = arrays::per_vertex_or_scalar(thickness, mesh.vertex_count(), "thickness")?;
     let side = Side::parse(side).map_err(crate::errors::to_py)?;
-    let shell = run_detached(py, move || core::build_shell(&mesh, &thickness, side, &ShellParams::default()))?;
+    let shell = run_maybe_watched(py, progress.as_ref(), move |watch| {
+        core::build_shell_watched(&mesh, &thickness, side, &ShellParams::default(), watch)
+    })?;
     let outer: Vec<Vec3> = shell.base_offset.iter().zip(&shell.directors).map(|(b, d)| *b + *d).collect();
     arrays::vec3_array(py, outer)
 }
 
 /// shell(vertices, face_sizes, corners, thickness, side="exterior", relative=False,
-///       factors=None, output="outer", layers=1, p=3.0) -> dict
+///       factors=None, output="outer", layers=1, p=3.0, progress=None) -> dict
 ///
 /// The L_p-field shell of a polygon mesh with shell geometry, as `offset_shell` but
 /// with field-integrated directors. Returns the geometry arrays plus base_offset and
 /// directors (n,3) (layer r of vertex v at v + base_offset + r * director), achieved
 /// and target thickness (n,), source_vertex and layer per output vertex, source_corner
-/// and source_face per output corner and face.
+/// and source_face per output corner and face. `progress`: a callable given the share
+/// done (vertices traced, then the repair) in [0, 1] at once, about ten times a second
+/// and 1.0 at the end, while the work runs on another thread; returning False, raising
+/// or Ctrl-C cancels it (`Cancelled`, a `ThicketError`, or the exception raised).
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", layers=1, p=3.0))]
+#[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", layers=1, p=3.0, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn shell<'py>(
     py: Python<'py>,
@@ -67,11 +75,12 @@ pub fn shell<'py>(
     output: &str,
     layers: u32,
     p: f64,
+    progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let req = ShellRequest::new(&vertices, face_sizes, corners, thickness, relative, factors, output, layers)?;
     let side = Side::parse(side).map_err(crate::errors::to_py)?;
-    let (geometry, shell) = run_detached(py, move || {
-        let shell = core::build_shell(&req.mesh, &req.per_vertex()?, side, &params(p))?;
+    let (geometry, shell) = run_maybe_watched(py, progress.as_ref(), move |watch| {
+        let shell = core::build_shell_watched(&req.mesh, &req.per_vertex()?, side, &params(p), watch)?;
         Ok((shell_geometry(&req.mesh, &shell, req.output)?, shell))
     })?;
     shell_dict(py, geometry, shell)

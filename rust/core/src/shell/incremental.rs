@@ -16,13 +16,14 @@
 //! starts from the retraced directors.
 
 use super::defects::Checker;
-use super::directors::{assemble, check_inputs, min_edge_at, side_lengths, trace_vertices, Trace, Tracer, REPAIR_FACTOR, TRACE_SAMPLES};
+use super::directors::{assemble, check_inputs, min_edge_at, side_lengths, trace_vertices, watched_steps, Trace, Tracer, REPAIR_FACTOR, TRACE_SAMPLES};
 use super::field::{extension_faces, PatchTree};
 use super::influence::ChangeBound;
 use super::intersect::{tri_box, TriBvh};
 use super::repair::Repair;
 use super::{Shell, ShellParams, Side, Thickness};
 use crate::mesh::{face_triangles, vertex_normal};
+use crate::progress::Progress;
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -75,7 +76,15 @@ pub struct IncrementalShell {
 
 impl IncrementalShell {
     pub fn new(mesh: Mesh, thickness: Vec<f32>, side: Side, params: ShellParams) -> Result<Self> {
+        Self::new_watched(mesh, thickness, side, params, None)
+    }
+
+    /// [`IncrementalShell::new`] watched through `progress`, as
+    /// [`build_shell_watched`](super::directors::build_shell_watched).
+    pub fn new_watched(mesh: Mesh, thickness: Vec<f32>, side: Side, params: ShellParams, progress: Option<&Progress>) -> Result<Self> {
         check_inputs(&mesh, &thickness, &params)?;
+        let (steps, settle) = watched_steps(mesh.vertex_count(), params.repair_rounds > 0 && mesh.vertex_count() > 0);
+        progress.inspect(|p| p.start(steps));
         let lengths = side_lengths(&thickness, side);
         let (tracer, tris) = Tracer::new(&mesh, &lengths, &params);
         // A face of k corners splits into k - 2 triangles (`face_triangles`).
@@ -88,13 +97,17 @@ impl IncrementalShell {
         let mut on_boundary = vec![false; mesh.vertex_count()];
         tracer.boundary.iter().for_each(|&(a, b)| (on_boundary[a as usize], on_boundary[b as usize]) = (true, true));
         let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
-        let traces = trace_vertices(&tracer, &mesh, &lengths, side, &params, &all);
+        let traces = trace_vertices(&tracer, &mesh, &lengths, side, &params, &all, progress)?;
         let mut shell = assemble(&mesh, &thickness, side, &traces);
         let checker = Checker::new(&mesh);
         let mut outer_bvh = None;
         let repair =
             Repair { checker: &checker, mesh: &mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR };
         shell.check = repair.settle(&mut outer_bvh, &mut shell, None);
+        if let Some(p) = progress {
+            p.check()?;
+            p.advance(settle);
+        }
         Ok(Self {
             mesh,
             thickness,
@@ -178,7 +191,7 @@ impl IncrementalShell {
         let mut must = vec![false; n];
         around.iter().chain(&thicker).chain(&moved).for_each(|&u| must[u as usize] = true);
         let (dirty, kept) = self.choose_retraced(&changes, &must);
-        let fresh = trace_vertices(&self.tracer, &self.mesh, &self.lengths, self.side, &self.params, &dirty);
+        let fresh = trace_vertices(&self.tracer, &self.mesh, &self.lengths, self.side, &self.params, &dirty, None)?;
         for (&v, t) in dirty.iter().zip(fresh) {
             self.traces[v as usize] = t;
         }

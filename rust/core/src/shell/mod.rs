@@ -26,7 +26,7 @@ pub mod report;
 pub(crate) mod restore;
 pub mod thickness;
 
-pub use directors::{build_shell, Shell, ShellParams, Side};
+pub use directors::{build_shell, build_shell_watched, Shell, ShellParams, Side};
 pub use geometry::{build_geometry, prisms, shell_geometry, Cell, ShellMesh, ShellOutput};
 pub use offset::normal_offset_directors;
 pub use repair::ShellCheck;

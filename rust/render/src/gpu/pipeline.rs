@@ -95,6 +95,21 @@ fn volume(binding: u32) -> wgpu::BindGroupLayoutEntry {
     )
 }
 
+/// The volume textures' sampler: repeating in s and t (the texture tiles), clamped
+/// across the shell, trilinear between texels and mip levels.
+pub(super) fn volume_sampler(device: &wgpu::Device) -> wgpu::Sampler {
+    device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("volume"),
+        address_mode_u: wgpu::AddressMode::Repeat,
+        address_mode_v: wgpu::AddressMode::Repeat,
+        address_mode_w: wgpu::AddressMode::ClampToEdge,
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        mipmap_filter: wgpu::MipmapFilterMode::Linear,
+        ..Default::default()
+    })
+}
+
 fn target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })
 }
@@ -263,17 +278,7 @@ impl Pipelines {
             multiview_mask: None,
             cache: None,
         });
-        // Repeat in s and t (the texture tiles), clamp across the shell; trilinear.
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("volume"),
-            address_mode_u: wgpu::AddressMode::Repeat,
-            address_mode_v: wgpu::AddressMode::Repeat,
-            address_mode_w: wgpu::AddressMode::ClampToEdge,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            mipmap_filter: wgpu::MipmapFilterMode::Linear,
-            ..Default::default()
-        });
+        let sampler = volume_sampler(device);
         Self { scene_layout, first_layout, second_layout, inside, outside, shade, haze, sampler }
     }
 }

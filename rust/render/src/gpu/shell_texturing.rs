@@ -264,16 +264,7 @@ impl ShellTexturingRenderer {
             multiview_mask: None,
             cache: None,
         });
-        // Repeat in s and t (the texture tiles), clamp across the shell; trilinear.
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("volume"),
-            address_mode_u: wgpu::AddressMode::Repeat,
-            address_mode_v: wgpu::AddressMode::Repeat,
-            address_mode_w: wgpu::AddressMode::ClampToEdge,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            ..Default::default()
-        });
+        let sampler = super::pipeline::volume_sampler(device);
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("shell texturing globals"),
             size: std::mem::size_of::<Globals>() as u64,

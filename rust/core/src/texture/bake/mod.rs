@@ -242,14 +242,20 @@ fn mask_resolution(cells: usize, n: u32) -> usize {
 /// shows the textured shell (the renderers): the same cells, layers across the shell
 /// and moved-region mask as a bake of `params`.
 pub fn effects(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Effects> {
+    let (_, cells) = checked_cells(mesh, shell, textures, params)?;
+    let (n, heights, _, _) = lattice_steps(&cells.st, textures, params);
+    Ok(Effects::new(&cells.triangles, &cells.st, params, heights.len() - 1, mask_resolution(cells.triangles.len(), n)))
+}
+
+/// The bake's cells and their texture coordinates, once `params` are checked.
+fn checked_cells(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<(TextureCoordinates, TriangleCells)> {
     params.check(mesh, shell, textures)?;
     let coords = TextureCoordinates::of(mesh, params.tiling);
     if params.moved.is_some() && coords.per_face_tiles {
         return Err(Error::InvalidParameter("moving a texture region needs a UV map".into()));
     }
     let cells = TriangleCells::new(mesh, &coords);
-    let (n, heights, _, _) = lattice_steps(&cells.st, textures, params);
-    Ok(Effects::new(&cells.triangles, &cells.st, params, heights.len() - 1, mask_resolution(cells.triangles.len(), n)))
+    Ok((coords, cells))
 }
 
 /// Layer heights on the slices `k / (depth - 1)` of the deepest texture (where
@@ -269,12 +275,7 @@ fn texel_layers(textures: &[TextureLayer], m0: u32) -> Vec<f32> {
 
 impl Setup {
     fn new(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Self> {
-        params.check(mesh, shell, textures)?;
-        let coords = TextureCoordinates::of(mesh, params.tiling);
-        if params.moved.is_some() && coords.per_face_tiles {
-            return Err(Error::InvalidParameter("moving a texture region needs a UV map".into()));
-        }
-        let cells = TriangleCells::new(mesh, &coords);
+        let (coords, cells) = checked_cells(mesh, shell, textures, params)?;
         let (n, heights, block, texture_finer_than_lattice) = lattice_steps(&cells.st, textures, params);
         let lattice = Lattice::new(mesh, cells, n);
         let effects = Effects::new(&lattice.tris, &lattice.st, params, heights.len() - 1, mask_resolution(lattice.tris.len(), n));
