@@ -265,3 +265,29 @@ def test_the_operator_cancels_on_ctrl_c_with_a_report(scene, capfd):
     # And without Ctrl-C the operator finishes.
     assert bpy.ops.thicket.regenerate() == {"FINISHED"}
     assert not same(before, result)
+
+
+def test_a_reference_render_reports_its_rows_and_stops_when_cancelled(scene):
+    # The CPU reference render (what previews with holes, regions or cutters use)
+    # counts its rows; answering False stops it in the core with Cancelled.
+    sphere = add("uv_sphere", segments=32, ring_count=16)
+    a = mesh_io.read_mesh(sphere.data)
+    out = tn.shell(a.vertices, a.face_sizes, a.corners, 0.05, relative=True)
+    texture = tn.texture("chain_mail", (32, 32, 16))
+    view = np.array(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, -5), (0, 0, 0, 1)), np.float32)
+    projection = np.array(((2, 0, 0, 0), (0, 2, 0, 0), (0, 0, -1.02, -0.2), (0, 0, -1, 0)), np.float32)
+    args = (a.vertices, a.face_sizes, a.corners, out["base_offset"], out["directors"], [texture], view, projection, 96, 72)
+    seen = []
+    frame = tn.render_shell(*args, method="reference", progress=lambda f: seen.append(f))
+    assert seen[-1] == 1.0 and all(x <= y for x, y in zip(seen, seen[1:]))
+    assert (frame["rgba"][:, :, 3] > 0.5).mean() > 0.05
+    asked = []
+
+    def stop(fraction):
+        asked.append(fraction)
+        return len(asked) < 2  # answers False on the second call
+
+    big = args[:-2] + (640, 480)  # long enough for the callback's second call
+    with pytest.raises(tn.Cancelled):
+        tn.render_shell(*big, method="reference", step=0.01, progress=stop)
+    assert len(asked) >= 2 and max(asked) < 1.0

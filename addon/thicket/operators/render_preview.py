@@ -45,8 +45,7 @@ class THICKET_OT_render_preview(WatchedOperator, bpy.types.Operator):
     def invoke(self, context, event):
         self.use_view = context.region_data is not None and context.space_data is not None and context.space_data.type == "VIEW_3D"
         # The shells and the render run on a worker thread while Blender shows the
-        # progress; Esc cancels the shells (the native render itself cannot be
-        # stopped: a cancel during it takes effect when it returns).
+        # progress; Esc cancels them (a GPU frame once it is drawn).
         return self.run_watched(context, self._watch(context))
 
     def execute(self, context):

@@ -37,15 +37,15 @@ def render_inputs(obj, depsgraph=None, light=None):
     return source, items, light
 
 
-#: Share of a render's progress that its shells take; the native render has no
-#: progress callback of its own (nor a cancel check), so it is the rest in one step.
+#: Share of a render's progress that its shells take; the render takes the rest
+#: (rows of the CPU reference; a GPU frame in one step).
 SHELL_SHARE = 0.5
 
 
 def render_native(source, items, light, view, projection, width, height, method="auto", slices=16, mipmaps="double", progress=None):
     """`render_arrays` on what `render_inputs` read, without bpy (any thread).
-    `progress`: as in `evaluate_stack`, up to `SHELL_SHARE` over the shells, then 1.0
-    after the render; False cancels the shells, or the render before it starts."""
+    `progress`: as in `evaluate_stack`, up to `SHELL_SHARE` over the shells, the rest
+    over the render; False cancels either (a GPU frame once it is drawn)."""
     scaled = None if progress is None else (lambda f: progress(SHELL_SHARE * f))
     shell, _, textures, settings = texture_setup(source, items, scaled)
     if progress is not None and progress(SHELL_SHARE) is False:
@@ -55,6 +55,7 @@ def render_native(source, items, light, view, projection, width, height, method=
         base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures,
         view, projection, int(width), int(height), method=method, slices=int(slices),
         mipmaps=mipmaps, light=tuple(float(v) for v in light), **settings,
+        progress=None if progress is None else (lambda f: progress(SHELL_SHARE + (1.0 - SHELL_SHARE) * f)),
     )
     if progress is not None:
         progress(1.0)

@@ -9,11 +9,11 @@ use std::sync::Mutex;
 use thicket_core::glam::{Mat4, Vec3, Vec4};
 use thicket_render::gpu::{GpuRenderer, SliceMode, SliceParams};
 use thicket_render::mipmap::Mipmaps;
-use thicket_render::reference::{render, RenderParams};
+use thicket_render::reference::{render_watched, RenderParams};
 use thicket_core::texture::bake::effects as bake_effects;
 use thicket_render::{Camera, Frame, ShellScene};
 
-use crate::errors::{run_detached, to_py, ThicketError};
+use crate::errors::{run_detached, run_maybe_watched, to_py, ThicketError};
 
 /// Pixels the renderer accepts in one frame (16384 x 16384).
 const MAX_PIXELS: u64 = 1 << 28;
@@ -79,7 +79,8 @@ fn render_on_gpu(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> s
 ///              method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25,
 ///              step=0.05, mipmaps="double", resolution=8, layers=16,
 ///              region=None, base_layer=0.1, holes=None, cutter=None,
-///              move_region=None, move_offset=(0.0, 0.0), follow_texture=True) -> dict
+///              move_region=None, move_offset=(0.0, 0.0), follow_texture=True,
+///              progress=None) -> dict
 ///
 /// Renders the alpha = 0.5 iso-surface of volumetric textures mapped into a shell
 /// (layer r of vertex v at v + base_offset + r * director) without baking it.
@@ -102,8 +103,10 @@ fn render_on_gpu(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> s
 /// `move_region`, `move_offset` and `follow_texture` are `bake_texture`'s: the frame
 /// shows what the bake makes of them (partial region, holes, cut and moved texture).
 /// The slice renderer does not draw those yet, so "auto" renders them on the CPU.
+/// `progress`: as for `bake_texture` (rows of the CPU reference; a GPU frame is one
+/// step and is not interrupted); returning False cancels with `Cancelled`.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, view, projection, width, height, uvs=None, tiling=1.0, method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05, mipmaps="double", resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true))]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, view, projection, width, height, uvs=None, tiling=1.0, method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05, mipmaps="double", resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render_shell<'py>(
     py: Python<'py>,
@@ -134,6 +137,7 @@ pub fn render_shell<'py>(
     move_region: Option<&Bound<'py, PyAny>>,
     move_offset: (f32, f32),
     follow_texture: bool,
+    progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mipmaps = match mipmaps {
         "double" => Mipmaps::Double,
@@ -164,7 +168,7 @@ pub fn render_shell<'py>(
         SliceParams { slices, mode, light, ambient, mipmaps, ..Default::default() }.validate().map_err(to_py)?;
     }
     let auto = method == "auto";
-    let (frame, per_face_tiles, renderer, fallback) = run_detached(py, move || {
+    let (frame, per_face_tiles, renderer, fallback) = run_maybe_watched(py, progress.as_ref(), move |watch| {
         let camera = Camera::new(view, projection, width, height)?;
         let scene = inputs.run(|mesh, shell, layers, params| {
             let effects = bake_effects(mesh, shell, layers, params)?;
@@ -180,7 +184,7 @@ pub fn render_shell<'py>(
         };
         let reference = |why: String| -> thicket_core::Result<(Frame, String, String)> {
             let params = RenderParams { step, light, ambient, ..Default::default() };
-            Ok((render(&scene, &camera, &params)?, "CPU reference renderer".to_string(), why))
+            Ok((render_watched(&scene, &camera, &params, watch)?, "CPU reference renderer".to_string(), why))
         };
         let (frame, renderer, fallback) = match mode {
             None => reference(effects_note)?,

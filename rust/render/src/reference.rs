@@ -16,6 +16,7 @@
 
 use glam::{DMat4, DVec3, Mat3, Vec3};
 use rayon::prelude::*;
+use thicket_core::progress::Progress;
 use thicket_core::texture::CellMap;
 use thicket_core::{Error, Result};
 
@@ -67,6 +68,12 @@ impl RenderParams {
 /// Rays start on the near plane and end on the far plane, so a camera inside the shell
 /// sees what lies in front of it.
 pub fn render(scene: &ShellScene, camera: &Camera, params: &RenderParams) -> Result<Frame> {
+    render_watched(scene, camera, params, None)
+}
+
+/// [`render`], counting the rows rendered in `progress` and stopping with
+/// [`Error::Cancelled`] once it is cancelled (rows not yet started are skipped).
+pub fn render_watched(scene: &ShellScene, camera: &Camera, params: &RenderParams, progress: Option<&Progress>) -> Result<Frame> {
     params.validate()?;
     if camera.width == 0 || camera.height == 0 {
         return Err(Error::InvalidParameter(format!(
@@ -77,14 +84,28 @@ pub fn render(scene: &ShellScene, camera: &Camera, params: &RenderParams) -> Res
     let marcher = Marcher::new(scene, params)?;
     let rays = Rays::new(camera)?;
     let light = params.light.normalize();
-    Ok(Frame::from_pixels(camera.width, camera.height, Scratch::default, |scratch, x, y| {
+    if let Some(p) = progress {
+        p.start(camera.height as usize);
+    }
+    let last = camera.width as usize - 1;
+    let frame = Frame::from_pixels(camera.width, camera.height, Scratch::default, |scratch, x, y| {
+        if progress.is_some_and(Progress::is_cancelled) {
+            return None;
+        }
+        if let Some(p) = progress.filter(|_| x == last) {
+            p.step();
+        }
         let (origin, dir, t_far) = rays.ray(x, y)?;
         let hit = marcher.trace(origin, dir, t_far, scratch)?;
         let p = (origin + dir * hit.t).as_vec3();
         let n = if hit.normal.dot(dir.as_vec3()) > 0.0 { -hit.normal } else { hit.normal };
         let shade = params.ambient + (1.0 - params.ambient) * n.dot(light).max(0.0);
         Some(((params.albedo * shade).extend(1.0), camera.depth(p), n))
-    }))
+    });
+    match progress.is_some_and(Progress::is_cancelled) {
+        true => Err(Error::Cancelled),
+        false => Ok(frame),
+    }
 }
 
 /// Pixel rays, computed in double precision from the inverse view-projection (shared
