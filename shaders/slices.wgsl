@@ -59,6 +59,9 @@ struct Globals {
     mip: vec4<f32>,
     // The transparency chain's finest size (nx, ny, nz); w: the transition level.
     haze: vec4<f32>,
+    // x: 1 where the cells' region and hole weights apply (`effects`); y: the base
+    // slab's top in r; z: the layers across the shell (the slab's edge is one wide).
+    effects: vec4<f32>,
 };
 
 // A triangle prism: base corners with their s in w, directors with their t in w.
@@ -99,6 +102,15 @@ struct Neighbours {
 const NO_NEIGHBOUR: f32 = 3.0e38;
 
 @group(0) @binding(5) var<storage, read> neighbours: array<Neighbours>;
+
+// The stack's per-vertex effects at a cell's corners (thick surfaces, figure 3.3 and
+// chapter 7.3), as `texture::bake::Effects` applies them on the CPU: where the
+// texture is (region; elsewhere a base slab) and what holes cut away.
+struct CellEffects {
+    region: vec4<f32>,
+    holes: vec4<f32>,
+};
+@group(0) @binding(12) var<storage, read> effects: array<CellEffects>;
 
 // T1: bitcast (u, v, r) of the nearest inside fragment, w = (cell + 1) * 8 + face
 // (0: empty pixel). Z1: its depth along the view axis.
@@ -190,6 +202,50 @@ fn sample_union(tex: vec3<f32>, lod: f32) -> vec4<f32> {
     return best;
 }
 
+// A corner weight at barycentric w: the corners' value where they agree (exact, as
+// on the CPU), else interpolated.
+fn corner_weight(corners: vec3<f32>, w: vec3<f32>) -> f32 {
+    if corners.x == corners.y && corners.y == corners.z {
+        return corners.x;
+    }
+    return clamp(dot(corners, w), 0.0, 1.0);
+}
+
+// The stack's effects on the texture's (gradient, alpha) `v` at parameters q of
+// `cell`: alpha = kept * (presence * texture + (1 - presence) * base slab); the
+// gradient (texture space) blended alike, the weights' own variation left out.
+fn with_effects(cell: u32, q: vec3<f32>, v: vec4<f32>) -> vec4<f32> {
+    if globals.effects.x < 0.5 {
+        return v;
+    }
+    let e = effects[cell];
+    let w = barycentric(q);
+    let presence = corner_weight(e.region.xyz, w);
+    let kept = 1.0 - corner_weight(e.holes.xyz, w);
+    let raw = (globals.effects.y - q.z) * globals.effects.z + 0.5;
+    let base = clamp(raw, 0.0, 1.0);
+    let base_slope = select(0.0, -globals.effects.z, raw > 0.0 && raw < 1.0);
+    let alpha = kept * (presence * v.a + (1.0 - presence) * base);
+    let gradient = kept * (presence * v.xyz + (1.0 - presence) * vec3<f32>(0.0, 0.0, base_slope));
+    return vec4<f32>(gradient, alpha);
+}
+
+// The share of the texture the effects let show at q of `cell` (presence times what
+// the holes keep); the transparency pass draws far textures only, not the base slab.
+fn texture_share(cell: u32, q: vec3<f32>) -> f32 {
+    if globals.effects.x < 0.5 {
+        return 1.0;
+    }
+    let e = effects[cell];
+    let w = barycentric(q);
+    return corner_weight(e.region.xyz, w) * (1.0 - corner_weight(e.holes.xyz, w));
+}
+
+// The texture union with the stack's effects at parameters q of `cell`.
+fn cell_sample(cell: u32, c: Cell, q: vec3<f32>, lod: f32) -> vec4<f32> {
+    return with_effects(cell, q, sample_union(cell_texture(c, q), lod));
+}
+
 // d world / d(u, v, r) at q.
 fn cell_jacobian(c: Cell, q: vec3<f32>) -> mat3x3<f32> {
     let w = barycentric(q);
@@ -269,8 +325,9 @@ struct FirstHit {
 @fragment
 fn fs_inside(v: SliceVarying) -> FirstHit {
     let q = fragment_param(v);
-    let c = cells[v.code / 8u - 1u];
-    if sample_union(cell_texture(c, q), cell_lod(c, v.view_depth)).a < 0.5 {
+    let cell = v.code / 8u - 1u;
+    let c = cells[cell];
+    if cell_sample(cell, c, q, cell_lod(c, v.view_depth)).a < 0.5 {
         discard;
     }
     return FirstHit(vec4<u32>(bitcast<vec3<u32>>(q), v.code), v.view_depth);
@@ -281,8 +338,9 @@ fn fs_inside(v: SliceVarying) -> FirstHit {
 @fragment
 fn fs_outside(v: SliceVarying) -> @location(0) vec4<f32> {
     let q = fragment_param(v);
-    let c = cells[v.code / 8u - 1u];
-    if sample_union(cell_texture(c, q), cell_lod(c, v.view_depth)).a >= 0.5 {
+    let cell = v.code / 8u - 1u;
+    let c = cells[cell];
+    if cell_sample(cell, c, q, cell_lod(c, v.view_depth)).a >= 0.5 {
         discard;
     }
     let px = vec2<i32>(floor(v.position.xy));
@@ -346,7 +404,8 @@ fn alpha_across(cell: u32, face: u32, q: vec3<f32>, lod: f32) -> f32 {
         case FACE_V0: { t = w.y / (w.x + w.y); } // corner 0 to corner 1
         default: { t = w.z / (w.y + w.z); } // FACE_W0: corner 1 to corner 2
     }
-    return sample_union(vec3<f32>(mix(n.xy, n.zw, t), q.z), lod).a;
+    // The per-vertex weights are the same on both sides of the face.
+    return with_effects(cell, q, sample_union(vec3<f32>(mix(n.xy, n.zw, t), q.z), lod)).a;
 }
 
 // Unit direction of the ray through the pixel centre at `frag` (window coordinates).
@@ -394,7 +453,7 @@ fn shade_surface(position: vec4<f32>) -> Shaded {
     var on_face = false;
     if face != 0u {
         let nf = cell_frame(cell, q) * face_gradient(face);
-        if dot(nf, dir) < 0.0 && sample_union(cell_texture(c, q), lod).a - alpha_across(cell, face, q, lod) > 0.25 {
+        if dot(nf, dir) < 0.0 && cell_sample(cell, c, q, lod).a - alpha_across(cell, face, q, lod) > 0.25 {
             on_face = true;
             n = nf;
         }
@@ -404,8 +463,8 @@ fn shade_surface(position: vec4<f32>) -> Shaded {
             let second = textureLoad(second_hit, px, 0);
             if second.w > 0.0 {
                 // t3 = ((a1 - 1/2) t2 - (a2 - 1/2) t1) / (a1 - a2), chapter 5.3.2.
-                let a1 = sample_union(cell_texture(c, q), lod).a;
-                let a2 = sample_union(cell_texture(c, second.xyz), lod).a;
+                let a1 = cell_sample(cell, c, q, lod).a;
+                let a2 = cell_sample(cell, c, second.xyz, lod).a;
                 if a1 > a2 {
                     let l = clamp((a1 - 0.5) / (a1 - a2), 0.0, 1.0);
                     q = mix(q, second.xyz, l);
@@ -415,7 +474,7 @@ fn shade_surface(position: vec4<f32>) -> Shaded {
         }
         // d alpha / d(s, t, r) to d alpha / d(u, v, r): the transpose of the cell's
         // constant texture Jacobian.
-        let g = sample_union(cell_texture(c, q), lod).xyz;
+        let g = cell_sample(cell, c, q, lod).xyz;
         n = -(cell_frame(cell, q) * texture_to_cell(c, g));
     }
     let len = length(n);
@@ -546,7 +605,7 @@ fn fs_haze(v: SliceVarying) -> @location(0) vec4<f32> {
     let per_row = log2(max(1.0 - sampled.w, 1e-6)) / level_dims.z;
     let log_through = vec3<f32>(log2(max(vec2<f32>(1.0) - sampled.xy, vec2<f32>(1e-6))), per_row);
     let through = exp2(crossings * log_through);
-    let opacity = clamp(1.0 - through.x * through.y * through.z, 0.0, 1.0);
+    let opacity = clamp(1.0 - through.x * through.y * through.z, 0.0, 1.0) * texture_share(cell, q);
     if opacity < 1.0 / 512.0 {
         discard;
     }

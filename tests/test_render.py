@@ -110,7 +110,8 @@ def test_the_preview_shows_holes_regions_and_cutters_as_cycles_shows_the_bake(sc
     view, projection = camera.scene_camera(scene, bpy.context.evaluated_depsgraph_get(), sphere, width, height)
     out = preview.render_arrays(sphere, view, projection, width, height)
     ours = out["rgba"][:, :, 3] > 0.5
-    assert "CPU" in out["renderer"], out["renderer"]  # the slice renderer does not draw effects yet
+    # The slice renderer draws regions and holes; a cutter is drawn on the CPU.
+    assert ("CPU" in out["renderer"]) == (effect == "cutter"), out["renderer"]
     # Without the effect the preview shows more than the bake does.
     item.cutter, item.hole_group, item.vertex_group = None, "", ""
     plain = preview.render_arrays(sphere, view, projection, width, height, method="reference")["rgba"][:, :, 3] > 0.5
@@ -178,12 +179,16 @@ def test_live_preview_worker_renders_off_the_main_thread(scene, tmp_path):
     projection = np.array(((2, 0, 0, 0), (0, 2, 0, 0), (0, 0, -1.02, -0.2), (0, 0, -1, 0)), np.float32)
     base = shell.base
     args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures, view, projection, 40, 30)
-    state = {"busy": True, "result": None}
-    worker = threading.Thread(target=overlay._work, args=(state, args, settings))
+    state = {"busy": True, "result": None, "want": "this render"}
+    worker = threading.Thread(target=overlay._work, args=(state, "this render", args, settings))
     worker.start()
     worker.join(60)
     assert not state["busy"] and state["result"].shape == (30, 40, 4)
     assert (state["result"][:, :, 3] > 0.5).mean() > 0.1
+    # A render the view no longer wants (it moved on) stops and leaves no image.
+    stale = {"busy": True, "result": None, "want": "the view moved", "key": "old"}
+    overlay._work(stale, "old", args, settings)
+    assert not stale["busy"] and stale["result"] is None and stale["key"] is None
 
 
 def test_gpu_slices_agree_with_the_reference_in_blender(scene, tmp_path):

@@ -161,9 +161,9 @@ def render_preview(obj, path=None, width=None, height=None, method="auto", slice
     `mipmaps`: "double" (far detail turns semi-transparent instead of vanishing),
     "linear" or "off". `path`:
     also written to a file: .exr (colour, alpha, depth and normal layers) or .png.
-    `progress`: see the module docs; it covers the shells (cancellable) and then the
-    native render in one step (it has no progress of its own and cannot be stopped:
-    a cancel during it takes effect when it returns, before the image is written)."""
+    `progress`: see the module docs; it covers the shells and then the render (rows
+    of the CPU reference; a GPU frame in one step, dropped when cancelled while drawn),
+    both cancellable."""
     from .render import camera, preview
 
     _require_mesh(obj)

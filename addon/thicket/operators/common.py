@@ -109,10 +109,9 @@ class JobWatch:
     the operator's status; `fail(exc)` does the same for an error the user should
     see (default: an ERROR report); a cancel is reported here and changes nothing."""
 
-    def __init__(self, job, label, report, finish, fail=None, expected=()):
+    def __init__(self, job, label, report, finish, fail=None):
         self.job, self.label, self.report, self.finish = job, label, report, finish
         self.fail = fail or (lambda exc: self.report({"ERROR"}, f"{label}: {error_text(exc)}") or {"CANCELLED"})
-        self.expected = tuple(expected)  # errors for `fail` besides `user_errors()`
         self._timer = None
 
     def start_modal(self, context, operator):
@@ -137,7 +136,7 @@ class JobWatch:
             if not self.job.cancelled:
                 self._status(context, f"{self.label}: {self.job.fraction:.0%} (Esc to cancel)")
             return {"RUNNING_MODAL"}
-        self._stop(context)
+        self.stop(context)
         return self.conclude()
 
     def run_blocking(self, context):
@@ -152,11 +151,11 @@ class JobWatch:
         except cancel_errors():
             self.report({"WARNING"}, f"{self.label}: cancelled; nothing was changed")
             return {"CANCELLED"}
-        except user_errors() + self.expected as exc:
+        except Exception as exc:  # user errors and the unexpected alike: reported, never raised into Blender
             return self.fail(exc)
         return self.finish(result)
 
-    def _stop(self, context):
+    def stop(self, context):
         wm = context.window_manager
         if self._timer is not None:
             wm.event_timer_remove(self._timer)
@@ -184,6 +183,12 @@ class WatchedOperator:
 
     def modal(self, context, event):
         return self._running.event(context, event.type, event.value)
+
+    def cancel(self, context):
+        """Blender ended the modal itself (a file loaded, the window closed): stop the
+        work and clear the progress bar and status."""
+        self._running.job.cancel()
+        self._running.stop(context)
 
 
 def active_source(context):

@@ -24,7 +24,7 @@ class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):
             return self.execute(context)
         # Interactive: the stack evaluates on a worker thread while Blender shows the
         # progress; Esc cancels. Bakes over "Ask Above" wait for the user's OK.
-        return self.run_watched(context, self._watch(context, ask=not self.confirmed))
+        return self.run_watched(context, self._watch(context, ask=not self.confirmed, fresh=not self.confirmed))
 
     def draw(self, context):
         self.layout.label(text=f"This bake makes about {self.estimate:,} triangles.", icon="ERROR")
@@ -38,21 +38,24 @@ class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):
         watch = self._watch(context, ask=False)
         return {"CANCELLED"} if watch is None else watch.run_blocking(context)
 
-    def _watch(self, context, ask):
-        return watched_regeneration(context, active_stack_source(context), ask, self.report)
+    def _watch(self, context, ask, fresh=True):
+        return watched_regeneration(context, active_stack_source(context), ask, self.report, fresh)
 
 
-def watched_regeneration(context, obj, ask, report):
+def watched_regeneration(context, obj, ask, report, fresh=True):
     """The regeneration of `obj` as a watched job (None when its source cannot be
     read, reported): the source is read here (main thread), the stack evaluates in the
-    job, the result is written only when it succeeded and was not cancelled."""
+    job, the result is written only when it succeeded and was not cancelled. `fresh`:
+    shells are built anew (not after a large-bake confirmation: the run that asked
+    has just built them)."""
     name = obj.name
     try:
         arrays, items = read_source(obj, context.evaluated_depsgraph_get())
     except (KeyError, TypeError, ValueError) as exc:
         _failed(obj, exc, report)
         return None
-    live_shells.clear()  # built from scratch, as asked for
+    if fresh:
+        live_shells.clear()  # built from scratch, as asked for
     job = Job(lambda job: evaluate_stack(arrays, items, job.progress, ask))
 
     def finish(result_arrays):
@@ -70,7 +73,7 @@ def watched_regeneration(context, obj, ask, report):
             return {"CANCELLED"}
         return _failed(bpy.data.objects.get(name), exc, report)
 
-    return JobWatch(job, f"Regenerating '{name}'", report, finish, fail, expected=(BakeNeedsConfirmation,))
+    return JobWatch(job, f"Regenerating '{name}'", report, finish, fail)
 
 
 def _failed(obj, exc, report):

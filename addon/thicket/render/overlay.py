@@ -18,7 +18,7 @@ from . import camera, lights
 THROTTLE = 0.25
 SCALE = 0.5
 
-_state = {"handle": None, "views": {}, "prepared": None, "error": "", "generation": 0}
+_state = {"handle": None, "views": {}, "prepared": None, "error": "", "note": "", "generation": 0}
 
 
 def is_enabled():
@@ -37,7 +37,7 @@ def disable():
     if _state["handle"] is not None:
         bpy.types.SpaceView3D.draw_handler_remove(_state["handle"], "WINDOW")
     unwatch()
-    _state.update(handle=None, views={}, prepared=None, error="")
+    _state.update(handle=None, views={}, prepared=None, error="", note="")
     if bpy.app.timers.is_registered(_tick):
         bpy.app.timers.unregister(_tick)
     _redraw_all()
@@ -72,13 +72,24 @@ def generation():
     return _state["generation"]
 
 
+def _plain(value):
+    """A property value as plain, comparable data (an ID by its name)."""
+    if isinstance(value, bpy.types.ID):
+        return value.name
+    if hasattr(value, "__len__") and not isinstance(value, str):
+        return tuple(value)
+    return value
+
+
 def content_key(obj):
     """What `obj`'s preview shows, besides the view and the object's placement: its
-    stack settings and the changes of its result seen so far."""
-    from ..stack.regenerate import enabled_settings
-
-    settings = repr([(type(i).__name__, {k: v for k, v in vars(i).items() if k != "cutter"}) for i in enabled_settings(obj)])
-    return (obj.name, settings, _state["generation"])
+    stack items' properties (read as stored, without reading a cutter's mesh: its
+    changes count in `generation`) and the changes of its result seen so far."""
+    items = tuple(
+        tuple((name, _plain(getattr(item, name))) for name in item.bl_rna.properties.keys() if name != "rna_type")
+        for item in obj.thicket.items
+    )
+    return (obj.name, items, _state["generation"])
 
 
 def _redraw_all():
@@ -122,6 +133,7 @@ def _tick():
     if obj is None:
         return 0.5
     now = time.monotonic()
+    placed, content = tuple(map(tuple, obj.matrix_world)), content_key(obj)
     for window in bpy.context.window_manager.windows:
         for area in window.screen.areas:
             if area.type != "VIEW_3D":
@@ -132,7 +144,8 @@ def _tick():
                 continue
             view = _state["views"].setdefault(area.as_pointer(), {"key": None, "busy": False, "last": 0.0, "result": None, "texture": None})
             width, height = max(1, int(region.width * SCALE)), max(1, int(region.height * SCALE))
-            key = (tuple(map(tuple, r3d.view_matrix)), tuple(map(tuple, r3d.window_matrix)), width, height, tuple(map(tuple, obj.matrix_world)), content_key(obj))
+            key = (tuple(map(tuple, r3d.view_matrix)), tuple(map(tuple, r3d.window_matrix)), width, height, placed, content)
+            view["want"] = key  # a render for another key stops (see `_work`)
             if view["result"] is not None:
                 _upload(view)
                 area.tag_redraw()
@@ -150,15 +163,19 @@ def _tick():
             base = shell.base
             args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures, v, p, width, height)
             kwargs = dict(settings, light=light)
-            threading.Thread(target=_work, args=(view, args, kwargs), daemon=True).start()
+            threading.Thread(target=_work, args=(view, key, args, kwargs), daemon=True).start()
     return 0.1
 
 
-def _work(view, args, kwargs):
+def _work(view, key, args, kwargs):
+    """Renders for `key`; stops (keeping the last image) once the view wants another."""
+    tn = native.get()
     try:
-        out = native.get().render_shell(*args, **kwargs)
+        out = tn.render_shell(*args, **kwargs, progress=lambda _: view.get("want") == key)
         view["result"] = out["rgba"]
-        _state["error"] = out["fallback"]
+        _state["error"], _state["note"] = "", out["fallback"]
+    except tn.Cancelled:
+        view["key"] = None  # rendered again for what the view wants now
     except Exception as exc:  # reported in the view
         _state["error"] = str(exc)
     finally:
@@ -192,7 +209,8 @@ def _draw():
         shader.uniform_sampler("image", view["texture"])
         batch.draw(shader)
         gpu.state.blend_set("NONE")
-    if _state["error"]:
+    line = _state["error"] or _state["note"]
+    if line:
         blf.position(0, 20, 30, 0)
         blf.size(0, 13)
-        blf.draw(0, f"Thicket preview: {_state['error']}")
+        blf.draw(0, f"Thicket preview: {line}" if _state["error"] else f"Thicket preview ({line})")

@@ -75,28 +75,30 @@ def changed_sources(scene, depsgraph, is_source=_is_source):
     """The objects passing `is_source` whose result this depsgraph update changes: those
     whose geometry changed (mesh edits, modifiers, vertex groups, shape keys), and
     those whose Volumetric Texture cuts with an object that moved or changed. Each
-    once, though an update can name a source twice (its object and its mesh)."""
+    once, though an update can name a source twice (its object and its mesh). The
+    scene's stacks are looked up once per call (nothing to do without any)."""
+    stacks = [obj for obj in scene.objects if obj.type == "MESH" and len(obj.thicket.items) > 0 and is_source(obj)]
+    if not stacks:
+        return []
+    by_object = {obj.as_pointer(): [obj] for obj in stacks}
+    by_mesh, by_cutter = {}, {}
+    for obj in stacks:
+        by_mesh.setdefault(obj.data.as_pointer(), []).append(obj)
+        for item in obj.thicket.items:
+            if item.kind == "VOLUMETRIC_TEXTURE" and item.cutter is not None and item.cutter != obj:
+                by_cutter.setdefault(item.cutter.as_pointer(), []).append(obj)
     sources = []
-
-    def add(obj):
-        if is_source(obj) and obj not in sources:
-            sources.append(obj)
-
     for update in depsgraph.updates:
         original = update.id.original
+        found = []
         if isinstance(original, bpy.types.Object) and (update.is_updated_geometry or update.is_updated_transform):
-            # A cutter moved or changed: its sources cut again.
-            for obj in scene.objects:
-                if obj != original and obj.type == "MESH" and any(i.cutter == original for i in obj.thicket.items if i.kind == "VOLUMETRIC_TEXTURE"):
-                    add(obj)
-        if not update.is_updated_geometry:
-            continue
-        if isinstance(original, bpy.types.Object):
-            add(original)
-        elif isinstance(original, bpy.types.Mesh):
-            for obj in scene.objects:
-                if obj.data == original:
-                    add(obj)
+            found += by_cutter.get(original.as_pointer(), [])  # a cutter moved or changed
+        if update.is_updated_geometry:
+            if isinstance(original, bpy.types.Object):
+                found += by_object.get(original.as_pointer(), [])
+            elif isinstance(original, bpy.types.Mesh):
+                found += by_mesh.get(original.as_pointer(), [])
+        sources.extend(obj for obj in found if obj not in sources)
     return sources
 
 

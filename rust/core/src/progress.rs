@@ -71,15 +71,17 @@ mod tests {
         let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
         let progress = Progress::default();
         let seen = std::sync::Mutex::new(Vec::new());
+        let finished = std::sync::atomic::AtomicBool::new(false);
         let shell = std::thread::scope(|s| {
             let watcher = s.spawn(|| loop {
                 seen.lock().unwrap().push(progress.fraction());
                 std::thread::sleep(std::time::Duration::from_micros(200));
-                if progress.fraction() >= 1.0 {
+                if progress.fraction() >= 1.0 || finished.load(std::sync::atomic::Ordering::Acquire) {
                     break;
                 }
             });
             let shell = build_shell_watched(&mesh, &t, Side::Envelope, &ShellParams::default(), Some(&progress));
+            finished.store(true, std::sync::atomic::Ordering::Release); // a failed build ends the watch too
             watcher.join().unwrap();
             shell.unwrap()
         });
@@ -100,9 +102,8 @@ mod tests {
                 while progress.fraction() < 0.05 {
                     std::thread::yield_now();
                 }
-                let at = progress.fraction();
                 progress.cancel();
-                at
+                progress.fraction()
             });
             let result = build_shell_watched(&mesh, &t, Side::Exterior, &ShellParams::default(), Some(&progress));
             (result, canceller.join().unwrap())

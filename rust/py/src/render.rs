@@ -102,7 +102,8 @@ fn render_on_gpu(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> s
 /// used, or ""). `resolution`, `layers`, `region`, `base_layer`, `holes`, `cutter`,
 /// `move_region`, `move_offset` and `follow_texture` are `bake_texture`'s: the frame
 /// shows what the bake makes of them (partial region, holes, cut and moved texture).
-/// The slice renderer does not draw those yet, so "auto" renders them on the CPU.
+/// The slice renderer draws regions and holes; "auto" renders a cutter or a moved
+/// region on the CPU (the slice methods ignore those two).
 /// `progress`: as for `bake_texture` (rows of the CPU reference; a GPU frame is one
 /// step and is not interrupted); returning False cancels with `Cancelled`.
 #[pyfunction]
@@ -174,14 +175,16 @@ pub fn render_shell<'py>(
             let effects = bake_effects(mesh, shell, layers, params)?;
             Ok(ShellScene::new(mesh, shell, layers.to_vec(), tiling)?.with_effects(effects))
         })?;
-        // The slice renderer draws the textures as placed: a stack that blends, moves or
-        // cuts them is drawn by the reference, which applies what the bake applies.
-        let mode = if auto && !scene.effects.is_none() { None } else { mode };
-        let effects_note = if mode.is_none() && auto && !scene.effects.is_none() {
-            "the stack has a region, holes, a cutter or a moved region, which the GPU slice renderer does not draw yet; rendered on the CPU".to_string()
-        } else {
-            String::new()
-        };
+        // The slice renderer draws regions and holes (per-vertex weights); a cutter or
+        // a moved region is drawn by the reference, which applies what the bake applies.
+        let gpu_cannot = !scene.effects.per_vertex_only();
+        let mode = if auto && gpu_cannot { None } else { mode };
+        let effects_note = match (auto, mode.is_some() && gpu_cannot) {
+            (true, _) if gpu_cannot => "the stack has a cutter or a moved region, which the GPU slice renderer does not draw yet; rendered on the CPU",
+            (false, true) => "the slice renderer does not draw the stack's cutter or moved region (Reference or Automatic does)",
+            _ => "",
+        }
+        .to_string();
         let reference = |why: String| -> thicket_core::Result<(Frame, String, String)> {
             let params = RenderParams { step, light, ambient, ..Default::default() };
             Ok((render_watched(&scene, &camera, &params, watch)?, "CPU reference renderer".to_string(), why))
@@ -191,12 +194,16 @@ pub fn render_shell<'py>(
             Some(mode) => {
                 let params = SliceParams { slices, mode, light, ambient, mipmaps, ..Default::default() };
                 match render_on_gpu(&scene, &camera, &params) {
-                    Ok((frame, name)) => (frame, format!("GPU slice renderer on {name}"), String::new()),
+                    Ok((frame, name)) => (frame, format!("GPU slice renderer on {name}"), effects_note),
                     Err(why) if auto => reference(format!("the GPU slice renderer is unavailable ({why}); rendered on the CPU instead"))?,
                     Err(why) => return Err(thicket_core::Error::InvalidParameter(format!("the GPU slice renderer failed: {why}"))),
                 }
             }
         };
+        // A GPU frame is not interrupted; one cancelled while it was drawn is dropped.
+        if watch.is_some_and(|w| w.is_cancelled()) {
+            return Err(thicket_core::Error::Cancelled);
+        }
         Ok((frame, scene.per_face_tiles, renderer, fallback))
     })?;
     let (w, h) = (frame.width as usize, frame.height as usize);

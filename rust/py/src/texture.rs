@@ -196,7 +196,7 @@ impl BakeInputs {
 /// (thin features may be lost). `progress`: a callable given the share of cells baked
 /// (0 to 1) about ten times a second; returning False cancels the bake (as does an
 /// exception from it, raised once the bake stops, or Ctrl-C), which then raises
-/// ThicketError("cancelled").
+/// thicket_native.Cancelled (a ThicketError, message "cancelled").
 #[pyfunction]
 #[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true, triangle_budget=1_000_000, max_triangles=20_000_000, progress=None))]
 #[allow(clippy::too_many_arguments)]

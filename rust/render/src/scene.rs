@@ -51,6 +51,7 @@ impl ShellScene {
     /// The scene with the stack's effects ([`thicket_core::texture::bake::effects`]
     /// of the same mesh, textures and settings as the bake).
     pub fn with_effects(self, effects: Effects) -> Self {
+        debug_assert!(effects.is_none() || self.cells.iter().all(|c| c.count == 3), "effects are made for triangle cells");
         Self { effects, ..self }
     }
 

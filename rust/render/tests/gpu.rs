@@ -506,3 +506,37 @@ fn united_layers_keep_far_views_too() {
     assert!((double - truth).abs() < 0.25 * truth, "{double} vs {truth}");
     assert!(linear < double && error[2] < error[1], "{coverage:?} {error:?}");
 }
+
+/// Regions and holes (per-vertex effects) drawn by the slice renderer as the bake and
+/// the reference apply them (`texture::bake::Effects`): the texture cut away where the
+/// holes are, the base slab where the region is not. Each effect changes the image.
+#[test]
+fn regions_and_holes_match_the_reference() {
+    use thicket_core::texture::bake::effects;
+    use thicket_core::texture::BakeParams;
+    let mesh = tm::icosphere(3);
+    let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+    let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    let slab = VolumeTexture::from_fn([8, 8, 17], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap();
+    let layers = layer(slab);
+    let upper: Vec<f32> = mesh.positions().iter().map(|p| if p.z > 0.2 { 1.0 } else { 0.0 }).collect();
+    let camera = perspective(Vec3::new(0.4, -4.0, 0.6), Vec3::ZERO, 0.8, 96);
+    let plain = ShellScene::new(&mesh, &shell, layers.clone(), 1.0).unwrap();
+    let mut r = renderer();
+    let plain_frame = r.render(&plain, &camera, &slice_params(16, SliceMode::Interpolating)).unwrap();
+    let cases = [
+        ("holes", BakeParams { holes: Some(upper.clone()), ..Default::default() }),
+        ("region", BakeParams { region: Some(upper.iter().map(|w| 1.0 - w).collect()), ..Default::default() }),
+        ("holes and region", BakeParams { holes: Some(upper.iter().map(|w| 0.5 * w).collect()), region: Some(vec![0.6; upper.len()]), ..Default::default() }),
+    ];
+    for (name, params) in cases {
+        let scene = ShellScene::new(&mesh, &shell, layers.clone(), 1.0).unwrap().with_effects(effects(&mesh, &shell, &layers, &params).unwrap());
+        let reference = reference::render(&scene, &camera, &RenderParams { step: 0.02, ..Default::default() }).unwrap();
+        let frame = r.render(&scene, &camera, &slice_params(16, SliceMode::Interpolating)).unwrap();
+        let s = score(&frame, &reference);
+        let unchanged = score(&plain_frame, &reference);
+        eprintln!("{name}: {s:?}; the plain image against it: {unchanged:?}");
+        assert!(s.iou > 0.97 && s.psnr > 18.0, "{name}: {s:?}");
+        assert!(unchanged.iou < s.iou - 0.02, "{name}: the effect must show: {unchanged:?} vs {s:?}");
+    }
+}

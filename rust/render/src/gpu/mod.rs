@@ -29,6 +29,8 @@ pub mod slices;
 
 use std::time::{Duration, Instant};
 
+use bytemuck::Zeroable;
+
 use glam::{DMat4, DVec4, Vec3};
 use thicket_core::texture::bake::TextureLayer;
 use thicket_core::texture::CellMap;
@@ -41,7 +43,7 @@ use crate::mipmap::{Level, MipmapSet, Mipmaps};
 use crate::scene::ShellScene;
 use device::Gpu;
 use passes::{Draws, HazeDraws, Targets};
-use pipeline::{Globals, Pipelines, HAZE_BINDINGS, LAYER_BINDINGS, MAX_LAYERS};
+use pipeline::{Globals, Pipelines, EFFECTS_BINDING, HAZE_BINDINGS, LAYER_BINDINGS, MAX_LAYERS};
 use scene_data::{GpuCell, GpuFrames};
 use slices::{Eye, Family, Templates};
 
@@ -131,13 +133,14 @@ struct SceneResources {
     cells: Vec<CellMap>,
     layers: Vec<TextureLayer>,
     mipmaps: Mipmaps,
+    effects: Vec<scene_data::GpuEffects>,
     /// Transparency chain: finest size, transition level and layers drawn (§6.5.2).
     haze_dims: [usize; 3],
     transition: u32,
     haze_layers: u32,
     group: wgpu::BindGroup,
     // Kept alive for the bind group.
-    _buffers: [wgpu::Buffer; 3],
+    _buffers: [wgpu::Buffer; 4],
     _volumes: Vec<wgpu::Texture>,
 }
 
@@ -312,7 +315,7 @@ impl GpuRenderer {
         if let Some(s) = &self.scene {
             let same_layers = s.layers.len() == scene.textures.len()
                 && s.layers.iter().zip(&scene.textures).all(|(a, b)| a.offset == b.offset && a.texture == b.texture);
-            if same_layers && s.cells == scene.cells && s.mipmaps == mipmaps {
+            if same_layers && s.cells == scene.cells && s.mipmaps == mipmaps && s.effects == scene_data::effects(scene) {
                 return;
             }
         }
@@ -330,6 +333,10 @@ impl GpuRenderer {
         let cell_buffer = storage("cells", bytemuck::cast_slice(&cells));
         let frame_buffer = storage("cell frames", bytemuck::cast_slice(&frames));
         let neighbour_buffer = storage("neighbours", bytemuck::cast_slice(&scene_data::neighbours(&scene.cells)));
+        let effects = scene_data::effects(scene);
+        // A storage buffer may not be empty: one unused element without effects.
+        let unused = [scene_data::GpuEffects::zeroed()];
+        let effect_buffer = storage("effects", bytemuck::cast_slice(if effects.is_empty() { &unused[..] } else { &effects[..] }));
         let set = MipmapSet::build(&scene.textures, mipmaps);
         let mut volumes: Vec<wgpu::Texture> = set
             .occupancy
@@ -345,6 +352,7 @@ impl GpuRenderer {
             wgpu::BindGroupEntry { binding: 2, resource: frame_buffer.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&self.pipelines.sampler) },
             wgpu::BindGroupEntry { binding: 5, resource: neighbour_buffer.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: EFFECTS_BINDING, resource: effect_buffer.as_entire_binding() },
         ];
         // The slots past the last layer hold layer 0 again; the shaders skip them.
         for (k, binding) in LAYER_BINDINGS.iter().enumerate() {
@@ -367,11 +375,12 @@ impl GpuRenderer {
             cells: scene.cells.clone(),
             layers: scene.textures.clone(),
             mipmaps,
+            effects,
             haze_dims,
             transition: set.transition,
             haze_layers,
             group,
-            _buffers: [cell_buffer, frame_buffer, neighbour_buffer],
+            _buffers: [cell_buffer, frame_buffer, neighbour_buffer, effect_buffer],
             _volumes: volumes,
         });
     }
@@ -606,5 +615,10 @@ fn globals(
             haze_layers as f32,
         ],
         haze: [haze_dims[0] as f32, haze_dims[1] as f32, haze_dims[2] as f32, transition as f32],
+        effects: {
+            let drawn = !scene.effects.is_none() && scene.effects.per_vertex_only();
+            let (top, layers) = scene.effects.base_slab();
+            [if drawn { 1.0 } else { 0.0 }, top, layers, 0.0]
+        },
     }
 }

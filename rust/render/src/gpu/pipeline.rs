@@ -30,6 +30,9 @@ pub const LAYER_BINDINGS: [u32; MAX_LAYERS] = [3, 6, 7, 8];
 /// alpha, the ellipsoids' diagonal and off-diagonal entries.
 pub const HAZE_BINDINGS: [u32; 3] = [9, 10, 11];
 
+/// The binding of the cells' effects (region and hole weights) in group 0.
+pub const EFFECTS_BINDING: u32 = 12;
+
 /// `Globals` in the shader.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
@@ -49,6 +52,9 @@ pub struct Globals {
     pub mip: [f32; 4],
     /// The transparency chain's finest size and its transition level.
     pub haze: [f32; 4],
+    /// Per-vertex effects drawn (1 or 0), the base slab's top in `r` and the layers
+    /// across the shell ([`super::scene_data::GpuEffects`]).
+    pub effects: [f32; 4],
 }
 
 pub struct Pipelines {
@@ -137,6 +143,7 @@ impl Pipelines {
                 entry(2, wgpu::ShaderStages::FRAGMENT, storage()),
                 entry(4, wgpu::ShaderStages::FRAGMENT, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
                 entry(5, wgpu::ShaderStages::FRAGMENT, storage()),
+                entry(EFFECTS_BINDING, wgpu::ShaderStages::FRAGMENT, storage()),
                 volume(LAYER_BINDINGS[0]),
                 volume(LAYER_BINDINGS[1]),
                 volume(LAYER_BINDINGS[2]),

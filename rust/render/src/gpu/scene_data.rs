@@ -48,6 +48,30 @@ impl GpuFrames {
     }
 }
 
+/// `CellEffects` in the shader: the region and hole weights at a cell's three corners
+/// (`w` unused), for [`thicket_core::texture::bake::Effects`] the GPU can draw.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct GpuEffects {
+    pub region: [f32; 4],
+    pub holes: [f32; 4],
+}
+
+/// The scene's per-vertex effects per cell: empty when there are none, or when some
+/// effect needs more than the corners (a cutter, a moved region).
+pub fn effects(scene: &crate::ShellScene) -> Vec<GpuEffects> {
+    let e = &scene.effects;
+    if e.is_none() || !e.per_vertex_only() {
+        return Vec::new();
+    }
+    (0..scene.cells.len())
+        .map(|t| {
+            let (region, holes) = e.corner_weights(t);
+            GpuEffects { region: [region[0], region[1], region[2], 0.0], holes: [holes[0], holes[1], holes[2], 0.0] }
+        })
+        .collect()
+}
+
 /// `Neighbours` in the shader: per side face of a cell (`u = 0`: corner 2 to corner
 /// 0; `v = 0`: corner 0 to 1; `w = 0`: corner 1 to 2), the `(s, t)` that the cell
 /// across the face has at the face's two corners, `(s_a, t_a, s_b, t_b)`; NaN where

@@ -100,6 +100,28 @@ impl Effects {
         self.cutter.is_some()
     }
 
+    /// Whether every effect is a per-vertex weight (region, holes): what a renderer
+    /// can draw from the cells' corners alone, without the cutter's mesh or the moved
+    /// region's mask.
+    pub fn per_vertex_only(&self) -> bool {
+        self.cutter.is_none() && self.moved.is_none()
+    }
+
+    /// The region and hole weights at the corners of cell `t`, in `[0, 1]` (1 and 0
+    /// where there is none); [`Self::site`] interpolates them, exactly where the
+    /// corners agree.
+    pub fn corner_weights(&self, t: usize) -> ([f32; 3], [f32; 3]) {
+        let c = self.tris[t];
+        let at = |values: Option<&[f32]>, none: f32| c.map(|i| values.map_or(none, |v| v[i as usize].clamp(0.0, 1.0)));
+        (at(self.region.as_deref(), 1.0), at(self.holes.as_deref(), 0.0))
+    }
+
+    /// The base slab: its top in `r`, and the layers across the shell (its edge is one
+    /// layer wide).
+    pub fn base_slab(&self) -> (f32, f32) {
+        (self.base_layer, self.layers)
+    }
+
     /// Bounds over the triangle of cell `t` with corner weights `w`: whether the
     /// textures alone bound the occupancy (no base slab shows), and the most the holes
     /// keep. Per-vertex weights are linear, so their extremes are at the corners.

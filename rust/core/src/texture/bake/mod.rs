@@ -243,6 +243,9 @@ fn mask_resolution(cells: usize, n: u32) -> usize {
 /// and moved-region mask as a bake of `params`.
 pub fn effects(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Effects> {
     let (_, cells) = checked_cells(mesh, shell, textures, params)?;
+    if params.region.is_none() && params.holes.is_none() && params.cutter.is_none() && params.moved.is_none() {
+        return Ok(Effects::default());
+    }
     let (n, heights, _, _) = lattice_steps(&cells.st, textures, params);
     Ok(Effects::new(&cells.triangles, &cells.st, params, heights.len() - 1, mask_resolution(cells.triangles.len(), n)))
 }
