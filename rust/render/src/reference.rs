@@ -465,8 +465,16 @@ impl<'a> Marcher<'a> {
     fn normal(&self, c: usize, q: Vec3, jump: bool) -> Vec3 {
         let cell = &self.scene.cells[c];
         if !jump {
-            let g = self.scene.gradient(cell.texture(q));
-            let n = -cell.gradient_to_world(q, g);
+            let n = if self.scene.effects.is_none() {
+                -cell.gradient_to_world(q, self.scene.gradient(cell.texture(q)))
+            } else {
+                // The stack's effects shape the surface too (the base slab's top, a
+                // moved piece): the occupancy's own gradient, by central differences
+                // in the cell's parameters.
+                let h = 1e-3;
+                let d = |e: Vec3| (self.scene.occupancy(c, q + e * h) - self.scene.occupancy(c, q - e * h)) / (2.0 * h);
+                -cell.parameter_gradient_to_world(q, Vec3::new(d(Vec3::X), d(Vec3::Y), d(Vec3::Z)))
+            };
             if n.is_finite() && n.length_squared() > 1e-24 {
                 return n.normalize();
             }
