@@ -123,18 +123,20 @@ impl Checker {
             tris_around,
             cells_around,
         };
-        me.own = (0..me.tris.len() as u32).into_par_iter().map(|t| me.crosses_base(t)).collect();
+        let pairs = me.base_bvh.overlapping_pairs(&|i, j| {
+            !shares(&me.tris[i as usize], &me.tris[j as usize]) && triangles_intersect(&me.base[i as usize], &me.base[j as usize])
+        });
+        me.own = vec![false; me.tris.len()];
+        pairs.iter().for_each(|&(i, j)| (me.own[i as usize], me.own[j as usize]) = (true, true));
         me
     }
 
     /// Whether base triangle `t` crosses another base triangle that shares no vertex.
     fn crosses_base(&self, t: u32) -> bool {
         let (lo, hi) = tri_box(&self.base[t as usize]);
-        let mut hit = false;
-        self.base_bvh.query(lo, hi, |j| {
-            hit = hit || (!shares(&self.tris[t as usize], &self.tris[j as usize]) && triangles_intersect(&self.base[t as usize], &self.base[j as usize]));
-        });
-        hit
+        self.base_bvh.any(lo, hi, |j| {
+            !shares(&self.tris[t as usize], &self.tris[j as usize]) && triangles_intersect(&self.base[t as usize], &self.base[j as usize])
+        })
     }
 
     /// Pairs of base triangles that cross each other (sharing no vertex): the input's
@@ -240,14 +242,7 @@ impl Checker {
         self.items_of(t, shell.side).any(|i| {
             let mine = self.skin_tri(mesh, shell, i);
             let (lo, hi) = tri_box(&mine);
-            let mut hit = false;
-            tree.query(lo, hi, |j| {
-                let u = self.skin_item(j).0;
-                hit = hit
-                    || (!(shares(&self.tris[t as usize], &self.tris[u as usize]) || self.own[t as usize] || self.own[u as usize])
-                        && triangles_intersect(&mine, &self.skin_tri(mesh, shell, j)));
-            });
-            hit
+            tree.any(lo, hi, |j| !(self.own[t as usize] || self.own[self.skin_item(j).0 as usize]) && self.skins_cross(mesh, shell, i, &mine, j))
         })
     }
 
@@ -259,17 +254,13 @@ impl Checker {
     /// Whether segment `a`-`b` of vertex `v` crosses a triangle away from `v`: of the
     /// base, or of `outer`'s skins (with their tree).
     pub fn segment_crosses(&self, mesh: &Mesh, v: u32, a: DVec3, b: DVec3, outer: Option<(&Shell, &TriBvh)>) -> bool {
-        let mut hit = false;
         match outer {
-            None => self.base_bvh.query_segment(a, b, |j| {
-                hit = hit || (!self.tris[j as usize].contains(&v) && segment_crosses_triangle(a, b, &self.base[j as usize]))
-            }),
-            Some((shell, tree)) => tree.query_segment(a, b, |j| {
+            None => self.base_bvh.any_on_segment(a, b, |j| !self.tris[j as usize].contains(&v) && segment_crosses_triangle(a, b, &self.base[j as usize])),
+            Some((shell, tree)) => tree.any_on_segment(a, b, |j| {
                 let t = self.skin_item(j).0 as usize;
-                hit = hit || (!self.tris[t].contains(&v) && segment_crosses_triangle(a, b, &self.skin_tri(mesh, shell, j)))
+                !self.tris[t].contains(&v) && segment_crosses_triangle(a, b, &self.skin_tri(mesh, shell, j))
             }),
         }
-        hit
     }
 
     /// The cells around vertex `v`.
@@ -307,21 +298,63 @@ impl Checker {
     /// checked against each other. Everything in double precision.
     pub fn find(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, outer_tree: Option<&TriBvh>) -> Findings {
         let p = mesh.positions();
-        let tris = &self.tris;
-        let tri_flagged = |i: usize| dirty.is_none_or(|d| d.tris[i]);
-        let every = |n: usize| Cow::Owned((0..n as u32).collect());
-        let (tri_list, cell_list): (Cow<[u32]>, Cow<[u32]>) = match dirty {
-            Some(d) => (Cow::Borrowed(&d.tri_list), Cow::Borrowed(&d.cell_list)),
-            None => (every(tris.len()), every(self.cells.len())),
-        };
         // Per skin triangle: (kind, item, other), kind 0 a self pair, 1 a base pair,
         // 2 an inherited pair of either kind.
-        let hits: Vec<(u8, u32, u32)> = tri_list
+        let hits: Vec<(u8, u32, u32)> = match (dirty, outer_tree) {
+            // Everything: each tree traversed against itself and against the base's,
+            // which visits each pair of overlapping nodes once.
+            (None, Some(tree)) => {
+                let skin = tree.overlapping_pairs(&|i, j| self.skins_cross(mesh, shell, i, &self.skin_tri(mesh, shell, i), j));
+                let base = tree.overlapping_pairs_with(&self.base_bvh, &|i, j| self.skin_crosses_base(mesh, shell, i, &self.skin_tri(mesh, shell, i), j));
+                let kind = |t: u32, u: u32, k: u8| if self.own[t as usize] || self.own[u as usize] { 2 } else { k };
+                let skin = skin.into_iter().map(|(i, j)| (kind(self.skin_item(i).0, self.skin_item(j).0, 0), i, j));
+                skin.chain(base.into_iter().map(|(i, j)| (kind(self.skin_item(i).0, j, 1), i, j))).collect()
+            }
+            _ => self.find_around(mesh, shell, dirty, outer_tree),
+        };
+        let pairs = |k: u8| hits.iter().filter(|h| h.0 == k).map(|h| (h.1, h.2)).collect();
+        let cell_list: Cow<[u32]> = match dirty {
+            Some(d) => Cow::Borrowed(&d.cell_list),
+            None => Cow::Owned((0..self.cells.len() as u32).collect()),
+        };
+        let inverted = cell_list.par_iter().copied().filter(|&c| self.cells[c as usize].is_inverted(p, shell)).collect();
+        Findings { self_pairs: pairs(0), base_pairs: pairs(1), inverted, inherited: hits.iter().filter(|h| h.0 == 2).count() }
+    }
+
+    /// Whether skin items `i` (at `mine`) and `j` cross, their base triangles sharing
+    /// no vertex.
+    fn skins_cross(&self, mesh: &Mesh, shell: &Shell, i: u32, mine: &[DVec3; 3], j: u32) -> bool {
+        let (t, u) = (self.skin_item(i).0 as usize, self.skin_item(j).0 as usize);
+        !shares(&self.tris[t], &self.tris[u]) && triangles_intersect(mine, &self.skin_tri(mesh, shell, j))
+    }
+
+    /// Whether skin item `i` (at `mine`) crosses base triangle `j`. The two splits of
+    /// a curved quad cross each other once one is offset a little: a skin triangle is
+    /// checked against its own face's base in the same split only; and not against a
+    /// base triangle it shares a vertex with whose skin point coincides with the base
+    /// point.
+    fn skin_crosses_base(&self, mesh: &Mesh, shell: &Shell, i: u32, mine: &[DVec3; 3], j: u32) -> bool {
+        let (p, tris) = (mesh.positions(), &self.tris);
+        let (t, r) = self.skin_item(i);
+        let (t, j) = (t as usize, j as usize);
+        let coincide = |v: u32| (shell.point(p, v as usize, r).as_dvec3() - p[v as usize].as_dvec3()).length() <= 1e-6 * self.diag;
+        let other_split = self.face_of[j] == self.face_of[t] && (t < self.first_other) != (j < self.first_other);
+        let touching = tris[t].iter().any(|v| tris[j].contains(v) && coincide(*v));
+        !other_split && !touching && triangles_intersect(mine, &self.base[j])
+    }
+
+    /// [`find`](Self::find)'s pairs, one query per flagged skin triangle.
+    fn find_around(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, outer_tree: Option<&TriBvh>) -> Vec<(u8, u32, u32)> {
+        let tri_flagged = |i: usize| dirty.is_none_or(|d| d.tris[i]);
+        let tri_list: Cow<[u32]> = match dirty {
+            Some(d) => Cow::Borrowed(&d.tri_list),
+            None => Cow::Owned((0..self.tris.len() as u32).collect()),
+        };
+        tri_list
             .par_iter()
             .flat_map_iter(|&t| self.items_of(t, shell.side).map(move |i| (t, i)))
             .flat_map_iter(|(t, i)| {
                 let tu = t as usize;
-                let r = self.skin_item(i).1;
                 let mine = self.skin_tri(mesh, shell, i);
                 let (lo, hi) = tri_box(&mine);
                 let mut hits = Vec::new();
@@ -330,28 +363,19 @@ impl Checker {
                         let u = self.skin_item(j).0 as usize;
                         // Each pair once: by the lower item, unless only the higher is flagged.
                         let first = j > i || !tri_flagged(u);
-                        if first && !shares(&tris[tu], &tris[u]) && triangles_intersect(&mine, &self.skin_tri(mesh, shell, j)) {
+                        if first && self.skins_cross(mesh, shell, i, &mine, j) {
                             hits.push((if self.own[tu] || self.own[u] { 2 } else { 0 }, i, j));
                         }
                     });
                 }
-                let coincide = |v: u32| (shell.point(p, v as usize, r).as_dvec3() - p[v as usize].as_dvec3()).length() <= 1e-6 * self.diag;
                 self.base_bvh.query(lo, hi, |j| {
-                    // The two splits of a curved quad cross each other once one is
-                    // offset a little: a skin triangle is checked against its own
-                    // face's base in the same split only.
-                    let other_split = self.face_of[j as usize] == self.face_of[tu] && (tu < self.first_other) != ((j as usize) < self.first_other);
-                    let touching = tris[tu].iter().any(|v| tris[j as usize].contains(v) && coincide(*v));
-                    if !other_split && !touching && triangles_intersect(&mine, &self.base[j as usize]) {
+                    if self.skin_crosses_base(mesh, shell, i, &mine, j) {
                         hits.push((if self.own[tu] || self.own[j as usize] { 2 } else { 1 }, i, j));
                     }
                 });
                 hits
             })
-            .collect();
-        let pairs = |k: u8| hits.iter().filter(|h| h.0 == k).map(|h| (h.1, h.2)).collect();
-        let inverted = cell_list.par_iter().copied().filter(|&c| self.cells[c as usize].is_inverted(p, shell)).collect();
-        Findings { self_pairs: pairs(0), base_pairs: pairs(1), inverted, inherited: hits.iter().filter(|h| h.0 == 2).count() }
+            .collect()
     }
 
     /// The vertices of every defect, sorted, each once.
@@ -375,4 +399,69 @@ impl Checker {
 
 fn shares(a: &[u32; 3], b: &[u32; 3]) -> bool {
     a.iter().any(|v| b.contains(v))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hard_meshes;
+    use crate::shell::{build_shell, ShellParams, Thickness};
+    use crate::testmeshes;
+
+    /// Two icospheres that pass through each other: a base that crosses itself.
+    fn overlapping_spheres() -> Mesh {
+        let a = testmeshes::icosphere(3);
+        let n = a.vertex_count() as u32;
+        let mut positions = a.positions().to_vec();
+        positions.extend(a.positions().iter().map(|p| *p + glam::Vec3::new(0.7, 0.2, 0.1)));
+        let mut corners = a.corners().to_vec();
+        corners.extend(a.corners().iter().map(|c| c + n));
+        let sizes = [a.face_sizes(), a.face_sizes()].concat();
+        Mesh::new(positions, &sizes, corners, None).unwrap()
+    }
+
+    /// The whole-shell search (two tree joins) finds exactly the pairs that one query
+    /// per skin triangle finds, on traced shells left folded (no repair), on quads
+    /// (both splits), on a base that crosses itself (inherited pairs) and on both
+    /// skins of an envelope; the base's own crossings agree with one query per
+    /// triangle.
+    #[test]
+    fn joined_search_matches_one_query_per_triangle() {
+        let unrepaired = ShellParams { repair_rounds: 0, ..ShellParams::default() };
+        let cases = [
+            ("comb", testmeshes::comb(2), Side::Exterior, 0.2),
+            ("torus knot", hard_meshes::torus_knot(), Side::Exterior, 0.2),
+            ("crossing cards", hard_meshes::cards(300, 3), Side::Envelope, 0.05),
+            ("overlapping spheres", overlapping_spheres(), Side::Exterior, 0.1),
+            ("hand", hard_meshes::hand(), Side::Interior, 0.1),
+        ];
+        let (mut self_pairs, mut inherited) = (0, 0);
+        for (name, mesh, side, fraction) in cases {
+            let t = Thickness::relative(fraction).per_vertex(&mesh, None).unwrap();
+            let shell = build_shell(&mesh, &t, side, &unrepaired).unwrap();
+            let checker = Checker::new(&mesh);
+            let own: Vec<bool> = (0..checker.tris.len() as u32).map(|t| checker.crosses_base(t)).collect();
+            assert_eq!(checker.own, own, "{name}: base crossings");
+            let tree = checker.outer_tree(&mesh, &shell, None);
+            let sorted = |f: Findings| {
+                let mut f = f;
+                f.self_pairs.sort_unstable();
+                f.base_pairs.sort_unstable();
+                (f.self_pairs, f.base_pairs, f.inverted, f.inherited)
+            };
+            let joined = sorted(checker.find(&mesh, &shell, None, Some(&tree)));
+            let hits = checker.find_around(&mesh, &shell, None, Some(&tree));
+            let pairs = |k: u8| {
+                let mut p: Vec<(u32, u32)> = hits.iter().filter(|h| h.0 == k).map(|h| (h.1, h.2)).collect();
+                p.sort_unstable();
+                p
+            };
+            assert_eq!(joined.0, pairs(0), "{name}: skin pairs");
+            assert_eq!(joined.1, pairs(1), "{name}: skin/base pairs");
+            assert_eq!(joined.3, hits.iter().filter(|h| h.0 == 2).count(), "{name}: inherited pairs");
+            self_pairs += joined.0.len() + joined.1.len();
+            inherited += joined.3;
+        }
+        assert!(self_pairs > 100 && inherited > 0, "the shells must fold and the cards cross: {self_pairs}, {inherited}");
+    }
 }

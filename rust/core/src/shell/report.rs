@@ -105,32 +105,29 @@ impl<'a> NormalRoom<'a> {
         let (checker, mesh, normal) = (self.checker, self.mesh, &self.shell);
         let p = mesh.positions();
         let segment = |v: u32| (dv(normal.point(p, v as usize, 0.0)), dv(normal.point(p, v as usize, 1.0)));
+        // (b) first, one segment per vertex: where parts are closer than the
+        // thickness most vertices fail here, before any element around them is
+        // checked. Then (a) and the base part of (c) around the survivors: they need
+        // no outer-layer tree, and most of the rest that fail, fail there.
+        let vertices: Vec<u32> = vertices.into_par_iter().filter(|&v| !checker.segment_crosses(mesh, v, segment(v).0, segment(v).1, None)).collect();
         let mut dirty = checker.clean();
-        // (a), (b) and the base part of (c) first: they need no outer-layer tree, and
-        // most vertices that fail, fail there.
         checker.mark_anew(vertices.iter().copied(), &mut dirty);
         let bad = checker.defect_vertex_list(&checker.find(mesh, normal, Some(&dirty), None));
-        let vertices: Vec<u32> = vertices
-            .into_par_iter()
-            .filter(|&v| bad.binary_search(&v).is_err() && !checker.segment_crosses(mesh, v, segment(v).0, segment(v).1, None))
-            .collect();
+        let vertices: Vec<u32> = vertices.into_iter().filter(|&v| bad.binary_search(&v).is_err()).collect();
         if vertices.is_empty() {
             return vertices;
         }
-        // (c), (d): the outer layer against itself.
+        // (d), then (c): the outer layer against the segments, then against itself
+        // around the vertices left.
         let tree = &*self.tree.get_or_insert_with(|| checker.outer_tree(mesh, normal, like.cloned()));
+        let vertices: Vec<u32> =
+            vertices.into_par_iter().filter(|&v| !checker.segment_crosses(mesh, v, segment(v).0, segment(v).1, Some((normal, tree)))).collect();
         // Each triangle once: a vertex's triangles are its neighbours' too.
         let mut tris: Vec<u32> = vertices.iter().flat_map(|&v| checker.tris_of(v as usize)).copied().collect();
         tris.sort_unstable();
         tris.dedup();
         let crossing: Vec<u32> = tris.into_par_iter().filter(|&t| checker.outer_crosses(mesh, normal, t, tree)).collect();
-        vertices
-            .into_par_iter()
-            .filter(|&v| {
-                !checker.tris_of(v as usize).iter().any(|t| crossing.binary_search(t).is_ok())
-                    && !checker.segment_crosses(mesh, v, segment(v).0, segment(v).1, Some((normal, tree)))
-            })
-            .collect()
+        vertices.into_iter().filter(|&v| !checker.tris_of(v as usize).iter().any(|t| crossing.binary_search(t).is_ok())).collect()
     }
 }
 
