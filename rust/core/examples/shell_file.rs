@@ -86,18 +86,21 @@ fn edits(mesh: &thicket_core::Mesh, t: &[f32], side: Side, params: &ShellParams)
         let incremental = start.elapsed().as_secs_f64();
         let edited = thicket_core::Mesh::new(moved.clone(), &mesh.face_sizes(), mesh.corners().to_vec(), None).unwrap();
         let start = Instant::now();
-        let _ = build_shell(&edited, t, side, params).unwrap();
+        let rebuilt = build_shell(&edited, t, side, params).unwrap();
         let rebuild = start.elapsed().as_secs_f64();
         let r = shell_report(inc.mesh(), inc.shell());
+        let mean = |s: &thicket_core::shell::Shell| s.achieved.iter().zip(&s.target).map(|(a, t)| if *t > 0.0 { a / t } else { 1.0 }).sum::<f32>() / n as f32;
         println!(
-            "  edit {}: incremental {:.1} ms ({} retraced, {} kept; check {:?}), rebuild {:.0} ms; defects {:?}",
+            "  edit {}: incremental {:.1} ms ({} retraced, {} kept; {} repair rounds), rebuild {:.0} ms; defects {:?}; mean ratio {:.4} (rebuild {:.4})",
             step + 1,
             incremental * 1e3,
             stats.retraced,
             stats.kept,
-            inc.shell().check,
+            inc.shell().check.rounds,
             rebuild * 1e3,
-            (r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells)
+            (r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells),
+            mean(inc.shell()),
+            mean(&rebuilt)
         );
     }
 }
