@@ -64,6 +64,9 @@ fn main() {
 /// Three bump edits followed by an incremental shell, each timed beside a rebuild.
 fn edits(mesh: &thicket_core::Mesh, t: &[f32], side: Side, params: &ShellParams) {
     let n = mesh.vertex_count();
+    if n == 0 {
+        return;
+    }
     let p = mesh.positions();
     let centre = p[n / 3];
     let distance: Vec<f32> = p.iter().map(|q| (*q - centre).length()).collect();

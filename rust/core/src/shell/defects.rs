@@ -294,8 +294,9 @@ impl Checker {
 
     /// The defects of `shell` among the flagged elements (all for `None`). A pair is
     /// found when either triangle is flagged. `outer_tree` holds every skin triangle
-    /// of `shell` ([`outer_tree`](Self::outer_tree)); without it the skins are not
-    /// checked against each other. Everything in double precision.
+    /// of `shell` at its current place ([`outer_tree`](Self::outer_tree), refitted
+    /// after every change: the search of everything joins its boxes); without it the
+    /// skins are not checked against each other. Everything in double precision.
     pub fn find(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, outer_tree: Option<&TriBvh>) -> Findings {
         let p = mesh.positions();
         // Per skin triangle: (kind, item, other), kind 0 a self pair, 1 a base pair,
@@ -304,6 +305,7 @@ impl Checker {
             // Everything: each tree traversed against itself and against the base's,
             // which visits each pair of overlapping nodes once.
             (None, Some(tree)) => {
+                debug_assert_eq!(tree.len(), self.tris.len() * skins(shell.side).len(), "the skin tree must hold every skin triangle");
                 let skin = tree.overlapping_pairs(&|i, j| self.skins_cross(mesh, shell, i, &self.skin_tri(mesh, shell, i), j));
                 let base = tree.overlapping_pairs_with(&self.base_bvh, &|i, j| self.skin_crosses_base(mesh, shell, i, &self.skin_tri(mesh, shell, i), j));
                 let kind = |t: u32, u: u32, k: u8| if self.own[t as usize] || self.own[u as usize] { 2 } else { k };

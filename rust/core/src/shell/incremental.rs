@@ -34,11 +34,6 @@ use rayon::prelude::*;
 /// thickness (`shell_bench`).
 pub const DEFAULT_TOLERANCE: f64 = 3e-2;
 
-/// A repaired director retraced by an update starts from its kept share of the
-/// traced length times this (three repair rounds' worth of room): see
-/// [`IncrementalShell::reset_repaired`].
-const WARM_START: f32 = 1.0 / (REPAIR_FACTOR * REPAIR_FACTOR * REPAIR_FACTOR);
-
 /// When more than this fraction of the vertices changed, the update is a rebuild.
 const REBUILD_FRACTION: usize = 3;
 
@@ -180,8 +175,6 @@ impl IncrementalShell {
         if changed == 0 {
             return Ok(UpdateStats::default());
         }
-        // How far the repair had shortened each director, before anything moves.
-        let kept_share = self.repaired_share();
         for &v in &moved {
             self.mesh.set_position(v as usize, positions[v as usize])?;
         }
@@ -202,7 +195,7 @@ impl IncrementalShell {
         for (&v, t) in dirty.iter().zip(fresh) {
             self.traces[v as usize] = t;
         }
-        let mut seeds = self.reset_repaired(&dirty, &kept_share);
+        let mut seeds = self.reset_repaired(&dirty);
         if retriangulated {
             self.checker = Checker::new(&self.mesh);
             self.outer_bvh = None;
@@ -339,24 +332,12 @@ impl IncrementalShell {
         (dirty, kept)
     }
 
-    /// Each director's length as a share of its traced length (at most 1): what the
-    /// repair and the final check left of it.
-    fn repaired_share(&self) -> Vec<f32> {
-        let raw = assemble(&self.mesh, &self.thickness, self.side, &self.traces);
-        raw.achieved.iter().zip(&self.shell.achieved).map(|(&r, &a)| if r > 0.0 { (a / r).min(1.0) } else { 1.0 }).collect()
-    }
-
     /// The repair shortens the directors of a tangle together, round by round, so its
     /// result depends on the whole group. The repaired directors connected to the
-    /// retraced ones through repaired neighbours (and the retraced ones) start again
-    /// from their traced shape, shortened to [`WARM_START`] times the share of it
-    /// they had kept (`kept_share`): a local edit changes the field a little, so the
-    /// repair, which runs again from these seeds, needs a few rounds, not the dozens
-    /// a rebuild runs from the full length. Where the edit made room, each update
-    /// gives back up to that factor; a director the final check had pressed to zero
-    /// starts from its full length. Repaired groups the update did not retrace keep
-    /// their repair.
-    fn reset_repaired(&mut self, retraced: &[u32], kept_share: &[f32]) -> Vec<u32> {
+    /// retraced ones go back to their traced value with them; the repair then runs
+    /// again from these seeds: the rounds a rebuild would run on these groups.
+    /// Repaired groups the update did not retrace keep their repair.
+    fn reset_repaired(&mut self, retraced: &[u32]) -> Vec<u32> {
         let raw = assemble(&self.mesh, &self.thickness, self.side, &self.traces);
         let repaired = |v: usize| self.shell.directors[v] != raw.directors[v] || self.shell.base_offset[v] != raw.base_offset[v];
         let mut reset = vec![false; self.mesh.vertex_count()];
@@ -376,11 +357,9 @@ impl IncrementalShell {
         }
         for &v in &seeds {
             let v = v as usize;
-            let share = kept_share[v];
-            let f = if share > 0.0 { (share * WARM_START).min(1.0) } else { 1.0 };
-            self.shell.base_offset[v] = raw.base_offset[v] * f;
-            self.shell.directors[v] = raw.directors[v] * f;
-            self.shell.achieved[v] = self.shell.directors[v].length();
+            self.shell.base_offset[v] = raw.base_offset[v];
+            self.shell.directors[v] = raw.directors[v];
+            self.shell.achieved[v] = raw.achieved[v];
         }
         self.shell.target = raw.target;
         seeds
