@@ -62,6 +62,14 @@ struct Globals {
     // x: 1 where the cells' region and hole weights apply (`effects`); y: the base
     // slab's top in r; z: the layers across the shell (the slab's edge is one wide).
     effects: vec4<f32>,
+    // The moved region (chapter 7.2): its mask's first texel (s, t), 1 / texel size,
+    // and w = 1 where there is one; then how far it moved in (s, t).
+    moved: vec4<f32>,
+    moved_offset: vec4<f32>,
+    // The cutter (chapter 7.3): its bins' first (x, y), bin size, w = 1 where there
+    // is one; x of the next: bins per side.
+    cutter: vec4<f32>,
+    cutter_bins: vec4<u32>,
 };
 
 // A triangle prism: base corners with their s in w, directors with their t in w.
@@ -111,6 +119,12 @@ struct CellEffects {
     holes: vec4<f32>,
 };
 @group(0) @binding(12) var<storage, read> effects: array<CellEffects>;
+// Where the moved region came from, a mask in (s, t), read texel by texel and
+// interpolated as on the CPU. The cutter's triangles (three corners each) and its
+// bins over the xy plane (side² + 1 offsets into the triangle indices after them).
+@group(0) @binding(13) var moved_mask: texture_2d<f32>;
+@group(0) @binding(14) var<storage, read> cutter_triangles: array<vec4<f32>>;
+@group(0) @binding(15) var<storage, read> cutter_bins: array<u32>;
 
 // T1: bitcast (u, v, r) of the nearest inside fragment, w = (cell + 1) * 8 + face
 // (0: empty pixel). Z1: its depth along the view axis.
@@ -211,39 +225,128 @@ fn corner_weight(corners: vec3<f32>, w: vec3<f32>) -> f32 {
     return clamp(dot(corners, w), 0.0, 1.0);
 }
 
-// The stack's effects on the texture's (gradient, alpha) `v` at parameters q of
-// `cell`: alpha = kept * (presence * texture + (1 - presence) * base slab); the
-// gradient (texture space) blended alike, the weights' own variation left out.
-fn with_effects(cell: u32, q: vec3<f32>, v: vec4<f32>) -> vec4<f32> {
+// The moved region's mask at (s, t): bilinear between its texels, 0 outside it
+// (`UvMask::sample` on the CPU).
+fn moved_weight(st: vec2<f32>) -> f32 {
+    let size = vec2<f32>(textureDimensions(moved_mask));
+    let g = (st - globals.moved.xy) * globals.moved.z;
+    if !(g.x >= 0.0 && g.y >= 0.0) || g.x >= size.x - 1.0 || g.y >= size.y - 1.0 {
+        return 0.0;
+    }
+    let i = vec2<i32>(floor(g));
+    let f = g - floor(g);
+    let top = mix(textureLoad(moved_mask, i, 0).x, textureLoad(moved_mask, i + vec2<i32>(1, 0), 0).x, f.x);
+    let bottom = mix(textureLoad(moved_mask, i + vec2<i32>(0, 1), 0).x, textureLoad(moved_mask, i + vec2<i32>(1, 1), 0).x, f.x);
+    return mix(top, bottom, f.y);
+}
+
+fn cross2(u: vec2<f32>, v: vec2<f32>) -> f32 {
+    return u.x * v.y - u.y * v.x;
+}
+
+// Whether q lies on the inner side of edge u-v of a counter-clockwise triangle, a
+// point on the edge counting for one triangle of the two that share it (top-left).
+fn inner_side(u: vec2<f32>, v: vec2<f32>, q: vec2<f32>) -> bool {
+    let d = v - u;
+    let e = cross2(d, q - u);
+    return e > 0.0 || (e == 0.0 && (d.y < 0.0 || (d.y == 0.0 && d.x < 0.0)));
+}
+
+// Whether world point x lies inside the cutter: an odd number of its triangles
+// crossed by the vertical line above x, among those of x's bin (`Cutter::contains`
+// on the CPU, the same bins and rule).
+fn inside_cutter(x: vec3<f32>) -> bool {
+    let side = globals.cutter_bins.x;
+    let g = floor((x.xy - globals.cutter.xy) / globals.cutter.z);
+    if g.x < 0.0 || g.y < 0.0 || g.x > f32(side) || g.y > f32(side) {
+        return false;
+    }
+    let bin = min(u32(g.y), side - 1u) * side + min(u32(g.x), side - 1u);
+    var above = 0u;
+    for (var k = cutter_bins[bin]; k < cutter_bins[bin + 1u]; k++) {
+        let t = cutter_bins[k] * 3u;
+        let a = cutter_triangles[t].xyz;
+        var b = cutter_triangles[t + 1u].xyz;
+        var c = cutter_triangles[t + 2u].xyz;
+        let area = cross2(b.xy - a.xy, c.xy - a.xy);
+        if area == 0.0 {
+            continue;
+        }
+        if area < 0.0 {
+            let swap = b;
+            b = c;
+            c = swap;
+        }
+        let q = x.xy;
+        if !(inner_side(a.xy, b.xy, q) && inner_side(b.xy, c.xy, q) && inner_side(c.xy, a.xy, q)) {
+            continue;
+        }
+        let w = vec3<f32>(cross2(c.xy - b.xy, q - b.xy), cross2(a.xy - c.xy, q - c.xy), cross2(b.xy - a.xy, q - a.xy));
+        if (a.z * w.x + b.z * w.y + c.z * w.z) / (w.x + w.y + w.z) > x.z {
+            above++;
+        }
+    }
+    return (above & 1u) == 1u;
+}
+
+// The stack's effects on the texture's (gradient, alpha) `v`, sampled at texture
+// coordinates `tex`, at parameters q of `cell` (world point x), as
+// `texture::bake::Effects` on the CPU: alpha = kept * (arrived * there + (1 -
+// arrived) * (presence * here + (1 - presence) * base slab)), where `there` is the
+// texture where a moved piece came from; the gradient (texture space) blended
+// alike, the weights' own variation left out.
+fn with_effects(cell: u32, q: vec3<f32>, tex: vec3<f32>, x: vec3<f32>, lod: f32, v: vec4<f32>) -> vec4<f32> {
     if globals.effects.x < 0.5 {
         return v;
     }
+    if globals.cutter.w > 0.5 && inside_cutter(x) {
+        return vec4<f32>(0.0);
+    }
     let e = effects[cell];
     let w = barycentric(q);
-    let presence = corner_weight(e.region.xyz, w);
+    var presence = corner_weight(e.region.xyz, w);
+    var arrived = 0.0;
+    var there = vec4<f32>(0.0);
+    if globals.moved.w > 0.5 {
+        presence *= 1.0 - moved_weight(tex.xy);
+        let origin = tex.xy - globals.moved_offset.xy;
+        arrived = moved_weight(origin);
+        if arrived > 0.0 {
+            there = sample_union(vec3<f32>(origin, tex.z), lod);
+        }
+    }
     let kept = 1.0 - corner_weight(e.holes.xyz, w);
     let raw = (globals.effects.y - q.z) * globals.effects.z + 0.5;
     let base = clamp(raw, 0.0, 1.0);
     let base_slope = select(0.0, -globals.effects.z, raw > 0.0 && raw < 1.0);
-    let alpha = kept * (presence * v.a + (1.0 - presence) * base);
-    let gradient = kept * (presence * v.xyz + (1.0 - presence) * vec3<f32>(0.0, 0.0, base_slope));
-    return vec4<f32>(gradient, alpha);
+    let here = presence * v + (1.0 - presence) * vec4<f32>(0.0, 0.0, base_slope, base);
+    return kept * (arrived * there + (1.0 - arrived) * here);
 }
 
-// The share of the texture the effects let show at q of `cell` (presence times what
-// the holes keep); the transparency pass draws far textures only, not the base slab.
-fn texture_share(cell: u32, q: vec3<f32>) -> f32 {
+// The share of the texture the effects let show at q of `cell` (world point x,
+// texture point st): what the region, a moved piece and the holes let through; the
+// transparency pass draws far textures only, not the base slab.
+fn texture_share(cell: u32, q: vec3<f32>, st: vec2<f32>, x: vec3<f32>) -> f32 {
     if globals.effects.x < 0.5 {
         return 1.0;
     }
+    if globals.cutter.w > 0.5 && inside_cutter(x) {
+        return 0.0;
+    }
     let e = effects[cell];
     let w = barycentric(q);
-    return corner_weight(e.region.xyz, w) * (1.0 - corner_weight(e.holes.xyz, w));
+    var presence = corner_weight(e.region.xyz, w);
+    if globals.moved.w > 0.5 {
+        let arrived = moved_weight(st - globals.moved_offset.xy);
+        presence = arrived + (1.0 - arrived) * presence * (1.0 - moved_weight(st));
+    }
+    return presence * (1.0 - corner_weight(e.holes.xyz, w));
 }
 
 // The texture union with the stack's effects at parameters q of `cell`.
 fn cell_sample(cell: u32, c: Cell, q: vec3<f32>, lod: f32) -> vec4<f32> {
-    return with_effects(cell, q, sample_union(cell_texture(c, q), lod));
+    let tex = cell_texture(c, q);
+    return with_effects(cell, q, tex, cell_world(c, q), lod, sample_union(tex, lod));
 }
 
 // d world / d(u, v, r) at q.
@@ -405,7 +508,8 @@ fn alpha_across(cell: u32, face: u32, q: vec3<f32>, lod: f32) -> f32 {
         default: { t = w.z / (w.y + w.z); } // FACE_W0: corner 1 to corner 2
     }
     // The per-vertex weights are the same on both sides of the face.
-    return with_effects(cell, q, sample_union(vec3<f32>(mix(n.xy, n.zw, t), q.z), lod)).a;
+    let tex = vec3<f32>(mix(n.xy, n.zw, t), q.z);
+    return with_effects(cell, q, tex, cell_world(cells[cell], q), lod, sample_union(tex, lod)).a;
 }
 
 // Unit direction of the ray through the pixel centre at `frag` (window coordinates).
@@ -605,7 +709,7 @@ fn fs_haze(v: SliceVarying) -> @location(0) vec4<f32> {
     let per_row = log2(max(1.0 - sampled.w, 1e-6)) / level_dims.z;
     let log_through = vec3<f32>(log2(max(vec2<f32>(1.0) - sampled.xy, vec2<f32>(1e-6))), per_row);
     let through = exp2(crossings * log_through);
-    let opacity = clamp(1.0 - through.x * through.y * through.z, 0.0, 1.0) * texture_share(cell, q);
+    let opacity = clamp(1.0 - through.x * through.y * through.z, 0.0, 1.0) * texture_share(cell, q, cell_texture(c, q).xy, cell_world(c, q));
     if opacity < 1.0 / 512.0 {
         discard;
     }

@@ -102,8 +102,7 @@ fn render_on_gpu(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> s
 /// used, or ""). `resolution`, `layers`, `region`, `base_layer`, `holes`, `cutter`,
 /// `move_region`, `move_offset` and `follow_texture` are `bake_texture`'s: the frame
 /// shows what the bake makes of them (partial region, holes, cut and moved texture).
-/// The slice renderer draws regions and holes; "auto" renders a cutter or a moved
-/// region on the CPU (the slice methods ignore those two).
+/// The slice renderer draws all four, as the reference does.
 /// `progress`: as for `bake_texture` (rows of the CPU reference; a GPU frame is one
 /// step and is not interrupted); returning False cancels with `Cancelled`.
 #[pyfunction]
@@ -175,26 +174,18 @@ pub fn render_shell<'py>(
             let effects = bake_effects(mesh, shell, layers, params)?;
             Ok(ShellScene::new(mesh, shell, layers.to_vec(), tiling)?.with_effects(effects))
         })?;
-        // The slice renderer draws regions and holes (per-vertex weights); a cutter or
-        // a moved region is drawn by the reference, which applies what the bake applies.
-        let gpu_cannot = !scene.effects.per_vertex_only();
-        let mode = if auto && gpu_cannot { None } else { mode };
-        let effects_note = match (auto, mode.is_some() && gpu_cannot) {
-            (true, _) if gpu_cannot => "the stack has a cutter or a moved region, which the GPU slice renderer does not draw yet; rendered on the CPU",
-            (false, true) => "the slice renderer does not draw the stack's cutter or moved region (Reference or Automatic does)",
-            _ => "",
-        }
-        .to_string();
+        // The slice renderer draws every effect the bake applies (region, holes,
+        // cutter, moved region), as the reference does.
         let reference = |why: String| -> thicket_core::Result<(Frame, String, String)> {
             let params = RenderParams { step, light, ambient, ..Default::default() };
             Ok((render_watched(&scene, &camera, &params, watch)?, "CPU reference renderer".to_string(), why))
         };
         let (frame, renderer, fallback) = match mode {
-            None => reference(effects_note)?,
+            None => reference(String::new())?,
             Some(mode) => {
                 let params = SliceParams { slices, mode, light, ambient, mipmaps, ..Default::default() };
                 match render_on_gpu(&scene, &camera, &params) {
-                    Ok((frame, name)) => (frame, format!("GPU slice renderer on {name}"), effects_note),
+                    Ok((frame, name)) => (frame, format!("GPU slice renderer on {name}"), String::new()),
                     Err(why) if auto => reference(format!("the GPU slice renderer is unavailable ({why}); rendered on the CPU instead"))?,
                     Err(why) => return Err(thicket_core::Error::InvalidParameter(format!("the GPU slice renderer failed: {why}"))),
                 }

@@ -540,3 +540,52 @@ fn regions_and_holes_match_the_reference() {
         assert!(unchanged.iou < s.iou - 0.02, "{name}: the effect must show: {unchanged:?} vs {s:?}");
     }
 }
+
+/// A cutter and a moved region drawn by the slice renderer as the bake and the
+/// reference apply them: the cutter's own inside test (its triangles in their bins),
+/// the moved region's mask from the same raster the CPU reads.
+/// Each effect changes the image, and the renderer follows it.
+#[test]
+fn cutter_and_moved_region_match_the_reference() {
+    use thicket_core::texture::bake::{effects, Cutter, MovedRegion};
+    use thicket_core::texture::BakeParams;
+    let params = slice_params(16, SliceMode::Interpolating);
+    let mut r = renderer();
+    let check = |r: &mut GpuRenderer, name: &str, scene: ShellScene, plain: &ShellScene, camera: &Camera, iou: f32| {
+        let reference = reference::render(&scene, camera, &RenderParams { step: 0.02, ..Default::default() }).unwrap();
+        let frame = r.render(&scene, camera, &params).unwrap();
+        let s = score(&frame, &reference);
+        let unchanged = score(&r.render(plain, camera, &params).unwrap(), &reference);
+        eprintln!("{name}: {s:?}; the plain image against it: {unchanged:?}");
+        assert!(s.iou > iou && s.psnr > 22.0, "{name}: {s:?}");
+        assert!(unchanged.iou < s.iou - 0.05, "{name}: the effect must show: {unchanged:?} vs {s:?}");
+    };
+    // A box cutting away the sphere's shell beyond x = 0.3.
+    let mesh = tm::icosphere(3);
+    let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+    let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    let slab = layer(VolumeTexture::from_fn([8, 8, 17], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap());
+    let corners: Vec<Vec3> =
+        (0..8).map(|i| Vec3::new(if i & 1 == 0 { -2.0 } else { 0.3 }, if i & 2 == 0 { -2.0 } else { 2.0 }, if i & 4 == 0 { -2.0 } else { 2.0 })).collect();
+    let faces = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let tris: Vec<[u32; 3]> = faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect();
+    let cut = BakeParams { cutter: Some(Cutter::new(&corners, &tris).unwrap()), ..Default::default() };
+    let plain = ShellScene::new(&mesh, &shell, slab.clone(), 1.0).unwrap();
+    let scene = ShellScene::new(&mesh, &shell, slab.clone(), 1.0).unwrap().with_effects(effects(&mesh, &shell, &slab, &cut).unwrap());
+    let camera = perspective(Vec3::new(0.4, -4.0, 0.6), Vec3::ZERO, 0.8, 96);
+    check(&mut r, "cutter", scene, &plain, &camera, 0.99);
+    // Stripes along s on a plane seen from above, those over x < 0 moved by a quarter
+    // period.
+    let grid = tm::plane(12);
+    let uvs: Vec<Vec2> = grid.corners().iter().map(|&v| grid.positions()[v as usize].truncate() * 0.5 + 0.5).collect();
+    let grid = thicket_core::Mesh::new(grid.positions().to_vec(), &grid.face_sizes(), grid.corners().to_vec(), Some(uvs)).unwrap();
+    let t = Thickness::relative(0.05).per_vertex(&grid, None).unwrap();
+    let shell = build_shell(&grid, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    let stripes = layer(VolumeTexture::from_fn([16, 16, 9], |c| if c.x < 0.5 && c.z < 0.6 { 1.0 } else { 0.0 }).unwrap());
+    let left: Vec<f32> = grid.positions().iter().map(|p| if p.x < -0.05 { 1.0 } else { 0.0 }).collect();
+    let moved = BakeParams { tiling: 3.0, moved: Some(MovedRegion { weights: left, offset: Vec2::new(0.25 / 3.0, 0.0) }), ..Default::default() };
+    let plain = ShellScene::new(&grid, &shell, stripes.clone(), 3.0).unwrap();
+    let scene = ShellScene::new(&grid, &shell, stripes.clone(), 3.0).unwrap().with_effects(effects(&grid, &shell, &stripes, &moved).unwrap());
+    let camera = perspective(Vec3::new(0.0, -0.3, 3.0), Vec3::ZERO, 0.7, 96);
+    check(&mut r, "moved region", scene, &plain, &camera, 0.95);
+}

@@ -43,7 +43,9 @@ use crate::mipmap::{Level, MipmapSet, Mipmaps};
 use crate::scene::ShellScene;
 use device::Gpu;
 use passes::{Draws, HazeDraws, Targets};
-use pipeline::{Globals, Pipelines, EFFECTS_BINDING, HAZE_BINDINGS, LAYER_BINDINGS, MAX_LAYERS};
+use pipeline::{
+    Globals, Pipelines, CUTTER_BINS_BINDING, CUTTER_TRIANGLES_BINDING, EFFECTS_BINDING, HAZE_BINDINGS, LAYER_BINDINGS, MAX_LAYERS, MOVED_BINDING,
+};
 use scene_data::{GpuCell, GpuFrames};
 use slices::{Eye, Family, Templates};
 
@@ -134,13 +136,14 @@ struct SceneResources {
     layers: Vec<TextureLayer>,
     mipmaps: Mipmaps,
     effects: Vec<scene_data::GpuEffects>,
+    fields: scene_data::EffectFields,
     /// Transparency chain: finest size, transition level and layers drawn (§6.5.2).
     haze_dims: [usize; 3],
     transition: u32,
     haze_layers: u32,
     group: wgpu::BindGroup,
     // Kept alive for the bind group.
-    _buffers: [wgpu::Buffer; 4],
+    _buffers: [wgpu::Buffer; 6],
     _volumes: Vec<wgpu::Texture>,
 }
 
@@ -262,7 +265,8 @@ impl GpuRenderer {
         let facing_end = away_end + haze_order.facing.len() as u32;
         self.upload_instances(&[grouping.order.as_slice(), &haze_order.away, &haze_order.facing].concat());
         let (haze_dims, transition) = self.scene.as_ref().map_or(([1; 3], 0), |s| (s.haze_dims, s.transition));
-        let g = globals(scene, camera, params, haze_dims, transition, haze_layers);
+        let fields = self.scene.as_ref().map(|s| &s.fields);
+        let g = globals(scene, fields.unwrap_or(&scene_data::EffectFields::default()), camera, params, haze_dims, transition, haze_layers);
         self.gpu.queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&g));
 
         let (Some(scene_res), Some((templates, template_buffer)), Some((targets, readback)), Some((instances, _))) =
@@ -315,7 +319,12 @@ impl GpuRenderer {
         if let Some(s) = &self.scene {
             let same_layers = s.layers.len() == scene.textures.len()
                 && s.layers.iter().zip(&scene.textures).all(|(a, b)| a.offset == b.offset && a.texture == b.texture);
-            if same_layers && s.cells == scene.cells && s.mipmaps == mipmaps && s.effects == scene_data::effects(scene) {
+            if same_layers
+                && s.cells == scene.cells
+                && s.mipmaps == mipmaps
+                && s.effects == scene_data::effects(scene)
+                && s.fields == scene_data::effect_fields(scene)
+            {
                 return;
             }
         }
@@ -337,6 +346,17 @@ impl GpuRenderer {
         // A storage buffer may not be empty: one unused element without effects.
         let unused = [scene_data::GpuEffects::zeroed()];
         let effect_buffer = storage("effects", bytemuck::cast_slice(if effects.is_empty() { &unused[..] } else { &effects[..] }));
+        let fields = scene_data::effect_fields(scene);
+        let moved = match &fields.moved {
+            Some((_, _, size, value, _)) => self.upload_mask("moved region", *size, value),
+            None => self.upload_mask("no moved region", [1, 1], &[0.0]),
+        };
+        let (cutter_tris, cutter_bins) = match &fields.cutter {
+            Some((tris, _, _, _, bins)) => (bytemuck::cast_slice(tris), bytemuck::cast_slice(bins)),
+            None => (bytemuck::cast_slice(&unused[..]), bytemuck::cast_slice(&unused[..])),
+        };
+        let (cutter_tris, cutter_bins) = (storage("cutter triangles", cutter_tris), storage("cutter bins", cutter_bins));
+        let moved_view = moved.create_view(&Default::default());
         let set = MipmapSet::build(&scene.textures, mipmaps);
         let mut volumes: Vec<wgpu::Texture> = set
             .occupancy
@@ -353,6 +373,9 @@ impl GpuRenderer {
             wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&self.pipelines.sampler) },
             wgpu::BindGroupEntry { binding: 5, resource: neighbour_buffer.as_entire_binding() },
             wgpu::BindGroupEntry { binding: EFFECTS_BINDING, resource: effect_buffer.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: MOVED_BINDING, resource: wgpu::BindingResource::TextureView(&moved_view) },
+            wgpu::BindGroupEntry { binding: CUTTER_TRIANGLES_BINDING, resource: cutter_tris.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: CUTTER_BINS_BINDING, resource: cutter_bins.as_entire_binding() },
         ];
         // The slots past the last layer hold layer 0 again; the shaders skip them.
         for (k, binding) in LAYER_BINDINGS.iter().enumerate() {
@@ -371,16 +394,18 @@ impl GpuRenderer {
         let haze_dims = set.transparency_dims();
         let haze_layers = if set.transparency.is_empty() { 0 } else { haze_layer_count(haze_dims[2], set.transition) };
         volumes.extend(haze);
+        volumes.push(moved);
         self.scene = Some(SceneResources {
             cells: scene.cells.clone(),
             layers: scene.textures.clone(),
             mipmaps,
             effects,
+            fields,
             haze_dims,
             transition: set.transition,
             haze_layers,
             group,
-            _buffers: [cell_buffer, frame_buffer, neighbour_buffer, effect_buffer],
+            _buffers: [cell_buffer, frame_buffer, neighbour_buffer, effect_buffer, cutter_tris, cutter_bins],
             _volumes: volumes,
         });
     }
@@ -419,6 +444,29 @@ impl GpuRenderer {
             );
         }
         volume
+    }
+
+    /// A one-channel 32-bit float 2D texture of `size` texels, row by row.
+    fn upload_mask(&self, label: &str, size: [usize; 2], value: &[f32]) -> wgpu::Texture {
+        let [w, h] = size.map(|n| n as u32);
+        let size = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 };
+        let texture = self.gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: pipeline::FIELD_FORMAT,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        self.gpu.queue.write_texture(
+            wgpu::TexelCopyTextureInfo { texture: &texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+            bytemuck::cast_slice(value),
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * w), rows_per_image: Some(h) },
+            size,
+        );
+        texture
     }
 
     /// The transparency chain as three textures (directional alpha, the ellipsoids'
@@ -578,6 +626,7 @@ fn haze_layer_count(nz: usize, transition: u32) -> u32 {
 
 fn globals(
     scene: &ShellScene,
+    fields: &scene_data::EffectFields,
     camera: &Camera,
     params: &SliceParams,
     haze_dims: [usize; 3],
@@ -616,9 +665,12 @@ fn globals(
         ],
         haze: [haze_dims[0] as f32, haze_dims[1] as f32, haze_dims[2] as f32, transition as f32],
         effects: {
-            let drawn = !scene.effects.is_none() && scene.effects.per_vertex_only();
             let (top, layers) = scene.effects.base_slab();
-            [if drawn { 1.0 } else { 0.0 }, top, layers, 0.0]
+            [if scene.effects.is_none() { 0.0 } else { 1.0 }, top, layers, 0.0]
         },
+        moved: fields.moved.as_ref().map_or([0.0; 4], |(lo, texel, ..)| [lo[0], lo[1], 1.0 / texel, 1.0]),
+        moved_offset: fields.moved.as_ref().map_or([0.0; 4], |m| [m.4[0], m.4[1], 0.0, 0.0]),
+        cutter: fields.cutter.as_ref().map_or([0.0; 4], |(_, first, cell, ..)| [first[0], first[1], *cell, 1.0]),
+        cutter_bins: [fields.cutter.as_ref().map_or(0, |c| c.3), 0, 0, 0],
     }
 }

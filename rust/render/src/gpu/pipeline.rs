@@ -33,6 +33,16 @@ pub const HAZE_BINDINGS: [u32; 3] = [9, 10, 11];
 /// The binding of the cells' effects (region and hole weights) in group 0.
 pub const EFFECTS_BINDING: u32 = 12;
 
+/// The bindings of the moved region's mask (a 2D texture read texel by texel) and
+/// the cutter's triangles and bins (storage) in group 0
+/// ([`super::scene_data::EffectFields`]).
+pub const MOVED_BINDING: u32 = 13;
+pub const CUTTER_TRIANGLES_BINDING: u32 = 14;
+pub const CUTTER_BINS_BINDING: u32 = 15;
+
+/// The mask's format: read with `textureLoad`, so it need not be filterable.
+pub const FIELD_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+
 /// `Globals` in the shader.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
@@ -55,6 +65,16 @@ pub struct Globals {
     /// Per-vertex effects drawn (1 or 0), the base slab's top in `r` and the layers
     /// across the shell ([`super::scene_data::GpuEffects`]).
     pub effects: [f32; 4],
+    /// The moved region: its mask's first texel `(s, t)`, 1 / texel size, and 1 where
+    /// there is one.
+    pub moved: [f32; 4],
+    /// How far it moved, `(s, t)`.
+    pub moved_offset: [f32; 4],
+    /// The cutter's bins: their first `(x, y)`, bin size, and 1 where there is a
+    /// cutter.
+    pub cutter: [f32; 4],
+    /// Bins per side in `x`.
+    pub cutter_bins: [u32; 4],
 }
 
 pub struct Pipelines {
@@ -151,6 +171,9 @@ impl Pipelines {
                 volume(HAZE_BINDINGS[0]),
                 volume(HAZE_BINDINGS[1]),
                 volume(HAZE_BINDINGS[2]),
+                entry(MOVED_BINDING, wgpu::ShaderStages::FRAGMENT, texture_2d(wgpu::TextureSampleType::Float { filterable: false })),
+                entry(CUTTER_TRIANGLES_BINDING, wgpu::ShaderStages::FRAGMENT, storage()),
+                entry(CUTTER_BINS_BINDING, wgpu::ShaderStages::FRAGMENT, storage()),
             ],
         });
         let first_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

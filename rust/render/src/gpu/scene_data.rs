@@ -57,11 +57,11 @@ pub struct GpuEffects {
     pub holes: [f32; 4],
 }
 
-/// The scene's per-vertex effects per cell: empty when there are none, or when some
-/// effect needs more than the corners (a cutter, a moved region).
+/// The scene's per-vertex effects per cell (1 and 0 where a cutter or a moved
+/// region comes without a region or holes): empty when there are none.
 pub fn effects(scene: &crate::ShellScene) -> Vec<GpuEffects> {
     let e = &scene.effects;
-    if e.is_none() || !e.per_vertex_only() {
+    if e.is_none() {
         return Vec::new();
     }
     (0..scene.cells.len())
@@ -70,6 +70,32 @@ pub fn effects(scene: &crate::ShellScene) -> Vec<GpuEffects> {
             GpuEffects { region: [region[0], region[1], region[2], 0.0], holes: [holes[0], holes[1], holes[2], 0.0] }
         })
         .collect()
+}
+
+/// What the effects need besides the cells' corners: the moved region's mask in
+/// `(s, t)` (a texture the shader reads texel by texel and interpolates as
+/// [`thicket_core::texture::bake::Effects`] does on the CPU) and the cutter's
+/// triangles in their bins (the shader runs the CPU's inside test,
+/// [`thicket_core::texture::bake::Cutter::contains`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct EffectFields {
+    /// First texel's `(s, t)`, texel size, texel counts, values and the move.
+    pub moved: Option<([f32; 2], f32, [usize; 2], Vec<f32>, [f32; 2])>,
+    /// The cutter's triangles (three corners each), its bins' first `(x, y)`, bin
+    /// size, bins per side and the bins as one list (offsets, then indices).
+    pub cutter: Option<(Vec<[f32; 4]>, [f32; 2], f32, u32, Vec<u32>)>,
+}
+
+/// The scene's [`EffectFields`].
+pub fn effect_fields(scene: &crate::ShellScene) -> EffectFields {
+    let e = &scene.effects;
+    let moved = e.moved_raster().map(|((lo, texel, size, value), d)| (lo.to_array(), texel, size, value.to_vec(), d.to_array()));
+    let cutter = e.cutter().map(|c| {
+        let (tris, first, cell, side, flat) = c.flat_bins();
+        let corners = tris.iter().flatten().map(|p| p.extend(0.0).to_array()).collect();
+        (corners, first.to_array(), cell, side as u32, flat)
+    });
+    EffectFields { moved, cutter }
 }
 
 /// `Neighbours` in the shader: per side face of a cell (`u = 0`: corner 2 to corner

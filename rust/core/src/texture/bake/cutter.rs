@@ -87,6 +87,30 @@ impl Cutter {
     }
 }
 
+impl Cutter {
+    /// The cutter's bounding box.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.tris.iter().flatten().fold((Vec3::MAX, Vec3::MIN), |(a, b), p| (a.min(*p), b.max(*p)))
+    }
+
+    /// The test's data for a renderer that runs [`contains`](Self::contains) itself
+    /// (the GPU slice renderer): the triangles, the bins' first `(x, y)` and size,
+    /// the bins per side, and the bins as one list (`side² + 1` offsets into the
+    /// triangle indices that follow them, row by row).
+    pub fn flat_bins(&self) -> (&[[Vec3; 3]], glam::Vec2, f32, usize, Vec<u32>) {
+        let mut flat = Vec::with_capacity(self.bins.len() + 1 + self.bins.iter().map(Vec::len).sum::<usize>());
+        let first = self.bins.len() as u32 + 1;
+        let mut at = first;
+        for bin in &self.bins {
+            flat.push(at);
+            at += bin.len() as u32;
+        }
+        flat.push(at);
+        self.bins.iter().for_each(|b| flat.extend(b));
+        (&self.tris, self.lo.as_vec2(), self.cell as f32, self.side, flat)
+    }
+}
+
 /// Height at which the vertical line through `p` meets triangle `t`, counting shared
 /// edges and vertices once (top-left rule on the projected, counter-clockwise triangle).
 fn ray_hit(t: &[Vec3; 3], p: Vec3) -> Option<f64> {
@@ -116,6 +140,39 @@ fn ray_hit(t: &[Vec3; 3], p: Vec3) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_flat_bins_give_contains() {
+        // The flat bins, walked as the GPU slice renderer walks them (the point's
+        // bin, the crossings above it among its triangles), agree with `contains`.
+        let sphere = crate::testmeshes::icosphere(3);
+        let s = sphere.triangulate();
+        let cutter = Cutter::new(sphere.positions(), &s.triangles).unwrap();
+        let (lo, hi) = cutter.bounds();
+        assert!((lo + Vec3::ONE).length() < 0.05 && (hi - Vec3::ONE).length() < 0.05, "{lo} {hi}");
+        let (tris, first, cell, side, flat) = cutter.flat_bins();
+        assert_eq!(flat.len(), side * side + 1 + cutter.bins.iter().map(Vec::len).sum::<usize>());
+        let walk = |p: Vec3| {
+            let g = ((p.truncate() - first) / cell).floor();
+            if g.x < 0.0 || g.y < 0.0 || g.x > side as f32 || g.y > side as f32 {
+                return false;
+            }
+            let b = (g.y as usize).min(side - 1) * side + (g.x as usize).min(side - 1);
+            let above = (flat[b]..flat[b + 1]).filter(|&k| ray_hit(&tris[flat[k as usize] as usize], p).is_some_and(|z| z > p.z as f64)).count();
+            above % 2 == 1
+        };
+        let mut inside = 0;
+        for x in -12..=12 {
+            for y in -12..=12 {
+                for z in -12..=12 {
+                    let p = Vec3::new(x as f32, y as f32, z as f32) / 10.0 + Vec3::new(0.013, 0.007, 0.0);
+                    assert_eq!(walk(p), cutter.contains(p), "{p}");
+                    inside += usize::from(walk(p));
+                }
+            }
+        }
+        assert!(inside > 3000, "{inside}");
+    }
 
     #[test]
     fn points_inside_a_sphere_and_a_cube_are_found_exactly() {

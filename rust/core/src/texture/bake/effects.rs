@@ -100,6 +100,17 @@ impl Effects {
         self.cutter.is_some()
     }
 
+    /// The cutter, for renderers that sample it on a grid.
+    pub fn cutter(&self) -> Option<&Cutter> {
+        self.cutter.as_ref()
+    }
+
+    /// The moved region: where it came from as a raster in `(s, t)` (first texel,
+    /// texel size, texel counts, values; see [`Self::site`]) and how far it went.
+    pub fn moved_raster(&self) -> Option<((Vec2, f32, [usize; 2], &[f32]), Vec2)> {
+        self.moved.as_ref().map(|(mask, d)| (mask.raster(), *d))
+    }
+
     /// Whether every effect is a per-vertex weight (region, holes): what a renderer
     /// can draw from the cells' corners alone, without the cutter's mesh or the moved
     /// region's mask.

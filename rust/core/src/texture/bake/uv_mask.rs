@@ -61,6 +61,12 @@ impl UvMask {
         Self { lo, texel, size, value }
     }
 
+    /// The raster: its first texel's `(s, t)`, the texel size, the texel counts and
+    /// the values (row by row), which [`sample`](Self::sample) interpolates between.
+    pub fn raster(&self) -> (Vec2, f32, [usize; 2], &[f32]) {
+        (self.lo, self.texel, self.size, &self.value)
+    }
+
     /// Bilinear weight at `st`; 0 outside the mesh's `(s, t)` range.
     pub fn sample(&self, st: Vec2) -> f32 {
         let g = (st - self.lo) / self.texel;
