@@ -45,7 +45,9 @@ class Job:
     def __init__(self, work):
         self.fraction = 0.0
         self.cancelled = False
-        #: Called with each fraction from the thread that runs the work (`run_here` only).
+        #: What the work is at ("'Cube' (2 of 3)"), for the status line; set by the work.
+        self.stage = ""
+        #: Called with each fraction from the thread that runs the work (set by `run_here`).
         self.on_progress = None
         self._work = work
         self._result = self._error = None
@@ -107,11 +109,13 @@ class JobWatch:
     line while it runs, Esc or right-click to cancel, and the end turned into the
     operator's result. `finish(result)` writes the result (main thread) and returns
     the operator's status; `fail(exc)` does the same for an error the user should
-    see (default: an ERROR report); a cancel is reported here and changes nothing."""
+    see (default: an ERROR report), `on_cancel()` for a cancel (default: reported,
+    nothing changed; work in parts may keep the parts it finished)."""
 
-    def __init__(self, job, label, report, finish, fail=None):
+    def __init__(self, job, label, report, finish, fail=None, on_cancel=None):
         self.job, self.label, self.report, self.finish = job, label, report, finish
         self.fail = fail or (lambda exc: self.report({"ERROR"}, f"{label}: {error_text(exc)}") or {"CANCELLED"})
+        self.on_cancel = on_cancel or (lambda: self.report({"WARNING"}, f"{label}: cancelled; nothing was changed") or {"CANCELLED"})
         self._timer = None
 
     def start_modal(self, context, operator):
@@ -134,7 +138,8 @@ class JobWatch:
         if not self.job.done:
             context.window_manager.progress_update(self.job.fraction)
             if not self.job.cancelled:
-                self._status(context, f"{self.label}: {self.job.fraction:.0%} (Esc to cancel)")
+                stage = f"{self.job.stage}, " if self.job.stage else ""
+                self._status(context, f"{self.label}: {stage}{self.job.fraction:.0%} (Esc to cancel)")
             return {"RUNNING_MODAL"}
         self.stop(context)
         return self.conclude()
@@ -149,8 +154,7 @@ class JobWatch:
         try:
             result = self.job.outcome()
         except cancel_errors():
-            self.report({"WARNING"}, f"{self.label}: cancelled; nothing was changed")
-            return {"CANCELLED"}
+            return self.on_cancel()
         except Exception as exc:  # user errors and the unexpected alike: reported, never raised into Blender
             return self.fail(exc)
         return self.finish(result)

@@ -338,3 +338,28 @@ def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_
     current.notes = notes
     current.shell_summaries = summaries
     return current
+
+
+def evaluate_each(sources, progress=None, errors=(ValueError,)):
+    """`evaluate_stack` over several `(source, items)` pairs, one after the other,
+    yielding each one's result, or its error when it is one of `errors` (an entry may
+    be such an error already: a source that could not be read). `progress` covers
+    them all in equal parts, ending at 1.0; a cancel (see `evaluate_stack`) ends the
+    iteration with its exception, the results yielded before it standing."""
+    n = len(sources)
+    for i, entry in enumerate(sources):
+        part = _scaled(progress, i / n, (i + 1) / n)
+        if isinstance(entry, BaseException):  # nothing to evaluate: passed at once
+            if part is not None and part(0.0) is False:
+                raise cancelled_error()
+            outcome = entry
+            if part is not None:
+                part(1.0)
+        else:
+            try:
+                outcome = evaluate_stack(*entry, part)
+            except native.get().Cancelled:
+                raise
+            except errors as exc:
+                outcome = exc
+        yield outcome

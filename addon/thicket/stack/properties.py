@@ -162,15 +162,6 @@ class ThicketItem(bpy.types.PropertyGroup):
     def to_settings(self, depsgraph=None):
         """The plain-data settings `stack.evaluate` runs on (a cutter's mesh is read
         from `depsgraph`, in the source's object space)."""
-        common = dict(
-            thickness=self.thickness,
-            relative=self.thickness_mode == "RELATIVE",
-            vertex_group=self.vertex_group,
-            output=self.output.lower(),
-            layers=self.layers,
-        )
-        if self.kind == S.FieldShell.kind:
-            return S.FieldShell(side=self.side.lower(), **common)
         if self.kind == S.VolumetricTexture.kind:
             return S.VolumetricTexture(
                 pattern=self.pattern, seed=self.seed, time=self.texture_time(), feature_thickness=self.feature_thickness,
@@ -185,7 +176,7 @@ class ThicketItem(bpy.types.PropertyGroup):
                 move_offset=tuple(self.move_offset),
                 cutter=self._cutter_arrays(depsgraph),
             )
-        return S.OffsetShell(**common)
+        return S.shell_settings(self.kind, self.thickness, self.thickness_mode, self.vertex_group, self.output, self.layers, self.side)
 
 
     def _cutter_arrays(self, depsgraph):

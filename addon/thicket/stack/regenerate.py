@@ -52,15 +52,17 @@ def regenerate(source: bpy.types.Object, depsgraph=None, progress=None, ask=Fals
         return write_result(source, evaluate_stack(arrays, items, progress, ask))
 
 
-def read_source(source: bpy.types.Object, depsgraph=None):
+def read_source(source: bpy.types.Object, depsgraph=None, items=None):
     """What evaluating the stack needs, read on the main thread: the evaluated source
-    mesh (with the vertex groups its items use) and the enabled items' settings.
-    Both are plain data, so `evaluate_stack` may run on another thread."""
+    mesh (with the vertex groups its items use) and the enabled items' settings, or
+    `items` (settings of a stack not added yet). Both are plain data, so
+    `evaluate_stack` may run on another thread."""
     if source.type != "MESH":
         raise TypeError(f"'{source.name}' is a {source.type.lower()}, not a mesh")
     with suspended():
         depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
-        items = enabled_settings(source, depsgraph)
+        if items is None:
+            items = enabled_settings(source, depsgraph)
         groups = sorted({g for item in items for g in item.vertex_groups()})
         return mesh_io.read_evaluated(source, depsgraph, groups), items
 

@@ -101,3 +101,10 @@ class VolumetricTexture(_Item):
 
 
 KINDS = {cls.kind: cls for cls in (OffsetShell, FieldShell, VolumetricTexture)}
+
+
+def shell_settings(kind, thickness, thickness_mode="RELATIVE", vertex_group="", output="OUTER", layers=OffsetShell.layers, side="EXTERIOR"):
+    """A Shell ("SHELL") or Offset Shell item's settings from its properties' values
+    (enum values as Blender stores them: "RELATIVE", "OUTER", "EXTERIOR"...)."""
+    common = dict(thickness=thickness, relative=thickness_mode == "RELATIVE", vertex_group=vertex_group, output=output.lower(), layers=layers)
+    return FieldShell(side=side.lower(), **common) if kind == FieldShell.kind else OffsetShell(**common)
