@@ -446,8 +446,8 @@ pub fn build_shell(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPar
 
 /// [`build_shell`] watched through `progress`: it counts the vertices traced (and the
 /// repair, see [`watched_steps`]) and reaches 1 when the shell is done; once it is
-/// cancelled the tracing stops within a few vertices per thread, or the build stops
-/// after the repair if that is running, with [`Error::Cancelled`].
+/// cancelled the tracing stops within a few vertices per thread, the repair at its
+/// next round and the restore at its next batch, with [`Error::Cancelled`].
 pub fn build_shell_watched(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellParams, progress: Option<&Progress>) -> Result<Shell> {
     check_inputs(mesh, thickness, params)?;
     let (sorted, order) = mesh.spatially_ordered();
@@ -466,7 +466,7 @@ fn build_in_order(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPara
     let mut shell = assemble(mesh, thickness, side, &traces);
     if repairs {
         let checker = super::defects::Checker::new(mesh);
-        let repair = Repair { checker: &checker, mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR };
+        let repair = Repair { checker: &checker, mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR, cancel: progress };
         shell.check = repair.settle(&mut None, &mut shell, None);
     }
     if let Some(p) = progress {

@@ -102,7 +102,7 @@ impl IncrementalShell {
         let checker = Checker::new(&mesh);
         let mut outer_bvh = None;
         let repair =
-            Repair { checker: &checker, mesh: &mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR };
+            Repair { checker: &checker, mesh: &mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR, cancel: progress };
         shell.check = repair.settle(&mut outer_bvh, &mut shell, None);
         if let Some(p) = progress {
             p.check()?;
@@ -209,6 +209,7 @@ impl IncrementalShell {
             normals: &self.tracer.normals,
             rounds: self.params.repair_rounds,
             factor: REPAIR_FACTOR,
+            cancel: None,
         };
         self.shell.check = repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
         Ok(UpdateStats { changed, retraced: dirty.len(), kept, rebuilt: false })

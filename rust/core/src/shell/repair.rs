@@ -75,7 +75,7 @@ pub fn untangle_around(mesh: &Mesh, shell: &mut Shell, rounds: u32, factor: f32,
     }
     let checker = Checker::new(mesh);
     let normals = vertex_normals(mesh);
-    Repair { checker: &checker, mesh, normals: &normals, rounds, factor }.untangle(&mut None, shell, seeds)
+    Repair { checker: &checker, mesh, normals: &normals, rounds, factor, cancel: None }.untangle(&mut None, shell, seeds)
 }
 
 /// What the repair and restore passes use besides the shell: the mesh, its defect
@@ -86,6 +86,17 @@ pub(crate) struct Repair<'a> {
     pub normals: &'a [Vec3],
     pub rounds: u32,
     pub factor: f32,
+    /// Once this is cancelled the repair stops at its next round and the restore at
+    /// its next batch, leaving the shell unfinished (`clean` false): the caller
+    /// drops it ([`crate::Error::Cancelled`]).
+    pub cancel: Option<&'a crate::progress::Progress>,
+}
+
+impl Repair<'_> {
+    /// Whether the caller cancelled.
+    pub fn cancelled(&self) -> bool {
+        self.cancel.is_some_and(|p| p.is_cancelled())
+    }
 }
 
 impl Repair<'_> {
@@ -115,6 +126,9 @@ impl Repair<'_> {
         let mut shortened = vec![false; mesh.vertex_count()];
         let mut scale = vec![1.0f32; mesh.vertex_count()];
         for round in 0.. {
+            if self.cancelled() {
+                break;
+            }
             let found = checker.find(mesh, shell, dirty.as_ref(), Some(&outer));
             if found.is_clean() {
                 done.clean = true;

@@ -58,7 +58,7 @@ impl Repair<'_> {
         }
         let before = seeds.map(|_| shell.directors.clone());
         let done = self.untangle(outer, shell, seeds);
-        let Some(tree) = outer.as_mut() else { return done };
+        let Some(tree) = outer.as_mut().filter(|_| !self.cancelled()) else { return done };
         let scope = seeds.zip(before).map(|(seeds, before)| {
             // The seeds, what the repair shortened or turned, and their neighbours.
             let mut scope = vec![false; before.len()];
@@ -68,7 +68,7 @@ impl Repair<'_> {
             }
             scope
         });
-        restore(checker, tree, mesh, shell, normals, scope.as_deref());
+        restore(checker, tree, mesh, shell, normals, scope.as_deref(), self.cancel);
         done
     }
 }
@@ -83,6 +83,7 @@ pub(crate) fn restore(
     shell: &mut Shell,
     normals: &[Vec3],
     scope: Option<&[bool]>,
+    cancel: Option<&crate::progress::Progress>,
 ) -> usize {
     let mut room = NormalRoom::new(checker, mesh, normals, shell.side, &shell.target);
     let short = |v: usize| {
@@ -120,7 +121,7 @@ pub(crate) fn restore(
         // once (on open meshes nearly every boundary vertex is short), and only those
         // that fail are tried again in batches without shared cells.
         let mut bulk = rings == 0;
-        while !pending.is_empty() {
+        while !pending.is_empty() && !cancel.is_some_and(|p| p.is_cancelled()) {
             // A batch of tries whose groups share no cell (nor triangle), so that a
             // folded cell is blamed on one group; two groups whose outer triangles
             // cross are both undone, and tried again at the next attempt.

@@ -634,3 +634,29 @@ fn incremental_update_gives_back_thickness_where_an_edit_makes_room() {
         assert!(mine >= want - 0.005, "{steps} updates: incremental {mine} vs rebuilt {want} (pressed {pressed})");
     }
 }
+
+#[test]
+fn the_repair_and_the_restore_stop_on_a_cancel() {
+    // A traced comb shell folds (the repair has rounds to run); with a cancelled
+    // watch the repair runs none and leaves the shell unfinished for the caller to
+    // drop, without it the same shell is repaired clean.
+    use super::defects::Checker;
+    use super::repair::Repair;
+    let mesh = tm::comb(2);
+    let t = Thickness::relative(0.2).per_vertex(&mesh, None).unwrap();
+    let traced = build_shell(&mesh, &t, Side::Exterior, &ShellParams { repair_rounds: 0, ..Default::default() }).unwrap();
+    let checker = Checker::new(&mesh);
+    let normals = crate::mesh::vertex_normals(&mesh);
+    let cancelled = crate::progress::Progress::default();
+    cancelled.cancel();
+    for (cancel, name) in [(Some(&cancelled), "cancelled"), (None, "not cancelled")] {
+        let mut shell = traced.clone();
+        let repair = Repair { checker: &checker, mesh: &mesh, normals: &normals, rounds: 80, factor: 0.92, cancel };
+        let done = repair.settle(&mut None, &mut shell, None);
+        if cancel.is_some() {
+            assert!(!done.clean && done.rounds == 0 && shell.directors == traced.directors, "{name}: {done:?}");
+        } else {
+            assert!(done.clean && done.rounds > 0, "{name}: {done:?}");
+        }
+    }
+}
