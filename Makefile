@@ -13,11 +13,12 @@ STAMP := $(VENV)/.thicket-$(BPY_VERSION)
 VENV_LTS := .venv-lts
 PY_LTS := $(VENV_LTS)/bin/python
 STAMP_LTS := $(VENV_LTS)/.thicket-$(BPY_LTS_VERSION)
+RUFF_VERSION ?= 0.17.6
 RUST_SOURCES := Cargo.toml $(shell find rust shaders -name '*.rs' -o -name '*.wgsl' -o -name Cargo.toml -o -name pyproject.toml 2>/dev/null)
 WHEEL_STAMP := build/site/.stamp
 ADDON_SOURCES := $(shell find addon -type f -not -path '*/__pycache__/*' 2>/dev/null)
 
-.PHONY: setup wheel extension test test-rust test-python demo bench fixtures clean vulkan
+.PHONY: setup wheel extension test test-rust test-python lint demo bench fixtures clean vulkan
 
 setup: $(STAMP) $(WHEEL_STAMP)
 
@@ -68,6 +69,14 @@ test-python: vulkan setup extension $(STAMP_LTS)
 	$(PY_LTS) -m pytest tests -q -p no:cacheprovider
 
 test: test-rust test-python
+
+# Lint: clippy on every target with warnings as errors, ruff (ruff.toml) on the
+# add-on, tests and fixtures. Both installed here if missing.
+lint: $(STAMP)
+	@cargo clippy --version >/dev/null 2>&1 || rustup component add clippy
+	cargo clippy --all-targets -q -- -D warnings
+	@$(VENV)/bin/ruff --version 2>/dev/null | grep -q "$(RUFF_VERSION)" || $(VENV)/bin/pip install -q "ruff==$(RUFF_VERSION)"
+	$(VENV)/bin/ruff check addon tests blend_fixtures
 
 fixtures: setup $(STAMP_LTS)
 	$(PY_LTS) blend_fixtures/make_fixtures.py

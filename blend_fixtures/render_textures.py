@@ -9,10 +9,13 @@ ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "build" / "renders"
 sys.path[:0] = [str(ROOT / "addon"), str(ROOT / "build" / "site")]
 import bpy
+
 bpy.ops.wm.read_factory_settings(use_empty=True)
 import thicket
+
 thicket.register()
 from thicket import api
+
 scene = bpy.context.scene
 scene.render.engine = "CYCLES"
 scene.cycles.samples = 8

@@ -14,9 +14,9 @@ sys.path[:0] = [str(ROOT / "addon"), str(ROOT / "build" / "site")]
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+from blender_objects import mesh_object  # noqa: E402, F401  (tests import it from here)
 
 import thicket  # noqa: E402
-from blender_objects import mesh_object  # noqa: E402, F401  (tests import it from here)
 
 thicket.register()
 

@@ -11,10 +11,10 @@ import bmesh
 import bpy
 import numpy as np
 import pytest
-import thicket_native as tn
 from conftest import DATA, add
 from mathutils.bvhtree import BVHTree
 
+import thicket_native as tn
 from thicket import mesh_io
 from thicket.arrays import MeshArrays
 
@@ -115,7 +115,6 @@ def bake_and_check(base, side, pattern, variant, size=(12, 12, 8), resolution=6,
     shell = tn.shell(base.vertices, base.face_sizes, base.corners, thickness, relative=True, side=side)
     # Thick features (3 times the default), so the coarse test lattices keep them.
     texture = tn.texture(pattern, size=size, thickness=3.0)
-    n = base.vertex_count
     x = base.vertices[:, 0]
     half = (x > np.median(x)).astype(np.float32)
     # A budget below what most of these lattices sample, so the bakes are simplified

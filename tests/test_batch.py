@@ -1,6 +1,5 @@
 """Headless batch use: the API on many files, the demo script, `blender -c thicket`."""
 
-import pathlib
 import re
 import subprocess
 import sys

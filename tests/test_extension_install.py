@@ -39,7 +39,7 @@ def test_install_zip_and_run_operator(tmp_path):
         [sys.executable, "-c", SCRIPT, str(zips[-1])], env=env, capture_output=True, text=True, timeout=300,
         cwd=tmp_path,
     )
-    line = next((l for l in proc.stdout.splitlines() if l.startswith("RESULT ")), None)
+    line = next((text for text in proc.stdout.splitlines() if text.startswith("RESULT ")), None)
     assert line, proc.stdout[-3000:] + proc.stderr[-3000:]
     result = json.loads(line[len("RESULT "):])
     assert result["ret"] == ["FINISHED"]

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 import thicket_native as tn
 
 CUBE_V = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], np.float32)

@@ -11,11 +11,11 @@ its head: a base with intersections of its own).
 import bpy
 import numpy as np
 import pytest
-import thicket_native as tn
 from blender_checks import blender_check, loop_triangles, overlapping
 from conftest import DATA, add, positions
 from mathutils.bvhtree import BVHTree
 
+import thicket_native as tn
 from thicket import api, mesh_io
 from thicket.stack import live_shells
 

@@ -6,9 +6,9 @@ import math
 import bpy
 import numpy as np
 import pytest
-import thicket_native as tn
 from conftest import add
 
+import thicket_native as tn
 from thicket import api
 from thicket.render import camera, preview
 

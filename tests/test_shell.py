@@ -3,9 +3,9 @@
 import bpy
 import numpy as np
 import pytest
-import thicket_native as tn
 from conftest import DATA, add, positions
 
+import thicket_native as tn
 from thicket import api, mesh_io
 
 

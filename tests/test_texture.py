@@ -6,9 +6,9 @@ import bmesh
 import bpy
 import numpy as np
 import pytest
-import thicket_native as tn
 from conftest import add, positions, select_only
 
+import thicket_native as tn
 from thicket import api, mesh_io
 from thicket.stack.evaluate import TEXCOORD_ATTRIBUTE
 

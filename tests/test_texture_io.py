@@ -10,6 +10,7 @@ import re
 import bpy
 import numpy as np
 import pytest
+
 import thicket_native as tn
 
 EIGHT_BIT = 1.0 / 255.0

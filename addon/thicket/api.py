@@ -37,7 +37,7 @@ from .stack import live_shells
 from .stack import settings as S
 from .stack.regenerate import regenerate as _regenerate
 
-__all__ = ["crossing_faces", "add_thick_surface", "add_volumetric_texture", "bake_frames", "export_texture", "render_preview", "render_frames", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]
+__all__ = ["crossing_faces", "add_thick_surface", "add_volumetric_texture", "bake_frames", "export_texture", "render_preview", "render_frames", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]  # noqa: F822 (module __getattr__)
 
 
 def __getattr__(name):

@@ -4,7 +4,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-
 #: The pseudo vertex group of the source's selected faces (weight 1 on their vertices).
 SELECTED_FACES = "<selected faces>"
 

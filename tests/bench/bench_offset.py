@@ -53,13 +53,13 @@ def bench_fixtures():
     bpy.ops.wm.open_mainfile(filepath=str(ROOT / "blend_fixtures" / "demo.blend"))
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=6, location=(0, -4, 0))
     bpy.context.active_object.name = "Icosphere-6"
-    print(f"\nOffset Shell (solid output, full regenerate incl. Blender read/write) vs Solidify (Simple, rim),")
+    print("\nOffset Shell (solid output, full regenerate incl. Blender read/write) vs Solidify (Simple, rim),")
     print(f"thickness {THICKNESS} x diagonal, median of {RUNS}; both produce base + offset + rims")
     print(f"{'mesh':14s} {'verts':>8s} {'thicket ms':>11s} {'solidify ms':>12s} {'ratio':>7s}")
     for obj in [o for o in bpy.context.scene.objects if o.type == "MESH"]:
         api.add_thick_surface(obj, thickness=THICKNESS, output="SOLID")
         diag = np.linalg.norm(np.ptp(mesh_io.read_mesh(obj.data).vertices, axis=0))
-        ours = median_time(lambda: api.regenerate(obj))
+        ours = median_time(lambda obj=obj: api.regenerate(obj))
         theirs = solidify_time(obj, THICKNESS * diag)
         print(f"{obj.name:14s} {len(obj.data.vertices):8d} {ours * 1e3:11.2f} {theirs * 1e3:12.2f} {ours / theirs:6.2f}x")
 

@@ -43,8 +43,8 @@ def main():
     print(f"Render Preview in Blender, icosphere 5120 faces, chain mail, {SIZE}x{SIZE}")
     rows = []
     for method, slices in (("interpolating", 16), ("plain", 16), ("reference", 0)):
-        seconds, out = median_time(lambda: preview.render_arrays(obj, view, projection, SIZE, SIZE, method=method, slices=max(slices, 2)))
-        show, _ = median_time(lambda: preview.to_image(out["rgba"]))
+        seconds, out = median_time(lambda m=method, n=slices: preview.render_arrays(obj, view, projection, SIZE, SIZE, method=m, slices=max(n, 2)))
+        show, _ = median_time(lambda rgba=out["rgba"]: preview.to_image(rgba))
         rows.append((method, slices, seconds, show, out["renderer"]))
     for method, slices, seconds, show, renderer in rows:
         label = f"{method} ({slices} slices)" if slices else method

@@ -18,10 +18,10 @@ sys.path[:0] = [str(ROOT / "addon"), str(ROOT / "build" / "site"), str(ROOT / "t
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
-
-import thicket  # noqa: E402
 from blender_checks import blender_check, loop_triangles, overlapping  # noqa: E402
 from blender_objects import mesh_object  # noqa: E402
+
+import thicket  # noqa: E402
 from thicket import mesh_io, native  # noqa: E402
 
 EXTERIOR = 0.10  # fraction of the bounding-box diagonal, as in the issue

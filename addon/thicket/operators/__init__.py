@@ -6,8 +6,8 @@ from .export_texture import THICKET_OT_export_texture
 from .item_add import THICKET_OT_item_add
 from .item_move import THICKET_OT_item_move
 from .item_remove import THICKET_OT_item_remove
-from .regenerate import THICKET_OT_regenerate
 from .live_preview import THICKET_OT_live_preview
+from .regenerate import THICKET_OT_regenerate
 from .remove_stack import THICKET_OT_remove
 from .render_preview import THICKET_OT_render_preview
 from .select_crossings import THICKET_OT_select_crossings

@@ -108,10 +108,10 @@ def _source():
 def _prepared(obj):
     """(key, TexturedShell) of `obj`, rebuilt only when its `content_key` changed
     (the shell is the expensive part)."""
-    from ..stack.evaluate import texture_setup
-    from ..stack.regenerate import enabled_settings
     from .. import mesh_io
     from ..stack.auto_update import suspended
+    from ..stack.evaluate import texture_setup
+    from ..stack.regenerate import enabled_settings
 
     items = enabled_settings(obj)
     key = content_key(obj)

@@ -6,10 +6,10 @@ import bpy
 import numpy as np
 
 from .. import mesh_io, native
-from . import lights
 from ..stack.auto_update import suspended
 from ..stack.evaluate import cancelled_error, texture_setup
 from ..stack.regenerate import enabled_settings
+from . import lights
 
 PREVIEW_IMAGE = "Thicket Preview"
 

@@ -6,7 +6,6 @@ from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatPrope
 from ..arrays import SELECTED_FACES
 from . import settings as S
 
-
 PATTERNS = [
     ("chain_mail", "Chain Mail", "Interlocking metal rings"),
     ("weave", "Woven Fabric", "Warp and weft threads over and under each other"),

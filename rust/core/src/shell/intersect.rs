@@ -361,6 +361,9 @@ impl TriBvh {
     }
 }
 
+/// A part of a [`Join`]'s traversal, adding the pairs it finds.
+type Part<'a> = &'a (dyn Fn(&mut Vec<(u32, u32)>) + Sync);
+
 /// Two trees (or one tree twice, `same`) traversed against each other for
 /// overlapping item pairs.
 struct Join<'t, K> {
@@ -414,7 +417,7 @@ impl<K: Fn(u32, u32) -> bool + Sync> Join<'_, K> {
     }
 
     /// Runs the parts, in parallel near the root.
-    fn fork<const N: usize>(&self, depth: u32, out: &mut Vec<(u32, u32)>, parts: [&(dyn Fn(&mut Vec<(u32, u32)>) + Sync); N]) {
+    fn fork<const N: usize>(&self, depth: u32, out: &mut Vec<(u32, u32)>, parts: [Part<'_>; N]) {
         if depth >= Self::PARALLEL_DEPTH {
             parts.iter().for_each(|part| part(out));
             return;
@@ -504,7 +507,7 @@ mod tests {
     fn tree_joins_find_every_overlapping_pair_once() {
         // Enough items for the parallel part of the traversal and for deep leaves.
         let (a, b) = (random_boxes(3000, 1), random_boxes(2000, 2));
-        let keep = |i: u32, j: u32| (i + j) % 3 != 0; // the filter is applied
+        let keep = |i: u32, j: u32| !(i + j).is_multiple_of(3); // the filter is applied
         let (ta, tb) = (TriBvh::from_boxes(a.clone()), TriBvh::from_boxes(b.clone()));
         let mut within = ta.overlapping_pairs(&keep);
         within.sort_unstable();

@@ -348,11 +348,11 @@ impl GpuRenderer {
         let effect_buffer = storage("effects", bytemuck::cast_slice(if effects.is_empty() { &unused[..] } else { &effects[..] }));
         let fields = scene_data::effect_fields(scene);
         let moved = match &fields.moved {
-            Some((_, _, size, value, _)) => self.upload_mask("moved region", *size, value),
+            Some(m) => self.upload_mask("moved region", m.size, &m.value),
             None => self.upload_mask("no moved region", [1, 1], &[0.0]),
         };
         let (cutter_tris, cutter_bins) = match &fields.cutter {
-            Some((tris, _, _, _, bins)) => (bytemuck::cast_slice(tris), bytemuck::cast_slice(bins)),
+            Some(c) => (bytemuck::cast_slice(&c.corners), bytemuck::cast_slice(&c.bins)),
             None => (bytemuck::cast_slice(&unused[..]), bytemuck::cast_slice(&unused[..])),
         };
         let (cutter_tris, cutter_bins) = (storage("cutter triangles", cutter_tris), storage("cutter bins", cutter_bins));
@@ -668,9 +668,9 @@ fn globals(
             let (top, layers) = scene.effects.base_slab();
             [if scene.effects.is_none() { 0.0 } else { 1.0 }, top, layers, 0.0]
         },
-        moved: fields.moved.as_ref().map_or([0.0; 4], |(lo, texel, ..)| [lo[0], lo[1], 1.0 / texel, 1.0]),
-        moved_offset: fields.moved.as_ref().map_or([0.0; 4], |m| [m.4[0], m.4[1], 0.0, 0.0]),
-        cutter: fields.cutter.as_ref().map_or([0.0; 4], |(_, first, cell, ..)| [first[0], first[1], *cell, 1.0]),
-        cutter_bins: [fields.cutter.as_ref().map_or(0, |c| c.3), 0, 0, 0],
+        moved: fields.moved.as_ref().map_or([0.0; 4], |m| [m.lo[0], m.lo[1], 1.0 / m.texel, 1.0]),
+        moved_offset: fields.moved.as_ref().map_or([0.0; 4], |m| [m.offset[0], m.offset[1], 0.0, 0.0]),
+        cutter: fields.cutter.as_ref().map_or([0.0; 4], |c| [c.first[0], c.first[1], c.cell, 1.0]),
+        cutter_bins: [fields.cutter.as_ref().map_or(0, |c| c.side), 0, 0, 0],
     }
 }

@@ -79,21 +79,40 @@ pub fn effects(scene: &crate::ShellScene) -> Vec<GpuEffects> {
 /// [`thicket_core::texture::bake::Cutter::contains`]).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct EffectFields {
-    /// First texel's `(s, t)`, texel size, texel counts, values and the move.
-    pub moved: Option<([f32; 2], f32, [usize; 2], Vec<f32>, [f32; 2])>,
-    /// The cutter's triangles (three corners each), its bins' first `(x, y)`, bin
-    /// size, bins per side and the bins as one list (offsets, then indices).
-    pub cutter: Option<(Vec<[f32; 4]>, [f32; 2], f32, u32, Vec<u32>)>,
+    pub moved: Option<MovedField>,
+    pub cutter: Option<CutterField>,
+}
+
+/// The moved region's mask: its first texel's `(s, t)`, texel size, texel counts,
+/// values (row by row) and how far it moved.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MovedField {
+    pub lo: [f32; 2],
+    pub texel: f32,
+    pub size: [usize; 2],
+    pub value: Vec<f32>,
+    pub offset: [f32; 2],
+}
+
+/// The cutter's triangles (three corners each), its bins' first `(x, y)`, bin size,
+/// bins per side, and the bins as one list (offsets, then triangle indices).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CutterField {
+    pub corners: Vec<[f32; 4]>,
+    pub first: [f32; 2],
+    pub cell: f32,
+    pub side: u32,
+    pub bins: Vec<u32>,
 }
 
 /// The scene's [`EffectFields`].
 pub fn effect_fields(scene: &crate::ShellScene) -> EffectFields {
     let e = &scene.effects;
-    let moved = e.moved_raster().map(|((lo, texel, size, value), d)| (lo.to_array(), texel, size, value.to_vec(), d.to_array()));
+    let moved = e.moved_raster().map(|(r, d)| MovedField { lo: r.lo.to_array(), texel: r.texel, size: r.size, value: r.value.to_vec(), offset: d.to_array() });
     let cutter = e.cutter().map(|c| {
-        let (tris, first, cell, side, flat) = c.flat_bins();
+        let (tris, first, cell, side, bins) = c.flat_bins();
         let corners = tris.iter().flatten().map(|p| p.extend(0.0).to_array()).collect();
-        (corners, first.to_array(), cell, side as u32, flat)
+        CutterField { corners, first: first.to_array(), cell, side: side as u32, bins }
     });
     EffectFields { moved, cutter }
 }

@@ -52,7 +52,7 @@ impl MaxPyramid {
             let (a, b) = ((a * n as f32 - 0.5).floor(), (b * n as f32 - 0.5).floor() + 1.0);
             // Beyond 1e6 texels the sampler reads texel 0 (`VolumeTexture::column`).
             let near = a.abs() < 1e6 && b.abs() < 1e6;
-            (near && b - a + 1.0 < n as f32).then(|| (a as i64, b as i64))
+            (near && b - a + 1.0 < n as f32).then_some((a as i64, b as i64))
         };
         let (Some(sx), Some(sy)) = (span(lo.x, hi.x, nx), span(lo.y, hi.y, ny)) else {
             return self.global_max();

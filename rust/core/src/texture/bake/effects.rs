@@ -9,6 +9,7 @@
 //! and [`Site::blend`] combines the textures' occupancy at each height.
 
 use super::cutter::Cutter;
+pub use super::uv_mask::Raster;
 use super::uv_mask::UvMask;
 use super::BakeParams;
 use glam::{Vec2, Vec3};
@@ -105,9 +106,9 @@ impl Effects {
         self.cutter.as_ref()
     }
 
-    /// The moved region: where it came from as a raster in `(s, t)` (first texel,
-    /// texel size, texel counts, values; see [`Self::site`]) and how far it went.
-    pub fn moved_raster(&self) -> Option<((Vec2, f32, [usize; 2], &[f32]), Vec2)> {
+    /// The moved region: where it came from as a raster in `(s, t)` (see
+    /// [`Self::site`]) and how far it went.
+    pub fn moved_raster(&self) -> Option<(Raster<'_>, Vec2)> {
         self.moved.as_ref().map(|(mask, d)| (mask.raster(), *d))
     }
 

@@ -4,6 +4,16 @@
 
 use glam::Vec2;
 
+/// A mask's texels: the first one's `(s, t)`, their size, their counts along `s`
+/// and `t`, and their values (row by row).
+#[derive(Debug, Clone, Copy)]
+pub struct Raster<'a> {
+    pub lo: Vec2,
+    pub texel: f32,
+    pub size: [usize; 2],
+    pub value: &'a [f32],
+}
+
 pub(super) struct UvMask {
     lo: Vec2,
     texel: f32,
@@ -61,10 +71,9 @@ impl UvMask {
         Self { lo, texel, size, value }
     }
 
-    /// The raster: its first texel's `(s, t)`, the texel size, the texel counts and
-    /// the values (row by row), which [`sample`](Self::sample) interpolates between.
-    pub fn raster(&self) -> (Vec2, f32, [usize; 2], &[f32]) {
-        (self.lo, self.texel, self.size, &self.value)
+    /// The raster, which [`sample`](Self::sample) interpolates between.
+    pub fn raster(&self) -> Raster<'_> {
+        Raster { lo: self.lo, texel: self.texel, size: self.size, value: &self.value }
     }
 
     /// Bilinear weight at `st`; 0 outside the mesh's `(s, t)` range.
