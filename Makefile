@@ -14,7 +14,7 @@ VENV_LTS := .venv-lts
 PY_LTS := $(VENV_LTS)/bin/python
 STAMP_LTS := $(VENV_LTS)/.thicket-$(BPY_LTS_VERSION)
 RUFF_VERSION ?= 0.17.6
-RUST_SOURCES := Cargo.toml $(shell find rust shaders -name '*.rs' -o -name '*.wgsl' -o -name Cargo.toml -o -name pyproject.toml 2>/dev/null)
+RUST_SOURCES := Cargo.toml $(shell find rust shaders -name '*.rs' -o -name '*.wgsl' -o -name '*.pyi' -o -name Cargo.toml -o -name pyproject.toml 2>/dev/null)
 WHEEL_STAMP := build/site/.stamp
 ADDON_SOURCES := $(shell find addon -type f -not -path '*/__pycache__/*' 2>/dev/null)
 
@@ -76,7 +76,7 @@ lint: $(STAMP)
 	@cargo clippy --version >/dev/null 2>&1 || rustup component add clippy
 	cargo clippy --all-targets -q -- -D warnings
 	@$(VENV)/bin/ruff --version 2>/dev/null | grep -q "$(RUFF_VERSION)" || $(VENV)/bin/pip install -q "ruff==$(RUFF_VERSION)"
-	$(VENV)/bin/ruff check addon tests blend_fixtures
+	$(VENV)/bin/ruff check addon tests blend_fixtures rust/py/thicket_native.pyi
 
 fixtures: setup $(STAMP_LTS)
 	$(PY_LTS) blend_fixtures/make_fixtures.py

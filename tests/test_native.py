@@ -67,3 +67,73 @@ def test_non_contiguous_input_refused_not_crashing():
 
 def test_thicket_error_is_a_value_error():
     assert issubclass(tn.ThicketError, ValueError)
+
+
+def test_errors_are_typed_by_kind(tmp_path):
+    """Each kind of failure has its own ThicketError subclass, so scripts can tell bad
+    input from a missing file, a GPU problem, a cancel or a bug."""
+    kinds = (tn.InvalidInput, tn.FileError, tn.DeviceError, tn.Cancelled, tn.InternalError)
+    assert all(issubclass(k, tn.ThicketError) for k in kinds)
+    assert len(set(kinds)) == 5 and not any(issubclass(a, b) for a in kinds for b in kinds if a is not b)
+    # Bad input, from the binding's own checks and from the core's.
+    with pytest.raises(tn.InvalidInput, match="contiguous"):
+        tn.offset_shell(np.zeros((8, 6), np.float32)[:, ::2], np.full(6, 4, np.int32), CUBE_F.ravel(), 0.1)
+    with pytest.raises(tn.InvalidInput, match="thickness"):
+        tn.offset_shell(CUBE_V, np.full(6, 4, np.int32), CUBE_F.ravel(), float("nan"))
+    # A missing texture folder.
+    with pytest.raises(tn.FileError):
+        tn.load_texture(str(tmp_path / "missing"))
+    # A cancel from the progress callback.
+    with pytest.raises(tn.Cancelled):
+        tn.shell(CUBE_V, np.full(6, 4, np.int32), CUBE_F.ravel(), 0.1, relative=True, progress=lambda fraction: False)
+
+
+def _stub():
+    """The module's stub (rust/py/thicket_native.pyi, shipped in the wheel), parsed."""
+    import ast
+    import pathlib
+
+    path = pathlib.Path(__file__).parents[1] / "rust" / "py" / "thicket_native.pyi"
+    return ast.parse(path.read_text())
+
+
+def _stub_parameters(function):
+    """(name, has a default) of a stubbed function's parameters, `self` left out."""
+    args = function.args
+    positional = args.posonlyargs + args.args
+    defaults = [False] * (len(positional) - len(args.defaults)) + [True] * len(args.defaults)
+    out = [(a.arg, d) for a, d in zip(positional, defaults) if a.arg != "self"]
+    return out + [(a.arg, d is not None) for a, d in zip(args.kwonlyargs, args.kw_defaults)]
+
+
+def _real_parameters(callable_):
+    import inspect
+
+    return [(p.name, p.default is not inspect.Parameter.empty) for p in inspect.signature(callable_).parameters.values() if p.name != "self"]
+
+
+def test_the_stub_matches_the_module():
+    """Every public function, class and exception of thicket_native is in the stub,
+    with the module's own parameter names, order and defaults; and nothing else."""
+    import ast
+
+    tree = _stub()
+    functions = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
+    classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
+    public = {name for name in dir(tn) if not name.startswith("_") and name != "thicket_native"}
+    assert public == set(functions) | set(classes), (public ^ (set(functions) | set(classes)))
+    for name, node in functions.items():
+        assert _stub_parameters(node) == _real_parameters(getattr(tn, name)), name
+    for name, node in classes.items():
+        real = getattr(tn, name)
+        if issubclass(real, BaseException):
+            base = node.bases[0].id
+            assert real.__mro__[1].__name__ == base, (name, base)
+            continue
+        methods = {m.name: m for m in node.body if isinstance(m, ast.FunctionDef)}
+        assert _stub_parameters(methods["__init__"]) == _real_parameters(real), name
+        members = {m for m in vars(real) if not m.startswith("_")}
+        assert members == {m for m in methods if not m.startswith("_")}, (name, members)
+        for member in members:
+            if callable(getattr(real, member)):
+                assert _stub_parameters(methods[member]) == _real_parameters(getattr(real, member)), (name, member)

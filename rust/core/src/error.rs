@@ -18,6 +18,10 @@ pub enum Error {
     /// The work was cancelled through its [`crate::progress::Progress`].
     #[error("cancelled")]
     Cancelled,
+    /// The GPU could not do the work (no adapter, a refused or lost device, a
+    /// failed frame); the CPU can.
+    #[error("{0}")]
+    Device(String),
 }
 
 pub type Result<T> = std::result::Result<T, Error>;

@@ -6,16 +6,16 @@ use pyo3::prelude::*;
 use thicket_core::glam::{Vec2, Vec3};
 use thicket_core::Mesh;
 
-use crate::errors::ThicketError;
+use crate::errors::InvalidInput;
 
 /// Positions from a contiguous float32 (n, 3) array.
 pub fn positions(array: &PyReadonlyArray2<'_, f32>) -> PyResult<Vec<Vec3>> {
     if array.shape()[1] != 3 {
-        return Err(ThicketError::new_err(format!("vertices must have shape (n, 3), got {:?}", array.shape())));
+        return Err(InvalidInput::new_err(format!("vertices must have shape (n, 3), got {:?}", array.shape())));
     }
     let flat = array
         .as_slice()
-        .map_err(|_| ThicketError::new_err("vertices must be a C-contiguous float32 array"))?;
+        .map_err(|_| InvalidInput::new_err("vertices must be a C-contiguous float32 array"))?;
     Ok(flat.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect())
 }
 
@@ -32,11 +32,11 @@ pub fn indices(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<u32>> {
     } else if let Ok(a) = obj.extract::<PyReadonlyArray2<'_, i32>>() {
         a.as_slice().map_err(|_| not_contiguous(what))?.to_vec()
     } else {
-        return Err(ThicketError::new_err(format!("{what} must be a numpy array of int32 or uint32")));
+        return Err(InvalidInput::new_err(format!("{what} must be a numpy array of int32 or uint32")));
     };
     signed
         .iter()
-        .map(|&i| u32::try_from(i).map_err(|_| ThicketError::new_err(format!("{what} contains the negative index {i}"))))
+        .map(|&i| u32::try_from(i).map_err(|_| InvalidInput::new_err(format!("{what} contains the negative index {i}"))))
         .collect()
 }
 
@@ -47,16 +47,16 @@ pub fn per_vertex_or_scalar(obj: &Bound<'_, PyAny>, n: usize, what: &str) -> PyR
     }
     let a = obj
         .extract::<PyReadonlyArray1<'_, f32>>()
-        .map_err(|_| ThicketError::new_err(format!("{what} must be a float or a float32 array of shape (n,)")))?;
+        .map_err(|_| InvalidInput::new_err(format!("{what} must be a float or a float32 array of shape (n,)")))?;
     let s = a.as_slice().map_err(|_| not_contiguous(what))?;
     if s.len() != n {
-        return Err(ThicketError::new_err(format!("{what} has {} values for {n} vertices", s.len())));
+        return Err(InvalidInput::new_err(format!("{what} has {} values for {n} vertices", s.len())));
     }
     Ok(s.to_vec())
 }
 
 fn not_contiguous(what: &str) -> PyErr {
-    ThicketError::new_err(format!("{what} must be a C-contiguous array"))
+    InvalidInput::new_err(format!("{what} must be a C-contiguous array"))
 }
 
 /// A polygon mesh from Blender-style arrays: vertices (n, 3), loop totals per face,
@@ -84,7 +84,7 @@ pub fn mesh_with_uvs(
         Some(uv) => {
             let uv = uv.as_array();
             if uv.shape() != [corners.len(), 2] {
-                return Err(ThicketError::new_err(format!("uvs must have shape ({}, 2)", corners.len())));
+                return Err(InvalidInput::new_err(format!("uvs must have shape ({}, 2)", corners.len())));
             }
             Some(uv.rows().into_iter().map(|r| Vec2::new(r[0], r[1])).collect())
         }

@@ -12,33 +12,66 @@ pyo3::create_exception!(
 
 pyo3::create_exception!(
     thicket_native,
+    InvalidInput,
+    ThicketError,
+    "A mesh, array or setting Thicket cannot use (empty, non-finite, out of range, wrong shape); the message says which."
+);
+
+pyo3::create_exception!(
+    thicket_native,
+    FileError,
+    ThicketError,
+    "A file or folder that cannot be read or written; the message names it."
+);
+
+pyo3::create_exception!(
+    thicket_native,
+    DeviceError,
+    ThicketError,
+    "The GPU could not render (no adapter, a refused or lost device, a failed frame); the CPU reference can."
+);
+
+pyo3::create_exception!(
+    thicket_native,
     Cancelled,
     ThicketError,
     "The work was cancelled through its progress callback (it returned False) or by Ctrl-C."
 );
 
+pyo3::create_exception!(
+    thicket_native,
+    InternalError,
+    ThicketError,
+    "A bug inside thicket-native (a Rust panic, caught so Blender keeps running); please report it."
+);
+
+/// Each core error as the `ThicketError` subclass that names its kind.
 pub fn to_py(e: thicket_core::Error) -> PyErr {
+    use thicket_core::Error as E;
+    let message = e.to_string();
     match e {
-        thicket_core::Error::Cancelled => Cancelled::new_err(e.to_string()),
-        e => ThicketError::new_err(e.to_string()),
+        E::Cancelled => Cancelled::new_err(message),
+        E::Device(_) => DeviceError::new_err(message),
+        E::File { .. } => FileError::new_err(message),
+        E::EmptyMesh | E::InvalidMesh(_) | E::NonFinite { .. } | E::InvalidParameter(_) => InvalidInput::new_err(message),
     }
 }
 
-/// Runs heavy core work with the GIL released, turning a Rust panic into a
-/// `ThicketError` instead of pyo3's `PanicException` (a BaseException that
+/// Runs heavy core work with the GIL released, turning a Rust panic into an
+/// `InternalError` (a `ThicketError`) instead of pyo3's `PanicException` (a BaseException that
 /// `except Exception` in an operator would not catch).
 pub fn run_detached<T: Send>(py: Python<'_>, work: impl FnOnce() -> thicket_core::Result<T> + Send) -> PyResult<T> {
     py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(work))).map_err(panic_error)?.map_err(to_py)
 }
 
-/// A panic's message as a `ThicketError`.
+/// A panic's message as an `InternalError`.
 fn panic_error(panic: Box<dyn std::any::Any + Send>) -> PyErr {
     let what = panic
         .downcast_ref::<&str>()
         .map(|s| s.to_string())
         .or_else(|| panic.downcast_ref::<String>().cloned())
         .unwrap_or_else(|| "unknown panic".into());
-    ThicketError::new_err(format!("internal error in thicket-native (please report): {what}"))
+    InternalError::new_err(format!("internal error in thicket-native (please report): {what}"))
 }
 
 /// [`run_watched`] when the caller gave a `progress` callable (None: [`run_detached`]);

@@ -8,7 +8,7 @@ use thicket_core::shell::incremental::{IncrementalShell as Core, DEFAULT_TOLERAN
 use thicket_core::shell::{shell_geometry, ShellOutput, Side, Thickness};
 
 use crate::arrays;
-use crate::errors::{run_detached, run_maybe_watched, ThicketError};
+use crate::errors::{run_detached, run_maybe_watched, InvalidInput};
 use crate::offset::ShellRequest;
 use crate::shell::{params, shell_dict};
 
@@ -38,7 +38,7 @@ impl IncrementalShell {
 }
 
 fn failed() -> PyErr {
-    ThicketError::new_err("this IncrementalShell failed in an earlier update; create a new one")
+    InvalidInput::new_err("this IncrementalShell failed in an earlier update; create a new one")
 }
 
 #[pymethods]
@@ -62,7 +62,7 @@ impl IncrementalShell {
         progress: Option<Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         if !(tolerance >= 0.0 && tolerance.is_finite()) {
-            return Err(ThicketError::new_err(format!("tolerance must be a finite number >= 0, got {tolerance}")));
+            return Err(InvalidInput::new_err(format!("tolerance must be a finite number >= 0, got {tolerance}")));
         }
         let req = ShellRequest::new(&vertices, face_sizes, corners, thickness, relative, factors, output, layers)?;
         let side = Side::parse(side).map_err(crate::errors::to_py)?;
@@ -90,7 +90,7 @@ impl IncrementalShell {
         let n = self.core()?.mesh().vertex_count();
         let positions = arrays::positions(&vertices)?;
         if positions.len() != n {
-            return Err(ThicketError::new_err(format!(
+            return Err(InvalidInput::new_err(format!(
                 "{} vertices given for a shell of {n}: the topology changed, build a new shell",
                 positions.len()
             )));
@@ -134,7 +134,7 @@ impl IncrementalShell {
     #[setter]
     fn set_tolerance(&mut self, tolerance: f64) -> PyResult<()> {
         if !(tolerance >= 0.0 && tolerance.is_finite()) {
-            return Err(ThicketError::new_err(format!("tolerance must be a finite number >= 0, got {tolerance}")));
+            return Err(InvalidInput::new_err(format!("tolerance must be a finite number >= 0, got {tolerance}")));
         }
         self.core_mut()?.tolerance = tolerance;
         Ok(())

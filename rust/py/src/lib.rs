@@ -2,8 +2,9 @@
 //!
 //! Only type and error adaptation lives here: numpy arrays in (float32 positions,
 //! int32/uint32 indices, read without copying when contiguous), numpy arrays out (Rust
-//! vectors handed over without copying), core errors as `ThicketError`, Rust panics
-//! caught and reported as `ThicketError` so Blender never goes down. Heavy work runs
+//! vectors handed over without copying), core errors as `ThicketError` subclasses
+//! (`InvalidInput`, `FileError`, `DeviceError`, `Cancelled`), Rust panics caught and
+//! reported as `InternalError` so Blender never goes down. Heavy work runs
 //! with the GIL released.
 
 mod arrays;
@@ -22,7 +23,11 @@ use pyo3::prelude::*;
 fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("ThicketError", m.py().get_type::<errors::ThicketError>())?;
+    m.add("InvalidInput", m.py().get_type::<errors::InvalidInput>())?;
+    m.add("FileError", m.py().get_type::<errors::FileError>())?;
+    m.add("DeviceError", m.py().get_type::<errors::DeviceError>())?;
     m.add("Cancelled", m.py().get_type::<errors::Cancelled>())?;
+    m.add("InternalError", m.py().get_type::<errors::InternalError>())?;
     m.add_function(wrap_pyfunction!(report::mesh_report, m)?)?;
     m.add_function(wrap_pyfunction!(offset::offset_shell, m)?)?;
     m.add_function(wrap_pyfunction!(shell::build_shell, m)?)?;

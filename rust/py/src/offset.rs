@@ -4,7 +4,7 @@ use pyo3::types::PyDict;
 use thicket_core::shell::{build_geometry, normal_offset_directors, ShellOutput, Thickness};
 
 use crate::arrays;
-use crate::errors::{run_detached, ThicketError};
+use crate::errors::{run_detached, InvalidInput};
 
 /// The inputs every shell-building function shares, converted once: the mesh,
 /// per-vertex factors, requested output and thickness.
@@ -45,7 +45,7 @@ pub fn parse_output(output: &str, layers: u32) -> PyResult<ShellOutput> {
         "outer" => Ok(ShellOutput::Outer),
         "solid" => Ok(ShellOutput::Solid),
         "layers" => Ok(ShellOutput::Layers(layers)),
-        other => Err(ThicketError::new_err(format!("output must be 'outer', 'solid' or 'layers', not {other:?}"))),
+        other => Err(InvalidInput::new_err(format!("output must be 'outer', 'solid' or 'layers', not {other:?}"))),
     }
 }
 

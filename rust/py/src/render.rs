@@ -13,7 +13,7 @@ use thicket_render::reference::{render_watched, RenderParams};
 use thicket_core::texture::bake::effects as bake_effects;
 use thicket_render::{Camera, Frame, ShellScene};
 
-use crate::errors::{run_detached, run_maybe_watched, to_py, ThicketError};
+use crate::errors::{run_detached, run_maybe_watched, to_py, InvalidInput};
 
 /// Pixels the renderer accepts in one frame (16384 x 16384).
 const MAX_PIXELS: u64 = 1 << 28;
@@ -22,7 +22,7 @@ const MAX_PIXELS: u64 = 1 << 28;
 /// as float32 or float64 numpy or nested sequences; glam stores columns.
 fn matrix(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Mat4> {
     let shape_error =
-        || ThicketError::new_err(format!("{what} must be a 4x4 matrix (numpy float32/float64 or nested lists)"));
+        || InvalidInput::new_err(format!("{what} must be a 4x4 matrix (numpy float32/float64 or nested lists)"));
     let rows: Vec<f64> = if let Ok(a) = obj.extract::<PyReadonlyArray2<'_, f64>>() {
         if a.shape() != [4, 4] {
             return Err(shape_error());
@@ -40,7 +40,7 @@ fn matrix(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Mat4> {
         return Err(shape_error());
     };
     if rows.iter().any(|v| !v.is_finite()) {
-        return Err(ThicketError::new_err(format!("{what} has a non-finite entry")));
+        return Err(InvalidInput::new_err(format!("{what} has a non-finite entry")));
     }
     let mut cols = [0.0f32; 16];
     for (c, r) in cols.iter_mut().zip(&rows) {
@@ -143,13 +143,13 @@ pub fn render_shell<'py>(
         "double" => Mipmaps::Double,
         "linear" => Mipmaps::Linear,
         "off" => Mipmaps::Off,
-        other => return Err(ThicketError::new_err(format!("unknown mipmaps {other:?}; one of double, linear, off"))),
+        other => return Err(InvalidInput::new_err(format!("unknown mipmaps {other:?}; one of double, linear, off"))),
     };
     let mode = match method {
         "auto" | "interpolating" => Some(SliceMode::Interpolating),
         "plain" => Some(SliceMode::Plain),
         "reference" => None,
-        other => return Err(ThicketError::new_err(format!("unknown render method {other:?}; one of auto, interpolating, plain, reference"))),
+        other => return Err(InvalidInput::new_err(format!("unknown render method {other:?}; one of auto, interpolating, plain, reference"))),
     };
     // The bake's own inputs: the preview applies the same region, holes, cutter and
     // moved region as the bake (`thicket_core::texture::bake::effects`).
@@ -160,7 +160,7 @@ pub fn render_shell<'py>(
     let view = matrix(view, "view")?;
     let projection = matrix(projection, "projection")?;
     if width as u64 * height as u64 > MAX_PIXELS {
-        return Err(ThicketError::new_err(format!("{width}x{height} pixels are too many for one frame")));
+        return Err(InvalidInput::new_err(format!("{width}x{height} pixels are too many for one frame")));
     }
     let light = Vec3::new(light.0, light.1, light.2);
     if let Some(mode) = mode {
@@ -187,7 +187,7 @@ pub fn render_shell<'py>(
                 match render_on_gpu(&scene, &camera, &params) {
                     Ok((frame, name)) => (frame, format!("GPU slice renderer on {name}"), String::new()),
                     Err(why) if auto => reference(format!("the GPU slice renderer is unavailable ({why}); rendered on the CPU instead"))?,
-                    Err(why) => return Err(thicket_core::Error::InvalidParameter(format!("the GPU slice renderer failed: {why}"))),
+                    Err(why) => return Err(thicket_core::Error::Device(format!("the GPU slice renderer failed: {why}"))),
                 }
             }
         };
@@ -200,13 +200,13 @@ pub fn render_shell<'py>(
     let (w, h) = (frame.width as usize, frame.height as usize);
     let shaped = |data: Vec<f32>, channels: usize| {
         let flat = numpy::ndarray::Array1::from_vec(data);
-        flat.into_shape_with_order((h, w, channels)).map_err(|e| ThicketError::new_err(e.to_string()))
+        flat.into_shape_with_order((h, w, channels)).map_err(|e| InvalidInput::new_err(e.to_string()))
     };
     let rgba = shaped(frame.rgba.iter().flat_map(|c| c.to_array()).collect(), 4)?;
     let normal = shaped(frame.normal.iter().flat_map(|c| c.to_array()).collect(), 3)?;
     let depth = numpy::ndarray::Array1::from_vec(frame.depth)
         .into_shape_with_order((h, w))
-        .map_err(|e| ThicketError::new_err(e.to_string()))?;
+        .map_err(|e| InvalidInput::new_err(e.to_string()))?;
     let d = PyDict::new(py);
     d.set_item("rgba", rgba.into_pyarray(py))?;
     d.set_item("depth", depth.into_pyarray(py))?;
@@ -233,7 +233,7 @@ pub fn save_render(
 ) -> PyResult<()> {
     let shape = rgba.shape().to_vec();
     if shape[2] != 4 || shape[0] == 0 || shape[1] == 0 {
-        return Err(ThicketError::new_err("rgba must be a float32 (height, width, 4) array"));
+        return Err(InvalidInput::new_err("rgba must be a float32 (height, width, 4) array"));
     }
     let (h, w) = (shape[0], shape[1]);
     let mut frame = Frame::empty(w as u32, h as u32);
@@ -241,13 +241,13 @@ pub fn save_render(
     frame.rgba = rgba.as_array().rows().into_iter().map(|p| Vec4::new(p[0], p[1], p[2], p[3])).collect();
     if let Some(d) = depth {
         if d.shape() != [h, w] {
-            return Err(ThicketError::new_err("depth must be (height, width)"));
+            return Err(InvalidInput::new_err("depth must be (height, width)"));
         }
         frame.depth = d.as_array().iter().copied().collect();
     }
     if let Some(n) = normal {
         if n.shape() != [h, w, 3] {
-            return Err(ThicketError::new_err("normal must be (height, width, 3)"));
+            return Err(InvalidInput::new_err("normal must be (height, width, 3)"));
         }
         frame.normal = n.as_array().rows().into_iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
     }

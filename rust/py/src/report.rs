@@ -6,7 +6,7 @@ use pyo3::types::PyDict;
 ///
 /// Counts what is odd about a mesh: vertices, faces, triangles, ngons,
 /// degenerate_faces, loose_vertices, boundary_edges, non_manifold_edges.
-/// Raises ThicketError for structurally invalid input (bad indices, NaN coordinates).
+/// Raises InvalidInput (a ThicketError) for structurally invalid input (bad indices, NaN coordinates).
 #[pyfunction]
 pub fn mesh_report<'py>(
     py: Python<'py>,

@@ -6,14 +6,14 @@ use thicket_core::shell::{self as core, report::{self_intersecting_faces, shell_
 use thicket_core::Mesh;
 
 use crate::arrays;
-use crate::errors::{run_detached, run_maybe_watched, ThicketError};
+use crate::errors::{run_detached, run_maybe_watched, InvalidInput};
 use crate::offset::ShellRequest;
 
 fn triangle_mesh(vertices: &PyReadonlyArray2<'_, f32>, triangles: &Bound<'_, PyAny>) -> PyResult<Mesh> {
     let positions = arrays::positions(vertices)?;
     let corners = arrays::indices(triangles, "triangles")?;
     if corners.len() % 3 != 0 {
-        return Err(ThicketError::new_err("triangles must have shape (m, 3)"));
+        return Err(InvalidInput::new_err("triangles must have shape (m, 3)"));
     }
     Mesh::new(positions, &vec![3; corners.len() / 3], corners, None).map_err(crate::errors::to_py)
 }
@@ -161,7 +161,7 @@ pub fn shell_report<'py>(
         None => vec![Vec3::ZERO; n],
     };
     if directors.len() != n || base_offset.len() != n {
-        return Err(ThicketError::new_err(format!("directors and base_offset need one row per vertex ({n})")));
+        return Err(InvalidInput::new_err(format!("directors and base_offset need one row per vertex ({n})")));
     }
     let target = arrays::per_vertex_or_scalar(target, n, "target")?;
     let side = Side::parse(side).map_err(crate::errors::to_py)?;

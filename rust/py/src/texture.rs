@@ -10,7 +10,7 @@ use thicket_core::texture::bake::{bake, estimate_triangles, Cutter, MovedRegion,
 use thicket_core::texture::{BakeParams, Generator, Pattern, VolumeTexture};
 
 use crate::arrays;
-use crate::errors::{run_detached, run_watched, to_py, ThicketError};
+use crate::errors::{run_detached, run_watched, to_py, InvalidInput};
 use std::sync::Arc;
 use thicket_core::progress::Progress;
 
@@ -30,20 +30,20 @@ pub fn texture<'py>(
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
     let pattern = Pattern::parse(pattern).map_err(to_py)?;
     if size.0 * size.1 * size.2 > 512 * 512 * 256 {
-        return Err(ThicketError::new_err(format!("texture size {size:?} is too large")));
+        return Err(InvalidInput::new_err(format!("texture size {size:?} is too large")));
     }
     let g = Generator { pattern, seed, time, thickness };
     let t = run_detached(py, move || g.generate([size.0, size.1, size.2]))?;
     let [nx, ny, nz] = t.dims();
     let flat = numpy::ndarray::Array1::from_vec(t.into_samples());
-    let arr = flat.into_shape_with_order((nz, ny, nx)).map_err(|e| ThicketError::new_err(e.to_string()))?;
+    let arr = flat.into_shape_with_order((nz, ny, nx)).map_err(|e| InvalidInput::new_err(e.to_string()))?;
     Ok(arr.into_pyarray(py))
 }
 
 fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
     let a: PyReadonlyArray3<'_, f32> = alpha
         .extract()
-        .map_err(|_| ThicketError::new_err("a texture must be a float32 array of shape (nz, ny, nx)"))?;
+        .map_err(|_| InvalidInput::new_err("a texture must be a float32 array of shape (nz, ny, nx)"))?;
     let shape = a.shape().to_vec();
     // One copy either way: the texture owns its samples.
     // `as_slice` also accepts Fortran order (memory order): only C order is x fastest.
@@ -91,7 +91,7 @@ fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyReadonlyArray
     let base_offset = arrays::positions(base_offset)?;
     let directors = arrays::positions(directors)?;
     if base_offset.len() != n || directors.len() != n {
-        return Err(ThicketError::new_err("base_offset and directors need one row per vertex"));
+        return Err(InvalidInput::new_err("base_offset and directors need one row per vertex"));
     }
     Ok(Shell::from_directors(base_offset, directors))
 }

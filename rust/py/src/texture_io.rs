@@ -6,7 +6,7 @@ use numpy::{IntoPyArray, PyArray3, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use thicket_core::texture::{io, VolumeTexture};
 
-use crate::errors::{run_detached, ThicketError};
+use crate::errors::{run_detached, InvalidInput};
 
 /// load_texture(path) -> float32 (nz, ny, nx)
 ///
@@ -19,7 +19,7 @@ pub fn load_texture<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, 
     let t = run_detached(py, move || io::load(&path))?;
     let [nx, ny, nz] = t.dims();
     let flat = numpy::ndarray::Array1::from_vec(t.into_samples());
-    let arr = flat.into_shape_with_order((nz, ny, nx)).map_err(|e| ThicketError::new_err(e.to_string()))?;
+    let arr = flat.into_shape_with_order((nz, ny, nx)).map_err(|e| InvalidInput::new_err(e.to_string()))?;
     Ok(arr.into_pyarray(py))
 }
 
@@ -30,7 +30,7 @@ pub fn load_texture<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, 
 /// missing). Returns the paths written.
 #[pyfunction]
 pub fn save_texture(py: Python<'_>, path: PathBuf, alpha: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
-    let named = |message: String| ThicketError::new_err(format!("{}: {message}", path.display()));
+    let named = |message: String| InvalidInput::new_err(format!("{}: {message}", path.display()));
     let a: PyReadonlyArray3<'_, f32> =
         alpha.extract().map_err(|_| named("a texture must be a float32 array of shape (nz, ny, nx)".into()))?;
     let shape = a.shape().to_vec();

@@ -629,8 +629,6 @@ fn incremental_update_gives_back_thickness_where_an_edit_makes_room() {
         let mine = ratio(inc.shell());
         eprintln!("dent pulled out in {steps}: pressed {pressed:.3}, incremental {mine:.3}, rebuilt {want:.3}");
         assert!(want > pressed + 0.1, "pulling the dent out must make room: {pressed} -> {want}");
-        // Starting an update's repair from the kept share of each director, with no
-        // room to grow, ends at 0.847 after eight updates against the rebuild's 0.857.
         assert!(mine >= want - 0.005, "{steps} updates: incremental {mine} vs rebuilt {want} (pressed {pressed})");
     }
 }

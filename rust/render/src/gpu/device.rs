@@ -42,7 +42,7 @@ impl Gpu {
                 apply_limit_buckets: false,
             }))
             .map_err(|e| {
-                Error::InvalidParameter(format!(
+                Error::Device(format!(
                     "no GPU adapter found ({e}); install a Vulkan driver (on Linux without a GPU: \
                      Mesa's lavapipe, package mesa-vulkan-drivers) or use the CPU reference renderer"
                 ))
@@ -58,7 +58,7 @@ impl Gpu {
             ..Default::default()
         };
         let (device, queue) = pollster::block_on(adapter.request_device(&descriptor)).map_err(|e| {
-            Error::InvalidParameter(format!("the GPU adapter {} refused to open a device: {e}", info.name))
+            Error::Device(format!("the GPU adapter {} refused to open a device: {e}", info.name))
         })?;
         let errors = Arc::new(Mutex::new(Vec::new()));
         let sink = errors.clone();
@@ -85,7 +85,7 @@ impl Gpu {
     /// An error when the device was lost.
     pub fn check_alive(&self) -> Result<()> {
         match self.lost.lock().ok().and_then(|l| l.clone()) {
-            Some(why) => Err(Error::InvalidParameter(format!("the GPU device was lost ({why}); render on the CPU"))),
+            Some(why) => Err(Error::Device(format!("the GPU device was lost ({why}); render on the CPU"))),
             None => Ok(()),
         }
     }
@@ -100,7 +100,7 @@ impl Gpu {
             first
         });
         match first {
-            Some(e) => Err(Error::InvalidParameter(format!("the GPU renderer failed: {e}"))),
+            Some(e) => Err(Error::Device(format!("the GPU renderer failed: {e}"))),
             None => Ok(()),
         }
     }
@@ -109,7 +109,7 @@ impl Gpu {
     pub fn wait(&self) -> Result<()> {
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| Error::InvalidParameter(format!("waiting for the GPU failed: {e}")))?;
+            .map_err(|e| Error::Device(format!("waiting for the GPU failed: {e}")))?;
         self.take_error()
     }
 }

@@ -213,7 +213,7 @@ impl GpuRenderer {
     /// device) are returned, never panicked on.
     pub fn render(&mut self, scene: &ShellScene, camera: &Camera, params: &SliceParams) -> Result<Frame> {
         if self.broken {
-            return Err(Error::InvalidParameter("the GPU renderer failed earlier; render on the CPU".into()));
+            return Err(Error::Device("the GPU renderer failed earlier; render on the CPU".into()));
         }
         self.gpu.check_alive()?;
         params.validate()?;
@@ -236,7 +236,7 @@ impl GpuRenderer {
                     .map(String::as_str)
                     .or_else(|| panic.downcast_ref::<&str>().copied())
                     .unwrap_or("unknown");
-                Err(Error::InvalidParameter(format!("the GPU renderer failed ({why}); render on the CPU")))
+                Err(Error::Device(format!("the GPU renderer failed ({why}); render on the CPU")))
             }
         }
     }
@@ -323,7 +323,7 @@ impl GpuRenderer {
                 && s.cells == scene.cells
                 && s.mipmaps == mipmaps
                 && s.effects == scene_data::effects(scene)
-                && s.fields == scene_data::effect_fields(scene)
+                && s.fields.are_of(scene)
             {
                 return;
             }

@@ -105,6 +105,29 @@ pub struct CutterField {
     pub bins: Vec<u32>,
 }
 
+impl EffectFields {
+    /// Whether these are `scene`'s fields, compared in place (a moved region's mask
+    /// can hold millions of texels: no copy of it per frame).
+    pub fn are_of(&self, scene: &crate::ShellScene) -> bool {
+        let e = &scene.effects;
+        let moved = match (&self.moved, e.moved_raster()) {
+            (None, None) => true,
+            (Some(m), Some((r, d))) => m.lo == r.lo.to_array() && m.texel == r.texel && m.size == r.size && m.offset == d.to_array() && m.value == r.value,
+            _ => false,
+        };
+        let cutter = match (&self.cutter, e.cutter()) {
+            (None, None) => true,
+            // The bins follow from the triangles.
+            (Some(c), Some(cutter)) => {
+                let tris = cutter.triangles();
+                c.corners.len() == 3 * tris.len() && c.corners.iter().zip(tris.iter().flatten()).all(|(a, b)| a[..3] == b.to_array())
+            }
+            _ => false,
+        };
+        moved && cutter
+    }
+}
+
 /// The scene's [`EffectFields`].
 pub fn effect_fields(scene: &crate::ShellScene) -> EffectFields {
     let e = &scene.effects;

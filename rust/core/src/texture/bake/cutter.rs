@@ -53,10 +53,15 @@ impl Cutter {
         let cell = ((hi - lo).max_element() / side as f64).max(1e-12);
         let mut bins = vec![Vec::new(); side * side];
         let bin = |x: f64, lo: f64| (((x - lo) / cell) as usize).min(side - 1);
+        // Each triangle also goes into bins within a hair of its box, so a renderer
+        // that finds a point's bin in single precision (the GPU slice renderer) still
+        // sees it; `contains` tests each triangle exactly, so extra ones change nothing.
+        let pad = DVec2::splat(1e-4 * cell);
         for (k, t) in tris.iter().enumerate() {
             let (a, b) = t.iter().fold((DVec2::splat(f64::MAX), DVec2::splat(f64::MIN)), |(a, b), p| {
                 (a.min(p.truncate().as_dvec2()), b.max(p.truncate().as_dvec2()))
             });
+            let (a, b) = (a - pad, b + pad);
             for y in bin(a.y, lo.y)..=bin(b.y, lo.y) {
                 for x in bin(a.x, lo.x)..=bin(b.x, lo.x) {
                     bins[y * side + x].push(k as u32);
@@ -91,6 +96,11 @@ impl Cutter {
     /// The cutter's bounding box.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         self.tris.iter().flatten().fold((Vec3::MAX, Vec3::MIN), |(a, b), p| (a.min(*p), b.max(*p)))
+    }
+
+    /// The cutter's triangles (what its bins are made from).
+    pub fn triangles(&self) -> &[[Vec3; 3]] {
+        &self.tris
     }
 
     /// The test's data for a renderer that runs [`contains`](Self::contains) itself

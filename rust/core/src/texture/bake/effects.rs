@@ -112,12 +112,6 @@ impl Effects {
         self.moved.as_ref().map(|(mask, d)| (mask.raster(), *d))
     }
 
-    /// Whether every effect is a per-vertex weight (region, holes): what a renderer
-    /// can draw from the cells' corners alone, without the cutter's mesh or the moved
-    /// region's mask.
-    pub fn per_vertex_only(&self) -> bool {
-        self.cutter.is_none() && self.moved.is_none()
-    }
 
     /// The region and hole weights at the corners of cell `t`, in `[0, 1]` (1 and 0
     /// where there is none); [`Self::site`] interpolates them, exactly where the

@@ -1,0 +1,180 @@
+"""Type stub of thicket_native, the pyo3 adapter over thicket-core.
+
+Arrays: vertices float32 (n, 3); face_sizes and corners int32 or uint32 (one size
+per face, the faces' vertex indices in order). Per-vertex values (thickness,
+factors, weights) are a float or float32 (n,). tests/test_native.py checks these
+signatures against the module's own.
+"""
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__version__: str
+
+Floats = NDArray[np.float32]
+Indices = NDArray[np.int32] | NDArray[np.uint32]
+PerVertex = float | NDArray[np.float32]
+Progress = Callable[[float], bool | None] | None
+Cutter = tuple[Floats, Indices] | None
+
+class ThicketError(ValueError):
+    """Invalid input or a failure inside Thicket's geometry core; the message says which."""
+
+class InvalidInput(ThicketError):
+    """A mesh, array or setting Thicket cannot use; the message says which."""
+
+class FileError(ThicketError):
+    """A file or folder that cannot be read or written; the message names it."""
+
+class DeviceError(ThicketError):
+    """The GPU could not render; the CPU reference can."""
+
+class Cancelled(ThicketError):
+    """The work was cancelled through its progress callback or by Ctrl-C."""
+
+class InternalError(ThicketError):
+    """A bug inside thicket-native (a Rust panic, caught); please report it."""
+
+def mesh_report(vertices: Floats, face_sizes: Indices, corners: Indices) -> dict[str, Any]: ...
+def offset_shell(
+    vertices: Floats,
+    face_sizes: Indices,
+    corners: Indices,
+    thickness: PerVertex,
+    relative: bool = False,
+    factors: Floats | None = None,
+    output: str = "outer",
+    layers: int = 1,
+) -> dict[str, Any]: ...
+def build_shell(vertices: Floats, triangles: Indices, thickness: PerVertex, side: str, progress: Progress = None) -> dict[str, Any]: ...
+def shell(
+    vertices: Floats,
+    face_sizes: Indices,
+    corners: Indices,
+    thickness: PerVertex,
+    side: str = "exterior",
+    relative: bool = False,
+    factors: Floats | None = None,
+    output: str = "outer",
+    layers: int = 1,
+    p: float = 3.0,
+    progress: Progress = None,
+) -> dict[str, Any]: ...
+def shell_report(
+    vertices: Floats,
+    face_sizes: Indices,
+    corners: Indices,
+    directors: Floats,
+    target: Floats,
+    base_offset: Floats | None = None,
+    side: str = "exterior",
+) -> dict[str, Any]: ...
+def self_intersections(vertices: Floats, face_sizes: Indices, corners: Indices) -> dict[str, Any]: ...
+
+class IncrementalShell:
+    """A shell kept up to date while its base mesh is edited (thick surfaces, 7.1)."""
+
+    def __init__(
+        self,
+        vertices: Floats,
+        face_sizes: Indices,
+        corners: Indices,
+        thickness: PerVertex,
+        side: str = "exterior",
+        relative: bool = False,
+        factors: Floats | None = None,
+        output: str = "outer",
+        layers: int = 1,
+        p: float = 3.0,
+        tolerance: float = 0.03,
+        progress: Progress = None,
+    ) -> None: ...
+    def update(self, vertices: Floats, factors: Floats | None = None) -> dict[str, Any]: ...
+    def result(self) -> dict[str, Any]: ...
+    @property
+    def vertex_count(self) -> int: ...
+    @property
+    def tolerance(self) -> float: ...
+    @tolerance.setter
+    def tolerance(self, tolerance: float) -> None: ...
+
+def texture(pattern: str, size: tuple[int, int, int] = (64, 64, 32), seed: int = 0, time: float = 1.0, thickness: float = 1.0) -> Floats: ...
+def bake_texture(
+    vertices: Floats,
+    face_sizes: Indices,
+    corners: Indices,
+    base_offset: Floats,
+    directors: Floats,
+    textures: Sequence[Any],
+    uvs: Floats | None = None,
+    tiling: float = 1.0,
+    resolution: int = 8,
+    layers: int = 16,
+    region: Floats | None = None,
+    base_layer: float = 0.1,
+    holes: Floats | None = None,
+    cutter: Cutter = None,
+    move_region: Floats | None = None,
+    move_offset: tuple[float, float] = (0.0, 0.0),
+    follow_texture: bool = True,
+    triangle_budget: int = 1_000_000,
+    max_triangles: int = 20_000_000,
+    progress: Progress = None,
+) -> dict[str, Any]: ...
+def estimate_bake(
+    vertices: Floats,
+    face_sizes: Indices,
+    corners: Indices,
+    base_offset: Floats,
+    directors: Floats,
+    textures: Sequence[Any],
+    uvs: Floats | None = None,
+    tiling: float = 1.0,
+    resolution: int = 8,
+    layers: int = 16,
+    region: Floats | None = None,
+    base_layer: float = 0.1,
+    holes: Floats | None = None,
+    cutter: Cutter = None,
+    move_region: Floats | None = None,
+    move_offset: tuple[float, float] = (0.0, 0.0),
+    follow_texture: bool = True,
+    triangle_budget: int = 1_000_000,
+    max_triangles: int = 20_000_000,
+) -> dict[str, Any]: ...
+def load_texture(path: str) -> Floats: ...
+def save_texture(path: str, alpha: Floats) -> list[str]: ...
+def render_shell(
+    vertices: Floats,
+    face_sizes: Indices,
+    corners: Indices,
+    base_offset: Floats,
+    directors: Floats,
+    textures: Sequence[Any],
+    view: Floats,
+    projection: Floats,
+    width: int,
+    height: int,
+    uvs: Floats | None = None,
+    tiling: float = 1.0,
+    method: str = "auto",
+    slices: int = 16,
+    light: tuple[float, float, float] = (0.3, -0.5, 0.8),
+    ambient: float = 0.25,
+    step: float = 0.05,
+    mipmaps: str = "double",
+    resolution: int = 8,
+    layers: int = 16,
+    region: Floats | None = None,
+    base_layer: float = 0.1,
+    holes: Floats | None = None,
+    cutter: Cutter = None,
+    move_region: Floats | None = None,
+    move_offset: tuple[float, float] = (0.0, 0.0),
+    follow_texture: bool = True,
+    progress: Progress = None,
+) -> dict[str, Any]: ...
+def save_render(path: str, rgba: Floats, depth: Floats | None = None, normal: Floats | None = None) -> None: ...
