@@ -92,6 +92,10 @@ pub fn mesh_with_uvs(
     Mesh::new(positions, &sizes, corners, uvs).map_err(crate::errors::to_py)
 }
 
+// The cast in `vec3_array` relies on this layout; a glam build that changed it
+// (padding, alignment) stops the compile here instead of corrupting arrays.
+const _: () = assert!(std::mem::size_of::<Vec3>() == 12 && std::mem::align_of::<Vec3>() == 4);
+
 /// Moves `Vec<Vec3>` into a float32 (n, 3) array without copying the data.
 pub fn vec3_array<'py>(py: Python<'py>, v: Vec<Vec3>) -> PyResult<Bound<'py, PyArray2<f32>>> {
     let n = v.len();
