@@ -123,20 +123,22 @@ impl Checker {
             tris_around,
             cells_around,
         };
-        let pairs = me.base_bvh.overlapping_pairs(&|i, j| {
-            !shares(&me.tris[i as usize], &me.tris[j as usize]) && triangles_intersect(&me.base[i as usize], &me.base[j as usize])
-        });
+        let pairs = me.base_bvh.overlapping_pairs(&|i, j| me.bases_cross(i, j));
         me.own = vec![false; me.tris.len()];
         pairs.iter().for_each(|&(i, j)| (me.own[i as usize], me.own[j as usize]) = (true, true));
         me
     }
 
+    /// Whether base triangles `t` and `j` cross, sharing no vertex.
+    fn bases_cross(&self, t: u32, j: u32) -> bool {
+        let (t, j) = (t as usize, j as usize);
+        !shares(&self.tris[t], &self.tris[j]) && triangles_intersect(&self.base[t], &self.base[j])
+    }
+
     /// Whether base triangle `t` crosses another base triangle that shares no vertex.
     fn crosses_base(&self, t: u32) -> bool {
         let (lo, hi) = tri_box(&self.base[t as usize]);
-        self.base_bvh.any(lo, hi, |j| {
-            !shares(&self.tris[t as usize], &self.tris[j as usize]) && triangles_intersect(&self.base[t as usize], &self.base[j as usize])
-        })
+        self.base_bvh.any(lo, hi, |j| self.bases_cross(t, j))
     }
 
     /// Pairs of base triangles that cross each other (sharing no vertex): the input's
@@ -147,10 +149,7 @@ impl Checker {
             .map(|&t| {
                 let (lo, hi) = tri_box(&self.base[t as usize]);
                 let mut n = 0;
-                self.base_bvh.query(lo, hi, |j| {
-                    let crosses = || !shares(&self.tris[t as usize], &self.tris[j as usize]) && triangles_intersect(&self.base[t as usize], &self.base[j as usize]);
-                    n += usize::from(j > t && crosses());
-                });
+                self.base_bvh.query(lo, hi, |j| n += usize::from(j > t && self.bases_cross(t, j)));
                 n
             })
             .sum()
