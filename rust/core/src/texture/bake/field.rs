@@ -59,7 +59,19 @@ impl Field<'_> {
 
     /// Occupancy at the lattice's [`Self::heights`] of the column at `(u, v)` of
     /// cell `t` (`cell` is its map), into `out`; `scratch` holds footprints.
-    pub fn column(&self, t: usize, cell: &CellMap, (u, v): (f32, f32), out: &mut [f32], scratch: &mut Vec<Column>) {
+    pub fn column(&self, t: usize, cell: &CellMap, uv: (f32, f32), out: &mut [f32], scratch: &mut Vec<Column>) {
+        self.at_heights(t, cell, uv, self.heights, out, scratch);
+    }
+
+    /// Occupancy at one point `(u, v, r)` of cell `t`, between lattice points.
+    pub fn at(&self, t: usize, cell: &CellMap, q: Vec3, scratch: &mut Vec<Column>) -> f32 {
+        let mut out = [0.0];
+        self.at_heights(t, cell, (q.x, q.y), &[q.z], &mut out, scratch);
+        out[0]
+    }
+
+    /// Occupancy at `heights` of the column at `(u, v)` of cell `t`, into `out`.
+    fn at_heights(&self, t: usize, cell: &CellMap, (u, v): (f32, f32), heights: &[f32], out: &mut [f32], scratch: &mut Vec<Column>) {
         let st = cell.texture(Vec3::new(u, v, 0.0)).truncate();
         let site = self.effects.site(t, &cell.weights(u, v), st);
         let (here, there) = site.needs();
@@ -70,7 +82,7 @@ impl Field<'_> {
         }
         let (placed, landed) = scratch.split_at(self.layers.len());
         let cutter = self.effects.has_cutter();
-        for (a, &r) in out.iter_mut().zip(self.heights) {
+        for (a, &r) in out.iter_mut().zip(heights) {
             if cutter && self.effects.cut(cell.world(Vec3::new(u, v, r))) {
                 *a = 0.0;
                 continue;

@@ -146,12 +146,14 @@ pub const MAX_STEPS: u32 = 192;
 
 /// Share of thin texels ([`bounds::thin_share`]) above which the lattice takes two
 /// steps per texel. Not from the paper: chosen between grass (0.14) and chain mail
-/// (0.007) with `bake_fidelity` (fur: IoU 0.85 at one step per texel, 0.93 at two; grass 0.93, 0.95).
+/// (0.007) with `bake_fidelity` (fur: IoU 0.85 at one step per texel, 0.93 at two; grass 0.93, 0.95;
+/// with iso-vertices on the crossing and two layers per slice, fur 0.94, grass 0.97).
 const THIN_SHARE: f32 = 0.05;
 
-/// The most lattice samples (points times layers) of one cell: its dense iso-vertex
-/// slot table takes 108 bytes a sample, about 110 MiB per worker thread at most.
-const MAX_CELL_SAMPLES: usize = 1 << 20;
+/// The most lattice samples (points times layers) of one cell: its buffers (values,
+/// ids, gradients, eight iso-vertex slots) take about 70 bytes a sample, about
+/// 140 MiB per worker thread at most.
+const MAX_CELL_SAMPLES: usize = 1 << 21;
 
 impl BakeParams {
     /// The checks every bake and estimate makes before any work: settings in range,
@@ -216,13 +218,14 @@ fn lattice_steps(st: &[[Vec2; 3]], textures: &[TextureLayer], params: &BakeParam
         return (n0, uniform(m0), 1, false);
     }
     // Steps per texel: two where a texture has many features one texel wide.
-    let density = if textures.iter().any(|l| bounds::thin_share(&l.texture) > THIN_SHARE) { 2.0 } else { 1.0 };
+    let thin = textures.iter().any(|l| bounds::thin_share(&l.texture) > THIN_SHARE);
+    let density = if thin { 2.0 } else { 1.0 };
     let texels = textures.iter().map(|l| l.texture.dims()).fold(Vec2::ZERO, |a, [x, y, _]| a.max(Vec2::new(x as f32, y as f32))) * density;
     let mut spans: Vec<f32> = st.iter().map(|c| (0..3).map(|k| ((c[(k + 1) % 3] - c[k]) * texels).length()).fold(0.0, f32::max)).collect();
     let at = (spans.len() * 9 / 10).min(spans.len() - 1);
     let (_, span, _) = spans.select_nth_unstable_by(at, f32::total_cmp);
     let span = if span.is_finite() { *span } else { 0.0 };
-    let heights = texel_layers(textures, m0);
+    let heights = texel_layers(textures, m0, if thin { 2 } else { 1 });
     let points = |n: u32| (n as usize + 1) * (n as usize + 2) / 2;
     let mut block = ((span / n0 as f32).ceil() as u32).clamp(1, (MAX_STEPS / n0).max(1));
     while block > 1 && points(n0 * block) * heights.len() > MAX_CELL_SAMPLES {
@@ -264,11 +267,13 @@ fn checked_cells(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: 
 /// Layer heights on the slices `k / (depth - 1)` of the deepest texture (where
 /// [`VolumeTexture::sample`] puts them: the first and last on the shell's faces), so the
 /// trilinear occupancy is linear in `r` between layers and nothing one slice thick is
-/// lost across the shell; each interval split evenly so there are at least `m0`
-/// (uniform when that would exceed [`MAX_STEPS`]).
-fn texel_layers(textures: &[TextureLayer], m0: u32) -> Vec<f32> {
+/// lost across the shell; each interval split evenly so there are at least `m0`, and
+/// at least `per_slice` times (uniform when that would exceed [`MAX_STEPS`]). Within a
+/// prism the trilinear iso-surface is curved even where it is linear in `r`, so thin
+/// features that lean between slices need the split as much as a finer `(u, v)`.
+fn texel_layers(textures: &[TextureLayer], m0: u32, per_slice: u32) -> Vec<f32> {
     let intervals = textures.iter().map(|l| l.texture.dims()[2] as u32).max().unwrap_or(2).max(2) - 1;
-    let split = m0.div_ceil(intervals).max(1);
+    let split = m0.div_ceil(intervals).max(per_slice).max(1);
     if intervals * split > MAX_STEPS {
         return (0..=MAX_STEPS).map(|l| l as f32 / MAX_STEPS as f32).collect();
     }

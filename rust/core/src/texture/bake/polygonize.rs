@@ -5,8 +5,9 @@
 //! their owner cells) do too holds no surface and is skipped, so the neighbour sees the
 //! same empty face. The other blocks are sampled and polygonized at the full lattice
 //! resolution. Iso-vertices are computed once per lattice edge within the cell (a dense
-//! slot table indexed by the edge's lower endpoint and direction); those on the cell's
-//! rim carry a global edge key so [`super::merge`] can join them with the neighbour's.
+//! slot table indexed by the edge's lower endpoint and its direction), placed on the
+//! occupancy's crossing by [`crossing`]; those on the cell's rim carry a global edge
+//! key so [`super::merge`] can join them with the neighbour's.
 
 use super::field::Field;
 use super::lattice::Lattice;
@@ -251,8 +252,8 @@ impl Cells<'_> {
         self.sample(s, t, &cell);
         let points = s.ij.len() * lm;
         let bitwise = lm <= 64;
-        if s.slots.len() < points * 27 {
-            s.slots = vec![u32::MAX; points * 27];
+        if s.slots.len() < points * EDGE_DIRECTIONS {
+            s.slots = vec![u32::MAX; points * EDGE_DIRECTIONS];
         }
         let mut piece = Piece::with_capacity(s.last.0 + s.last.0 / 4, s.last.1 + s.last.1 / 4);
         // Orientation: triangles face from inside to outside in parameter space, flipped
@@ -269,6 +270,7 @@ impl Cells<'_> {
         s.grads.resize(points, std::cell::Cell::new(Vec3::NAN));
         let grads = &s.grads;
         let (ids, vals, slots, touched, masks) = (&s.ids, &s.vals, &mut s.slots, &mut s.touched, &s.masks);
+        let footprints = &mut s.footprints;
         let value = |p: IVec3| -> Option<f32> {
             let ok = p.x >= 0 && p.y >= 0 && p.x + p.y <= n as i32 && (0..=m as i32).contains(&p.z);
             ok.then(|| vals[lat.local_index(p.x as u32, p.y as u32) * lm + p.z as usize])
@@ -302,20 +304,30 @@ impl Cells<'_> {
         };
         let mut iso = |piece: &mut Piece, p: usize, q: usize| -> u32 {
             let (lo, hi) = if ids[p] < ids[q] { (p, q) } else { (q, p) };
-            let d = param(hi) - param(lo) + IVec3::ONE;
-            let slot = lo * 27 + (d.x * 9 + d.y * 3 + d.z) as usize;
+            let slot = lo * EDGE_DIRECTIONS + direction(param(hi) - param(lo));
             if slots[slot] != u32::MAX {
                 return slots[slot];
             }
-            let f = ((0.5 - vals[lo]) / (vals[hi] - vals[lo])).clamp(0.0, 1.0);
             let (qa, qb) = (to_q(param(lo)), to_q(param(hi)));
+            let shared = on_rim(lo) && on_rim(hi);
+            // Along a column the occupancy is linear between the texture's slices. On
+            // the rim the neighbour makes the same vertex from the same two samples,
+            // but its own field between them; and next to the rim, where the cells'
+            // common side is curved, vertices moved off the linear guess let the two
+            // cells' surfaces cross (found on a thin blade's interior shell): both
+            // keep the linear guess there.
+            let f = if param(lo).truncate() == param(hi).truncate() || on_rim(lo) || on_rim(hi) {
+                ((0.5 - vals[lo]) / (vals[hi] - vals[lo])).clamp(0.0, 1.0)
+            } else {
+                crossing(vals[lo], vals[hi], |f| self.field.at(t, &cell, qa.lerp(qb, f), footprints))
+            };
             let q = qa.lerp(qb, f);
             // Gradient: the lattice's central differences (one-sided on the cell's rim)
             // interpolated along the edge, carried to world space by the cell map.
             let g = lattice_gradient(lo).lerp(lattice_gradient(hi), f);
             let grad = -cell.parameter_gradient_to_world(q, g);
             let idx = piece.pos.len() as u32;
-            piece.keys.push(if on_rim(lo) && on_rim(hi) { (u128::from(ids[lo]) << 64) | u128::from(ids[hi]) } else { UNSHARED });
+            piece.keys.push(if shared { (u128::from(ids[lo]) << 64) | u128::from(ids[hi]) } else { UNSHARED });
             piece.pos.push(cell.world(q));
             piece.tex.push(cell.texture(q));
             piece.grad.push(grad);
@@ -369,10 +381,83 @@ impl Cells<'_> {
     }
 }
 
+/// Directions of the prisms' edges from a lattice point: `±u`, `±v`, `±(u - v)` (the
+/// small triangles' sides) and `±r` (the columns).
+const EDGE_DIRECTIONS: usize = 8;
+
+/// The slot of edge direction `d` (one of [`EDGE_DIRECTIONS`]) in the iso-vertex table.
+#[inline]
+fn direction(d: IVec3) -> usize {
+    match (d.x, d.y, d.z) {
+        (1, 0, 0) => 0,
+        (-1, 0, 0) => 1,
+        (0, 1, 0) => 2,
+        (0, -1, 0) => 3,
+        (1, -1, 0) => 4,
+        (-1, 1, 0) => 5,
+        (0, 0, 1) => 6,
+        _ => 7,
+    }
+}
+
+/// Refinement steps of an iso-vertex across a column's neighbour.
+const CROSSING_STEPS: usize = 3;
+
+/// Where the occupancy `alpha(f)` crosses 0.5 on a lattice edge from `f = 0` (value
+/// `a`) to `f = 1` (value `b`, on the other side): Illinois regula falsi from the
+/// linear guess, [`CROSSING_STEPS`] evaluations. Between columns the trilinear texture
+/// is not linear, so linear interpolation of the end values moves the surface inward
+/// where it is curved, and thins features a few lattice steps wide. The result stays
+/// [`OFF_ISO`] of the edge from its ends, as the linear guess does.
+fn crossing(a: f32, b: f32, mut alpha: impl FnMut(f32) -> f32) -> f32 {
+    let (mut lo, mut hi, mut fa, mut fb) = (0.0f32, 1.0f32, a - 0.5, b - 0.5);
+    let mut x = (fa / (fa - fb)).clamp(0.0, 1.0);
+    let mut side = 0i8;
+    for _ in 0..CROSSING_STEPS {
+        let fx = alpha(x) - 0.5;
+        if !fx.is_finite() || fx == 0.0 {
+            break;
+        }
+        if (fx >= 0.0) == (fb >= 0.0) {
+            (hi, fb) = (x, fx);
+            if side == 1 {
+                fa *= 0.5;
+            }
+            side = 1;
+        } else {
+            (lo, fa) = (x, fx);
+            if side == -1 {
+                fb *= 0.5;
+            }
+            side = -1;
+        }
+        let next = lo - fa * (hi - lo) / (fb - fa);
+        x = if next.is_finite() && next > lo && next < hi { next } else { 0.5 * (lo + hi) };
+    }
+    x.clamp(OFF_ISO, 1.0 - OFF_ISO)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::texture::{TextureCoordinates, TriangleCells};
+
+    #[test]
+    fn the_crossing_is_found_on_curved_edges_and_kept_off_the_ends() {
+        // 1 - 2 f²: 0.5 at f = 0.5, where the linear guess from the ends says 0.25.
+        let f = crossing(1.0, -1.0, |f| 1.0 - 2.0 * f * f);
+        assert!((f - 0.5).abs() < 5e-3, "{f}");
+        // From below, and a steep curve (sqrt: the guess is far off).
+        let f = crossing(0.0, 1.0, f32::sqrt);
+        assert!((f - 0.25).abs() < 0.02, "{f}");
+        // Linear: exact at once.
+        assert!((crossing(0.2, 0.8, |f| 0.2 + 0.6 * f) - 0.5).abs() < 1e-6);
+        // A crossing at the very end stays OFF_ISO of the edge from it.
+        let f = crossing(0.9, 0.1, |f| if f < 1e-4 { 0.9 } else { 0.1 });
+        assert!((OFF_ISO..=1.0 - OFF_ISO).contains(&f), "{f}");
+        // A field that cannot be evaluated leaves the linear guess.
+        assert!((crossing(0.0, 1.0, |_| f32::NAN) - 0.5).abs() < 1e-6);
+    }
 
     #[test]
     fn blocks_tile_the_cell_with_counter_clockwise_small_triangles() {
