@@ -10,7 +10,6 @@ use thicket_core::glam::{Mat4, Vec3, Vec4};
 use thicket_render::gpu::{GpuRenderer, SliceMode, SliceParams};
 use thicket_render::mipmap::Mipmaps;
 use thicket_render::reference::{render_watched, RenderParams};
-use thicket_core::texture::bake::effects as bake_effects;
 use thicket_render::{Camera, Frame, ShellScene};
 
 use crate::errors::{run_detached, run_maybe_watched, to_py, InvalidInput};
@@ -170,10 +169,7 @@ pub fn render_shell<'py>(
     let auto = method == "auto";
     let (frame, per_face_tiles, renderer, fallback) = run_maybe_watched(py, progress.as_ref(), move |watch| {
         let camera = Camera::new(view, projection, width, height)?;
-        let scene = inputs.run(|mesh, shell, layers, params| {
-            let effects = bake_effects(mesh, shell, layers, params)?;
-            Ok(ShellScene::new(mesh, shell, layers.to_vec(), tiling)?.with_effects(effects))
-        })?;
+        let scene = inputs.run(ShellScene::of)?;
         // The slice renderer draws every effect the bake applies (region, holes,
         // cutter, moved region), as the reference does.
         let reference = |why: String| -> thicket_core::Result<(Frame, String, String)> {

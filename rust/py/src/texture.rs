@@ -6,8 +6,8 @@ use pyo3::types::PyDict;
 use thicket_core::glam::Vec2;
 use thicket_core::shell::Shell;
 use thicket_core::Mesh;
-use thicket_core::texture::bake::{bake, estimate_triangles, Cutter, MovedRegion, TextureLayer};
-use thicket_core::texture::{BakeParams, Generator, Pattern, VolumeTexture};
+use thicket_core::texture::bake::{Cutter, MovedRegion, TextureLayer};
+use thicket_core::texture::{BakeParams, Generator, Pattern, TexturedShell, VolumeTexture};
 
 use crate::arrays;
 use crate::errors::{run_detached, run_watched, to_py, InvalidInput};
@@ -154,15 +154,16 @@ impl BakeInputs {
         Ok(Self { mesh, shell, textures, cutter, params })
     }
 
-    /// `work` given the inputs, the cutter built first (heavy: call without the GIL).
-    pub(crate) fn run<T>(mut self, work: impl FnOnce(&Mesh, &Shell, &[TextureLayer], &BakeParams) -> thicket_core::Result<T>) -> thicket_core::Result<T> {
+    /// `work` given the [`TexturedShell`] of the inputs, the cutter built first
+    /// (heavy: call without the GIL).
+    pub(crate) fn run<T>(mut self, work: impl FnOnce(&TexturedShell) -> thicket_core::Result<T>) -> thicket_core::Result<T> {
         if let Some((v, t)) = self.cutter.take() {
             if t.len() % 3 != 0 {
                 return Err(thicket_core::Error::InvalidParameter("cutter triangles: three indices per triangle".into()));
             }
             self.params.cutter = Some(Cutter::new(&v, &t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect::<Vec<_>>())?);
         }
-        work(&self.mesh, &self.shell, &self.textures, &self.params)
+        work(&TexturedShell::new(self.mesh, self.shell, self.textures, self.params)?)
     }
 }
 
@@ -232,9 +233,9 @@ pub fn bake_texture<'py>(
         Some(callback) => {
             let watch = Arc::new(Progress::default());
             inputs.params.progress = Some(watch.clone());
-            run_watched(py, &callback, &watch, move || inputs.run(bake))?
+            run_watched(py, &callback, &watch, move || inputs.run(TexturedShell::bake))?
         }
-        None => run_detached(py, move || inputs.run(bake))?,
+        None => run_detached(py, move || inputs.run(TexturedShell::bake))?,
     };
     let d = PyDict::new(py);
     let count = out.triangles.len();
@@ -290,5 +291,5 @@ pub fn estimate_bake<'py>(
         region, base_layer, holes, cutter.as_ref(), move_region, move_offset,
         (follow_texture, triangle_budget, max_triangles),
     )?;
-    run_detached(py, move || inputs.run(estimate_triangles))
+    run_detached(py, move || inputs.run(|textured| Ok(textured.estimate()?.triangles)))
 }

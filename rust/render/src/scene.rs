@@ -4,7 +4,7 @@
 use glam::Vec3;
 use thicket_core::shell::Shell;
 use thicket_core::texture::bake::{Effects, TextureLayer};
-use thicket_core::texture::{CellMap, TextureCoordinates, TriangleCells};
+use thicket_core::texture::{CellMap, TextureCoordinates, TexturedShell, TriangleCells};
 use thicket_core::{Error, Mesh, Result};
 
 pub struct ShellScene {
@@ -46,6 +46,13 @@ impl ShellScene {
             })
             .collect();
         Ok(Self { cells, bounds, textures, per_face_tiles: coords.per_face_tiles, effects: Effects::default() })
+    }
+
+    /// The scene of a textured shell: its cells, textures and the stack's effects
+    /// exactly as its bake applies them.
+    pub fn of(textured: &TexturedShell) -> Result<Self> {
+        let TexturedShell { mesh, shell, layers, params } = textured;
+        Ok(Self::new(mesh, shell, layers.clone(), params.tiling)?.with_effects(textured.effects()?))
     }
 
     /// The scene with the stack's effects ([`thicket_core::texture::bake::effects`]

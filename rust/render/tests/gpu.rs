@@ -512,8 +512,7 @@ fn united_layers_keep_far_views_too() {
 /// holes are, the base slab where the region is not. Each effect changes the image.
 #[test]
 fn regions_and_holes_match_the_reference() {
-    use thicket_core::texture::bake::effects;
-    use thicket_core::texture::BakeParams;
+    use thicket_core::texture::{BakeParams, TexturedShell};
     let mesh = tm::icosphere(3);
     let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
     let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
@@ -530,7 +529,7 @@ fn regions_and_holes_match_the_reference() {
         ("holes and region", BakeParams { holes: Some(upper.iter().map(|w| 0.5 * w).collect()), region: Some(vec![0.6; upper.len()]), ..Default::default() }),
     ];
     for (name, params) in cases {
-        let scene = ShellScene::new(&mesh, &shell, layers.clone(), 1.0).unwrap().with_effects(effects(&mesh, &shell, &layers, &params).unwrap());
+        let scene = ShellScene::of(&TexturedShell::new(mesh.clone(), shell.clone(), layers.clone(), params).unwrap()).unwrap();
         let reference = reference::render(&scene, &camera, &RenderParams { step: 0.02, ..Default::default() }).unwrap();
         let frame = r.render(&scene, &camera, &slice_params(16, SliceMode::Interpolating)).unwrap();
         let s = score(&frame, &reference);
@@ -547,8 +546,8 @@ fn regions_and_holes_match_the_reference() {
 /// Each effect changes the image, and the renderer follows it.
 #[test]
 fn cutter_and_moved_region_match_the_reference() {
-    use thicket_core::texture::bake::{effects, Cutter, MovedRegion};
-    use thicket_core::texture::BakeParams;
+    use thicket_core::texture::bake::{Cutter, MovedRegion};
+    use thicket_core::texture::{BakeParams, TexturedShell};
     let params = slice_params(16, SliceMode::Interpolating);
     let mut r = renderer();
     let check = |r: &mut GpuRenderer, name: &str, scene: ShellScene, plain: &ShellScene, camera: &Camera, iou: f32| {
@@ -571,7 +570,7 @@ fn cutter_and_moved_region_match_the_reference() {
     let tris: Vec<[u32; 3]> = faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect();
     let cut = BakeParams { cutter: Some(Cutter::new(&corners, &tris).unwrap()), ..Default::default() };
     let plain = ShellScene::new(&mesh, &shell, slab.clone(), 1.0).unwrap();
-    let scene = ShellScene::new(&mesh, &shell, slab.clone(), 1.0).unwrap().with_effects(effects(&mesh, &shell, &slab, &cut).unwrap());
+    let scene = ShellScene::of(&TexturedShell::new(mesh.clone(), shell.clone(), slab.clone(), cut).unwrap()).unwrap();
     let camera = perspective(Vec3::new(0.4, -4.0, 0.6), Vec3::ZERO, 0.8, 96);
     check(&mut r, "cutter", scene, &plain, &camera, 0.99);
     // Stripes along s on a plane seen from above, those over x < 0 moved by a quarter
@@ -585,7 +584,7 @@ fn cutter_and_moved_region_match_the_reference() {
     let left: Vec<f32> = grid.positions().iter().map(|p| if p.x < -0.05 { 1.0 } else { 0.0 }).collect();
     let moved = BakeParams { tiling: 3.0, moved: Some(MovedRegion { weights: left, offset: Vec2::new(0.25 / 3.0, 0.0) }), ..Default::default() };
     let plain = ShellScene::new(&grid, &shell, stripes.clone(), 3.0).unwrap();
-    let scene = ShellScene::new(&grid, &shell, stripes.clone(), 3.0).unwrap().with_effects(effects(&grid, &shell, &stripes, &moved).unwrap());
+    let scene = ShellScene::of(&TexturedShell::new(grid.clone(), shell.clone(), stripes.clone(), moved).unwrap()).unwrap();
     let camera = perspective(Vec3::new(0.0, -0.3, 3.0), Vec3::ZERO, 0.7, 96);
     check(&mut r, "moved region", scene, &plain, &camera, 0.95);
 }

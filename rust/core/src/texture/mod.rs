@@ -8,17 +8,21 @@
 //! - [`mapping`]: texture coordinates of the shell's cells (UVs times tiling, or one
 //!   tile per face) and the cell map between world and texture space.
 //! - [`bake`]: the iso-surface polygonized over the whole shell as one crack-free mesh.
+//! - [`textured_shell`]: mesh, shell, textures and effects as one checked object, from
+//!   which the bake, its estimate and the renderers all take what they show.
 //! - [`io`]: textures from and to files (PNG slice stacks, OpenEXR volumes).
 
 pub mod bake;
 pub mod io;
 pub mod mapping;
 pub mod procedural;
+pub mod textured_shell;
 pub mod volume;
 
 pub use bake::{bake, BakeParams, BakedMesh};
 pub use mapping::{CellMap, TextureCoordinates, TriangleCells};
 pub use procedural::{Generator, Pattern};
+pub use textured_shell::TexturedShell;
 pub use volume::VolumeTexture;
 
 #[cfg(test)]

@@ -158,7 +158,7 @@ const MAX_CELL_SAMPLES: usize = 1 << 21;
 impl BakeParams {
     /// The checks every bake and estimate makes before any work: settings in range,
     /// per-vertex weights that fit `mesh`, a shell that belongs to it, a texture.
-    fn check(&self, mesh: &Mesh, shell: &Shell, textures: &[TextureLayer]) -> Result<()> {
+    pub(crate) fn check(&self, mesh: &Mesh, shell: &Shell, textures: &[TextureLayer]) -> Result<()> {
         mesh.require_faces()?;
         if textures.is_empty() {
             return Err(Error::InvalidParameter("no texture to bake".into()));
