@@ -9,6 +9,7 @@ pub mod error;
 pub mod mesh;
 pub mod progress;
 pub mod shell;
+pub mod spatial;
 pub mod texture;
 #[doc(hidden)]
 pub mod testmeshes;

@@ -2,7 +2,8 @@
 //! chapter 5) and its fallback where no GPU exists.
 //!
 //! Every pixel's ray is marched through the shell in world space. The cells whose
-//! bounds the ray meets come from a bounding volume hierarchy over the cells; at each
+//! bounds the ray meets, and the ray's span in each, come from a bounding volume
+//! hierarchy over the cells' bounds ([`thicket_core::spatial::Bvh`]); at each
 //! sample the cell containing the point is found by inverting its map (Newton's
 //! method, warm-started from the parameters of the previous sample in the same cell),
 //! and `alpha` is the texture's there (zero outside every cell). The first crossing of
@@ -17,6 +18,7 @@
 use glam::{DMat4, DVec3, Mat3, Vec3};
 use rayon::prelude::*;
 use thicket_core::progress::Progress;
+use thicket_core::spatial::Bvh;
 use thicket_core::texture::CellMap;
 use thicket_core::{Error, Result};
 
@@ -257,7 +259,6 @@ struct Active {
 struct Scratch {
     intervals: Vec<Interval>,
     active: Vec<Active>,
-    stack: Vec<u32>,
 }
 
 /// What a sample found: the cell (index into `cells`), its parameters and `alpha`.
@@ -271,6 +272,9 @@ struct Sample {
 struct Marcher<'a> {
     scene: &'a ShellScene,
     prisms: Vec<Option<Prism>>,
+    /// The cells with finite bounds, and a tree over their bounds (item `i` is cell
+    /// `finite[i]`).
+    finite: Vec<u32>,
     bvh: Bvh,
     /// March step, world units.
     step: f64,
@@ -322,8 +326,8 @@ impl<'a> Marcher<'a> {
             .zip(&scene.bounds)
             .map(|(c, (l, h))| (c.count == 3).then(|| Prism::new(c, (*h - *l).length())))
             .collect();
-        let bvh = Bvh::build(&scene.bounds, finite);
-        Ok(Self { scene, prisms, bvh, step: params.step as f64 * thickness, tolerance: 1e-6 * size.max(1e-30) })
+        let bvh = Bvh::from_boxes(finite.iter().map(|&i| (scene.bounds[i as usize].0.as_dvec3(), scene.bounds[i as usize].1.as_dvec3())).collect());
+        Ok(Self { scene, prisms, finite, bvh, step: params.step as f64 * thickness, tolerance: 1e-6 * size.max(1e-30) })
     }
 
     /// The parameters of `p` in cell `c`, from the warm start `q`.
@@ -362,11 +366,11 @@ impl<'a> Marcher<'a> {
 
     /// The first crossing of `alpha = 0.5` from below along the ray, if any.
     fn trace(&self, origin: DVec3, dir: DVec3, t_far: f64, s: &mut Scratch) -> Option<Hit> {
-        let Scratch { intervals, active, stack } = s;
+        let Scratch { intervals, active } = s;
         intervals.clear();
         active.clear();
-        self.bvh.intersect(&self.scene.bounds, origin, dir, t_far, stack, |cell, t0, t1| {
-            intervals.push(Interval { t0, t1, cell });
+        self.bvh.query_ray(origin, dir, t_far, |i, t0, t1| {
+            intervals.push(Interval { t0, t1, cell: self.finite[i as usize] });
         });
         if intervals.is_empty() {
             return None;
@@ -509,105 +513,6 @@ fn invert_generic(cell: &CellMap, x: Vec3, q: Vec3) -> Option<Vec3> {
     let (q, e) = newton(q, |q| (cell.world(q) - x, cell.jacobians(q).0))?;
     let size = (0..cell.count).map(|k| cell.director[k].length() + (cell.base[k] - cell.base[0]).length()).sum::<f32>();
     (e.length() <= 1e-5 * size + 4.0 * f32::EPSILON * x.abs().max_element()).then_some(q)
-}
-
-/// A bounding volume hierarchy over the cells' bounds (median splits, small leaves).
-struct Bvh {
-    nodes: Vec<Node>,
-    items: Vec<u32>,
-}
-
-#[derive(Debug, Clone, Copy)]
-struct Node {
-    lo: DVec3,
-    hi: DVec3,
-    /// Leaves: first item and count; inner nodes: the left child (the right one follows
-    /// it) and a count of 0.
-    first: u32,
-    count: u32,
-}
-
-const LEAF_SIZE: usize = 4;
-
-impl Bvh {
-    fn build(bounds: &[(Vec3, Vec3)], mut items: Vec<u32>) -> Self {
-        let centroid = |i: u32| {
-            let (lo, hi) = bounds[i as usize];
-            (lo + hi) * 0.5
-        };
-        let mut nodes = Vec::with_capacity(2 * items.len() / LEAF_SIZE + 1);
-        // (node index, range of items) still to split.
-        let mut todo = vec![(0usize, 0usize, items.len())];
-        nodes.push(Node { lo: DVec3::ZERO, hi: DVec3::ZERO, first: 0, count: 0 });
-        while let Some((n, start, end)) = todo.pop() {
-            let slice = &mut items[start..end];
-            let (lo, hi) = slice.iter().fold((Vec3::MAX, Vec3::MIN), |(a, b), &i| {
-                let (l, h) = bounds[i as usize];
-                (a.min(l), b.max(h))
-            });
-            let (clo, chi) =
-                slice.iter().fold((Vec3::MAX, Vec3::MIN), |(a, b), &i| (a.min(centroid(i)), b.max(centroid(i))));
-            nodes[n].lo = lo.as_dvec3();
-            nodes[n].hi = hi.as_dvec3();
-            let extent = chi - clo;
-            if slice.len() <= LEAF_SIZE || extent.max_element() <= 0.0 {
-                nodes[n].first = start as u32;
-                nodes[n].count = slice.len() as u32;
-                continue;
-            }
-            let axis = extent.max_position();
-            let mid = slice.len() / 2;
-            slice.select_nth_unstable_by(mid, |a, b| centroid(*a)[axis].total_cmp(&centroid(*b)[axis]));
-            let left = nodes.len();
-            nodes.push(Node { lo: DVec3::ZERO, hi: DVec3::ZERO, first: 0, count: 0 });
-            let right = nodes.len();
-            nodes.push(Node { lo: DVec3::ZERO, hi: DVec3::ZERO, first: 0, count: 0 });
-            nodes[n].first = left as u32;
-            todo.push((right, start + mid, end));
-            todo.push((left, start, start + mid));
-        }
-        Self { nodes, items }
-    }
-
-    /// Calls `hit(cell, t0, t1)` for every cell whose bounds the ray `origin + t dir`,
-    /// `t ∈ [0, t_far]`, crosses, with the span of `t` inside them.
-    fn intersect(
-        &self,
-        bounds: &[(Vec3, Vec3)],
-        origin: DVec3,
-        dir: DVec3,
-        t_far: f64,
-        stack: &mut Vec<u32>,
-        mut hit: impl FnMut(u32, f64, f64),
-    ) {
-        let inv = dir.recip();
-        let slab = |lo: DVec3, hi: DVec3| -> Option<(f64, f64)> {
-            let a = (lo - origin) * inv;
-            let b = (hi - origin) * inv;
-            let t0 = a.min(b).max_element().max(0.0);
-            let t1 = a.max(b).min_element().min(t_far);
-            (t0 <= t1).then_some((t0, t1))
-        };
-        stack.clear();
-        stack.push(0);
-        while let Some(n) = stack.pop() {
-            let node = &self.nodes[n as usize];
-            if slab(node.lo, node.hi).is_none() {
-                continue;
-            }
-            if node.count == 0 {
-                stack.push(node.first);
-                stack.push(node.first + 1);
-                continue;
-            }
-            for &i in &self.items[node.first as usize..(node.first + node.count) as usize] {
-                let (lo, hi) = bounds[i as usize];
-                if let Some((t0, t1)) = slab(lo.as_dvec3(), hi.as_dvec3()) {
-                    hit(i, t0, t1);
-                }
-            }
-        }
-    }
 }
 
 #[cfg(test)]
@@ -869,37 +774,5 @@ mod tests {
         eprintln!("chain mail 128x128 on icosphere(3): {elapsed:?}, coverage {:.3}", frame.coverage());
         assert!(frame.coverage() > 0.1 && frame.coverage() < 0.6, "coverage {}", frame.coverage());
         assert!(frame.normal.iter().zip(&frame.rgba).all(|(n, c)| c.w == 0.0 || (n.length() - 1.0).abs() < 1e-3));
-    }
-
-    #[test]
-    fn reference_bvh_finds_every_crossed_box() {
-        // Boxes on a grid; the BVH agrees with brute force.
-        let bounds: Vec<(Vec3, Vec3)> = (0..1000)
-            .map(|i| {
-                let p = Vec3::new((i % 10) as f32, ((i / 10) % 10) as f32, (i / 100) as f32);
-                (p, p + Vec3::splat(0.7))
-            })
-            .collect();
-        let bvh = Bvh::build(&bounds, (0..1000).collect());
-        let mut stack = Vec::new();
-        for (o, d) in [
-            (DVec3::new(-1.0, 0.3, 0.2), DVec3::new(1.0, 0.5, 0.3)),
-            (DVec3::new(4.3, 4.2, -2.0), DVec3::Z),
-            (DVec3::new(12.0, 12.0, 12.0), DVec3::NEG_ONE),
-        ] {
-            let d = d.normalize();
-            let mut found = Vec::new();
-            bvh.intersect(&bounds, o, d, 100.0, &mut stack, |i, _, _| found.push(i));
-            found.sort();
-            let brute: Vec<u32> = (0..1000u32)
-                .filter(|&i| {
-                    let (lo, hi) = bounds[i as usize];
-                    let (a, b) = ((lo.as_dvec3() - o) / d, (hi.as_dvec3() - o) / d);
-                    a.min(b).max_element().max(0.0) <= a.max(b).min_element().min(100.0)
-                })
-                .collect();
-            assert_eq!(found, brute);
-            assert!(!found.is_empty());
-        }
     }
 }

@@ -9,6 +9,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use thicket_core::shell::Shell;
+use thicket_core::spatial::Bvh;
 use thicket_core::texture::bake::{effects, TextureLayer};
 use thicket_core::texture::BakeParams;
 use thicket_core::{Mesh, Result};
@@ -24,12 +25,12 @@ use crate::scene::ShellScene;
 pub fn mesh_coverage(positions: &[Vec3], triangles: &[[u32; 3]], camera: &Camera) -> Vec<bool> {
     let (width, height) = (camera.width as usize, camera.height as usize);
     let mut covered = vec![false; width * height];
-    let (Ok(rays), Some(bvh)) = (Rays::new(camera), TriangleBvh::new(positions, triangles)) else {
+    let (Ok(rays), Some(tris)) = (Rays::new(camera), Triangles::new(positions, triangles)) else {
         return covered;
     };
-    covered.par_chunks_mut(width.max(1)).enumerate().for_each_init(Vec::new, |stack, (y, row)| {
+    covered.par_chunks_mut(width.max(1)).enumerate().for_each(|(y, row)| {
         for (x, c) in row.iter_mut().enumerate() {
-            *c = rays.ray(x, y).is_some_and(|(origin, dir, t_far)| bvh.any_hit(origin, dir, t_far, stack));
+            *c = rays.ray(x, y).is_some_and(|(origin, dir, t_far)| tris.any_hit(origin, dir, t_far));
         }
     });
     covered
@@ -107,27 +108,14 @@ pub fn bake_iou(
     Ok(bake_silhouettes(mesh, shell, textures, params, (baked_positions, baked_triangles), camera, step)?.iou())
 }
 
-/// A bounding volume hierarchy over triangles (median splits, small leaves) for
-/// any-hit ray queries.
-struct TriangleBvh {
-    nodes: Vec<Node>,
-    /// The triangles' corners, in leaf order.
+/// Triangles for any-hit ray queries, over the shared [`Bvh`] of their boxes.
+struct Triangles {
+    bvh: Bvh,
+    /// The usable triangles' corners (the tree's items).
     corners: Vec<[Vec3; 3]>,
 }
 
-#[derive(Debug, Clone, Copy)]
-struct Node {
-    lo: Vec3,
-    hi: Vec3,
-    /// Leaves: first triangle and count; inner nodes: the left child (the right one
-    /// follows it) and a count of 0.
-    first: u32,
-    count: u32,
-}
-
-const LEAF_SIZE: usize = 4;
-
-impl TriangleBvh {
+impl Triangles {
     /// `None` when no triangle is usable.
     fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Option<Self> {
         let corners: Vec<[Vec3; 3]> = triangles
@@ -142,70 +130,21 @@ impl TriangleBvh {
         if corners.is_empty() {
             return None;
         }
-        let centroids: Vec<Vec3> = corners.par_iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect();
-        let mut items: Vec<u32> = (0..corners.len() as u32).collect();
-        let empty = Node { lo: Vec3::ZERO, hi: Vec3::ZERO, first: 0, count: 0 };
-        let mut nodes = Vec::with_capacity(2 * items.len() / LEAF_SIZE + 1);
-        nodes.push(empty);
-        // (node index, range of items) still to split.
-        let mut todo = vec![(0usize, 0usize, items.len())];
-        while let Some((n, start, end)) = todo.pop() {
-            let slice = &mut items[start..end];
-            let (lo, hi) = slice.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &i| {
-                let c = &corners[i as usize];
-                (lo.min(c[0]).min(c[1]).min(c[2]), hi.max(c[0]).max(c[1]).max(c[2]))
-            });
-            let (clo, chi) = slice.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &i| {
-                (lo.min(centroids[i as usize]), hi.max(centroids[i as usize]))
-            });
-            (nodes[n].lo, nodes[n].hi) = (lo, hi);
-            let extent = chi - clo;
-            if slice.len() <= LEAF_SIZE || extent.max_element() <= 0.0 {
-                (nodes[n].first, nodes[n].count) = (start as u32, slice.len() as u32);
-                continue;
-            }
-            let axis = extent.max_position();
-            let mid = slice.len() / 2;
-            slice.select_nth_unstable_by(mid, |a, b| {
-                centroids[*a as usize][axis].total_cmp(&centroids[*b as usize][axis])
-            });
-            let left = nodes.len();
-            nodes.extend([empty, empty]);
-            nodes[n].first = left as u32;
-            todo.push((left + 1, start + mid, end));
-            todo.push((left, start, start + mid));
-        }
-        let corners = items.iter().map(|&i| corners[i as usize]).collect();
-        Some(Self { nodes, corners })
+        // Boxes padded by a relative epsilon, so rounding never drops a grazed triangle.
+        let boxes = corners
+            .par_iter()
+            .map(|c| {
+                let (lo, hi) = (c[0].min(c[1]).min(c[2]).as_dvec3(), c[0].max(c[1]).max(c[2]).as_dvec3());
+                let pad = 1e-6 * (hi - lo).max_element() + 1e-12;
+                (lo - pad, hi + pad)
+            })
+            .collect();
+        Some(Self { bvh: Bvh::from_boxes(boxes), corners })
     }
 
     /// Whether the ray `origin + t dir`, `t ∈ [0, t_far]`, meets any triangle.
-    fn any_hit(&self, origin: DVec3, dir: DVec3, t_far: f64, stack: &mut Vec<u32>) -> bool {
-        let inv = dir.recip();
-        // Boxes padded by a relative epsilon, so rounding never drops a grazed triangle.
-        let meets = |lo: Vec3, hi: Vec3| {
-            let pad = 1e-6 * (hi - lo).max_element() as f64 + 1e-12;
-            let a = (lo.as_dvec3() - pad - origin) * inv;
-            let b = (hi.as_dvec3() + pad - origin) * inv;
-            a.min(b).max_element().max(0.0) <= a.max(b).min_element().min(t_far)
-        };
-        stack.clear();
-        stack.push(0);
-        while let Some(n) = stack.pop() {
-            let node = self.nodes[n as usize];
-            if !meets(node.lo, node.hi) {
-                continue;
-            }
-            if node.count == 0 {
-                stack.extend([node.first, node.first + 1]);
-                continue;
-            }
-            let range = node.first as usize..(node.first + node.count) as usize;
-            if self.corners[range].iter().any(|c| ray_meets_triangle(origin, dir, t_far, c)) {
-                return true;
-            }
-        }
-        false
+    fn any_hit(&self, origin: DVec3, dir: DVec3, t_far: f64) -> bool {
+        self.bvh.any_on_ray(origin, dir, t_far, |i, _, _| ray_meets_triangle(origin, dir, t_far, &self.corners[i as usize]))
     }
 }
 

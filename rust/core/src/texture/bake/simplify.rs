@@ -10,7 +10,8 @@
 //! are locked and the piece simplified again, or in the end kept whole.
 
 use super::polygonize::{Piece, UNSHARED};
-use crate::shell::intersect::{tri_box, triangles_meet, TriBvh};
+use crate::shell::intersect::triangles_meet;
+use crate::spatial::{tri_box, Bvh};
 use glam::DVec3;
 use meshopt::{SimplifyOptions, VertexDataAdapter};
 use rayon::prelude::*;
@@ -195,7 +196,7 @@ fn touch(a: &[DVec3; 3], b: &[DVec3; 3]) -> f64 {
 fn crossings(piece: &Piece, before: &Shape, after: &[[u32; 3]]) -> Vec<u32> {
     let corners = |t: &[u32; 3]| t.map(|v| piece.pos[v as usize].as_dvec3());
     let tris: Vec<[DVec3; 3]> = after.iter().map(corners).collect();
-    let tree = TriBvh::build(&tris);
+    let tree = Bvh::from_triangles(&tris);
     let mut bad = Vec::new();
     for (i, t) in after.iter().enumerate().filter(|(_, t)| before.tris.binary_search(t).is_err()) {
         let (lo, hi) = tri_box(&tris[i]);
@@ -244,7 +245,7 @@ pub(super) fn crossing_pieces(pieces: &[Piece]) -> Vec<usize> {
         piece.tris[t as usize].map(|v| piece.pos[v as usize].as_dvec3())
     };
     let tris: Vec<[DVec3; 3]> = owner.par_iter().map(|&o| corners(o)).collect();
-    let tree = TriBvh::build(&tris);
+    let tree = Bvh::from_triangles(&tris);
     // A vertex's identity across pieces: its rim key, or (piece, index) inside.
     let id = |p: u32, v: u32| {
         let key = pieces[p as usize].keys[v as usize];

@@ -1,0 +1,7 @@
+//! Spatial indexes shared by the shell, the bake and the renderers: one bounding
+//! volume hierarchy over axis-aligned boxes ([`Bvh`]) with box, segment and ray
+//! queries and tree-against-tree joins.
+
+mod bvh;
+
+pub use bvh::{segment_meets_box, tri_box, Bvh};
