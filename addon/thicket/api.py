@@ -73,7 +73,7 @@ def add_item(obj, kind="OFFSET_SHELL", **settings):
     """Appends a stack item of `kind` with the given settings (names of `ThicketItem`)."""
     _require_mesh(obj)
     cls = S.KINDS[kind]
-    from .stack.auto_update import suspended
+    from .stack.guard import suspended
 
     with suspended():
         item = obj.thicket.items.add()
@@ -244,7 +244,7 @@ def remove(obj):
 
 
 def _clear_stack(obj):
-    from .stack.auto_update import suspended
+    from .stack.guard import suspended
 
     with suspended():
         obj.thicket.items.clear()

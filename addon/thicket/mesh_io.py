@@ -102,7 +102,7 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
     (0 where a vertex is not in the group). Blender exposes vertex-group weights to
     Python only per vertex, so they are read through a temporary copy of the object
     with a geometry-nodes capture appended; the user's object is not modified.
-    Call it with auto-update suspended (`stack.auto_update.suspended`), as
+    Call it with auto-update suspended (`stack.guard.suspended`), as
     `stack.regenerate` does: the probe's own depsgraph updates must not schedule work.
     """
     if SELECTED_FACES in vertex_groups:

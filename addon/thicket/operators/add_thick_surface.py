@@ -3,8 +3,8 @@ from bpy.props import EnumProperty, FloatProperty
 
 from .. import api
 from ..stack import settings as S
-from ..stack.auto_update import suspended
 from ..stack.evaluate import evaluate_each
+from ..stack.guard import suspended
 from ..stack.properties import ThicketItem
 from ..stack.regenerate import read_source, write_result
 from .common import Job, JobWatch, WatchedOperator, error_text, user_errors

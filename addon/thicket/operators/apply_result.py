@@ -1,7 +1,8 @@
 import bpy
 
 from .. import api
-from .common import StackOperator, active_stack_source, error_text, user_errors
+from ..stack.query import active_stack_source
+from .common import StackOperator, error_text, user_errors
 
 
 class THICKET_OT_apply(StackOperator, bpy.types.Operator):

@@ -5,6 +5,7 @@ import threading
 from contextlib import contextmanager
 
 from .. import native
+from ..stack.query import active_stack_source
 
 #: Exceptions that mean bad input or settings; reported, never raised into Blender.
 USER_ERRORS = (TypeError, KeyError, ValueError, RuntimeError)
@@ -193,21 +194,6 @@ class WatchedOperator:
         work and clear the progress bar and status."""
         self._running.job.cancel()
         self._running.stop(context)
-
-
-def active_source(context):
-    """The active object if it is a mesh that can carry a stack (not a result)."""
-    obj = context.active_object
-    if obj is None or obj.type != "MESH":
-        return None
-    if obj.thicket.source is not None:  # a result: act on its source
-        return obj.thicket.source
-    return obj
-
-
-def active_stack_source(context):
-    obj = active_source(context)
-    return obj if obj is not None and len(obj.thicket.items) > 0 else None
 
 
 class StackOperator:

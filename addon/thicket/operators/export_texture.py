@@ -3,7 +3,8 @@ from bpy.props import StringProperty
 from bpy_extras.io_utils import ExportHelper
 
 from .. import api
-from .common import active_stack_source, error_text, user_errors
+from ..stack.query import active_stack_source
+from .common import error_text, user_errors
 
 
 class THICKET_OT_export_texture(bpy.types.Operator, ExportHelper):

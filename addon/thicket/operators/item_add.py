@@ -4,7 +4,7 @@ from bpy.props import EnumProperty
 from .. import api
 from ..stack import auto_update
 from ..stack import settings as S
-from .common import active_source
+from ..stack.query import active_source
 
 
 class THICKET_OT_item_add(bpy.types.Operator):

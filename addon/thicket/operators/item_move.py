@@ -2,7 +2,7 @@ import bpy
 from bpy.props import EnumProperty
 
 from ..stack import auto_update
-from .common import active_stack_source
+from ..stack.query import active_stack_source
 
 
 class THICKET_OT_item_move(bpy.types.Operator):

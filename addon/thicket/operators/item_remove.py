@@ -1,7 +1,8 @@
 import bpy
 
 from ..stack import auto_update
-from .common import StackOperator, active_stack_source
+from ..stack.query import active_stack_source
+from .common import StackOperator
 
 
 class THICKET_OT_item_remove(StackOperator, bpy.types.Operator):

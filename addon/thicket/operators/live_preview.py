@@ -1,7 +1,7 @@
 import bpy
 
 from ..render import overlay
-from .common import active_stack_source
+from ..stack.query import active_stack_source
 
 
 class THICKET_OT_live_preview(bpy.types.Operator):

@@ -2,8 +2,9 @@ import bpy
 
 from ..stack import live_shells
 from ..stack.evaluate import BakeNeedsConfirmation, evaluate_stack
+from ..stack.query import active_stack_source
 from ..stack.regenerate import read_source, write_result
-from .common import Job, JobWatch, StackOperator, WatchedOperator, active_stack_source, error_text
+from .common import Job, JobWatch, StackOperator, WatchedOperator, error_text
 
 
 class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):

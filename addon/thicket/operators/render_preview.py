@@ -4,7 +4,8 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty
 
 from ..render import camera, preview
-from .common import Job, JobWatch, WatchedOperator, active_stack_source, error_text, user_errors
+from ..stack.query import active_stack_source
+from .common import Job, JobWatch, WatchedOperator, error_text, user_errors
 
 
 class THICKET_OT_render_preview(WatchedOperator, bpy.types.Operator):

@@ -1,7 +1,8 @@
 import bpy
 
 from .. import api, mesh_io
-from .common import active_source, error_text, user_errors
+from ..stack.query import active_source
+from .common import error_text, user_errors
 
 
 class THICKET_OT_select_crossings(bpy.types.Operator):

@@ -100,7 +100,7 @@ def _redraw_all():
 
 
 def _source():
-    from ..operators.common import active_stack_source
+    from ..stack.query import active_stack_source
 
     return active_stack_source(bpy.context)
 
@@ -109,8 +109,8 @@ def _prepared(obj):
     """(key, TexturedShell) of `obj`, rebuilt only when its `content_key` changed
     (the shell is the expensive part)."""
     from .. import mesh_io
-    from ..stack.auto_update import suspended
     from ..stack.evaluate import texture_setup
+    from ..stack.guard import suspended
     from ..stack.regenerate import enabled_settings
 
     items = enabled_settings(obj)

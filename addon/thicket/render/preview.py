@@ -6,8 +6,8 @@ import bpy
 import numpy as np
 
 from .. import mesh_io, native
-from ..stack.auto_update import suspended
 from ..stack.evaluate import cancelled_error, texture_setup
+from ..stack.guard import suspended
 from ..stack.regenerate import enabled_settings
 from . import lights
 

@@ -5,30 +5,16 @@ Debounced: changes are collected by object name and flushed once things are quie
 Re-entrancy guarded: the writes a regeneration makes never schedule another one.
 """
 
-from contextlib import contextmanager
-
 import bpy
 from bpy.app.handlers import persistent
 
 from .. import native
 from . import live_shells
+from .guard import busy, suspended
 
 DEBOUNCE_SECONDS = 0.15
 
 _pending: set[str] = set()
-_busy = False
-
-
-@contextmanager
-def suspended():
-    """While inside, changes schedule nothing (used around every regeneration)."""
-    global _busy
-    was = _busy
-    _busy = True
-    try:
-        yield
-    finally:
-        _busy = was
 
 
 def _is_source(obj) -> bool:
@@ -37,7 +23,7 @@ def _is_source(obj) -> bool:
 
 def schedule(obj) -> None:
     """Asks for `obj`'s result to be regenerated soon."""
-    if _busy or not isinstance(obj, bpy.types.Object) or not _is_source(obj):
+    if busy() or not isinstance(obj, bpy.types.Object) or not _is_source(obj):
         return
     _pending.add(obj.name)
     if bpy.app.background:
@@ -54,7 +40,7 @@ def _timer():
 def flush() -> None:
     """Regenerates every pending source. Failures are kept on the stack
     (`last_error`, shown in the panel), never raised into Blender's event loop."""
-    if _busy:
+    if busy():
         return
     from .evaluate import BakeNeedsConfirmation
     from .regenerate import regenerate
@@ -104,7 +90,7 @@ def changed_sources(scene, depsgraph, is_source=_is_source):
 
 @persistent
 def on_depsgraph_update(scene, depsgraph):
-    if _busy:
+    if busy():
         return
     for obj in changed_sources(scene, depsgraph):
         schedule(obj)
@@ -114,7 +100,7 @@ def on_depsgraph_update(scene, depsgraph):
 def on_frame_change(scene, depsgraph=None):
     """Animated sources (shape keys, armatures) and textures following the frame
     regenerate on frame change."""
-    if _busy:
+    if busy():
         return
     for obj in scene.objects:
         if _is_source(obj) and (obj.animation_data is not None or any(i.follow_frame and i.kind == "VOLUMETRIC_TEXTURE" for i in obj.thicket.items)):

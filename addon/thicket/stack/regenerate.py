@@ -3,8 +3,8 @@
 import bpy
 
 from .. import mesh_io
-from .auto_update import suspended
 from .evaluate import evaluate_stack, summary_text
+from .guard import suspended
 
 
 def result_name(source: bpy.types.Object) -> str:

@@ -1,6 +1,6 @@
 import bpy
 
-from ..operators.common import active_source
+from ..stack.query import active_source
 from .item_settings import draw_item_settings, draw_status
 
 
