@@ -205,9 +205,6 @@ def _volumetric_texture(shell: ShellContext, item: S.VolumetricTexture, weights,
     return result, notes
 
 
-SHELL_STEPS = {S.OffsetShell: _offset_shell, S.FieldShell: _field_shell}
-
-
 class StackError(ValueError):
     """A stack that cannot be evaluated as ordered (e.g. a texture without a shell)."""
 
@@ -224,10 +221,79 @@ def _group_weights(source: MeshArrays, name, at, label):
     return np.ascontiguousarray(weights[at], dtype=np.float32)
 
 
-class _TextureReached(Exception):
-    def __init__(self, found):
-        super().__init__("texture reached")
-        self.found = found
+class _State:
+    """What the items so far have made: the current mesh, the source vertex of each of
+    its vertices (None once geometry comes from no single source vertex), the latest
+    shell, notes for the user and the field shells' final checks."""
+
+    def __init__(self, source: MeshArrays):
+        self.source = source
+        self.current = source
+        self.origin = np.arange(source.vertex_count)
+        self.shell = None
+        self.made_by = ""  # the title of the kind that made geometry without provenance
+        self.notes = []
+        self.summaries = []
+
+
+def _shell_step(build):
+    """A shell kind's step: `build(mesh, item, factors, progress)` on the current mesh
+    gives the shell's mesh, each vertex's provenance and the native output."""
+
+    def step(state: _State, item, ask, progress):
+        factors = _group_weights(state.source, item.vertex_group, state.origin, item.label)
+        base, base_origin = state.current, state.origin
+        state.current, provenance, out = build(base, item, factors, progress)
+        state.shell = ShellContext(base, out, base_origin)
+        if "check" in out:
+            state.summaries.append(shell_summary(item.label, out))
+        state.origin = base_origin[provenance]
+
+    return step
+
+
+def _texture_weights(state: _State, item: S.VolumetricTexture):
+    """The item's per-vertex region, holes and move weights at the shell's base vertices."""
+    at, group = state.shell.origin, lambda name: _group_weights(state.source, name, at, item.label)
+    return {"region": group(item.vertex_group), "holes": group(item.hole_group), "move": group(item.move_group)}
+
+
+def _texture_step(state: _State, item: S.VolumetricTexture, ask, progress):
+    state.current, notes = _volumetric_texture(state.shell, item, _texture_weights(state, item), ask, progress)
+    state.notes.extend(notes)
+    if state.current.face_count == 0:
+        # Not an error (a hole group may cut everything away), but rarely wanted.
+        state.notes.append(f"'{item.label}' baked no geometry: its features may be finer than the bake lattice; raise Resolution or Feature Thickness, or lower Tiling")
+
+
+class Kind(NamedTuple):
+    """How a stack item kind evaluates. `consumes`: "mesh" (the current mesh, whose
+    vertices must come from the source's, so vertex groups follow them) or "shell"
+    (the latest shell, which the renderers draw instead of running the step);
+    `produces`: "shell" (a shell and its mesh), "mesh" (a mesh whose vertices are
+    traced to the source's) or "geometry" (new geometry, from no single source
+    vertex: vertex groups end there). `weight`: its share of the progress bar relative to the others
+    (not from the papers: a bake usually takes longest, an offset shell is
+    instantaneous). `step(state, item, ask, progress)` updates the state."""
+
+    title: str
+    consumes: str
+    produces: str
+    weight: float
+    step: object
+
+
+#: Every item kind by its settings class: adding a kind is its settings, its step and one line here.
+KINDS = {
+    S.OffsetShell: Kind("Offset Shell", "mesh", "shell", 0.1, _shell_step(_offset_shell)),
+    S.FieldShell: Kind("Shell", "mesh", "shell", 1.0, _shell_step(_field_shell)),
+    S.VolumetricTexture: Kind("Volumetric Texture", "shell", "geometry", 3.0, _texture_step),
+}
+
+
+def _drawn(kind: Kind) -> bool:
+    """Whether a renderer draws the kind's result directly from the shell it consumes."""
+    return kind.consumes == "shell"
 
 
 class TexturedShell(NamedTuple):
@@ -244,26 +310,17 @@ def texture_setup(source: MeshArrays, items, progress=None) -> TexturedShell:
     """Runs the shell items up to the first Volumetric Texture item and returns what a
     renderer draws directly, without baking. `progress`: as in `evaluate_stack`, over
     those shells."""
-
-    def reached(shell, item, weights, ask, progress):
-        raise _TextureReached(TexturedShell(shell, item, placed_textures(item), texture_settings(shell, item, weights)))
-
-    try:
-        evaluate_stack(source, items, progress=progress, texture_step=reached)
-    except _TextureReached as done:
-        return done.found
-    raise StackError("the stack has no enabled Volumetric Texture item to render")
-
-
-#: Share of the progress bar each kind of item takes, relative to the others (a bake
-#: usually takes longest; an offset shell is instantaneous).
-PROGRESS_WEIGHTS = {S.OffsetShell: 0.1, S.FieldShell: 1.0, S.VolumetricTexture: 3.0}
+    state, stopped = _run(source, items, progress, stop=_drawn)
+    if stopped is None:
+        raise StackError("the stack has no enabled Volumetric Texture item to render")
+    weights = _texture_weights(state, stopped)
+    return TexturedShell(state.shell, stopped, placed_textures(stopped), texture_settings(state.shell, stopped, weights))
 
 
 def progress_spans(items, bakes=True):
-    """The (start, end) share of the whole that each item covers; Volumetric Texture
-    items take none when nothing is baked (`bakes` False: a renderer draws them)."""
-    weights = [PROGRESS_WEIGHTS[type(item)] if bakes or not isinstance(item, S.VolumetricTexture) else 0.0 for item in items]
+    """The (start, end) share of the whole that each item covers; items a renderer
+    draws take none when nothing is baked (`bakes` False)."""
+    weights = [KINDS[type(item)].weight if bakes or not _drawn(KINDS[type(item)]) else 0.0 for item in items]
     total = sum(weights) or 1.0
     ends = np.cumsum(weights) / total
     return [(float(end - w / total), float(end)) for w, end in zip(weights, ends)]
@@ -281,7 +338,7 @@ def _scaled(progress, start, end):
     return lambda fraction: progress(start + (end - start) * min(max(float(fraction), 0.0), 1.0))
 
 
-def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_step=None) -> MeshArrays:
+def evaluate_stack(source: MeshArrays, items, progress=None, ask=False) -> MeshArrays:
     """Applies `items` in order; each item's input is the previous item's output.
 
     Vertex-group weights are looked up on the source mesh and followed through the
@@ -298,46 +355,39 @@ def evaluate_stack(source: MeshArrays, items, progress=None, ask=False, texture_
     callback's own exception if it raised one. Nothing is returned, and a field shell
     whose build was cancelled is not kept for later edits.
     """
-    spans = progress_spans(items, bakes=texture_step is None)
+    state, _ = _run(source, items, progress, ask)
+    current = state.current
+    if current is source:
+        current = MeshArrays(source.vertices, source.face_sizes, source.corners)
+    current.notes = state.notes
+    current.shell_summaries = state.summaries
+    return current
+
+
+def _run(source: MeshArrays, items, progress=None, ask=False, stop=None):
+    """Walks the stack by each kind's declarations (`KINDS`): the state after the last
+    item and None, or, where `stop(kind)` holds, the state before that item and the
+    item (the progress spans then leave drawn items out)."""
+    spans = progress_spans(items, bakes=stop is None)
     if progress is not None and progress(0.0) is False:
         raise cancelled_error()
-    current = source
-    origin = np.arange(source.vertex_count)  # source vertex of each current vertex
-    shell = None  # the latest shell, for Volumetric Texture items
-    notes = []
-    summaries = []  # field shells' final checks
+    state = _State(source)
     for i, item in enumerate(items):
-        is_texture = isinstance(item, S.VolumetricTexture)
-        if is_texture and shell is None:
+        kind = KINDS[type(item)]
+        if kind.consumes == "shell" and state.shell is None:
             raise StackError(f"'{item.label}' needs a Shell or Offset Shell above it in the stack")
-        at = shell.origin if is_texture else origin
-        factors = _group_weights(source, item.vertex_group, at, item.label)
-        if is_texture:
-            weights = {"region": factors, "holes": _group_weights(source, item.hole_group, at, item.label), "move": _group_weights(source, item.move_group, at, item.label)}
-            current, bake_notes = (texture_step or _volumetric_texture)(shell, item, weights, ask, _scaled(progress, *spans[i]))
-            origin = None  # baked vertices come from no single source vertex
-            notes.extend(bake_notes)
-            if current.face_count == 0:
-                # Not an error (a hole group may cut everything away), but rarely wanted.
-                notes.append(f"'{item.label}' baked no geometry: its features may be finer than the bake lattice; raise Resolution or Feature Thickness, or lower Tiling")
-        else:
-            base, base_origin = current, origin
-            if origin is None:
-                raise StackError(f"'{item.label}' cannot follow a Volumetric Texture")
-            current, provenance, out = SHELL_STEPS[type(item)](current, item, factors, _scaled(progress, *spans[i]))
-            shell = ShellContext(base, out, base_origin)
-            if "check" in out:
-                summaries.append(shell_summary(item.label, out))
-            origin = origin[provenance]
+        if kind.consumes == "mesh" and state.origin is None:
+            raise StackError(f"'{item.label}' cannot follow a {state.made_by}")
+        if stop is not None and stop(kind):
+            return state, item
+        kind.step(state, item, ask, _scaled(progress, *spans[i]))
+        if kind.produces == "geometry":
+            state.origin, state.made_by = None, kind.title
         if progress is not None and progress(spans[i][1]) is False and i + 1 < len(items):
             raise cancelled_error()
     if progress is not None:
         progress(1.0)
-    if current is source:
-        current = MeshArrays(source.vertices, source.face_sizes, source.corners)
-    current.notes = notes
-    current.shell_summaries = summaries
-    return current
+    return state, None
 
 
 def evaluate_each(sources, progress=None, errors=(ValueError,)):
