@@ -88,9 +88,9 @@ bench: vulkan setup
 	$(PY) tests/bench/bench_offset.py
 	$(PY) tests/bench/bench_shell.py
 	$(PY) tests/bench/bench_render.py
-	cargo run --release -q -p thicket-core --example shell_bench
-	cargo run --release -q -p thicket-core --example cards_scaling -- --n 2000,8000,32000 $(BENCH_FLAGS)
-	cargo run --release -q -p thicket-core --example bake_bench
+	cargo run --release -q -p thicket-core --features test-support --example shell_bench
+	cargo run --release -q -p thicket-core --features test-support --example cards_scaling -- --n 2000,8000,32000 $(BENCH_FLAGS)
+	cargo run --release -q -p thicket-core --features test-support --example bake_bench
 	cargo run --release -q -p thicket-render --example bake_fidelity
 	cargo run --release -q -p thicket-render --example render_bench
 	cargo run --release -q -p thicket-render --example shell_texturing_bench

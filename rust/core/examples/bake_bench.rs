@@ -4,7 +4,7 @@
 //! anchor's grid is sampled on all cores; the crate itself polygonizes on one.
 //! Also the bake's peak heap memory.
 //!
-//! `cargo run -p thicket-core --release --example bake_bench`
+//! `cargo run -p thicket-core --release --features test-support --example bake_bench`
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
@@ -17,8 +17,8 @@ use fast_surface_nets::{surface_nets, SurfaceNetsBuffer};
 use thicket_core::glam::{Vec2, Vec3};
 use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
 use thicket_core::testmeshes;
-use thicket_core::texture::bake::{bake, TextureLayer};
-use thicket_core::texture::{BakeParams, Generator, Pattern};
+use thicket_core::texture::bake::bake;
+use thicket_core::texture::{BakeParams, Generator, Pattern, TextureLayer};
 
 struct Counting;
 static NOW: AtomicUsize = AtomicUsize::new(0);

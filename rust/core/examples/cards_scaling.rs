@@ -4,7 +4,7 @@
 //! traced shell alone (`repair_rounds: 0`: tree build and tracing) and of the full
 //! build (trace, repair, restore), and how much thickness the shell kept.
 //!
-//! `cargo run -p thicket-core --release --example cards_scaling -- [options]`
+//! `cargo run -p thicket-core --release --features test-support --example cards_scaling -- [options]`
 //!
 //! - `--big`: also 100,000 cards.
 //! - `--n 1000,4000`: these counts instead.

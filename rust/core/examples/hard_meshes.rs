@@ -3,7 +3,7 @@
 //! their sizes, narrowest gaps and thinnest parts (from vertex-normal rays, in % of
 //! the bounding-box diagonal) and self-intersection counts.
 //!
-//! `cargo run -p thicket-core --release --example hard_meshes`
+//! `cargo run -p thicket-core --release --features test-support --example hard_meshes`
 
 use thicket_core::hard_meshes::{all_closed, cards, ray_gaps, self_intersections, to_obj};
 

@@ -5,7 +5,7 @@
 //! compared: a refitted patch tree groups the surface a little differently from a
 //! rebuilt one, which is the Barnes-Hut approximation's own noise.
 //!
-//! `cargo run -p thicket-core --release --example shell_bench`
+//! `cargo run -p thicket-core --release --features test-support --example shell_bench`
 
 use std::time::Instant;
 use thicket_core::shell::incremental::{IncrementalShell, DEFAULT_TOLERANCE};

@@ -2,8 +2,9 @@
 //! creases, where a shell of 5-20% of the bounding-box diagonal must compress. Every
 //! generator but [`cards`] gives a closed, outward-oriented 2-manifold without
 //! self-intersections (checked by the tests below), 1,000-8,000 triangles, 1-2 units
-//! across. `cargo run -p thicket-core --release --example hard_meshes` writes them to
-//! `tests/data/hard/`. Not part of the stable API.
+//! across. `cargo run -p thicket-core --release --features test-support --example
+//! hard_meshes` writes them to `tests/data/hard/`. Not part of the stable API: behind
+//! the `test-support` feature, not in the release library.
 
 use crate::mesh::vertex_normals;
 use crate::shell::intersect::{tri_box, triangles_intersect, TriBvh};

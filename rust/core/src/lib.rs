@@ -11,8 +11,12 @@ pub mod progress;
 pub mod shell;
 pub mod spatial;
 pub mod texture;
+// Test meshes: in the crate's own tests, and for other crates' tests, examples and
+// benches through the `test-support` feature; never in the release library.
+#[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
 pub mod testmeshes;
+#[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
 pub mod hard_meshes;
 

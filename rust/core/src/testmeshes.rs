@@ -1,6 +1,7 @@
-//! Test meshes shared by the unit tests, the `shell_bench` example and the Python
-//! tests: spheres, planes, closed shapes with concavities, an open saddle, the bunny.
-//! Not part of the stable API.
+//! Test meshes shared by the unit tests, the renderer's tests and the benches
+//! (examples): spheres, planes, closed shapes with concavities, an open saddle, the
+//! bunny. Not part of the stable API: behind the `test-support` feature, not in the
+//! release library.
 
 use crate::mesh::obj::parse_obj;
 use crate::Mesh;

@@ -6,8 +6,8 @@ use pyo3::types::PyDict;
 use thicket_core::glam::Vec2;
 use thicket_core::shell::Shell;
 use thicket_core::Mesh;
-use thicket_core::texture::bake::{Cutter, MovedRegion, TextureLayer};
-use thicket_core::texture::{BakeParams, Generator, Pattern, TexturedShell, VolumeTexture};
+use thicket_core::texture::bake::{Cutter, MovedRegion};
+use thicket_core::texture::{BakeParams, Generator, Pattern, TextureLayer, TexturedShell, VolumeTexture};
 
 use crate::arrays;
 use crate::errors::{run_detached, run_watched, to_py, InvalidInput};

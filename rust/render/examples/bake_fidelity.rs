@@ -12,8 +12,8 @@ use std::time::Instant;
 use thicket_core::glam::{Mat4, Vec2, Vec3};
 use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
 use thicket_core::testmeshes;
-use thicket_core::texture::bake::{bake, TextureLayer};
-use thicket_core::texture::{BakeParams, Generator, Pattern};
+use thicket_core::texture::bake::bake;
+use thicket_core::texture::{BakeParams, Generator, Pattern, TextureLayer};
 use thicket_render::silhouette::bake_silhouettes;
 use thicket_render::Camera;
 

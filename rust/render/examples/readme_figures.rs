@@ -12,8 +12,7 @@
 use glam::{Mat4, Vec2, Vec3};
 use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
 use thicket_core::testmeshes as tm;
-use thicket_core::texture::bake::TextureLayer;
-use thicket_core::texture::{Generator, Pattern, VolumeTexture};
+use thicket_core::texture::{Generator, Pattern, TextureLayer, VolumeTexture};
 use thicket_core::Mesh;
 use thicket_render::gpu::{GpuRenderer, SliceMode, SliceParams};
 use thicket_render::mipmap::Mipmaps;

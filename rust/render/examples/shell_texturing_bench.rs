@@ -13,8 +13,7 @@ use std::time::Duration;
 use thicket_core::glam::{Mat4, Vec2, Vec3};
 use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
 use thicket_core::testmeshes;
-use thicket_core::texture::bake::TextureLayer;
-use thicket_core::texture::{Generator, Pattern};
+use thicket_core::texture::{Generator, Pattern, TextureLayer};
 use thicket_render::gpu::{
     FrameTimings, GpuRenderer, ShellTexturingParams, ShellTexturingRenderer, ShellTexturingScene, SliceParams,
 };

@@ -521,8 +521,7 @@ mod tests {
     use glam::{Mat4, Vec2};
     use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
     use thicket_core::testmeshes as tm;
-    use thicket_core::texture::bake::TextureLayer;
-    use thicket_core::texture::{Generator, Pattern, VolumeTexture};
+    use thicket_core::texture::{Generator, Pattern, TextureLayer, VolumeTexture};
     use thicket_core::Mesh;
 
     fn layer(texture: VolumeTexture) -> Vec<TextureLayer> {

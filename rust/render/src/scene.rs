@@ -3,8 +3,8 @@
 
 use glam::Vec3;
 use thicket_core::shell::Shell;
-use thicket_core::texture::bake::{Effects, TextureLayer};
-use thicket_core::texture::{CellMap, TextureCoordinates, TexturedShell, TriangleCells};
+use thicket_core::texture::bake::Effects;
+use thicket_core::texture::{CellMap, TextureCoordinates, TextureLayer, TexturedShell, TriangleCells};
 use thicket_core::{Error, Mesh, Result};
 
 pub struct ShellScene {

@@ -10,7 +10,8 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use thicket_core::shell::Shell;
 use thicket_core::spatial::Bvh;
-use thicket_core::texture::bake::{effects, TextureLayer};
+use thicket_core::texture::bake::effects;
+use thicket_core::texture::TextureLayer;
 use thicket_core::texture::BakeParams;
 use thicket_core::{Mesh, Result};
 

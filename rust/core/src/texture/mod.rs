@@ -7,6 +7,7 @@
 //!   bubbles), each tileable, seeded and, where it moves, driven by a time.
 //! - [`mapping`]: texture coordinates of the shell's cells (UVs times tiling, or one
 //!   tile per face) and the cell map between world and texture space.
+//! - [`layer`]: a texture placed in the shell with its `(s, t)` offset.
 //! - [`bake`]: the iso-surface polygonized over the whole shell as one crack-free mesh.
 //! - [`textured_shell`]: mesh, shell, textures and effects as one checked object, from
 //!   which the bake, its estimate and the renderers all take what they show.
@@ -14,12 +15,14 @@
 
 pub mod bake;
 pub mod io;
+pub mod layer;
 pub mod mapping;
 pub mod procedural;
 pub mod textured_shell;
 pub mod volume;
 
 pub use bake::{bake, BakeParams, BakedMesh};
+pub use layer::TextureLayer;
 pub use mapping::{CellMap, TextureCoordinates, TriangleCells};
 pub use procedural::{Generator, Pattern};
 pub use textured_shell::TexturedShell;

@@ -1,6 +1,6 @@
 //! Bake tests: closed, crack-free results, the shell map, normals, regions, limits.
 
-use super::bake::{bake, estimate_triangles, BakeParams, Cutter, MovedRegion, TextureLayer};
+use super::bake::{bake, estimate_triangles, BakeParams, Cutter, MovedRegion};
 use super::*;
 use crate::shell::{build_shell, ShellParams, Side, Thickness};
 use crate::testmeshes as tm;

@@ -4,7 +4,8 @@
 //! bake, its estimate and both renderers take what they show, so a preview and the
 //! bake of the same object cannot disagree about their inputs.
 
-use super::bake::{self, BakeParams, BakedMesh, Effects, Estimate, TextureLayer};
+use super::bake::{self, BakeParams, BakedMesh, Effects, Estimate};
+use super::TextureLayer;
 use crate::shell::Shell;
 use crate::{Mesh, Result};
 

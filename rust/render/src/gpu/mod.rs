@@ -32,7 +32,7 @@ use std::time::{Duration, Instant};
 use bytemuck::Zeroable;
 
 use glam::{DMat4, DVec4, Vec3};
-use thicket_core::texture::bake::TextureLayer;
+use thicket_core::texture::TextureLayer;
 use thicket_core::texture::CellMap;
 use thicket_core::{Error, Result};
 use wgpu::util::DeviceExt;

@@ -17,8 +17,7 @@ use std::time::Instant;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use thicket_core::mesh::vertex_normals;
-use thicket_core::texture::bake::TextureLayer;
-use thicket_core::texture::{TextureCoordinates, TriangleCells};
+use thicket_core::texture::{TextureCoordinates, TextureLayer, TriangleCells};
 use thicket_core::{Error, Mesh, Result};
 use wgpu::util::DeviceExt;
 

@@ -33,7 +33,7 @@ use std::ops::Range;
 
 use glam::{Mat3, Vec3, Vec4};
 use rayon::prelude::*;
-use thicket_core::texture::bake::TextureLayer;
+use thicket_core::texture::TextureLayer;
 use thicket_core::texture::VolumeTexture;
 
 /// How textures are filtered for distant views.

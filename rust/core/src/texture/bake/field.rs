@@ -6,7 +6,7 @@
 
 use super::bounds::MaxPyramid;
 use super::effects::Effects;
-use super::TextureLayer;
+use crate::texture::TextureLayer;
 use crate::texture::mapping::CellMap;
 use crate::texture::volume::Column;
 use glam::{Vec2, Vec3};

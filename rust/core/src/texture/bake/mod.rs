@@ -32,7 +32,7 @@ mod simplify;
 mod uv_mask;
 
 use super::mapping::{TextureCoordinates, TriangleCells};
-use super::VolumeTexture;
+use super::TextureLayer;
 use crate::shell::Shell;
 use crate::progress::Progress;
 use crate::{Error, Mesh, Result};
@@ -44,13 +44,6 @@ use glam::{Vec2, Vec3};
 use lattice::Lattice;
 use polygonize::{Cells, Scratch};
 use rayon::prelude::*;
-
-/// A texture placed in the shell: `(s, t)` offset (editing: move, combine).
-#[derive(Debug, Clone)]
-pub struct TextureLayer {
-    pub texture: VolumeTexture,
-    pub offset: Vec2,
-}
 
 /// Bake settings.
 #[derive(Debug, Clone)]
