@@ -219,13 +219,17 @@ mod tests {
         pa.iter().flat_map(|p| pb.iter().map(move |q| p.distance(*q))).fold(f64::MAX, f64::min)
     }
 
-    #[test]
-    fn distances_agree_with_sampling_and_touching_pairs_meet() {
-        let mut seed = 12345u64;
-        let mut rnd = || {
+    /// Numbers uniform in `[-1, 1)` from a linear congruential sequence.
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        }
+    }
+
+    #[test]
+    fn distances_agree_with_sampling_and_touching_pairs_meet() {
+        let mut rnd = uniform(12345);
         for _ in 0..60 {
             let a = [DVec3::new(rnd(), rnd(), rnd()), DVec3::new(rnd(), rnd(), rnd()), DVec3::new(rnd(), rnd(), rnd())];
             let shift = DVec3::new(rnd(), rnd(), rnd()) * 2.0;
@@ -260,11 +264,7 @@ mod tests {
     fn the_plane_test_only_skips_pairs_that_do_not_meet() {
         // Close random pairs at several tolerances: the answer with the early plane
         // test is the answer of the full test (crossing, then the fifteen distances).
-        let mut seed = 99u64;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rnd = uniform(99);
         let full = |a: &[DVec3; 3], b: &[DVec3; 3], eps: f64| {
             triangles_intersect(a, b)
                 || (0..3).any(|i| point_triangle_distance2(a[i], b) <= eps * eps || point_triangle_distance2(b[i], a) <= eps * eps)

@@ -52,12 +52,16 @@ fn chain_mail_on_the_bunny_bakes_closed_and_crack_free() {
     assert!(b.texcoords.iter().all(|c| c.z > 0.0 && c.z < 1.0));
 }
 
+/// `base` (a sheet over `[-1, 1]²`) with UVs mapping that square onto the unit square.
+fn with_uvs(base: Mesh) -> Mesh {
+    let uvs: Vec<Vec2> = base.corners().iter().map(|&v| base.positions()[v as usize].truncate() * 0.5 + 0.5).collect();
+    Mesh::new(base.positions().to_vec(), &base.face_sizes(), base.corners().to_vec(), Some(uvs)).unwrap()
+}
+
 #[test]
 fn every_pattern_bakes_closed_on_an_open_sheet_with_uvs() {
     // An open saddle with UVs: the side walls are outside, so results close there too.
-    let base = tm::saddle(6);
-    let uvs: Vec<Vec2> = base.corners().iter().map(|&v| base.positions()[v as usize].truncate() * 0.5 + 0.5).collect();
-    let mesh = Mesh::new(base.positions().to_vec(), &base.face_sizes(), base.corners().to_vec(), Some(uvs)).unwrap();
+    let mesh = with_uvs(tm::saddle(6));
     let s = shell(&mesh, 0.08);
     for p in Pattern::ALL {
         let tex = Generator::new(p).generate([32, 32, 16]).unwrap();
@@ -160,9 +164,7 @@ fn bad_bakes_are_errors() {
 /// A slab (alpha = 1 below r = 0.6) on a UV sheet: the bake is a closed slab, so where
 /// it exists can be read from its top vertices.
 fn sheet_with_uvs() -> (Mesh, crate::shell::Shell, Vec<TextureLayer>) {
-    let base = tm::plane(12);
-    let uvs: Vec<Vec2> = base.corners().iter().map(|&v| base.positions()[v as usize].truncate() * 0.5 + 0.5).collect();
-    let mesh = Mesh::new(base.positions().to_vec(), &base.face_sizes(), base.corners().to_vec(), Some(uvs)).unwrap();
+    let mesh = with_uvs(tm::plane(12));
     let s = shell(&mesh, 0.05);
     let slab = VolumeTexture::from_fn([4, 4, 17], |c| if c.z < 0.6 { 1.0 } else { 0.0 }).unwrap();
     (mesh, s, layer(slab))
@@ -408,9 +410,7 @@ fn baked_vertices_lie_on_the_iso_level_of_the_trilinear_texture() {
     // trilinear occupancy is curved, so vertices placed by linear interpolation of the
     // end samples sit off the level (strands come out thinner); placed on the crossing,
     // the texture at nearly every vertex's own texture coordinates reads 0.5.
-    let base = tm::saddle(4);
-    let uvs: Vec<Vec2> = base.corners().iter().map(|&v| base.positions()[v as usize].truncate() * 0.5 + 0.5).collect();
-    let mesh = Mesh::new(base.positions().to_vec(), &base.face_sizes(), base.corners().to_vec(), Some(uvs)).unwrap();
+    let mesh = with_uvs(tm::saddle(4));
     let s = shell(&mesh, 0.08);
     let texture = Generator::new(Pattern::Fur).generate([32, 32, 16]).unwrap();
     let b = bake(&mesh, &s, &layer(texture.clone()), &BakeParams { triangle_budget: 0, tiling: 3.0, ..Default::default() }).unwrap();
