@@ -30,7 +30,9 @@ def import_graph():
                     edges.add(sub if sub in modules else target)
             elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("thicket"):
                 edges.add(node.module)
-        # A package's own __init__ is not an edge back to it from its modules' view.
+            elif isinstance(node, ast.Import):
+                edges.update(alias.name for alias in node.names if alias.name.startswith("thicket"))
+        # Edges to modules outside the add-on (bpy, numpy) and to itself are dropped.
         graph[name] = {e for e in edges if e in modules and e != name}
     return graph
 

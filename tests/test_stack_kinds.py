@@ -61,10 +61,17 @@ def test_declarations_are_checked_before_a_step_runs(with_lift):
         E.evaluate_stack(quad(), [shell, S.VolumetricTexture(texture_size=8, resolution=2, layers=2), Lift()])
 
 
-def test_the_renderers_stop_before_the_first_drawn_kind_without_running_it(with_lift):
+def test_the_renderers_stop_before_the_first_drawn_kind_without_running_it(with_lift, monkeypatch):
+    def must_not_run(*args):
+        raise AssertionError("texture_setup ran the texture's step")
+
+    monkeypatch.setitem(E.KINDS, S.VolumetricTexture, E.KINDS[S.VolumetricTexture]._replace(step=must_not_run))
     shell = S.OffsetShell(thickness=0.1, relative=False)
     setup = E.texture_setup(quad(), [Lift(height=1.0), shell, S.VolumetricTexture(texture_size=8)])
     assert setup.item.kind == S.VolumetricTexture.kind
     assert setup.shell.base.vertices[:, 2].min() == pytest.approx(1.0)
     with pytest.raises(E.StackError, match="no enabled Volumetric Texture"):
         E.texture_setup(quad(), [shell])
+    # The same stack evaluated runs it.
+    with pytest.raises(AssertionError, match="ran the texture's step"):
+        E.evaluate_stack(quad(), [shell, S.VolumetricTexture(texture_size=8)])

@@ -209,15 +209,14 @@ class StackError(ValueError):
     """A stack that cannot be evaluated as ordered (e.g. a texture without a shell)."""
 
 
-def _group_weights(source: MeshArrays, name, at, label):
-    """Vertex group `name`'s weights at the vertices `at` (source indices); None without a name."""
+def _group_weights(source: MeshArrays, name, at):
+    """Vertex group `name`'s weights at the vertices `at` (source indices: the walk
+    never reaches a kind that reads groups once they are gone); None without a name."""
     if not name:
         return None
     weights = source.point_attributes.get(weight_attribute(name))
     if weights is None:
         raise KeyError(f"vertex group '{name}' was not read from the source")
-    if at is None:
-        raise StackError(f"'{label}' cannot use a vertex group after a Volumetric Texture")
     return np.ascontiguousarray(weights[at], dtype=np.float32)
 
 
@@ -241,7 +240,7 @@ def _shell_step(build):
     gives the shell's mesh, each vertex's provenance and the native output."""
 
     def step(state: _State, item, ask, progress):
-        factors = _group_weights(state.source, item.vertex_group, state.origin, item.label)
+        factors = _group_weights(state.source, item.vertex_group, state.origin)
         base, base_origin = state.current, state.origin
         state.current, provenance, out = build(base, item, factors, progress)
         state.shell = ShellContext(base, out, base_origin)
@@ -254,7 +253,7 @@ def _shell_step(build):
 
 def _texture_weights(state: _State, item: S.VolumetricTexture):
     """The item's per-vertex region, holes and move weights at the shell's base vertices."""
-    at, group = state.shell.origin, lambda name: _group_weights(state.source, name, at, item.label)
+    at, group = state.shell.origin, lambda name: _group_weights(state.source, name, at)
     return {"region": group(item.vertex_group), "holes": group(item.hole_group), "move": group(item.move_group)}
 
 
@@ -283,7 +282,9 @@ class Kind(NamedTuple):
     step: object
 
 
-#: Every item kind by its settings class: adding a kind is its settings, its step and one line here.
+#: Every item kind by its settings class. For the evaluator a new kind is its settings,
+#: its step and one line here; Blender also needs it in `settings.KINDS`, the item
+#: PropertyGroup and its panel.
 KINDS = {
     S.OffsetShell: Kind("Offset Shell", "mesh", "shell", 0.1, _shell_step(_offset_shell)),
     S.FieldShell: Kind("Shell", "mesh", "shell", 1.0, _shell_step(_field_shell)),

@@ -10,9 +10,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use thicket_core::shell::Shell;
 use thicket_core::spatial::Bvh;
-use thicket_core::texture::bake::effects;
-use thicket_core::texture::TextureLayer;
-use thicket_core::texture::BakeParams;
+use thicket_core::texture::{BakeParams, TextureLayer, TexturedShell};
 use thicket_core::{Mesh, Result};
 
 use crate::camera::Camera;
@@ -77,9 +75,9 @@ impl Silhouettes {
 
 /// The silhouettes of the baked mesh `baked` (positions, triangles) and of the
 /// reference render of `textures` in `shell` over `mesh` with the bake's own `params`
-/// (tiling, region, holes, cutter, moved region: [`effects`]), both seen by `camera`;
-/// `step` is the reference's march step ([`RenderParams::step`], a fraction of the
-/// shell thickness).
+/// (tiling, region, holes, cutter, moved region: one [`TexturedShell`]), both seen by
+/// `camera`; `step` is the reference's march step ([`RenderParams::step`], a fraction
+/// of the shell thickness).
 pub fn bake_silhouettes(
     mesh: &Mesh,
     shell: &Shell,
@@ -89,7 +87,8 @@ pub fn bake_silhouettes(
     camera: &Camera,
     step: f32,
 ) -> Result<Silhouettes> {
-    let scene = ShellScene::new(mesh, shell, textures.to_vec(), params.tiling)?.with_effects(effects(mesh, shell, textures, params)?);
+    let textured = TexturedShell::new(mesh.clone(), shell.clone(), textures.to_vec(), params.clone())?;
+    let scene = ShellScene::of(&textured)?;
     let frame = reference::render(&scene, camera, &RenderParams { step, ..Default::default() })?;
     Ok(Silhouettes { reference: frame_coverage(&frame), baked: mesh_coverage(baked.0, baked.1, camera) })
 }

@@ -121,18 +121,31 @@ pub fn triangles_meet(a: &[DVec3; 3], b: &[DVec3; 3], eps: f64) -> bool {
         || (0..3).any(|i| (0..3).any(|j| segment_segment_distance2(a[i], a[(i + 1) % 3], b[j], b[(j + 1) % 3]) <= e2))
 }
 
-/// Whether all of `b` lies more than `eps` from the plane of `a`, on one side (a
-/// margin of 1e-12 of their extent keeps rounding from deciding a contact).
+/// Whether all of `b` lies more than `eps` from the plane of `a`, on one side. The
+/// rounding error of `n · (p - a0)` (with `n` the unnormalized normal) is below a few
+/// ulps of `|e1| |e2| |p - a0|`; sixteen of them are added to the margin, so rounding
+/// never decides a contact, also for needles.
 fn beyond_plane(a: &[DVec3; 3], b: &[DVec3; 3], eps: f64) -> bool {
-    let n = (a[1] - a[0]).cross(a[2] - a[0]);
+    let (e1, e2) = (a[1] - a[0], a[2] - a[0]);
+    let n = e1.cross(e2);
     let length = n.length();
     if !(length > 0.0 && length.is_finite()) {
         return false;
     }
-    let extent = b.iter().chain(&a[1..]).map(|p| p.distance(a[0])).fold(0.0, f64::max);
-    let margin = eps.max(0.0) + 1e-12 * extent;
-    let d = b.map(|p| n.dot(p - a[0]) / length);
-    d.iter().all(|x| *x > margin) || d.iter().all(|x| *x < -margin)
+    let scale = 16.0 * f64::EPSILON * e1.length() * e2.length();
+    let side = |p: DVec3| {
+        let d = n.dot(p - a[0]);
+        let margin = eps.max(0.0) * length + scale * p.distance(a[0]);
+        if d > margin {
+            1
+        } else if d < -margin {
+            -1
+        } else {
+            0
+        }
+    };
+    let s = b.map(side);
+    s[0] != 0 && s[0] == s[1] && s[1] == s[2]
 }
 
 pub(crate) use crate::spatial::segment_meets_box;
@@ -283,5 +296,14 @@ mod tests {
             }
         }
         assert!(skipped > 1000 && met > 1000, "skipped {skipped}, met {met}");
+        // A needle resting on a triangle, and a triangle with a vertex exactly in the
+        // other's plane: they meet at zero tolerance, and the plane test keeps them.
+        let a = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let needle = [DVec3::new(0.3, 0.3, 0.0), DVec3::new(0.3 + 1e-9, 0.3, 1.0), DVec3::new(0.3, 0.3 + 1e-9, 2.0)];
+        let resting = [DVec3::new(0.25, 0.25, 0.0), DVec3::new(0.2, 0.9, 1.0), DVec3::new(0.9, 0.2, 1.0)];
+        for b in [needle, resting] {
+            assert!(!beyond_plane(&a, &b, 0.0) && !beyond_plane(&b, &a, 0.0));
+            assert!(triangles_meet(&a, &b, 0.0) && triangles_meet(&b, &a, 0.0));
+        }
     }
 }

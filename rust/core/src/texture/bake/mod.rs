@@ -260,16 +260,19 @@ fn checked_cells(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: 
 /// Layer heights on the slices `k / (depth - 1)` of the deepest texture (where
 /// [`VolumeTexture::sample`] puts them: the first and last on the shell's faces), so the
 /// trilinear occupancy is linear in `r` between layers and nothing one slice thick is
-/// lost across the shell; each interval split evenly so there are at least `m0`, and
-/// at least `per_slice` times (uniform when that would exceed [`MAX_STEPS`]). Within a
+/// lost across the shell; each interval split evenly so there are at least `m0`
+/// (uniform when that would exceed [`MAX_STEPS`]), and `per_slice` times where that
+/// fits under it. Within a
 /// prism the trilinear iso-surface is curved even where it is linear in `r`, so thin
 /// features that lean between slices need the split as much as a finer `(u, v)`.
 fn texel_layers(textures: &[TextureLayer], m0: u32, per_slice: u32) -> Vec<f32> {
     let intervals = textures.iter().map(|l| l.texture.dims()[2] as u32).max().unwrap_or(2).max(2) - 1;
-    let split = m0.div_ceil(intervals).max(per_slice).max(1);
+    let split = m0.div_ceil(intervals).max(1);
     if intervals * split > MAX_STEPS {
         return (0..=MAX_STEPS).map(|l| l as f32 / MAX_STEPS as f32).collect();
     }
+    // More layers per slice only while they fit: the slices themselves come first.
+    let split = split.max(per_slice.min(MAX_STEPS / intervals));
     let steps = intervals * split;
     (0..=steps).map(|l| l as f32 / steps as f32).collect()
 }
@@ -458,7 +461,38 @@ pub fn estimate_triangles(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
 
 /// Least distance of a sample from the iso-level 0.5. Values nearer (blends of a
 /// region, holes or the base slab give exactly 0.5 midway between weights 1 and 0) are
-/// moved to this distance on their own side, so iso-vertices stay at least about 2%
-/// of a lattice edge from lattice points: no coincident vertices, and no triangles around
+/// moved to this distance on their own side, so iso-vertices placed by linear
+/// interpolation stay at least 1% of a lattice edge from lattice points (those placed
+/// on the crossing are clamped alike): no coincident vertices, and no triangles around
 /// one lattice point that touch without sharing a vertex.
 pub(super) const OFF_ISO: f32 = 0.01;
+
+#[cfg(test)]
+mod layer_tests {
+    use super::*;
+    use crate::texture::VolumeTexture;
+
+    fn deep(nz: usize) -> Vec<TextureLayer> {
+        vec![TextureLayer { texture: VolumeTexture::new([2, 2, nz], vec![0.0; 4 * nz]).unwrap(), offset: Vec2::ZERO }]
+    }
+
+    /// Whether every slice `k / (nz - 1)` is one of `heights`.
+    fn on_slices(heights: &[f32], nz: usize) -> bool {
+        (0..nz).all(|k| heights.iter().any(|h| (h - k as f32 / (nz - 1) as f32).abs() < 1e-6))
+    }
+
+    #[test]
+    fn texel_layers_stay_on_the_slices_and_split_them_only_where_that_fits() {
+        // 32 slices: two layers each for thin textures, one otherwise.
+        assert_eq!(texel_layers(&deep(32), 16, 2).len(), 63);
+        assert_eq!(texel_layers(&deep(32), 16, 1).len(), 32);
+        // 100 slices: two each would pass MAX_STEPS; the slices stay, unsplit.
+        let h = texel_layers(&deep(100), 16, 2);
+        assert!(on_slices(&h, 100) && h.len() == 100, "{}", h.len());
+        // 60 slices: two layers each (118 intervals) still fit.
+        let h = texel_layers(&deep(60), 16, 2);
+        assert!(on_slices(&h, 60) && h.len() as u32 <= MAX_STEPS + 1 && h.len() == 119, "{}", h.len());
+        // Beyond MAX_STEPS slices: uniform.
+        assert_eq!(texel_layers(&deep(300), 16, 2).len() as u32, MAX_STEPS + 1);
+    }
+}

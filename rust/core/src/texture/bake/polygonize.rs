@@ -396,7 +396,8 @@ fn direction(d: IVec3) -> usize {
         (1, -1, 0) => 4,
         (-1, 1, 0) => 5,
         (0, 0, 1) => 6,
-        _ => 7,
+        (0, 0, -1) => 7,
+        _ => unreachable!("{d} is not the direction of a prism's edge"),
     }
 }
 
@@ -407,8 +408,9 @@ const CROSSING_STEPS: usize = 3;
 /// `a`) to `f = 1` (value `b`, on the other side): Illinois regula falsi from the
 /// linear guess, [`CROSSING_STEPS`] evaluations. Between columns the trilinear texture
 /// is not linear, so linear interpolation of the end values moves the surface inward
-/// where it is curved, and thins features a few lattice steps wide. The result stays
-/// [`OFF_ISO`] of the edge from its ends, as the linear guess does.
+/// where it is curved, and thins features a few lattice steps wide. The result is
+/// clamped to [`OFF_ISO`] of the edge from its ends, as far as the linear guess is
+/// kept at least.
 fn crossing(a: f32, b: f32, mut alpha: impl FnMut(f32) -> f32) -> f32 {
     let (mut lo, mut hi, mut fa, mut fb) = (0.0f32, 1.0f32, a - 0.5, b - 0.5);
     let mut x = (fa / (fa - fb)).clamp(0.0, 1.0);
