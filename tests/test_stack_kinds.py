@@ -34,7 +34,7 @@ def quad():
 
 @pytest.fixture
 def with_lift():
-    E.KINDS[Lift] = E.Kind("Lift", "mesh", "mesh", 0.1, lift_step)
+    E.KINDS[Lift] = E.Kind("mesh", "mesh", 0.1, lift_step)
     try:
         yield
     finally:

@@ -230,7 +230,7 @@ class _State:
         self.current = source
         self.origin = np.arange(source.vertex_count)
         self.shell = None
-        self.made_by = ""  # the title of the kind that made geometry without provenance
+        self.made_by = ""  # the label of the kind that made geometry without provenance
         self.notes = []
         self.summaries = []
 
@@ -275,7 +275,6 @@ class Kind(NamedTuple):
     (not from the papers: a bake usually takes longest, an offset shell is
     instantaneous). `step(state, item, ask, progress)` updates the state."""
 
-    title: str
     consumes: str
     produces: str
     weight: float
@@ -286,9 +285,9 @@ class Kind(NamedTuple):
 #: its step and one line here; Blender also needs it in `settings.KINDS`, the item
 #: PropertyGroup and its panel.
 KINDS = {
-    S.OffsetShell: Kind("Offset Shell", "mesh", "shell", 0.1, _shell_step(_offset_shell)),
-    S.FieldShell: Kind("Shell", "mesh", "shell", 1.0, _shell_step(_field_shell)),
-    S.VolumetricTexture: Kind("Volumetric Texture", "shell", "geometry", 3.0, _texture_step),
+    S.OffsetShell: Kind("mesh", "shell", 0.1, _shell_step(_offset_shell)),
+    S.FieldShell: Kind("mesh", "shell", 1.0, _shell_step(_field_shell)),
+    S.VolumetricTexture: Kind("shell", "geometry", 3.0, _texture_step),
 }
 
 
@@ -383,7 +382,7 @@ def _run(source: MeshArrays, items, progress=None, ask=False, stop=None):
             return state, item
         kind.step(state, item, ask, _scaled(progress, *spans[i]))
         if kind.produces == "geometry":
-            state.origin, state.made_by = None, kind.title
+            state.origin, state.made_by = None, type(item).label
         if progress is not None and progress(spans[i][1]) is False and i + 1 < len(items):
             raise cancelled_error()
     if progress is not None:
