@@ -91,6 +91,7 @@ bench: vulkan setup
 	cargo run --release -q -p thicket-core --features test-support --example shell_bench
 	cargo run --release -q -p thicket-core --features test-support --example cards_scaling -- --n 2000,8000,32000 $(BENCH_FLAGS)
 	cargo run --release -q -p thicket-core --features test-support --example bake_bench
+	cargo run --release -q -p thicket-core --example field_mesh_bench
 	cargo run --release -q -p thicket-render --example bake_fidelity
 	cargo run --release -q -p thicket-render --example render_bench
 	cargo run --release -q -p thicket-render --example shell_texturing_bench

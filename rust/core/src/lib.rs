@@ -6,7 +6,9 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` deliberately also rejects NaN
 
 pub mod error;
+pub mod field;
 pub mod mesh;
+pub mod polygonize;
 pub mod progress;
 pub mod shell;
 pub mod spatial;

@@ -11,8 +11,9 @@
 //! - [`field`]: the occupancy sampled there: textures united, then the stack's
 //!   [`effects`] (partial regions blended with a base slab, figure 3.3; a moved
 //!   region and holes, chapter 7), which the renderers apply alike.
-//! - [`polygonize`]: marching prisms ([`prism_table`]), one cell at a time.
-//! - [`merge`]: iso-vertices shared by cells joined through their lattice-edge keys.
+//! - [`polygonize`]: marching prisms, one cell at a time, through the shared prism,
+//!   crossing and weld of [`crate::polygonize`] (iso-vertices shared by cells are
+//!   joined through their lattice-edge keys).
 //! - [`cutter`] and [`uv_mask`]: a closed mesh's inside, and a vertex group in `(s, t)`.
 //!
 //! Shared samples, conforming splits and edge keys make the result free of cracks and
@@ -25,9 +26,7 @@ pub mod cutter;
 pub mod effects;
 mod field;
 mod lattice;
-mod merge;
 mod polygonize;
-mod prism_table;
 mod simplify;
 mod uv_mask;
 
@@ -43,6 +42,7 @@ use field::Field;
 use glam::{Vec2, Vec3};
 use lattice::Lattice;
 use polygonize::{Cells, Scratch};
+use crate::polygonize::weld::{weld, Piece};
 use rayon::prelude::*;
 
 /// Bake settings.
@@ -340,7 +340,7 @@ impl Setup {
         if picked == 0 {
             return Estimate { sampled: 0, triangles: 0 };
         }
-        let pieces: Vec<(usize, polygonize::Piece)> =
+        let pieces: Vec<(usize, Piece)> =
             (0..picked).into_par_iter().map_init(Scratch::default, |s, p| (p * count / picked, cells.polygonize(s, p * count / picked))).collect();
         let scale = |made: usize| (made as f64 * count as f64 / picked as f64).ceil() as usize;
         let sampled = scale(pieces.iter().map(|(_, p)| p.tris.len()).sum());
@@ -350,7 +350,7 @@ impl Setup {
     }
 
     /// Cell `t`'s piece simplified to its `share` of the budget (unchanged without one).
-    fn simplified(&self, mesh: &Mesh, shell: &Shell, t: usize, piece: polygonize::Piece, share: f64, budget: usize) -> polygonize::Piece {
+    fn simplified(&self, mesh: &Mesh, shell: &Shell, t: usize, piece: Piece, share: f64, budget: usize) -> Piece {
         if budget == 0 || share >= 1.0 || piece.tris.is_empty() {
             return piece;
         }
@@ -415,7 +415,7 @@ pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
         .into_par_iter()
         .map_init(Scratch::default, |s, t| {
             if progress.is_some_and(Progress::is_cancelled) {
-                return polygonize::Piece::default();
+                return Piece::default();
             }
             let piece = setup.simplified(mesh, shell, t, cells.polygonize(s, t), share, params.triangle_budget);
             if let Some(p) = progress {
@@ -439,11 +439,18 @@ pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
             pieces[t] = piece;
         }
     }
-    let mut out = merge::merge(pieces, &setup.lattice.faces);
-    out.per_face_tiles = setup.coords.per_face_tiles;
-    out.lattice = [setup.lattice.n, setup.heights.len() as u32 - 1];
-    out.texture_finer_than_lattice = setup.texture_finer_than_lattice;
-    Ok(out)
+    let welded = weld(pieces, &setup.lattice.faces);
+    Ok(BakedMesh {
+        positions: welded.positions,
+        triangles: welded.triangles,
+        normals: welded.normals,
+        texcoords: welded.attrs,
+        corner_texcoords: welded.corner_attrs,
+        source_face: welded.tags,
+        per_face_tiles: setup.coords.per_face_tiles,
+        lattice: [setup.lattice.n, setup.heights.len() as u32 - 1],
+        texture_finer_than_lattice: setup.texture_finer_than_lattice,
+    })
 }
 
 /// What [`bake`] is expected to make with the same arguments (checked alike): the
@@ -459,13 +466,6 @@ pub fn estimate_triangles(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
     Ok(estimate_bake(mesh, shell, textures, params)?.triangles)
 }
 
-/// Least distance of a sample from the iso-level 0.5. Values nearer (blends of a
-/// region, holes or the base slab give exactly 0.5 midway between weights 1 and 0) are
-/// moved to this distance on their own side, so iso-vertices placed by linear
-/// interpolation stay at least 1% of a lattice edge from lattice points (those placed
-/// on the crossing are clamped alike): no coincident vertices, and no triangles around
-/// one lattice point that touch without sharing a vertex.
-pub(super) const OFF_ISO: f32 = 0.01;
 
 #[cfg(test)]
 mod layer_tests {

@@ -1,5 +1,4 @@
-//! Marching prisms over one cell's lattice (the triangles per case come from
-//! [`super::prism_table`]), sampled only where the occupancy can change: the cell is
+//! Marching prisms over one cell's lattice ([`march_prism`]), sampled only where the occupancy can change: the cell is
 //! split into blocks (`block` lattice steps per edge, all heights); a block whose
 //! [`Field::upper_bound`] stays below the iso-level and whose rim samples (computed by
 //! their owner cells) do too holds no surface and is skipped, so the neighbour sees the
@@ -7,31 +6,16 @@
 //! resolution. Iso-vertices are computed once per lattice edge within the cell (a dense
 //! slot table indexed by the edge's lower endpoint and its direction), placed on the
 //! occupancy's crossing by [`crossing`]; those on the cell's rim carry a global edge
-//! key so [`super::merge`] can join them with the neighbour's.
+//! key so [`crate::polygonize::weld`] can join them with the neighbour's.
 
 use super::field::Field;
 use super::lattice::Lattice;
-use super::prism_table::{self, EDGES};
-use super::OFF_ISO;
+use crate::polygonize::marching::{crossing, linear, march_prism, off_level, Refine};
+use crate::polygonize::weld::{edge_key, Piece, UNSHARED};
 use crate::texture::mapping::CellMap;
 use crate::texture::volume::Column;
 use crate::{shell::Shell, Mesh};
 use glam::{IVec3, Vec3};
-
-/// Key of an iso-vertex that no other cell shares.
-pub(super) const UNSHARED: u128 = u128::MAX;
-
-/// One cell's output before the global merge.
-#[derive(Default)]
-pub(super) struct Piece {
-    pub keys: Vec<u128>,
-    pub pos: Vec<Vec3>,
-    pub tex: Vec<Vec3>,
-    pub grad: Vec<Vec3>,
-    pub tris: Vec<[u32; 3]>,
-    /// Simplified ([`super::simplify`]): its triangles are no longer the lattice's.
-    pub simplified: bool,
-}
 
 /// Everything a cell needs, shared by all cells.
 pub(super) struct Cells<'a> {
@@ -81,19 +65,6 @@ pub(super) struct Scratch {
     smalls: Vec<[usize; 3]>,
     /// Blocks of this cell that may hold surface.
     mixed: Vec<usize>,
-}
-
-impl Piece {
-    fn with_capacity(vertices: usize, triangles: usize) -> Self {
-        Self {
-            keys: Vec::with_capacity(vertices),
-            pos: Vec::with_capacity(vertices),
-            tex: Vec::with_capacity(vertices),
-            grad: Vec::with_capacity(vertices),
-            tris: Vec::with_capacity(triangles),
-            simplified: false,
-        }
-    }
 }
 
 impl Scratch {
@@ -166,9 +137,7 @@ impl Cells<'_> {
         out[0] = 0.0;
         out[m] = 0.0;
         for a in out.iter_mut() {
-            if (*a - 0.5).abs() < OFF_ISO {
-                *a = if *a >= 0.5 { 0.5 + OFF_ISO } else { 0.5 - OFF_ISO };
-            }
+            *a = off_level(*a, 0.5, 1.0);
         }
     }
 
@@ -317,9 +286,9 @@ impl Cells<'_> {
             // cells' surfaces cross (found on a thin blade's interior shell): both
             // keep the linear guess there.
             let f = if param(lo).truncate() == param(hi).truncate() || on_rim(lo) || on_rim(hi) {
-                ((0.5 - vals[lo]) / (vals[hi] - vals[lo])).clamp(0.0, 1.0)
+                linear(vals[lo], vals[hi], 0.5)
             } else {
-                crossing(vals[lo], vals[hi], |f| self.field.at(t, &cell, qa.lerp(qb, f), footprints))
+                crossing(vals[lo], vals[hi], 0.5, CROSSING, |f| self.field.at(t, &cell, qa.lerp(qb, f), footprints))
             };
             let q = qa.lerp(qb, f);
             // Gradient: the lattice's central differences (one-sided on the cell's rim)
@@ -327,30 +296,18 @@ impl Cells<'_> {
             let g = lattice_gradient(lo).lerp(lattice_gradient(hi), f);
             let grad = -cell.parameter_gradient_to_world(q, g);
             let idx = piece.pos.len() as u32;
-            piece.keys.push(if shared { (u128::from(ids[lo]) << 64) | u128::from(ids[hi]) } else { UNSHARED });
+            piece.keys.push(if shared { edge_key(ids[lo], ids[hi]) } else { UNSHARED });
             piece.pos.push(cell.world(q));
-            piece.tex.push(cell.texture(q));
+            piece.attr.push(cell.texture(q));
             piece.grad.push(grad);
             slots[slot] = idx;
             touched.push(slot);
             idx
         };
         let mut emit = |piece: &mut Piece, c: [usize; 6]| {
-            let case = prism_table::classify(&c.map(|k| vals[k]));
-            if case.count == 0 {
-                return;
-            }
-            let mut verts = [u32::MAX; 9];
-            for tri in &case.tris[..case.count as usize] {
-                let t = tri.map(|e| {
-                    let e = e as usize;
-                    if verts[e] == u32::MAX {
-                        verts[e] = iso(piece, c[EDGES[e][0]], c[EDGES[e][1]]);
-                    }
-                    verts[e]
-                });
-                piece.tris.push(if flip { [t[0], t[2], t[1]] } else { t });
-            }
+            let mut tris = std::mem::take(&mut piece.tris);
+            march_prism(&c.map(|k| vals[k]), 0.5, flip, |a, b| iso(piece, c[a], c[b]), &mut tris);
+            piece.tris = tris;
         };
         let (blocks, smalls, mixed) = (&s.blocks, &s.smalls, &s.mixed);
         for &columns in mixed.iter().flat_map(|&b| &smalls[blocks[b].smalls.clone()]) {
@@ -381,6 +338,10 @@ impl Cells<'_> {
     }
 }
 
+/// Refinement of an iso-vertex across a column's neighbour: three evaluations of the
+/// texture (bake_fidelity: thin strands keep their width; more cost bake time).
+const CROSSING: Refine = Refine { steps: 3, tolerance: 0.0 };
+
 /// Directions of the prisms' edges from a lattice point: `±u`, `±v`, `±(u - v)` (the
 /// small triangles' sides) and `±r` (the columns).
 const EDGE_DIRECTIONS: usize = 8;
@@ -401,65 +362,10 @@ fn direction(d: IVec3) -> usize {
     }
 }
 
-/// Refinement steps of an iso-vertex across a column's neighbour.
-const CROSSING_STEPS: usize = 3;
-
-/// Where the occupancy `alpha(f)` crosses 0.5 on a lattice edge from `f = 0` (value
-/// `a`) to `f = 1` (value `b`, on the other side): Illinois regula falsi from the
-/// linear guess, [`CROSSING_STEPS`] evaluations. Between columns the trilinear texture
-/// is not linear, so linear interpolation of the end values moves the surface inward
-/// where it is curved, and thins features a few lattice steps wide. The result is
-/// clamped to [`OFF_ISO`] of the edge from its ends, as far as the linear guess is
-/// kept at least.
-fn crossing(a: f32, b: f32, mut alpha: impl FnMut(f32) -> f32) -> f32 {
-    let (mut lo, mut hi, mut fa, mut fb) = (0.0f32, 1.0f32, a - 0.5, b - 0.5);
-    let mut x = (fa / (fa - fb)).clamp(0.0, 1.0);
-    let mut side = 0i8;
-    for _ in 0..CROSSING_STEPS {
-        let fx = alpha(x) - 0.5;
-        if !fx.is_finite() || fx == 0.0 {
-            break;
-        }
-        if (fx >= 0.0) == (fb >= 0.0) {
-            (hi, fb) = (x, fx);
-            if side == 1 {
-                fa *= 0.5;
-            }
-            side = 1;
-        } else {
-            (lo, fa) = (x, fx);
-            if side == -1 {
-                fb *= 0.5;
-            }
-            side = -1;
-        }
-        let next = lo - fa * (hi - lo) / (fb - fa);
-        x = if next.is_finite() && next > lo && next < hi { next } else { 0.5 * (lo + hi) };
-    }
-    x.clamp(OFF_ISO, 1.0 - OFF_ISO)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::texture::{TextureCoordinates, TriangleCells};
-
-    #[test]
-    fn the_crossing_is_found_on_curved_edges_and_kept_off_the_ends() {
-        // 1 - 2 f²: 0.5 at f = 0.5, where the linear guess from the ends says 0.25.
-        let f = crossing(1.0, -1.0, |f| 1.0 - 2.0 * f * f);
-        assert!((f - 0.5).abs() < 5e-3, "{f}");
-        // From below, and a steep curve (sqrt: the guess is far off).
-        let f = crossing(0.0, 1.0, f32::sqrt);
-        assert!((f - 0.25).abs() < 0.02, "{f}");
-        // Linear: exact at once.
-        assert!((crossing(0.2, 0.8, |f| 0.2 + 0.6 * f) - 0.5).abs() < 1e-6);
-        // A crossing at the very end stays OFF_ISO of the edge from it.
-        let f = crossing(0.9, 0.1, |f| if f < 1e-4 { 0.9 } else { 0.1 });
-        assert!((OFF_ISO..=1.0 - OFF_ISO).contains(&f), "{f}");
-        // A field that cannot be evaluated leaves the linear guess.
-        assert!((crossing(0.0, 1.0, |_| f32::NAN) - 0.5).abs() < 1e-6);
-    }
 
     #[test]
     fn blocks_tile_the_cell_with_counter_clockwise_small_triangles() {

@@ -9,7 +9,7 @@
 //! a thin strand can close into a sheet) is refused; the vertices around the faults
 //! are locked and the piece simplified again, or in the end kept whole.
 
-use super::polygonize::{Piece, UNSHARED};
+use crate::polygonize::weld::{Piece, UNSHARED};
 use crate::shell::intersect::triangles_meet;
 use crate::spatial::{tri_box, Bvh};
 use glam::DVec3;
@@ -219,7 +219,7 @@ fn compact(piece: Piece, tris: Vec<[u32; 3]>) -> Piece {
             map[v as usize] = out.pos.len() as u32;
             out.keys.push(piece.keys[v as usize]);
             out.pos.push(piece.pos[v as usize]);
-            out.tex.push(piece.tex[v as usize]);
+            out.attr.push(piece.attr[v as usize]);
             out.grad.push(piece.grad[v as usize]);
         }
     }

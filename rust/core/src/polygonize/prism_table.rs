@@ -15,41 +15,41 @@
 use std::sync::OnceLock;
 
 /// The nine edges as corner pairs: bottom, top, then vertical.
-pub(super) const EDGES: [[usize; 2]; 9] = [[0, 1], [1, 2], [2, 0], [3, 4], [4, 5], [5, 3], [0, 3], [1, 4], [2, 5]];
+pub const EDGES: [[usize; 2]; 9] = [[0, 1], [1, 2], [2, 0], [3, 4], [4, 5], [5, 3], [0, 3], [1, 4], [2, 5]];
 
 /// The side quads, counter-clockwise seen from outside.
-pub(super) const SIDES: [[usize; 4]; 3] = [[0, 1, 4, 3], [1, 2, 5, 4], [2, 0, 3, 5]];
+pub const SIDES: [[usize; 4]; 3] = [[0, 1, 4, 3], [1, 2, 5, 4], [2, 0, 3, 5]];
 
 /// Bottom and top triangles, counter-clockwise seen from outside.
 const CAPS: [[usize; 3]; 2] = [[0, 2, 1], [3, 4, 5]];
 
 /// Triangles of one case, as edge indices; at most seven (nine crossings in one loop).
 #[derive(Clone, Copy, Default)]
-pub(super) struct Case {
+pub struct Case {
     pub count: u8,
     pub tris: [[u8; 3]; 7],
 }
 
 /// Case index: bit `c` set when corner `c` is inside; bit `6 + k` set when side quad
 /// `k` is ambiguous and its inside corners are connected across it.
-pub(super) fn case(inside: u8, connected: u8) -> &'static Case {
+pub fn case(inside: u8, connected: u8) -> &'static Case {
     static TABLE: OnceLock<Vec<Case>> = OnceLock::new();
     &TABLE.get_or_init(build)[(inside as usize) | ((connected as usize) << 6)]
 }
 
-/// The case of a prism with corner values `v` (inside where `>= 0.5`). An ambiguous
+/// The case of a prism with corner values `v` (inside where `>= level`). An ambiguous
 /// side (inside corners on a diagonal) joins them when the face's mean is inside; the
 /// sums pair the same corners in either neighbour, so both decide alike.
 #[inline]
-pub(super) fn classify(v: &[f32; 6]) -> &'static Case {
-    let inside = (0..6).fold(0u8, |bits, k| bits | (u8::from(v[k] >= 0.5) << k));
+pub fn classify(v: &[f32; 6], level: f32) -> &'static Case {
+    let inside = (0..6).fold(0u8, |bits, k| bits | (u8::from(v[k] >= level) << k));
     if inside == 0 || inside == 63 {
         return case(inside, 0);
     }
     let connected = SIDES.iter().enumerate().fold(0u8, |bits, (k, f)| {
         let at = |i: usize| inside & (1 << f[i]) != 0;
         let ambiguous = at(0) == at(2) && at(1) == at(3) && at(0) != at(1);
-        bits | (u8::from(ambiguous && (v[f[0]] + v[f[2]]) + (v[f[1]] + v[f[3]]) >= 2.0) << k)
+        bits | (u8::from(ambiguous && (v[f[0]] + v[f[2]]) + (v[f[1]] + v[f[3]]) >= 4.0 * level) << k)
     });
     case(inside, connected)
 }

@@ -1,0 +1,225 @@
+//! A new scalar field meshed by writing only its sampler: analytic shapes through the
+//! grid lattice, checked against their own math (distance of every vertex to the zero
+//! set, normals, enclosed volume, topology) and against the closed 2-manifold contract.
+
+use super::*;
+use crate::field::ScalarField;
+use glam::{Vec2, Vec3};
+
+struct Sphere {
+    center: Vec3,
+    radius: f32,
+}
+
+impl ScalarField for Sphere {
+    fn values(&self, points: &[Vec3], out: &mut [f32]) {
+        for (o, p) in out.iter_mut().zip(points) {
+            *o = (*p - self.center).length() - self.radius;
+        }
+    }
+    fn gradients(&self, points: &[Vec3], out: &mut [Vec3]) {
+        for (o, p) in out.iter_mut().zip(points) {
+            *o = (*p - self.center).normalize_or_zero();
+        }
+    }
+}
+
+/// A torus around z: major radius `major`, tube radius `minor`.
+struct Torus {
+    major: f32,
+    minor: f32,
+}
+
+impl ScalarField for Torus {
+    fn values(&self, points: &[Vec3], out: &mut [f32]) {
+        for (o, p) in out.iter_mut().zip(points) {
+            *o = Vec2::new(p.truncate().length() - self.major, p.z).length() - self.minor;
+        }
+    }
+    // No gradient given: the default central differences serve.
+}
+
+/// A hard union (min) of spheres: creases where they meet, several pieces.
+struct Spheres(Vec<Sphere>);
+
+impl ScalarField for Spheres {
+    fn values(&self, points: &[Vec3], out: &mut [f32]) {
+        for (o, p) in out.iter_mut().zip(points) {
+            *o = self.0.iter().map(|s| (*p - s.center).length() - s.radius).fold(f32::INFINITY, f32::min);
+        }
+    }
+    fn attribute_count(&self) -> usize {
+        1
+    }
+    /// The index of the nearest sphere (a primitive id, carried to the vertices).
+    fn attributes(&self, points: &[Vec3], out: &mut [f32]) {
+        for (o, p) in out.iter_mut().zip(points) {
+            let d = |s: &Sphere| (*p - s.center).length() - s.radius;
+            *o = (0..self.0.len()).min_by(|&a, &b| d(&self.0[a]).total_cmp(&d(&self.0[b]))).unwrap() as f32;
+        }
+    }
+}
+
+fn cube(half: f32) -> (Vec3, Vec3) {
+    (Vec3::splat(-half), Vec3::splat(half))
+}
+
+fn signed_volume(m: &FieldMesh) -> f64 {
+    m.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| m.positions[v as usize].as_dvec3());
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum()
+}
+
+/// The largest `|f| / |∇f|` (a first-order distance to the zero set) over the vertices.
+fn worst_distance<F: ScalarField>(field: &F, m: &FieldMesh) -> f32 {
+    let mut values = vec![0.0; m.positions.len()];
+    let mut grads = vec![Vec3::ZERO; m.positions.len()];
+    field.values(&m.positions, &mut values);
+    field.gradients(&m.positions, &mut grads);
+    values.iter().zip(&grads).map(|(v, g)| v.abs() / g.length().max(1e-6)).fold(0.0, f32::max)
+}
+
+fn check(m: &FieldMesh) -> SurfaceCheck {
+    let c = SurfaceCheck::of(&m.positions, &m.triangles);
+    assert!(c.is_closed_manifold(), "{c:?}");
+    c
+}
+
+#[test]
+fn a_sphere_meshes_closed_on_its_zero_set_with_its_volume_and_normals() {
+    let sphere = Sphere { center: Vec3::new(0.1, -0.05, 0.02), radius: 1.0 };
+    for resolution in [8, 24, 64] {
+        let m = mesh_field(&sphere, &GridParams { bounds: cube(1.3), resolution, refine: true }).unwrap();
+        let c = check(&m);
+        assert_eq!((c.components, c.euler_characteristic), (1, 2), "resolution {resolution}");
+        let cell = 2.6 / resolution as f32;
+        // Iso-vertices stay OFF_ISO of an edge (up to a cell's diagonal) from its ends.
+        let worst = worst_distance(&sphere, &m);
+        assert!(worst < 0.02 * cell, "resolution {resolution}: a vertex {worst} off the sphere ({cell} cells)");
+        // Facing outward: a positive volume, converging to the ball's.
+        let want = 4.0 / 3.0 * std::f64::consts::PI;
+        let v = signed_volume(&m);
+        assert!(v > 0.0 && (v - want).abs() < 0.6 * want * f64::from(cell * cell), "resolution {resolution}: volume {v} vs {want}");
+        // Normals are the field's gradient: the radial direction.
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            assert!(n.dot((*p - sphere.center).normalize()) > 0.999, "normal {n} at {p}");
+        }
+        // Triangles face the way the normals point.
+        let mut agree = 0;
+        for t in &m.triangles {
+            let [a, b, c] = t.map(|v| m.positions[v as usize]);
+            let n = t.iter().map(|&v| m.normals[v as usize]).sum::<Vec3>();
+            agree += usize::from((b - a).cross(c - a).dot(n) > 0.0);
+        }
+        assert_eq!(agree, m.triangles.len(), "resolution {resolution}");
+    }
+}
+
+#[test]
+fn a_torus_meshes_as_one_closed_piece_of_genus_one_near_its_zero_set() {
+    let torus = Torus { major: 0.7, minor: 0.25 };
+    let bounds = (Vec3::new(-1.0, -1.0, -0.4), Vec3::new(1.0, 1.0, 0.4));
+    let m = mesh_field(&torus, &GridParams { bounds, resolution: 48, refine: true }).unwrap();
+    let c = check(&m);
+    assert_eq!((c.components, c.euler_characteristic), (1, 0));
+    let cell = 2.0 / 48.0;
+    let worst = worst_distance(&torus, &m);
+    assert!(worst < 0.02 * cell, "{worst} vs cell {cell}");
+    let want = 2.0 * std::f64::consts::PI.powi(2) * 0.7 * 0.25f64.powi(2);
+    let v = signed_volume(&m);
+    assert!((v - want).abs() < 0.02 * want, "volume {v} vs {want}");
+    // The cells stay near cubes on the flat box.
+    assert_eq!(m.cells, glam::UVec3::new(48, 48, 20));
+}
+
+#[test]
+fn refined_vertices_lie_nearer_the_zero_set_than_the_linear_guess() {
+    // A thin torus on a coarse grid: the field is curved across each cell.
+    let torus = Torus { major: 0.7, minor: 0.12 };
+    let bounds = (Vec3::new(-1.0, -1.0, -0.3), Vec3::new(1.0, 1.0, 0.3));
+    let params = |refine| GridParams { bounds, resolution: 20, refine };
+    let (linear, refined) = (mesh_field(&torus, &params(false)).unwrap(), mesh_field(&torus, &params(true)).unwrap());
+    check(&linear);
+    check(&refined);
+    let (a, b) = (worst_distance(&torus, &linear), worst_distance(&torus, &refined));
+    assert!(b < 0.2 * a, "refined {b} vs linear {a}");
+    assert_eq!(linear.triangles, refined.triangles, "refining moves vertices, not the connectivity");
+}
+
+#[test]
+fn unions_with_creases_and_shapes_cut_by_the_box_stay_closed_manifolds() {
+    // Seeded random unions of spheres, some overlapping (creases), some apart, some
+    // leaving the box, at a few resolutions: the contract holds for every one.
+    let mut state = 0x2545_f491u32;
+    let mut rand = || {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        state as f32 / u32::MAX as f32
+    };
+    for seed in 0..12 {
+        let spheres: Vec<Sphere> = (0..3 + seed % 5)
+            .map(|_| Sphere { center: Vec3::new(rand(), rand(), rand()) * 2.0 - 1.0, radius: 0.15 + 0.45 * rand() })
+            .collect();
+        let field = Spheres(spheres);
+        let resolution = [9, 16, 31][seed % 3];
+        let m = mesh_field(&field, &GridParams { bounds: cube(1.0), resolution, refine: true }).unwrap();
+        assert!(!m.triangles.is_empty());
+        let c = check(&m);
+        assert_eq!(c.euler_characteristic % 2, 0, "seed {seed}: {c:?}");
+        assert!(signed_volume(&m) > 0.0, "seed {seed}");
+        // Every vertex near the zero set (creases bend the field along an edge, so the
+        // crossing converges slower there), except where the box cut the surface.
+        let cell = 2.0 / resolution as f32;
+        let mut values = vec![0.0; m.positions.len()];
+        field.values(&m.positions, &mut values);
+        for (p, v) in m.positions.iter().zip(&values) {
+            let near_box = p.abs().max_element() > 1.0 - 1.01 * cell;
+            assert!(near_box || v.abs() < 0.1 * cell, "seed {seed}: vertex {p} at f = {v}");
+        }
+        // The primitive id rides along: each vertex carries its nearest sphere.
+        assert_eq!((m.attribute_count, m.attributes.len()), (1, m.positions.len()));
+        assert!(m.attributes.iter().all(|a| a.fract() == 0.0 && (*a as usize) < field.0.len()));
+    }
+}
+
+#[test]
+fn a_sphere_larger_than_the_box_is_closed_by_it() {
+    let sphere = Sphere { center: Vec3::ZERO, radius: 1.5 };
+    let m = mesh_field(&sphere, &GridParams { bounds: cube(1.0), resolution: 10, refine: true }).unwrap();
+    let c = check(&m);
+    assert_eq!((c.components, c.euler_characteristic), (1, 2));
+    // Nearly the box itself: within a cell of each face.
+    let v = signed_volume(&m);
+    assert!(v > 1.6f64.powi(3) && v < 8.0, "{v}");
+}
+
+#[test]
+fn an_empty_or_full_box_makes_nothing_and_bad_settings_are_refused() {
+    let far = Sphere { center: Vec3::splat(10.0), radius: 1.0 };
+    let m = mesh_field(&far, &GridParams { bounds: cube(1.0), resolution: 8, refine: true }).unwrap();
+    assert!(m.triangles.is_empty() && m.positions.is_empty());
+    let sphere = Sphere { center: Vec3::ZERO, radius: 1.0 };
+    for bad in [
+        GridParams { bounds: cube(1.0), resolution: 0, refine: true },
+        GridParams { bounds: cube(1.0), resolution: grid::MAX_RESOLUTION + 1, refine: true },
+        GridParams { bounds: (Vec3::ONE, Vec3::ZERO), resolution: 8, refine: true },
+        GridParams { bounds: (Vec3::ZERO, Vec3::new(1.0, f32::NAN, 1.0)), resolution: 8, refine: true },
+    ] {
+        assert!(matches!(mesh_field(&sphere, &bad), Err(crate::Error::InvalidParameter(_))), "{bad:?}");
+    }
+    // A field that is NaN somewhere counts as outside there and still closes.
+    struct Holey;
+    impl ScalarField for Holey {
+        fn values(&self, points: &[Vec3], out: &mut [f32]) {
+            for (o, p) in out.iter_mut().zip(points) {
+                *o = if p.x > 0.3 { f32::NAN } else { p.length() - 0.8 };
+            }
+        }
+    }
+    check(&mesh_field(&Holey, &GridParams { bounds: cube(1.0), resolution: 16, refine: true }).unwrap());
+}
