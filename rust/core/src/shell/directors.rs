@@ -15,7 +15,7 @@
 //! down exponentially instead of crossing the medial axis, which is the compression
 //! behaviour of figures 4.7 and 4.8.
 
-use super::field::{extension_faces, FieldEval, Kernel, PatchTree};
+use super::lp_distance::{extension_faces, FieldEval, Kernel, PatchTree};
 use super::repair::{Repair, ShellCheck};
 use crate::mesh::{boundary_edges, vertex_normals, Incidence};
 use crate::progress::Progress;
@@ -232,7 +232,7 @@ impl Trace {
 /// The triangles the field integrates: the mesh's, then the artificial faces along
 /// its open `boundary` edges (4.3.2).
 fn integration_triangles(mesh: &Mesh, normals: &[Vec3], reach: &[f32], boundary: &[(u32, u32)]) -> Vec<[DVec3; 3]> {
-    let mut tris = super::field::mesh_triangles(mesh);
+    let mut tris = super::lp_distance::mesh_triangles(mesh);
     tris.extend(extension_faces(boundary, mesh.positions(), normals, reach));
     tris
 }

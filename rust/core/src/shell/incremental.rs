@@ -17,7 +17,7 @@
 
 use super::defects::Checker;
 use super::directors::{assemble, check_inputs, min_edge_at, side_lengths, trace_vertices, watched_steps, Trace, Tracer, REPAIR_FACTOR, TRACE_SAMPLES};
-use super::field::{extension_faces, PatchTree};
+use super::lp_distance::{extension_faces, PatchTree};
 use super::influence::ChangeBound;
 use super::intersect::{tri_box, TriBvh};
 use super::repair::Repair;

@@ -23,12 +23,12 @@
 //! measurements include (`shell_bench`). Between its samples a trajectory is taken
 //! as the chord, and `|push|` as the smaller of the two ends.
 
-use super::field::tree::tri_props;
+use super::lp_distance::tree::tri_props;
 use glam::{DVec3, IVec3};
 use std::collections::HashMap;
 
 /// The taper's steepest slope is `1.5 / ((1 - TAPER) radius)`.
-const TAPER_SLOPE: f64 = 1.5 / (1.0 - super::field::tree::TAPER);
+const TAPER_SLOPE: f64 = 1.5 / (1.0 - super::lp_distance::tree::TAPER);
 
 #[derive(Debug, Clone, Copy, Default)]
 struct Cell {
@@ -128,7 +128,7 @@ impl ChangeBound {
             // The taper's weight changes only for patches in its band (seen from
             // anywhere on the segment: its farther end bounds the distance).
             let far = (a - c.centre).length().max((b - c.centre).length());
-            let taper = if far + c.radius >= super::field::tree::TAPER * radius { c.taper / radius } else { 0.0 };
+            let taper = if far + c.radius >= super::lp_distance::tree::TAPER * radius { c.taper / radius } else { 0.0 };
             sum += d1 * (c.area + taper) + d1 / d * (c.shift + c.spread / d);
         }
         sum
@@ -138,7 +138,7 @@ impl ChangeBound {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shell::field::{Kernel, PatchTree};
+    use crate::shell::lp_distance::{Kernel, PatchTree};
 
     fn tri(c: DVec3, s: f64) -> [DVec3; 3] {
         [c, c + DVec3::new(s, 0.0, 0.0), c + DVec3::new(0.0, s, 0.1 * s)]

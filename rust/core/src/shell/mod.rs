@@ -4,7 +4,7 @@
 //!
 //! - [`thickness`]: the per-vertex target thickness users ask for.
 //! - [`offset`]: the normal-displacement baseline (Offset Shell).
-//! - [`field`]: the L_p-averaged distance and its gradient (chapter 4.2).
+//! - [`lp_distance`]: the L_p-averaged distance and its gradient (chapter 4.2).
 //! - [`directors`]: directors by integrating the field (chapter 4.3-4.4).
 //! - [`incremental`]: a shell following edits of its base mesh (7.1); `influence`
 //!   bounds how far an edit reaches in the field.
@@ -15,7 +15,7 @@
 
 pub mod defects;
 pub mod directors;
-pub mod field;
+pub mod lp_distance;
 pub mod geometry;
 pub mod incremental;
 pub(crate) mod influence;

@@ -410,7 +410,7 @@ fn general_p_uses_quadrature_and_agrees_in_direction() {
         assert!(d.normalize().dot(p.normalize()) > 0.999);
     }
     // d_p and g_p (4.3, 4.4) at a distance: the gradient points away and is close to 1.
-    let f = field::AveragedDistance::new(&m, 3.0, 0.3);
+    let f = lp_distance::AveragedDistance::new(&m, 3.0, 0.3);
     let x = Vec3::new(0.0, 0.0, 30.0);
     let g = f.gradient(x);
     assert!((g.length() - 1.0).abs() < 0.05 && g.z > 0.0, "{g}");

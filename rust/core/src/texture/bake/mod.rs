@@ -8,7 +8,7 @@
 //!   `layers` along the directors.
 //! - [`bounds`]: where the occupancy cannot reach the iso-level, whole blocks of the
 //!   lattice are skipped, so sampling that fine costs only where the surface is.
-//! - [`field`]: the occupancy sampled there: textures united, then the stack's
+//! - [`occupancy`]: the occupancy sampled there: textures united, then the stack's
 //!   [`effects`] (partial regions blended with a base slab, figure 3.3; a moved
 //!   region and holes, chapter 7), which the renderers apply alike.
 //! - [`polygonize`]: marching prisms, one cell at a time, through the shared prism,
@@ -24,7 +24,7 @@
 mod bounds;
 pub mod cutter;
 pub mod effects;
-mod field;
+mod occupancy;
 mod lattice;
 mod polygonize;
 mod simplify;
@@ -38,7 +38,7 @@ use crate::{Error, Mesh, Result};
 pub use cutter::Cutter;
 pub use effects::{Effects, Site};
 use bounds::MaxPyramid;
-use field::Field;
+use occupancy::Occupancy;
 use glam::{Vec2, Vec3};
 use lattice::Lattice;
 use polygonize::{Cells, Scratch};
@@ -183,7 +183,7 @@ impl BakeParams {
 }
 
 /// What a bake and its estimate share: the checked settings' lattice, the stack's
-/// effects and the textures' bounds, from which the occupancy [`Field`] is made.
+/// effects and the textures' bounds, from which the [`Occupancy`] is made.
 struct Setup {
     coords: TextureCoordinates,
     lattice: Lattice,
@@ -295,11 +295,11 @@ impl Setup {
         Self { lattice, block, texture_finer_than_lattice: true, ..self }
     }
 
-    fn field<'a>(&'a self, textures: &'a [TextureLayer]) -> Field<'a> {
-        Field { layers: textures, effects: &self.effects, heights: &self.heights, bounds: &self.bounds }
+    fn field<'a>(&'a self, textures: &'a [TextureLayer]) -> Occupancy<'a> {
+        Occupancy { layers: textures, effects: &self.effects, heights: &self.heights, bounds: &self.bounds }
     }
 
-    fn cells<'a>(&'a self, mesh: &'a Mesh, shell: &'a Shell, field: &'a Field<'a>, cull: bool) -> Cells<'a> {
+    fn cells<'a>(&'a self, mesh: &'a Mesh, shell: &'a Shell, field: &'a Occupancy<'a>, cull: bool) -> Cells<'a> {
         Cells { mesh, shell, lattice: &self.lattice, field, heights: &self.heights, block: self.block, cull }
     }
 }

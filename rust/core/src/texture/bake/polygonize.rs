@@ -1,6 +1,6 @@
 //! Marching prisms over one cell's lattice ([`march_prism`]), sampled only where the occupancy can change: the cell is
 //! split into blocks (`block` lattice steps per edge, all heights); a block whose
-//! [`Field::upper_bound`] stays below the iso-level and whose rim samples (computed by
+//! [`Occupancy::upper_bound`] stays below the iso-level and whose rim samples (computed by
 //! their owner cells) do too holds no surface and is skipped, so the neighbour sees the
 //! same empty face. The other blocks are sampled and polygonized at the full lattice
 //! resolution. Iso-vertices are computed once per lattice edge within the cell (a dense
@@ -8,7 +8,7 @@
 //! occupancy's crossing by [`crossing`]; those on the cell's rim carry a global edge
 //! key so [`crate::polygonize::weld`] can join them with the neighbour's.
 
-use super::field::Field;
+use super::occupancy::Occupancy;
 use super::lattice::Lattice;
 use crate::polygonize::marching::{crossing, linear, march_prism, off_level, Refine};
 use crate::polygonize::weld::{edge_key, Piece, UNSHARED};
@@ -22,7 +22,7 @@ pub(super) struct Cells<'a> {
     pub mesh: &'a Mesh,
     pub shell: &'a Shell,
     pub lattice: &'a Lattice,
-    pub field: &'a Field<'a>,
+    pub field: &'a Occupancy<'a>,
     /// Heights `r` of the lattice's layers (on the texture's slices when following it).
     pub heights: &'a [f32],
     /// Lattice steps per block edge (divides the lattice's `n`).

@@ -11,7 +11,7 @@ use crate::texture::mapping::CellMap;
 use crate::texture::volume::Column;
 use glam::{Vec2, Vec3};
 
-pub(super) struct Field<'a> {
+pub(super) struct Occupancy<'a> {
     pub layers: &'a [TextureLayer],
     /// Region, holes, cutter and moved region ([`Effects`]).
     pub effects: &'a Effects,
@@ -33,7 +33,7 @@ fn union(layers: &[TextureLayer], footprints: &[Column], r: f32) -> f32 {
     layers.iter().zip(footprints).map(|(l, f)| l.texture.sample_column(f, r)).fold(0.0, f32::max)
 }
 
-impl Field<'_> {
+impl Occupancy<'_> {
     fn footprints(&self, st: Vec2, out: &mut Vec<Column>) {
         footprints(self.layers, st, out);
     }

@@ -99,7 +99,7 @@ pub fn triangle_p3(a: DVec3, b: DVec3, c: DVec3, x: DVec3) -> TriangleIntegral {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shell::field::quadrature::Quadrature;
+    use crate::shell::lp_distance::quadrature::Quadrature;
 
     /// Small deterministic generator (xorshift) so tests need no dependency.
     pub(crate) struct Rng(u64);
