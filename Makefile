@@ -18,7 +18,7 @@ RUST_SOURCES := Cargo.toml $(shell find rust shaders -name '*.rs' -o -name '*.wg
 WHEEL_STAMP := build/site/.stamp
 ADDON_SOURCES := $(shell find addon -type f -not -path '*/__pycache__/*' 2>/dev/null)
 
-.PHONY: setup wheel extension test test-rust test-python lint demo bench fixtures clean vulkan
+.PHONY: setup wheel extension test test-rust test-python lint format demo bench fixtures clean vulkan
 
 setup: $(STAMP) $(WHEEL_STAMP)
 
@@ -70,13 +70,24 @@ test-python: vulkan setup extension $(STAMP_LTS)
 
 test: test-rust test-python
 
-# Lint: clippy on every target with warnings as errors, ruff (ruff.toml) on the
-# add-on, tests and fixtures. Both installed here if missing.
+# Lint: formatting (rustfmt.toml, ruff.toml: 160 columns), clippy on every target
+# with warnings as errors, ruff on the add-on, tests and fixtures. Installed here if
+# missing. `make format` rewrites what the checks would refuse.
+PY_LINTED := addon tests blend_fixtures rust/py/thicket_native.pyi
+
 lint: $(STAMP)
+	@cargo fmt --version >/dev/null 2>&1 || rustup component add rustfmt
 	@cargo clippy --version >/dev/null 2>&1 || rustup component add clippy
+	cargo fmt --all -- --check
 	cargo clippy --all-targets -q -- -D warnings
 	@$(VENV)/bin/ruff --version 2>/dev/null | grep -q "$(RUFF_VERSION)" || $(VENV)/bin/pip install -q "ruff==$(RUFF_VERSION)"
-	$(VENV)/bin/ruff check addon tests blend_fixtures rust/py/thicket_native.pyi
+	$(VENV)/bin/ruff format --check $(PY_LINTED)
+	$(VENV)/bin/ruff check $(PY_LINTED)
+
+format: $(STAMP)
+	@$(VENV)/bin/ruff --version 2>/dev/null | grep -q "$(RUFF_VERSION)" || $(VENV)/bin/pip install -q "ruff==$(RUFF_VERSION)"
+	cargo fmt --all
+	$(VENV)/bin/ruff format $(PY_LINTED)
 
 fixtures: setup $(STAMP_LTS)
 	$(PY_LTS) blend_fixtures/make_fixtures.py

@@ -96,7 +96,9 @@ def main(argv):
         tiles.append(image_rgb(image))
         results.append(result)
         note = f" ({obj.thicket.last_note})" if obj.thicket.last_note else ""
-        print(f"  {obj.name:8s} {pattern:10s} -> {result.name}: {len(result.data.polygons):,} triangles, shell + bake {baked:.1f} s, preview {rendered:.1f} s{note}")
+        print(
+            f"  {obj.name:8s} {pattern:10s} -> {result.name}: {len(result.data.polygons):,} triangles, shell + bake {baked:.1f} s, preview {rendered:.1f} s{note}"
+        )
         print(f"wrote {preview}")
     save_side_by_side(tiles, out_dir / "demo_previews.png")
     print(f"wrote {out_dir / 'demo_previews.png'}")
@@ -108,7 +110,7 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+    args = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else sys.argv[1:]
     main(args)
     if not bpy.app.binary_path:
         # Run as the bpy module (not Blender): its interpreter teardown is fragile (it

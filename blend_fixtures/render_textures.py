@@ -1,5 +1,6 @@
 """Renders each procedural texture baked on a plane with Cycles (CPU) and writes a
 contact sheet to blend_fixtures/textures.png: `.venv/bin/python blend_fixtures/render_textures.py`."""
+
 import math
 import os
 import sys
@@ -21,9 +22,13 @@ scene.render.engine = "CYCLES"
 scene.cycles.samples = 8
 scene.cycles.device = "CPU"
 scene.render.resolution_x = scene.render.resolution_y = 240
-bpy.ops.object.light_add(type="SUN", location=(2, -2, 4)); bpy.context.object.data.energy = 4
-bpy.ops.object.camera_add(location=(0, -2.6, 2.0), rotation=(math.radians(52), 0, 0)); scene.camera = bpy.context.object
-world = bpy.data.worlds.new("w"); world.color = (0.3, 0.3, 0.35); scene.world = world
+bpy.ops.object.light_add(type="SUN", location=(2, -2, 4))
+bpy.context.object.data.energy = 4
+bpy.ops.object.camera_add(location=(0, -2.6, 2.0), rotation=(math.radians(52), 0, 0))
+scene.camera = bpy.context.object
+world = bpy.data.worlds.new("w")
+world.color = (0.3, 0.3, 0.35)
+scene.world = world
 for pattern, tiling in (("chain_mail", 3), ("weave", 2), ("rivets", 2), ("grass", 2), ("fur", 2), ("bubbles", 2)):
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=4, y_subdivisions=4, size=2)
     plane = bpy.context.object
@@ -36,7 +41,8 @@ for pattern, tiling in (("chain_mail", 3), ("weave", 2), ("rivets", 2), ("grass"
     scene.render.filepath = str(OUT / f"{pattern}.png")
     bpy.ops.render.render(write_still=True)
     print(pattern, len(res.data.polygons), flush=True)
-    api.remove(plane); bpy.data.objects.remove(plane)
+    api.remove(plane)
+    bpy.data.objects.remove(plane)
 
 import numpy as np
 

@@ -64,8 +64,7 @@ def test_negative_thickness_offsets_inward(scene):
 def test_odd_but_valid_meshes_give_documented_results(scene):
     """Degenerate faces, loose vertices, non-manifold edges, n-gons and boundaries:
     a result is built; loose vertices are left out; zero-area faces stay in place."""
-    verts = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, 1.5, 0), (0, 0, 1), (0, 0, -1), (5, 5, 5),
-             (2, 0, 0), (3, 0, 0), (2.5, 0, 0)]
+    verts = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, 1.5, 0), (0, 0, 1), (0, 0, -1), (5, 5, 5), (2, 0, 0), (3, 0, 0), (2.5, 0, 0)]
     faces = [(0, 1, 2, 4, 3), (0, 1, 5), (0, 1, 6), (8, 9, 10)]  # ngon, non-manifold fan, zero-area
     obj = mesh_object("Odd", verts, faces)
     before = positions(obj).copy()

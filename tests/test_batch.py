@@ -44,8 +44,7 @@ def test_cli_reports_missing_file(tmp_path, capsys):
 
 def test_demo_script_in_plain_python(tmp_path):
     """`make demo`'s script, run the way a technical artist's batch job runs it."""
-    proc = subprocess.run([sys.executable, str(FIXTURES / "demo.py"), str(DEMO), str(tmp_path)],
-                          capture_output=True, text=True, timeout=300, cwd=ROOT)
+    proc = subprocess.run([sys.executable, str(FIXTURES / "demo.py"), str(DEMO), str(tmp_path)], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert (tmp_path / "demo_thicket.blend").stat().st_size > 0
     assert (tmp_path / "demo_thicket.glb").stat().st_size > 0

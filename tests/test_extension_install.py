@@ -36,12 +36,16 @@ def test_install_zip_and_run_operator(tmp_path):
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(tmp_path / "user"))
     # No build/site or addon/ on the path: everything must come from the installed zip.
     proc = subprocess.run(
-        [sys.executable, "-c", SCRIPT, str(zips[-1])], env=env, capture_output=True, text=True, timeout=300,
+        [sys.executable, "-c", SCRIPT, str(zips[-1])],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
         cwd=tmp_path,
     )
     line = next((text for text in proc.stdout.splitlines() if text.startswith("RESULT ")), None)
     assert line, proc.stdout[-3000:] + proc.stderr[-3000:]
-    result = json.loads(line[len("RESULT "):])
+    result = json.loads(line[len("RESULT ") :])
     assert result["ret"] == ["FINISHED"]
     assert result["faces"] == 12
     assert result["native"].startswith(str(tmp_path)), result["native"]

@@ -121,7 +121,7 @@ def test_the_stub_matches_the_module():
     functions = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
     classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
     public = {name for name in dir(tn) if not name.startswith("_") and name != "thicket_native"}
-    assert public == set(functions) | set(classes), (public ^ (set(functions) | set(classes)))
+    assert public == set(functions) | set(classes), public ^ (set(functions) | set(classes))
     for name, node in functions.items():
         assert _stub_parameters(node) == _real_parameters(getattr(tn, name)), name
     for name, node in classes.items():

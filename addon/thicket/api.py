@@ -37,7 +37,22 @@ from .stack import live_shells
 from .stack import settings as S
 from .stack.regenerate import regenerate as _regenerate
 
-__all__ = ["crossing_faces", "add_thick_surface", "add_volumetric_texture", "bake_frames", "export_texture", "render_preview", "render_frames", "regenerate", "apply", "remove", "process_file", "export_glb", "result_of", "ThicketError"]  # noqa: F822 (module __getattr__)
+__all__ = [
+    "crossing_faces",
+    "add_thick_surface",
+    "add_volumetric_texture",
+    "bake_frames",
+    "export_texture",
+    "render_preview",
+    "render_frames",
+    "regenerate",
+    "apply",
+    "remove",
+    "process_file",
+    "export_glb",
+    "result_of",
+    "ThicketError",  # noqa: F822 (module __getattr__)
+]
 
 
 def __getattr__(name):
@@ -85,7 +100,17 @@ def add_item(obj, kind="OFFSET_SHELL", **settings):
     return item
 
 
-def add_thick_surface(obj, thickness=S.OffsetShell.thickness, thickness_mode="RELATIVE", output="OUTER", layers=S.OffsetShell.layers, vertex_group="", kind="OFFSET_SHELL", side="EXTERIOR", progress=None):
+def add_thick_surface(
+    obj,
+    thickness=S.OffsetShell.thickness,
+    thickness_mode="RELATIVE",
+    output="OUTER",
+    layers=S.OffsetShell.layers,
+    vertex_group="",
+    kind="OFFSET_SHELL",
+    side="EXTERIOR",
+    progress=None,
+):
     """Gives `obj` a stack with one item of `kind` ("OFFSET_SHELL", or "SHELL" with a
     `side`) if it has none yet, and generates its result object, which is returned.
     `progress`: see the module docs (a cancel keeps the new stack, without result)."""

@@ -34,8 +34,12 @@ def run(argv) -> int:
         out_glb = os.path.join(args.out_dir, f"{stem}_thicket.glb") if args.glb else None
         try:
             done = api.process_file(
-                path, out_blend=out_blend, out_glb=out_glb, thickness=args.thickness,
-                thickness_mode="ABSOLUTE" if args.absolute else "RELATIVE", output=args.output.upper(),
+                path,
+                out_blend=out_blend,
+                out_glb=out_glb,
+                thickness=args.thickness,
+                thickness_mode="ABSOLUTE" if args.absolute else "RELATIVE",
+                output=args.output.upper(),
             )
         except (OSError, RuntimeError) as exc:
             print(f"thicket: {path}: {exc}", file=sys.stderr)

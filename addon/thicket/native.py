@@ -17,8 +17,7 @@ def get():
     """The `thicket_native` module, or NativeMissing with a clear message."""
     if _native is None:
         raise NativeMissing(
-            "Thicket's compiled core (thicket_native) is not installed for this Blender: "
-            f"reinstall the extension from its .zip ({IMPORT_ERROR})"
+            f"Thicket's compiled core (thicket_native) is not installed for this Blender: reinstall the extension from its .zip ({IMPORT_ERROR})"
         )
     return _native
 

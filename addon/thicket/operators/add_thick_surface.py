@@ -18,8 +18,9 @@ class THICKET_OT_add_thick_surface(WatchedOperator, bpy.types.Operator):
     bl_label = "Add Thick Surface"
     bl_options = {"REGISTER", "UNDO"}
 
-    thickness: FloatProperty(name="Thickness", default=0.05, precision=4, step=0.1,
-                             description=ThicketItem.__annotations__["thickness"].keywords["description"])
+    thickness: FloatProperty(
+        name="Thickness", default=0.05, precision=4, step=0.1, description=ThicketItem.__annotations__["thickness"].keywords["description"]
+    )
     thickness_mode: EnumProperty(name="Mode", items=ThicketItem.__annotations__["thickness_mode"].keywords["items"], default="RELATIVE")
     output: EnumProperty(name="Output", items=ThicketItem.__annotations__["output"].keywords["items"], default="OUTER")
     kind: EnumProperty(name="Kind", items=ThicketItem.__annotations__["kind"].keywords["items"], default="OFFSET_SHELL")
@@ -94,11 +95,10 @@ def watched_thick_surfaces(objects, kind, item, report):
                 else:
                     write_result(obj, outcome)
                     made.append(name)
-        left = names[len(done):]
+        left = names[len(done) :]
         if stopped is not None and left:
             why = "cancelled" if stopped == "cancel" else error_text(stopped)
-            report({"WARNING"} if stopped == "cancel" else {"ERROR"},
-                   f"{label}: {why}; {len(done)} of {len(names)} done, left as they were: {', '.join(left)}")
+            report({"WARNING"} if stopped == "cancel" else {"ERROR"}, f"{label}: {why}; {len(done)} of {len(names)} done, left as they were: {', '.join(left)}")
         if failed and not made:
             report({"ERROR"}, "; ".join(failed))
         for message in failed if made else ():  # some objects worked: keep them, warn about the rest

@@ -10,6 +10,7 @@ class THICKET_OT_apply(StackOperator, bpy.types.Operator):
 
     bl_idname = "thicket.apply"
     bl_label = "Apply"
+
     def execute(self, context):
         obj = active_stack_source(context)
         try:

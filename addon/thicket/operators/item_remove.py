@@ -10,6 +10,7 @@ class THICKET_OT_item_remove(StackOperator, bpy.types.Operator):
 
     bl_idname = "thicket.item_remove"
     bl_label = "Remove Stack Item"
+
     def execute(self, context):
         obj = active_stack_source(context)
         stack = obj.thicket

@@ -10,6 +10,7 @@ class THICKET_OT_remove(StackOperator, bpy.types.Operator):
 
     bl_idname = "thicket.remove"
     bl_label = "Remove Thick Surface"
+
     def execute(self, context):
         obj = active_stack_source(context)
         api.remove(obj)

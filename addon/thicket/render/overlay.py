@@ -85,10 +85,7 @@ def content_key(obj):
     """What `obj`'s preview shows, besides the view and the object's placement: its
     stack items' properties (read as stored, without reading a cutter's mesh: its
     changes count in `generation`) and the changes of its result seen so far."""
-    items = tuple(
-        tuple((name, _plain(getattr(item, name))) for name in item.bl_rna.properties.keys() if name != "rna_type")
-        for item in obj.thicket.items
-    )
+    items = tuple(tuple((name, _plain(getattr(item, name))) for name in item.bl_rna.properties.keys() if name != "rna_type") for item in obj.thicket.items)
     return (obj.name, items, _state["generation"])
 
 

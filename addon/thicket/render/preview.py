@@ -52,9 +52,21 @@ def render_native(source, items, light, view, projection, width, height, method=
         raise cancelled_error()
     base = shell.base
     out = native.get().render_shell(
-        base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures,
-        view, projection, int(width), int(height), method=method, slices=int(slices),
-        mipmaps=mipmaps, light=tuple(float(v) for v in light), **settings,
+        base.vertices,
+        base.face_sizes,
+        base.corners,
+        shell.base_offset,
+        shell.directors,
+        textures,
+        view,
+        projection,
+        int(width),
+        int(height),
+        method=method,
+        slices=int(slices),
+        mipmaps=mipmaps,
+        light=tuple(float(v) for v in light),
+        **settings,
         progress=None if progress is None else (lambda f: progress(SHELL_SHARE + (1.0 - SHELL_SHARE) * f)),
     )
     if progress is not None:

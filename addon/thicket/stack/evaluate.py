@@ -160,9 +160,15 @@ def texture_settings(shell: ShellContext, item: S.VolumetricTexture, weights):
     region, holes, cutter, moved region). `weights`: per-vertex region, holes and
     move arrays (or None) by name."""
     return dict(
-        uvs=shell.base.uvs, tiling=float(item.tiling), resolution=int(item.resolution), layers=int(item.layers),
-        region=weights["region"], holes=weights["holes"], cutter=item.cutter,
-        move_region=weights["move"], move_offset=tuple(float(v) for v in item.move_offset),
+        uvs=shell.base.uvs,
+        tiling=float(item.tiling),
+        resolution=int(item.resolution),
+        layers=int(item.layers),
+        region=weights["region"],
+        holes=weights["holes"],
+        cutter=item.cutter,
+        move_region=weights["move"],
+        move_offset=tuple(float(v) for v in item.move_offset),
         follow_texture=bool(item.follow_texture),
     )
 
@@ -262,7 +268,9 @@ def _texture_step(state: _State, item: S.VolumetricTexture, ask, progress):
     state.notes.extend(notes)
     if state.current.face_count == 0:
         # Not an error (a hole group may cut everything away), but rarely wanted.
-        state.notes.append(f"'{item.label}' baked no geometry: its features may be finer than the bake lattice; raise Resolution or Feature Thickness, or lower Tiling")
+        state.notes.append(
+            f"'{item.label}' baked no geometry: its features may be finer than the bake lattice; raise Resolution or Feature Thickness, or lower Tiling"
+        )
 
 
 class Kind(NamedTuple):

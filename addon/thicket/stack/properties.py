@@ -95,8 +95,12 @@ class ThicketItem(bpy.types.PropertyGroup):
     )
     offset: FloatVectorProperty(name="Offset", description="Shift of the combined pattern in texture space (s, t)", size=2, default=(0.0, 0.0), update=_changed)
     seed: IntProperty(name="Seed", min=0, default=0, update=_changed)
-    feature_thickness: FloatProperty(name="Feature Thickness", description="Scales rings, threads, blades and bubbles", min=0.1, max=4.0, default=1.0, update=_changed)
-    texture_size: IntProperty(name="Texture Size", description="Texels along s and t (half as many across the shell)", min=8, max=256, default=64, update=_changed)
+    feature_thickness: FloatProperty(
+        name="Feature Thickness", description="Scales rings, threads, blades and bubbles", min=0.1, max=4.0, default=1.0, update=_changed
+    )
+    texture_size: IntProperty(
+        name="Texture Size", description="Texels along s and t (half as many across the shell)", min=8, max=256, default=64, update=_changed
+    )
     tiling: FloatProperty(name="Tiling", description="Texture tiles per UV unit (per face without UVs)", min=0.01, soft_max=64.0, default=1.0, update=_changed)
     resolution: IntProperty(name="Resolution", description="Samples along each base edge of a cell", min=1, max=64, default=8, update=_changed)
     texture_layers: IntProperty(name="Layers", description="Samples across the shell", min=2, max=256, default=16, update=_changed)
@@ -114,9 +118,20 @@ class ThicketItem(bpy.types.PropertyGroup):
     )
     filepath: StringProperty(name="Texture File", description="A PNG slice (its folder is the stack) or an .exr volume", subtype="FILE_PATH", update=_changed)
     hole_group: StringProperty(name="Holes", description="Vertex group where the texture is cut away (by weight)", update=_changed)
-    cutter: PointerProperty(name="Cutter", description="A closed mesh object: the texture is cut away inside it", type=bpy.types.Object, poll=_is_mesh, update=_changed)
-    move_group: StringProperty(name="Move Region", description="Vertex group of the piece of texture to move along the surface (needs a UV map)", update=_changed)
-    move_offset: FloatVectorProperty(name="Move By", description="How far the piece moves, in UV units; its trace shows the base surface", size=2, default=(0.0, 0.0), step=1, update=_changed)
+    cutter: PointerProperty(
+        name="Cutter", description="A closed mesh object: the texture is cut away inside it", type=bpy.types.Object, poll=_is_mesh, update=_changed
+    )
+    move_group: StringProperty(
+        name="Move Region", description="Vertex group of the piece of texture to move along the surface (needs a UV map)", update=_changed
+    )
+    move_offset: FloatVectorProperty(
+        name="Move By",
+        description="How far the piece moves, in UV units; its trace shows the base surface",
+        size=2,
+        default=(0.0, 0.0),
+        step=1,
+        update=_changed,
+    )
     face_selection: EnumProperty(
         name="Selected Faces",
         description="Use the source's selected faces (instead of a vertex group) for",
@@ -142,7 +157,13 @@ class ThicketItem(bpy.types.PropertyGroup):
         default=1_000_000,
         update=_changed,
     )
-    confirm_above: IntProperty(name="Ask Above", description="In the interface, ask before baking more than this many (estimated) triangles", min=1000, default=3_000_000, update=_changed)
+    confirm_above: IntProperty(
+        name="Ask Above",
+        description="In the interface, ask before baking more than this many (estimated) triangles",
+        min=1000,
+        default=3_000_000,
+        update=_changed,
+    )
     max_triangles: IntProperty(
         name="Sample Limit",
         description="The most triangles the bake may sample before simplifying: a finer lattice is coarsened to fit, and bakes over it even at Resolution are refused",
@@ -163,12 +184,21 @@ class ThicketItem(bpy.types.PropertyGroup):
         from `depsgraph`, in the source's object space)."""
         if self.kind == S.VolumetricTexture.kind:
             return S.VolumetricTexture(
-                pattern=self.pattern, seed=self.seed, time=self.texture_time(), feature_thickness=self.feature_thickness,
-                texture_size=self.texture_size, tiling=self.tiling, resolution=self.resolution, layers=self.texture_layers,
+                pattern=self.pattern,
+                seed=self.seed,
+                time=self.texture_time(),
+                feature_thickness=self.feature_thickness,
+                texture_size=self.texture_size,
+                tiling=self.tiling,
+                resolution=self.resolution,
+                layers=self.texture_layers,
                 vertex_group=SELECTED_FACES if self.face_selection == "REGION" else self.vertex_group,
                 combine="" if self.combine == "NONE" else self.combine,
-                offset=tuple(self.offset), follow_texture=self.follow_texture, triangle_budget=self.triangle_budget,
-                max_triangles=self.max_triangles, confirm_above=self.confirm_above,
+                offset=tuple(self.offset),
+                follow_texture=self.follow_texture,
+                triangle_budget=self.triangle_budget,
+                max_triangles=self.max_triangles,
+                confirm_above=self.confirm_above,
                 filepath=bpy.path.abspath(self.filepath) if self.source == "FILE" else "",
                 hole_group=SELECTED_FACES if self.face_selection == "HOLES" else self.hole_group,
                 move_group=SELECTED_FACES if self.face_selection == "MOVE" else self.move_group,
@@ -176,7 +206,6 @@ class ThicketItem(bpy.types.PropertyGroup):
                 cutter=self._cutter_arrays(depsgraph),
             )
         return S.shell_settings(self.kind, self.thickness, self.thickness_mode, self.vertex_group, self.output, self.layers, self.side)
-
 
     def _cutter_arrays(self, depsgraph):
         if self.cutter is None:

@@ -55,11 +55,7 @@ fn main() {
     let edges = faces * 3 / 2;
     let (n, m) = (params.resolution as usize, params.layers as usize);
     let samples = (mesh.vertex_count() + edges * (n - 1) + faces * (n - 1) * (n - 2) / 2) * (m + 1);
-    println!(
-        "mesh: {} faces; chain mail 64x64x32; lattice {n} per edge x {m} layers = {samples} samples; {} threads",
-        faces,
-        rayon::current_num_threads()
-    );
+    println!("mesh: {} faces; chain mail 64x64x32; lattice {n} per edge x {m} layers = {samples} samples; {} threads", faces, rayon::current_num_threads());
 
     let base = NOW.load(Relaxed);
     PEAK.store(base, Relaxed);
@@ -119,9 +115,5 @@ fn main() {
         fsn_tris as f64 / fsn_total / 1e6,
         samples as f64 / fsn_total / 1e6
     );
-    println!(
-        "ratio (Thicket / fast-surface-nets, time per sample, sampling included): {:.2}x; polygonizing only: {:.2}x",
-        ours / fsn_total,
-        ours / fsn_poly
-    );
+    println!("ratio (Thicket / fast-surface-nets, time per sample, sampling included): {:.2}x; polygonizing only: {:.2}x", ours / fsn_total, ours / fsn_poly);
 }

@@ -14,8 +14,8 @@
 //! - `--trace-only`: skip the full build.
 
 use std::time::Instant;
-use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
 use thicket_core::hard_meshes::cards;
+use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();

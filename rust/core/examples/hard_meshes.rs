@@ -12,10 +12,7 @@ fn main() {
     std::fs::create_dir_all(&dir).unwrap();
     let mut meshes: Vec<_> = all_closed().into_iter().filter(|(name, _)| *name != "bunny").collect();
     meshes.push(("cards", cards(2000, 1)));
-    println!(
-        "{:<15} {:>6} {:>6} {:>6} {:>7} {:>7} {:>7} {:>6} {:>8}",
-        "mesh", "verts", "faces", "tris", "diag", "gap%", "thick%", "cross", "bytes"
-    );
+    println!("{:<15} {:>6} {:>6} {:>6} {:>7} {:>7} {:>7} {:>6} {:>8}", "mesh", "verts", "faces", "tris", "diag", "gap%", "thick%", "cross", "bytes");
     for (name, m) in meshes {
         let text = to_obj(&m);
         std::fs::write(dir.join(format!("{name}.obj")), &text).unwrap();

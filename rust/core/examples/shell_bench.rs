@@ -58,11 +58,7 @@ fn main() {
         let incr = start.elapsed().as_secs_f64();
         let a = shell_report(inc.mesh(), inc.shell());
         let mine = inc.traced_directors();
-        let name = if tolerance == 0.0 {
-            "tolerance 0 (every director within reach)".to_string()
-        } else {
-            format!("tolerance {tolerance} (default)")
-        };
+        let name = if tolerance == 0.0 { "tolerance 0 (every director within reach)".to_string() } else { format!("tolerance {tolerance} (default)") };
         println!(
             "incremental update, {name}: {:.4} s (target 0.05 s: {:.2}x of target; {:.1}x faster than the rebuild)\n  \
              {k} vertices moved, {} directors retraced ({:.0}%), {} within reach kept; \

@@ -70,10 +70,8 @@ pub fn cup() -> Mesh {
         .chain(line(top_in, bottom_in, 18))
         .chain(line(bottom_in, Vec2::new(0.0, w), 6).take(5))
         .collect();
-    let rings: Vec<Vec<Vec3>> = profile
-        .iter()
-        .map(|q| (0..seg).map(|j| Quat::from_rotation_z(TAU * j as f32 / seg as f32) * Vec3::new(q.x, 0.0, q.y)).collect())
-        .collect();
+    let rings: Vec<Vec<Vec3>> =
+        profile.iter().map(|q| (0..seg).map(|j| Quat::from_rotation_z(TAU * j as f32 / seg as f32) * Vec3::new(q.x, 0.0, q.y)).collect()).collect();
     centred(tube(&rings, false, Some((Vec3::ZERO, Vec3::Z * w))))
 }
 
@@ -135,8 +133,7 @@ pub fn blade() -> Mesh {
     let half = h * 5f32.to_radians().tan();
     let corners = [Vec2::new(0.0, half), Vec2::new(h, 0.0), Vec2::new(0.0, -half)]; // (y, z)
     let counts = [12, 12, 3];
-    let section: Vec<Vec2> =
-        (0..3).flat_map(|s| (0..counts[s]).map(move |k| corners[s].lerp(corners[(s + 1) % 3], k as f32 / counts[s] as f32))).collect();
+    let section: Vec<Vec2> = (0..3).flat_map(|s| (0..counts[s]).map(move |k| corners[s].lerp(corners[(s + 1) % 3], k as f32 / counts[s] as f32))).collect();
     let scale = |u: f32| 1.0 - 0.6 * u * u;
     let rings: Vec<Vec<Vec3>> = (0..=48)
         .map(|i| {
@@ -180,13 +177,11 @@ pub fn cards(n: usize, seed: u64) -> Mesh {
             let q = Quat::from_xyzw((1.0 - u1).sqrt() * u2.sin(), (1.0 - u1).sqrt() * u2.cos(), u1.sqrt() * u3.sin(), u1.sqrt() * u3.cos());
             (Vec3::new(rng.f(), rng.f(), rng.f()) * side, q, Vec2::new(0.6 + 0.6 * rng.f(), 0.6 + 0.6 * rng.f()))
         };
-        let p =
-            [(-1., -1.), (1., -1.), (1., 1.), (-1., 1.)].map(|(x, y)| (c + q * Vec3::new(x * size.x, y * size.y, 0.0) / 2.0).as_dvec3());
+        let p = [(-1., -1.), (1., -1.), (1., 1.), (-1., 1.)].map(|(x, y)| (c + q * Vec3::new(x * size.x, y * size.y, 0.0) / 2.0).as_dvec3());
         let t = [[p[0], p[1], p[2]], [p[0], p[2], p[3]]];
         let (lo, hi) = (tri_box(&t[0]).0.min(tri_box(&t[1]).0).as_vec3(), tri_box(&t[0]).1.max(tri_box(&t[1]).1).as_vec3());
         let (clo, chi) = (cell(lo), cell(hi));
-        let cells: Vec<[i32; 3]> =
-            (clo[0]..=chi[0]).flat_map(|x| (clo[1]..=chi[1]).flat_map(move |y| (clo[2]..=chi[2]).map(move |z| [x, y, z]))).collect();
+        let cells: Vec<[i32; 3]> = (clo[0]..=chi[0]).flat_map(|x| (clo[1]..=chi[1]).flat_map(move |y| (clo[2]..=chi[2]).map(move |z| [x, y, z]))).collect();
         let crosses = |o: &[[DVec3; 3]; 2]| t.iter().any(|a| o.iter().any(|b| triangles_intersect(a, b)));
         if cells.iter().any(|k| grid.get(k).is_some_and(|v| v.iter().any(|&o| crosses(&tris[o])))) {
             continue;

@@ -17,11 +17,11 @@ pub mod texture;
 // benches through the `test-support` feature; never in the release library.
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
-pub mod testmeshes;
+pub mod hard_meshes;
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
-pub mod hard_meshes;
+pub mod testmeshes;
 
-pub use glam;
 pub use error::{Error, Result};
+pub use glam;
 pub use mesh::{Mesh, MeshReport};

@@ -13,9 +13,7 @@ pub fn positions(array: &PyReadonlyArray2<'_, f32>) -> PyResult<Vec<Vec3>> {
     if array.shape()[1] != 3 {
         return Err(InvalidInput::new_err(format!("vertices must have shape (n, 3), got {:?}", array.shape())));
     }
-    let flat = array
-        .as_slice()
-        .map_err(|_| InvalidInput::new_err("vertices must be a C-contiguous float32 array"))?;
+    let flat = array.as_slice().map_err(|_| InvalidInput::new_err("vertices must be a C-contiguous float32 array"))?;
     Ok(flat.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect())
 }
 
@@ -34,10 +32,7 @@ pub fn indices(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<u32>> {
     } else {
         return Err(InvalidInput::new_err(format!("{what} must be a numpy array of int32 or uint32")));
     };
-    signed
-        .iter()
-        .map(|&i| u32::try_from(i).map_err(|_| InvalidInput::new_err(format!("{what} contains the negative index {i}"))))
-        .collect()
+    signed.iter().map(|&i| u32::try_from(i).map_err(|_| InvalidInput::new_err(format!("{what} contains the negative index {i}")))).collect()
 }
 
 /// Per-vertex float32 values, or one float broadcast to every vertex.
@@ -45,9 +40,8 @@ pub fn per_vertex_or_scalar(obj: &Bound<'_, PyAny>, n: usize, what: &str) -> PyR
     if let Ok(v) = obj.extract::<f64>() {
         return Ok(vec![v as f32; n]);
     }
-    let a = obj
-        .extract::<PyReadonlyArray1<'_, f32>>()
-        .map_err(|_| InvalidInput::new_err(format!("{what} must be a float or a float32 array of shape (n,)")))?;
+    let a =
+        obj.extract::<PyReadonlyArray1<'_, f32>>().map_err(|_| InvalidInput::new_err(format!("{what} must be a float or a float32 array of shape (n,)")))?;
     let s = a.as_slice().map_err(|_| not_contiguous(what))?;
     if s.len() != n {
         return Err(InvalidInput::new_err(format!("{what} has {} values for {n} vertices", s.len())));
@@ -61,11 +55,7 @@ fn not_contiguous(what: &str) -> PyErr {
 
 /// A polygon mesh from Blender-style arrays: vertices (n, 3), loop totals per face,
 /// and the flat corner -> vertex indices.
-pub fn mesh(
-    vertices: &PyReadonlyArray2<'_, f32>,
-    face_sizes: &Bound<'_, PyAny>,
-    corners: &Bound<'_, PyAny>,
-) -> PyResult<Mesh> {
+pub fn mesh(vertices: &PyReadonlyArray2<'_, f32>, face_sizes: &Bound<'_, PyAny>, corners: &Bound<'_, PyAny>) -> PyResult<Mesh> {
     mesh_with_uvs(vertices, face_sizes, corners, None)
 }
 

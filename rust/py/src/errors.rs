@@ -3,12 +3,7 @@
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-pyo3::create_exception!(
-    thicket_native,
-    ThicketError,
-    PyValueError,
-    "Invalid input or a failure inside Thicket's geometry core; the message says which."
-);
+pyo3::create_exception!(thicket_native, ThicketError, PyValueError, "Invalid input or a failure inside Thicket's geometry core; the message says which.");
 
 pyo3::create_exception!(
     thicket_native,
@@ -17,12 +12,7 @@ pyo3::create_exception!(
     "A mesh, array or setting Thicket cannot use (empty, non-finite, out of range, wrong shape); the message says which."
 );
 
-pyo3::create_exception!(
-    thicket_native,
-    FileError,
-    ThicketError,
-    "A file or folder that cannot be read or written; the message names it."
-);
+pyo3::create_exception!(thicket_native, FileError, ThicketError, "A file or folder that cannot be read or written; the message names it.");
 
 pyo3::create_exception!(
     thicket_native,
@@ -31,12 +21,7 @@ pyo3::create_exception!(
     "The GPU could not render (no adapter, a refused or lost device, a failed frame); the CPU reference can."
 );
 
-pyo3::create_exception!(
-    thicket_native,
-    Cancelled,
-    ThicketError,
-    "The work was cancelled through its progress callback (it returned False) or by Ctrl-C."
-);
+pyo3::create_exception!(thicket_native, Cancelled, ThicketError, "The work was cancelled through its progress callback (it returned False) or by Ctrl-C.");
 
 pyo3::create_exception!(
     thicket_native,
@@ -66,11 +51,8 @@ pub fn run_detached<T: Send>(py: Python<'_>, work: impl FnOnce() -> thicket_core
 
 /// A panic's message as an `InternalError`.
 fn panic_error(panic: Box<dyn std::any::Any + Send>) -> PyErr {
-    let what = panic
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| panic.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into());
+    let what =
+        panic.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| panic.downcast_ref::<String>().cloned()).unwrap_or_else(|| "unknown panic".into());
     InternalError::new_err(format!("internal error in thicket-native (please report): {what}"))
 }
 

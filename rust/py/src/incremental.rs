@@ -90,10 +90,7 @@ impl IncrementalShell {
         let n = self.core()?.mesh().vertex_count();
         let positions = arrays::positions(&vertices)?;
         if positions.len() != n {
-            return Err(InvalidInput::new_err(format!(
-                "{} vertices given for a shell of {n}: the topology changed, build a new shell",
-                positions.len()
-            )));
+            return Err(InvalidInput::new_err(format!("{} vertices given for a shell of {n}: the topology changed, build a new shell", positions.len())));
         }
         let factors = factors.map(|f| arrays::per_vertex_or_scalar(f, n, "factors")).transpose()?;
         let rule = self.thickness;

@@ -20,8 +20,7 @@ const MAX_PIXELS: u64 = 1 << 28;
 /// A 4x4 matrix given row-major (numpy's layout of a Blender `Matrix`: `m[row][col]`),
 /// as float32 or float64 numpy or nested sequences; glam stores columns.
 fn matrix(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Mat4> {
-    let shape_error =
-        || InvalidInput::new_err(format!("{what} must be a 4x4 matrix (numpy float32/float64 or nested lists)"));
+    let shape_error = || InvalidInput::new_err(format!("{what} must be a 4x4 matrix (numpy float32/float64 or nested lists)"));
     let rows: Vec<f64> = if let Ok(a) = obj.extract::<PyReadonlyArray2<'_, f64>>() {
         if a.shape() != [4, 4] {
             return Err(shape_error());
@@ -153,8 +152,21 @@ pub fn render_shell<'py>(
     // The bake's own inputs: the preview applies the same region, holes, cutter and
     // moved region as the bake (`thicket_core::texture::bake::effects`).
     let inputs = crate::texture::BakeInputs::read(
-        &vertices, face_sizes, corners, &base_offset, &directors, textures, uvs.as_ref(), (tiling, resolution, layers),
-        region, base_layer, holes, cutter.as_ref(), move_region, move_offset, (follow_texture, 0, usize::MAX),
+        &vertices,
+        face_sizes,
+        corners,
+        &base_offset,
+        &directors,
+        textures,
+        uvs.as_ref(),
+        (tiling, resolution, layers),
+        region,
+        base_layer,
+        holes,
+        cutter.as_ref(),
+        move_region,
+        move_offset,
+        (follow_texture, 0, usize::MAX),
     )?;
     let view = matrix(view, "view")?;
     let projection = matrix(projection, "projection")?;
@@ -200,9 +212,7 @@ pub fn render_shell<'py>(
     };
     let rgba = shaped(frame.rgba.iter().flat_map(|c| c.to_array()).collect(), 4)?;
     let normal = shaped(frame.normal.iter().flat_map(|c| c.to_array()).collect(), 3)?;
-    let depth = numpy::ndarray::Array1::from_vec(frame.depth)
-        .into_shape_with_order((h, w))
-        .map_err(|e| InvalidInput::new_err(e.to_string()))?;
+    let depth = numpy::ndarray::Array1::from_vec(frame.depth).into_shape_with_order((h, w)).map_err(|e| InvalidInput::new_err(e.to_string()))?;
     let d = PyDict::new(py);
     d.set_item("rgba", rgba.into_pyarray(py))?;
     d.set_item("depth", depth.into_pyarray(py))?;

@@ -2,7 +2,11 @@ use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use thicket_core::glam::Vec3;
-use thicket_core::shell::{self as core, report::{self_intersecting_faces, shell_report as core_shell_report}, shell_geometry, ShellParams, Side};
+use thicket_core::shell::{
+    self as core,
+    report::{self_intersecting_faces, shell_report as core_shell_report},
+    shell_geometry, ShellParams, Side,
+};
 use thicket_core::Mesh;
 
 use crate::arrays;
@@ -42,9 +46,7 @@ pub fn build_shell<'py>(
     let mesh = triangle_mesh(&vertices, triangles)?;
     let thickness = arrays::per_vertex_or_scalar(thickness, mesh.vertex_count(), "thickness")?;
     let side = Side::parse(side).map_err(crate::errors::to_py)?;
-    let shell = run_maybe_watched(py, progress.as_ref(), move |watch| {
-        core::build_shell_watched(&mesh, &thickness, side, &ShellParams::default(), watch)
-    })?;
+    let shell = run_maybe_watched(py, progress.as_ref(), move |watch| core::build_shell_watched(&mesh, &thickness, side, &ShellParams::default(), watch))?;
     let outer: Vec<Vec3> = shell.base_offset.iter().zip(&shell.directors).map(|(b, d)| *b + *d).collect();
     arrays::vec3_array(py, outer)
 }

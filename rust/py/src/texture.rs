@@ -5,9 +5,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use thicket_core::glam::Vec2;
 use thicket_core::shell::Shell;
-use thicket_core::Mesh;
 use thicket_core::texture::bake::{Cutter, MovedRegion};
 use thicket_core::texture::{BakeParams, Generator, Pattern, TextureLayer, TexturedShell, VolumeTexture};
+use thicket_core::Mesh;
 
 use crate::arrays;
 use crate::errors::{run_detached, run_watched, to_py, InvalidInput};
@@ -20,14 +20,7 @@ use thicket_core::progress::Progress;
 /// or "bubbles". `size` is (nx, ny, nz); the result is indexed [r, t, s], alpha in [0, 1].
 #[pyfunction]
 #[pyo3(signature = (pattern, size=(64, 64, 32), seed=0, time=1.0, thickness=1.0))]
-pub fn texture<'py>(
-    py: Python<'py>,
-    pattern: &str,
-    size: (usize, usize, usize),
-    seed: u32,
-    time: f32,
-    thickness: f32,
-) -> PyResult<Bound<'py, PyArray3<f32>>> {
+pub fn texture<'py>(py: Python<'py>, pattern: &str, size: (usize, usize, usize), seed: u32, time: f32, thickness: f32) -> PyResult<Bound<'py, PyArray3<f32>>> {
     let pattern = Pattern::parse(pattern).map_err(to_py)?;
     if size.0 * size.1 * size.2 > 512 * 512 * 256 {
         return Err(InvalidInput::new_err(format!("texture size {size:?} is too large")));
@@ -41,9 +34,7 @@ pub fn texture<'py>(
 }
 
 fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
-    let a: PyReadonlyArray3<'_, f32> = alpha
-        .extract()
-        .map_err(|_| InvalidInput::new_err("a texture must be a float32 array of shape (nz, ny, nx)"))?;
+    let a: PyReadonlyArray3<'_, f32> = alpha.extract().map_err(|_| InvalidInput::new_err("a texture must be a float32 array of shape (nz, ny, nx)"))?;
     let shape = a.shape().to_vec();
     // One copy either way: the texture owns its samples.
     // `as_slice` also accepts Fortran order (memory order): only C order is x fastest.
@@ -225,8 +216,20 @@ pub fn bake_texture<'py>(
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mut inputs = BakeInputs::read(
-        &vertices, face_sizes, corners, &base_offset, &directors, textures, uvs.as_ref(), (tiling, resolution, layers),
-        region, base_layer, holes, cutter.as_ref(), move_region, move_offset,
+        &vertices,
+        face_sizes,
+        corners,
+        &base_offset,
+        &directors,
+        textures,
+        uvs.as_ref(),
+        (tiling, resolution, layers),
+        region,
+        base_layer,
+        holes,
+        cutter.as_ref(),
+        move_region,
+        move_offset,
         (follow_texture, triangle_budget, max_triangles),
     )?;
     let out = match progress {
@@ -287,8 +290,20 @@ pub fn estimate_bake<'py>(
     max_triangles: usize,
 ) -> PyResult<usize> {
     let inputs = BakeInputs::read(
-        &vertices, face_sizes, corners, &base_offset, &directors, textures, uvs.as_ref(), (tiling, resolution, layers),
-        region, base_layer, holes, cutter.as_ref(), move_region, move_offset,
+        &vertices,
+        face_sizes,
+        corners,
+        &base_offset,
+        &directors,
+        textures,
+        uvs.as_ref(),
+        (tiling, resolution, layers),
+        region,
+        base_layer,
+        holes,
+        cutter.as_ref(),
+        move_region,
+        move_offset,
         (follow_texture, triangle_budget, max_triangles),
     )?;
     run_detached(py, move || inputs.run(|textured| Ok(textured.estimate()?.triangles)))

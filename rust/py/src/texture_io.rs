@@ -31,8 +31,7 @@ pub fn load_texture<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, 
 #[pyfunction]
 pub fn save_texture(py: Python<'_>, path: PathBuf, alpha: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
     let named = |message: String| InvalidInput::new_err(format!("{}: {message}", path.display()));
-    let a: PyReadonlyArray3<'_, f32> =
-        alpha.extract().map_err(|_| named("a texture must be a float32 array of shape (nz, ny, nx)".into()))?;
+    let a: PyReadonlyArray3<'_, f32> = alpha.extract().map_err(|_| named("a texture must be a float32 array of shape (nz, ny, nx)".into()))?;
     let shape = a.shape().to_vec();
     // In (nz, ny, nx) order whatever the memory layout (numpy's `as_slice` would also
     // take a Fortran-ordered array as it lies in memory).
@@ -40,12 +39,6 @@ pub fn save_texture(py: Python<'_>, path: PathBuf, alpha: &Bound<'_, PyAny>) -> 
     let data = view.as_slice().map_or_else(|| view.iter().copied().collect(), <[f32]>::to_vec);
     let t = VolumeTexture::new([shape[2], shape[1], shape[0]], data).map_err(|e| named(e.to_string()))?;
     let exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    let written = run_detached(py, move || {
-        if exr {
-            io::save_exr(&t, &path).map(|()| vec![path])
-        } else {
-            io::save_png_stack(&t, &path, "slice")
-        }
-    })?;
+    let written = run_detached(py, move || if exr { io::save_exr(&t, &path).map(|()| vec![path]) } else { io::save_png_stack(&t, &path, "slice") })?;
     Ok(written.iter().map(|p| p.display().to_string()).collect())
 }

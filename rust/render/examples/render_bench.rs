@@ -52,8 +52,7 @@ fn main() {
     println!("GPU adapter: {} [{:?}]", gpu.adapter_name(), gpu.adapter_type());
     println!("CPU threads: {}", rayon::current_num_threads());
     let texture = Generator::new(Pattern::ChainMail).generate([64, 64, 32]).unwrap();
-    let meshes =
-        [("icosphere(4)", tm::icosphere(4)), ("bunny, subdivided twice", tm::subdivide(&tm::subdivide(&tm::bunny())))];
+    let meshes = [("icosphere(4)", tm::icosphere(4)), ("bunny, subdivided twice", tm::subdivide(&tm::subdivide(&tm::bunny())))];
     for (name, mesh) in meshes {
         let t = Thickness::relative(0.03).per_vertex(&mesh, None).unwrap();
         let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
@@ -74,11 +73,7 @@ fn main() {
         println!("| renderer | slices | frame ms (median of {FRAMES}) | prepare ms | GPU passes ms | readback ms | coverage |");
         println!("|---|---|---|---|---|---|---|");
         for slices in [8, 16, 32] {
-            let modes = [
-                (SliceMode::Plain, Mipmaps::Off),
-                (SliceMode::Interpolating, Mipmaps::Off),
-                (SliceMode::Interpolating, Mipmaps::Double),
-            ];
+            let modes = [(SliceMode::Plain, Mipmaps::Off), (SliceMode::Interpolating, Mipmaps::Off), (SliceMode::Interpolating, Mipmaps::Double)];
             for (mode, mipmaps) in modes {
                 let p = SliceParams { slices, mode, mipmaps, ..SliceParams::default() };
                 let mut times = Vec::new();

@@ -14,9 +14,7 @@ use thicket_core::glam::{Mat4, Vec2, Vec3};
 use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
 use thicket_core::testmeshes;
 use thicket_core::texture::{Generator, Pattern, TextureLayer};
-use thicket_render::gpu::{
-    FrameTimings, GpuRenderer, ShellTexturingParams, ShellTexturingRenderer, ShellTexturingScene, SliceParams,
-};
+use thicket_render::gpu::{FrameTimings, GpuRenderer, ShellTexturingParams, ShellTexturingRenderer, ShellTexturingScene, SliceParams};
 use thicket_render::mipmap::Mipmaps;
 use thicket_render::reference::{self, RenderParams};
 use thicket_render::silhouette::{coverage, frame_coverage, iou};

@@ -38,19 +38,16 @@ impl Frame {
         use rayon::prelude::*;
         let mut frame = Self::empty(width, height);
         let w = (width as usize).max(1);
-        frame
-            .rgba
-            .par_chunks_mut(w)
-            .zip(frame.depth.par_chunks_mut(w))
-            .zip(frame.normal.par_chunks_mut(w))
-            .enumerate()
-            .for_each_init(init, |state, (y, ((rgba, depth), normal))| {
+        frame.rgba.par_chunks_mut(w).zip(frame.depth.par_chunks_mut(w)).zip(frame.normal.par_chunks_mut(w)).enumerate().for_each_init(
+            init,
+            |state, (y, ((rgba, depth), normal))| {
                 for x in 0..rgba.len() {
                     if let Some((c, d, n)) = pixel(state, x, y) {
                         (rgba[x], depth[x], normal[x]) = (c, d, n);
                     }
                 }
-            });
+            },
+        );
         frame
     }
 
@@ -97,10 +94,7 @@ impl Frame {
     fn check_size(&self, path: &Path) -> Result<usize> {
         let n = self.width as usize * self.height as usize;
         if n == 0 || self.rgba.len() != n || self.depth.len() != n || self.normal.len() != n {
-            return Err(file_error(
-                path,
-                format!("the frame's buffers do not hold {}x{} pixels", self.width, self.height),
-            ));
+            return Err(file_error(path, format!("the frame's buffers do not hold {}x{} pixels", self.width, self.height)));
         }
         Ok(n)
     }
@@ -129,9 +123,7 @@ impl Frame {
         require_folder(path)?;
         let picture = image::RgbaImage::from_raw(self.width, self.height, self.rgba8_top_down())
             .ok_or_else(|| file_error(path, "the frame's buffers do not match its size"))?;
-        picture
-            .save_with_format(path, image::ImageFormat::Png)
-            .map_err(|e| file_error(path, format!("cannot write the PNG: {e}")))
+        picture.save_with_format(path, image::ImageFormat::Png).map_err(|e| file_error(path, format!("cannot write the PNG: {e}")))
     }
 
     /// Writes one OpenEXR image (float32, lossless ZIP) with the channels `R`, `G`,
@@ -139,9 +131,7 @@ impl Frame {
     /// [`EXR_EMPTY_DEPTH`] where empty) and `N.X`, `N.Y`, `N.Z` (unit world normal,
     /// zero where empty). Rows run top-down, as in the frame.
     pub fn save_exr(&self, path: impl AsRef<Path>) -> Result<()> {
-        use exr::prelude::{
-            AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, WritableImage,
-        };
+        use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, WritableImage};
         let path = path.as_ref();
         self.check_size(path)?;
         require_folder(path)?;
@@ -162,10 +152,7 @@ impl Frame {
             Encoding::SMALL_LOSSLESS,
             AnyChannels::sort(channels.into_iter().collect()),
         );
-        Image::from_layer(layer)
-            .write()
-            .to_file(path)
-            .map_err(|e| file_error(path, format!("cannot write the OpenEXR file: {e}")))
+        Image::from_layer(layer).write().to_file(path).map_err(|e| file_error(path, format!("cannot write the OpenEXR file: {e}")))
     }
 }
 

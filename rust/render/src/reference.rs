@@ -78,10 +78,7 @@ pub fn render(scene: &ShellScene, camera: &Camera, params: &RenderParams) -> Res
 pub fn render_watched(scene: &ShellScene, camera: &Camera, params: &RenderParams, progress: Option<&Progress>) -> Result<Frame> {
     params.validate()?;
     if camera.width == 0 || camera.height == 0 {
-        return Err(Error::InvalidParameter(format!(
-            "the viewport is {}x{}: nothing to render",
-            camera.width, camera.height
-        )));
+        return Err(Error::InvalidParameter(format!("the viewport is {}x{}: nothing to render", camera.width, camera.height)));
     }
     let marcher = Marcher::new(scene, params)?;
     let rays = Rays::new(camera)?;
@@ -220,12 +217,7 @@ const INSIDE_EPS: f32 = 1e-4;
 #[inline]
 fn contains(count: usize, q: Vec3) -> bool {
     let in01 = |a: f32| (-INSIDE_EPS..=1.0 + INSIDE_EPS).contains(&a);
-    in01(q.z)
-        && if count == 4 {
-            in01(q.x) && in01(q.y)
-        } else {
-            q.x >= -INSIDE_EPS && q.y >= -INSIDE_EPS && q.x + q.y <= 1.0 + INSIDE_EPS
-        }
+    in01(q.z) && if count == 4 { in01(q.x) && in01(q.y) } else { q.x >= -INSIDE_EPS && q.y >= -INSIDE_EPS && q.x + q.y <= 1.0 + INSIDE_EPS }
 }
 
 /// Parameters of a cell's centre.
@@ -320,12 +312,7 @@ impl<'a> Marcher<'a> {
             (a.min(l), b.max(h))
         });
         let size = (hi - lo).length() as f64;
-        let prisms = scene
-            .cells
-            .par_iter()
-            .zip(&scene.bounds)
-            .map(|(c, (l, h))| (c.count == 3).then(|| Prism::new(c, (*h - *l).length())))
-            .collect();
+        let prisms = scene.cells.par_iter().zip(&scene.bounds).map(|(c, (l, h))| (c.count == 3).then(|| Prism::new(c, (*h - *l).length()))).collect();
         let bvh = Bvh::from_boxes(finite.iter().map(|&i| (scene.bounds[i as usize].0.as_dvec3(), scene.bounds[i as usize].1.as_dvec3())).collect());
         Ok(Self { scene, prisms, finite, bvh, step: params.step as f64 * thickness, tolerance: 1e-6 * size.max(1e-30) })
     }
@@ -485,14 +472,7 @@ impl<'a> Marcher<'a> {
         }
         // Outward parameter gradients of the faces and the distances to them.
         let faces: [(f32, Vec3); 6] = if cell.count == 4 {
-            [
-                (q.x, Vec3::NEG_X),
-                (1.0 - q.x, Vec3::X),
-                (q.y, Vec3::NEG_Y),
-                (1.0 - q.y, Vec3::Y),
-                (q.z, Vec3::NEG_Z),
-                (1.0 - q.z, Vec3::Z),
-            ]
+            [(q.x, Vec3::NEG_X), (1.0 - q.x, Vec3::X), (q.y, Vec3::NEG_Y), (1.0 - q.y, Vec3::Y), (q.z, Vec3::NEG_Z), (1.0 - q.z, Vec3::Z)]
         } else {
             [
                 (q.x, Vec3::NEG_X),
@@ -720,10 +700,8 @@ mod tests {
     fn reference_uv_sheet_and_quad_cells_render_alike() {
         // A sheet with UVs, rendered from above: the slab covers the whole sheet.
         let base = tm::plane(6);
-        let uvs: Vec<Vec2> =
-            base.corners().iter().map(|&v| base.positions()[v as usize].truncate() * 0.5 + 0.5).collect();
-        let mesh =
-            Mesh::new(base.positions().to_vec(), &base.face_sizes(), base.corners().to_vec(), Some(uvs)).unwrap();
+        let uvs: Vec<Vec2> = base.corners().iter().map(|&v| base.positions()[v as usize].truncate() * 0.5 + 0.5).collect();
+        let mesh = Mesh::new(base.positions().to_vec(), &base.face_sizes(), base.corners().to_vec(), Some(uvs)).unwrap();
         let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
         let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
         let scene = ShellScene::new(&mesh, &shell, layer(slab()), 2.0).unwrap();

@@ -83,11 +83,13 @@ impl ShellScene {
     /// Union of the textures at texture point `c` (max alpha) and the index of the
     /// layer that wins.
     pub fn alpha(&self, c: Vec3) -> (f32, usize) {
-        self.textures
-            .iter()
-            .map(|l| l.texture.sample(c + l.offset.extend(0.0)))
-            .enumerate()
-            .fold((f32::NEG_INFINITY, 0), |best, (k, a)| if a > best.0 { (a, k) } else { best })
+        self.textures.iter().map(|l| l.texture.sample(c + l.offset.extend(0.0))).enumerate().fold((f32::NEG_INFINITY, 0), |best, (k, a)| {
+            if a > best.0 {
+                (a, k)
+            } else {
+                best
+            }
+        })
     }
 
     /// `∇alpha` in texture space at `c`, from the winning layer.

@@ -51,8 +51,7 @@ pub fn coverage(mask: &[bool]) -> f64 {
 /// When the masks differ in length.
 pub fn iou(a: &[bool], b: &[bool]) -> f64 {
     assert_eq!(a.len(), b.len(), "the masks must cover the same image");
-    let (inter, union) =
-        a.iter().zip(b).fold((0usize, 0usize), |(i, u), (a, b)| (i + usize::from(*a && *b), u + usize::from(*a || *b)));
+    let (inter, union) = a.iter().zip(b).fold((0usize, 0usize), |(i, u), (a, b)| (i + usize::from(*a && *b), u + usize::from(*a || *b)));
     if union == 0 {
         1.0
     } else {
@@ -308,7 +307,8 @@ mod tests {
         let view = Mat4::look_at_rh(Vec3::new(0.4, -4.0, 0.6), Vec3::ZERO, Vec3::Z);
         let camera = Camera::new(view, Mat4::perspective_rh_gl(0.8, 1.0, 0.01, 100.0), 96, 96).unwrap();
         let upper: Vec<f32> = mesh.positions().iter().map(|p| if p.z > 0.2 { 1.0 } else { 0.0 }).collect();
-        let box_corners: Vec<Vec3> = (0..8).map(|i| Vec3::new(if i & 1 == 0 { -2.0 } else { 0.3 }, if i & 2 == 0 { -2.0 } else { 2.0 }, if i & 4 == 0 { -2.0 } else { 2.0 })).collect();
+        let box_corners: Vec<Vec3> =
+            (0..8).map(|i| Vec3::new(if i & 1 == 0 { -2.0 } else { 0.3 }, if i & 2 == 0 { -2.0 } else { 2.0 }, if i & 4 == 0 { -2.0 } else { 2.0 })).collect();
         let box_faces = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
         let box_tris: Vec<[u32; 3]> = box_faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect();
         let cases = [

@@ -129,14 +129,7 @@ fn compare_with_reference(name: &str, scene: &ShellScene, camera: &Camera, min_i
         for mode in [SliceMode::Plain, SliceMode::Interpolating] {
             let frame = r.render(scene, camera, &slice_params(slices, mode)).unwrap();
             let s = score(&frame, &reference);
-            eprintln!(
-                "| {name:<20} | {:<13} | {slices:>2} | {:.4} | {:5.2} | {:.4} | {:.5} |",
-                format!("{mode:?}"),
-                s.iou,
-                s.psnr,
-                s.mae,
-                s.depth
-            );
+            eprintln!("| {name:<20} | {:<13} | {slices:>2} | {:.4} | {:5.2} | {:.4} | {:.5} |", format!("{mode:?}"), s.iou, s.psnr, s.mae, s.depth);
             assert!(s.iou >= min_iou[k], "{name} {mode:?} {slices}: IoU {}", s.iou);
             if mode == SliceMode::Interpolating {
                 assert!(s.psnr >= min_psnr[k], "{name} {mode:?} {slices}: PSNR {}", s.psnr);
@@ -168,24 +161,12 @@ fn slab_sphere_grazing_view_matches_the_reference() {
 
 #[test]
 fn chain_mail_matches_the_reference() {
-    compare_with_reference(
-        "chain mail, close",
-        &chain_mail_scene(),
-        &close_view(128),
-        [0.8, 0.95, 0.985],
-        [13.5, 20.0, 26.0],
-    );
+    compare_with_reference("chain mail, close", &chain_mail_scene(), &close_view(128), [0.8, 0.95, 0.985], [13.5, 20.0, 26.0]);
 }
 
 #[test]
 fn chain_mail_grazing_view_matches_the_reference() {
-    compare_with_reference(
-        "chain mail, grazing",
-        &chain_mail_scene(),
-        &grazing_view(128),
-        [0.8, 0.95, 0.985],
-        [12.0, 17.0, 21.5],
-    );
+    compare_with_reference("chain mail, grazing", &chain_mail_scene(), &grazing_view(128), [0.8, 0.95, 0.985], [12.0, 17.0, 21.5]);
 }
 
 /// Chain mail (64 x 64 x 32) united with a second layer shifted by (0.3, 0.1) in (s, t).
@@ -332,8 +313,7 @@ fn bad_input_is_an_error_not_a_panic() {
     let empty = ShellScene { cells: vec![], bounds: vec![], textures: layer(slab()), per_face_tiles: true, effects: Default::default() };
     let e = r.render(&empty, &camera, &good).unwrap_err();
     eprintln!("empty shell: {e}");
-    let bare =
-        ShellScene { cells: scene.cells.clone(), bounds: scene.bounds.clone(), textures: vec![], per_face_tiles: true, effects: Default::default() };
+    let bare = ShellScene { cells: scene.cells.clone(), bounds: scene.bounds.clone(), textures: vec![], per_face_tiles: true, effects: Default::default() };
     assert!(r.render(&bare, &camera, &good).is_err());
     let flat = {
         let mesh = tm::plane(4);
@@ -352,13 +332,8 @@ fn bad_input_is_an_error_not_a_panic() {
     huge.width = 1 << 20;
     assert!(r.render(&scene, &huge, &good).is_err());
     // Non-finite cells render (garbage in, an image out), without panicking.
-    let mut broken = ShellScene {
-        cells: scene.cells.clone(),
-        bounds: scene.bounds.clone(),
-        textures: layer(slab()),
-        per_face_tiles: true,
-        effects: Default::default(),
-    };
+    let mut broken =
+        ShellScene { cells: scene.cells.clone(), bounds: scene.bounds.clone(), textures: layer(slab()), per_face_tiles: true, effects: Default::default() };
     broken.cells[0].base[1] = Vec3::NAN;
     broken.cells[1].director[2] = Vec3::splat(f32::INFINITY);
     let _ = r.render(&broken, &camera, &good);
@@ -391,8 +366,7 @@ fn shaders_validate() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "wgsl") {
             let source = std::fs::read_to_string(&path).unwrap();
-            let module = naga::front::wgsl::parse_str(&source)
-                .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&source)));
+            let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&source)));
             naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
                 .validate(&module)
                 .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&source)));
@@ -419,14 +393,8 @@ fn downsample_alpha(frame: &Frame, k: u32) -> Vec<f32> {
 /// `supersampling` times the resolution averaged down (the true share of each pixel the object covers):
 /// (truth, [off, linear, double]) mean coverage and, per mode, the mean absolute
 /// per-pixel coverage error.
-fn far_view_coverage(
-    scene: &ShellScene,
-    camera: impl Fn(u32) -> Camera,
-    size: u32,
-    supersampling: u32,
-) -> (f32, [f32; 3], [f32; 3]) {
-    let fine = reference::render(scene, &camera(size * supersampling), &RenderParams { step: 0.02, ..Default::default() })
-        .unwrap();
+fn far_view_coverage(scene: &ShellScene, camera: impl Fn(u32) -> Camera, size: u32, supersampling: u32) -> (f32, [f32; 3], [f32; 3]) {
+    let fine = reference::render(scene, &camera(size * supersampling), &RenderParams { step: 0.02, ..Default::default() }).unwrap();
     let truth = downsample_alpha(&fine, supersampling);
     let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
     let mut r = renderer();

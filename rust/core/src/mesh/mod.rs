@@ -56,10 +56,7 @@ impl Mesh {
             offsets.push(total as u32);
         }
         if total as usize != corners.len() {
-            return Err(Error::InvalidMesh(format!(
-                "face sizes add up to {total} corners but {} corner indices were given",
-                corners.len()
-            )));
+            return Err(Error::InvalidMesh(format!("face sizes add up to {total} corners but {} corner indices were given", corners.len())));
         }
         let n = positions.len();
         if let Some((c, &v)) = corners.iter().enumerate().find(|(_, &v)| v as usize >= n) {
@@ -176,8 +173,7 @@ pub(crate) mod fixtures {
 
     /// Axis-aligned unit cube centred at the origin, 6 outward quads.
     pub fn cube() -> Mesh {
-        let p =
-            [[-1., -1., -1.], [1., -1., -1.], [1., 1., -1.], [-1., 1., -1.], [-1., -1., 1.], [1., -1., 1.], [1., 1., 1.], [-1., 1., 1.]];
+        let p = [[-1., -1., -1.], [1., -1., -1.], [1., 1., -1.], [-1., 1., -1.], [-1., -1., 1.], [1., -1., 1.], [1., 1., 1.], [-1., 1., 1.]];
         let positions = p.iter().map(|a| Vec3::from_array(*a) * 0.5).collect();
         let quads = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]];
         Mesh::new(positions, &[4; 6], quads.iter().flatten().copied().collect(), None).unwrap()

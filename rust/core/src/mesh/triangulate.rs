@@ -13,10 +13,7 @@ pub struct Triangulation {
 
 impl Triangulation {
     pub fn of(mesh: &Mesh) -> Self {
-        let mut out = Self {
-            triangles: Vec::with_capacity(mesh.corners().len().saturating_sub(2 * mesh.face_count())),
-            face_of_triangle: Vec::new(),
-        };
+        let mut out = Self { triangles: Vec::with_capacity(mesh.corners().len().saturating_sub(2 * mesh.face_count())), face_of_triangle: Vec::new() };
         let mut scratch = Vec::new();
         for (f, face) in mesh.faces().enumerate() {
             let before = out.triangles.len();

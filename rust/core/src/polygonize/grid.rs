@@ -117,19 +117,9 @@ pub fn mesh_field<F: ScalarField + ?Sized>(field: &F, params: &GridParams) -> Re
     let mut attributes = vec![0.0; welded.positions.len() * count];
     if count > 0 {
         const CHUNK: usize = 4096;
-        attributes
-            .par_chunks_mut(CHUNK * count)
-            .zip(welded.positions.par_chunks(CHUNK))
-            .for_each(|(out, points)| field.attributes(points, out));
+        attributes.par_chunks_mut(CHUNK * count).zip(welded.positions.par_chunks(CHUNK)).for_each(|(out, points)| field.attributes(points, out));
     }
-    Ok(FieldMesh {
-        positions: welded.positions,
-        normals: welded.normals,
-        triangles: welded.triangles,
-        attributes,
-        attribute_count: count,
-        cells: grid.cells,
-    })
+    Ok(FieldMesh { positions: welded.positions, normals: welded.normals, triangles: welded.triangles, attributes, attribute_count: count, cells: grid.cells })
 }
 
 /// The piece of cube layers `k0..k1`.
@@ -217,4 +207,3 @@ fn march_slab<F: ScalarField + ?Sized>(field: &F, grid: &Grid, k0: u32, k1: u32,
     field.gradients(&piece.pos, &mut piece.grad);
     piece
 }
-

@@ -151,19 +151,31 @@ mod tests {
         let values = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         let mut asked = Vec::new();
         let mut tris = Vec::new();
-        march_prism(&values, 0.5, false, |a, b| {
-            asked.push((a, b));
-            asked.len() as u32 - 1
-        }, &mut tris);
+        march_prism(
+            &values,
+            0.5,
+            false,
+            |a, b| {
+                asked.push((a, b));
+                asked.len() as u32 - 1
+            },
+            &mut tris,
+        );
         asked.sort();
         assert_eq!(asked, vec![(0, 1), (0, 3), (2, 0)]);
         assert_eq!(tris.len(), 1);
         let mut again = Vec::new();
         let mut k = 0;
-        march_prism(&values, 0.5, true, |_, _| {
-            k += 1;
-            k - 1
-        }, &mut again);
+        march_prism(
+            &values,
+            0.5,
+            true,
+            |_, _| {
+                k += 1;
+                k - 1
+            },
+            &mut again,
+        );
         let t = tris[0];
         assert_eq!(again[0], [t[0], t[2], t[1]]);
         // All outside or all inside: nothing.

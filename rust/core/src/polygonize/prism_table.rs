@@ -141,14 +141,9 @@ fn triangulate(ring: &[usize]) -> Vec<[usize; 3]> {
     };
     let k = ring.len();
     let on_loop = |a: usize, b: usize| (0..k).any(|i| (ring[i], ring[(i + 1) % k]) == (a, b) || (ring[i], ring[(i + 1) % k]) == (b, a));
-    let clean = |tris: &Vec<[usize; 3]>| {
-        tris.iter().all(|t| !in_one_face(*t) && (0..3).all(|i| on_loop(t[i], t[(i + 1) % 3]) || !shared_chord(t[i], t[(i + 1) % 3])))
-    };
-    (0..ring.len())
-        .map(fan)
-        .find(clean)
-        .or_else(|| triangulations(ring).into_iter().find(clean))
-        .unwrap_or_else(|| fan(0))
+    let clean =
+        |tris: &Vec<[usize; 3]>| tris.iter().all(|t| !in_one_face(*t) && (0..3).all(|i| on_loop(t[i], t[(i + 1) % 3]) || !shared_chord(t[i], t[(i + 1) % 3])));
+    (0..ring.len()).map(fan).find(clean).or_else(|| triangulations(ring).into_iter().find(clean)).unwrap_or_else(|| fan(0))
 }
 
 fn build() -> Vec<Case> {

@@ -162,9 +162,8 @@ fn unions_with_creases_and_shapes_cut_by_the_box_stay_closed_manifolds() {
         state as f32 / u32::MAX as f32
     };
     for seed in 0..12 {
-        let spheres: Vec<Sphere> = (0..3 + seed % 5)
-            .map(|_| Sphere { center: Vec3::new(rand(), rand(), rand()) * 2.0 - 1.0, radius: 0.15 + 0.45 * rand() })
-            .collect();
+        let spheres: Vec<Sphere> =
+            (0..3 + seed % 5).map(|_| Sphere { center: Vec3::new(rand(), rand(), rand()) * 2.0 - 1.0, radius: 0.15 + 0.45 * rand() }).collect();
         let field = Spheres(spheres);
         let resolution = [9, 16, 31][seed % 3];
         let m = mesh_field(&field, &GridParams { bounds: cube(1.0), resolution, refine: true }).unwrap();

@@ -82,9 +82,7 @@ pub fn weld(mut pieces: Vec<Piece>, tags: &[u32]) -> Welded {
     let mut shared: Vec<(u128, u32, u32)> = pieces
         .par_iter()
         .enumerate()
-        .flat_map_iter(|(pi, p)| {
-            p.keys.iter().enumerate().filter(|(_, k)| **k != UNSHARED).map(move |(i, k)| (*k, pi as u32, i as u32))
-        })
+        .flat_map_iter(|(pi, p)| p.keys.iter().enumerate().filter(|(_, k)| **k != UNSHARED).map(move |(i, k)| (*k, pi as u32, i as u32)))
         .collect();
     shared.par_sort_unstable();
 

@@ -111,18 +111,7 @@ impl Checker {
         let tris_around = Incidence::new(p.len(), tris.iter().copied());
         let cells_around = Incidence::new(p.len(), cells.iter().map(|c| c.base().to_vec()));
         let base_bvh = TriBvh::build(&base);
-        let mut me = Self {
-            base_bvh,
-            diag: mesh.bbox_diagonal() as f64,
-            own: Vec::new(),
-            face_of,
-            first_other,
-            base,
-            tris,
-            cells,
-            tris_around,
-            cells_around,
-        };
+        let mut me = Self { base_bvh, diag: mesh.bbox_diagonal() as f64, own: Vec::new(), face_of, first_other, base, tris, cells, tris_around, cells_around };
         let pairs = me.base_bvh.overlapping_pairs(&|i, j| me.bases_cross(i, j));
         me.own = vec![false; me.tris.len()];
         pairs.iter().for_each(|&(i, j)| (me.own[i as usize], me.own[j as usize]) = (true, true));

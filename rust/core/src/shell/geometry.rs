@@ -1,8 +1,8 @@
 //! Shell geometry from base mesh + directors: offset layers, the outer surface, and
 //! the closed solid (outer surface + reversed base + rim quads along boundaries).
 
-use crate::mesh::{boundary_edges, vertex_normals};
 use super::Shell;
+use crate::mesh::{boundary_edges, vertex_normals};
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
 
@@ -79,9 +79,7 @@ fn layered_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput, at: im
     let layers: Vec<f32> = match output {
         ShellOutput::Outer => vec![1.0],
         ShellOutput::Solid => vec![1.0, 0.0],
-        ShellOutput::Layers(n) if n == 0 || n > MAX_LAYERS => {
-            return Err(Error::InvalidParameter(format!("layer count must be 1..={MAX_LAYERS}, got {n}")))
-        }
+        ShellOutput::Layers(n) if n == 0 || n > MAX_LAYERS => return Err(Error::InvalidParameter(format!("layer count must be 1..={MAX_LAYERS}, got {n}"))),
         ShellOutput::Layers(n) => (1..=n).map(|k| k as f32 / n as f32).collect(),
     };
 

@@ -17,9 +17,9 @@
 
 use super::defects::Checker;
 use super::directors::{assemble, check_inputs, min_edge_at, side_lengths, trace_vertices, watched_steps, Trace, Tracer, REPAIR_FACTOR, TRACE_SAMPLES};
-use super::lp_distance::{extension_faces, PatchTree};
 use super::influence::ChangeBound;
 use super::intersect::{tri_box, TriBvh};
+use super::lp_distance::{extension_faces, PatchTree};
 use super::repair::Repair;
 use super::{Shell, ShellParams, Side, Thickness};
 use crate::mesh::{face_triangles, vertex_normal};
@@ -101,8 +101,7 @@ impl IncrementalShell {
         let mut shell = assemble(&mesh, &thickness, side, &traces);
         let checker = Checker::new(&mesh);
         let mut outer_bvh = None;
-        let repair =
-            Repair { checker: &checker, mesh: &mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR, cancel: progress };
+        let repair = Repair { checker: &checker, mesh: &mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR, cancel: progress };
         shell.check = repair.settle(&mut outer_bvh, &mut shell, None);
         if let Some(p) = progress {
             p.check()?;
@@ -254,12 +253,7 @@ impl IncrementalShell {
     /// anew (the checker, which holds the triangulation, is then rebuilt). `None`: a face's triangle
     /// count changed; rebuild.
     #[allow(clippy::type_complexity)]
-    fn changed_triangles(
-        &mut self,
-        touched_face: &[bool],
-        around: &[u32],
-        thicker: &[u32],
-    ) -> Option<(Vec<(usize, [DVec3; 3], [DVec3; 3])>, bool)> {
+    fn changed_triangles(&mut self, touched_face: &[bool], around: &[u32], thicker: &[u32]) -> Option<(Vec<(usize, [DVec3; 3], [DVec3; 3])>, bool)> {
         let p = self.mesh.positions();
         let mut changes: Vec<(usize, [DVec3; 3])> = Vec::new();
         let mut scratch = (Vec::new(), Vec::new());

@@ -93,8 +93,7 @@ impl ChangeBound {
             })
             .collect();
         cells.sort_by(|a, b| a.centre.to_array().partial_cmp(&b.centre.to_array()).unwrap_or(std::cmp::Ordering::Equal));
-        let (lo, hi) =
-            cells.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), c| (l.min(c.centre - c.radius), h.max(c.centre + c.radius)));
+        let (lo, hi) = cells.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), c| (l.min(c.centre - c.radius), h.max(c.centre + c.radius)));
         let centre = if cells.is_empty() { DVec3::ZERO } else { (lo + hi) * 0.5 };
         let radius = cells.iter().map(|c| (c.centre - centre).length() + c.radius).fold(0.0, f64::max);
         Self { cells, centre, radius, p }

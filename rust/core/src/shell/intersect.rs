@@ -206,9 +206,7 @@ mod tests {
         assert_eq!(query(&bvh), vec![0, 1]);
         // Moving items one by one gives the same answers as a full refit.
         let mut partial = TriBvh::build(&[a, above, crossing]);
-        partial.refit_items(
-            [(1, tri_box(&above.map(|p| p - DVec3::Z * 1.5))), (2, tri_box(&crossing.map(|p| p + DVec3::X * 5.0)))].into_iter(),
-        );
+        partial.refit_items([(1, tri_box(&above.map(|p| p - DVec3::Z * 1.5))), (2, tri_box(&crossing.map(|p| p + DVec3::X * 5.0)))].into_iter());
         assert_eq!(query(&partial), vec![0, 1]);
         partial.refit_items(std::iter::once((2, tri_box(&crossing))));
         assert_eq!(query(&partial), vec![0, 1, 2]);

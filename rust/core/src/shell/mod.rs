@@ -15,11 +15,11 @@
 
 pub mod defects;
 pub mod directors;
-pub mod lp_distance;
 pub mod geometry;
 pub mod incremental;
 pub(crate) mod influence;
 pub mod intersect;
+pub mod lp_distance;
 pub mod offset;
 pub mod repair;
 pub mod report;

@@ -202,7 +202,13 @@ impl Repair<'_> {
         let mut touched: Vec<u32> = Vec::new();
         let mut ring: Vec<u32> = corners.clone();
         for (k, &f) in FALL_OFF.iter().enumerate() {
-            let f = if halving { f } else if k == 0 { 0.0 } else { break };
+            let f = if halving {
+                f
+            } else if k == 0 {
+                0.0
+            } else {
+                break;
+            };
             for &v in &ring {
                 if scale[v as usize] == 1.0 {
                     touched.push(v);

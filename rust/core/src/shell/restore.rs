@@ -86,9 +86,7 @@ pub(crate) fn restore(
     cancel: Option<&crate::progress::Progress>,
 ) -> usize {
     let mut room = NormalRoom::new(checker, mesh, normals, shell.side, &shell.target);
-    let short = |v: usize| {
-        scope.is_none_or(|s| s[v]) && shell.target[v] > 0.0 && shell.achieved[v] < GOAL * shell.target[v] && room.shell.achieved[v] > 0.0
-    };
+    let short = |v: usize| scope.is_none_or(|s| s[v]) && shell.target[v] > 0.0 && shell.achieved[v] < GOAL * shell.target[v] && room.shell.achieved[v] > 0.0;
     let short: Vec<u32> = (0..shell.target.len() as u32).filter(|&v| short(v as usize)).collect();
     if short.is_empty() {
         return 0;
@@ -96,12 +94,8 @@ pub(crate) fn restore(
     let with_room = room.among(short.clone(), Some(outer));
     // Short neighbours are tried too: beside a fold a vertex often fits only once
     // they have their length back.
-    let mut tries: Vec<u32> = with_room
-        .iter()
-        .flat_map(|&c| rings_around(checker, c, NEIGHBOUR_RINGS))
-        .map(|m| m.0)
-        .filter(|v| short.binary_search(v).is_ok())
-        .collect();
+    let mut tries: Vec<u32> =
+        with_room.iter().flat_map(|&c| rings_around(checker, c, NEIGHBOUR_RINGS)).map(|m| m.0).filter(|v| short.binary_search(v).is_ok()).collect();
     tries.sort_unstable();
     tries.dedup();
     // Tried in space-filling-curve order: the greedy batches then do not depend on
@@ -206,8 +200,7 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
     while !(dirty.cell_list.is_empty() && dirty.tri_list.is_empty()) {
         let found = checker.find(mesh, shell, Some(dirty), Some(outer));
         let bad = checker.defect_vertex_list(&found);
-        let (failed, kept): (Vec<usize>, Vec<usize>) =
-            live.iter().partition(|&&g| saved[g].iter().any(|s| bad.binary_search(&s.0).is_ok()));
+        let (failed, kept): (Vec<usize>, Vec<usize>) = live.iter().partition(|&&g| saved[g].iter().any(|s| bad.binary_search(&s.0).is_ok()));
         if failed.is_empty() {
             break;
         }

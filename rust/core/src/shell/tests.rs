@@ -130,10 +130,7 @@ fn restore_gives_back_thickness_the_repair_took_and_stays_clean() {
         assert!(longer > 0);
         for v in 0..mesh.vertex_count() {
             assert!(full.achieved[v] >= shortened.achieved[v] - 1e-6, "{side:?} v{v}: {} < {}", full.achieved[v], shortened.achieved[v]);
-            assert!(
-                full.achieved[v] <= full.target[v] * 1.0001 || full.achieved[v] <= traced.achieved[v] * 1.0001,
-                "{side:?} v{v} overshoots"
-            );
+            assert!(full.achieved[v] <= full.target[v] * 1.0001 || full.achieved[v] <= traced.achieved[v] * 1.0001, "{side:?} v{v} overshoots");
         }
     }
 }
@@ -354,8 +351,7 @@ fn quads_give_hexahedra_and_ngons_prisms() {
     let t = Thickness::relative(0.05).per_vertex(&cube, None).unwrap();
     let s = build_shell(&cube, &t, Side::Exterior, &ShellParams::default()).unwrap();
     assert!(cells.iter().all(|c| !c.is_inverted(cube.positions(), &s)));
-    let hex =
-        Mesh::new((0..6).map(|i| Vec3::new((i as f32).cos(), (i as f32).sin(), 0.0)).collect(), &[6], (0..6).collect(), None).unwrap();
+    let hex = Mesh::new((0..6).map(|i| Vec3::new((i as f32).cos(), (i as f32).sin(), 0.0)).collect(), &[6], (0..6).collect(), None).unwrap();
     assert_eq!(prisms(&hex).len(), 4);
 }
 

@@ -453,8 +453,11 @@ mod tests {
         moved.refit_boxes(shifted.iter().copied());
         let mut across = moved.overlapping_pairs_with(&tb, &|_, _| true);
         across.sort_unstable();
-        let brute: Vec<(u32, u32)> =
-            (0..a.len()).flat_map(|i| (0..b.len()).map(move |j| (i, j))).filter(|&(i, j)| meets(&shifted[i], &b[j])).map(|(i, j)| (i as u32, j as u32)).collect();
+        let brute: Vec<(u32, u32)> = (0..a.len())
+            .flat_map(|i| (0..b.len()).map(move |j| (i, j)))
+            .filter(|&(i, j)| meets(&shifted[i], &b[j]))
+            .map(|(i, j)| (i as u32, j as u32))
+            .collect();
         assert_eq!(across, brute);
         // Moving some items one by one (their slots in leaf order) gives the same
         // joins as moving all.
@@ -463,8 +466,11 @@ mod tests {
         let now: Vec<_> = (0..a.len()).map(|i| if i % 3 == 0 { shifted[i] } else { a[i] }).collect();
         let mut within = partly.overlapping_pairs(&|_, _| true);
         within.sort_unstable();
-        let brute: Vec<(u32, u32)> =
-            (0..a.len()).flat_map(|i| (i + 1..a.len()).map(move |j| (i, j))).filter(|&(i, j)| meets(&now[i], &now[j])).map(|(i, j)| (i as u32, j as u32)).collect();
+        let brute: Vec<(u32, u32)> = (0..a.len())
+            .flat_map(|i| (i + 1..a.len()).map(move |j| (i, j)))
+            .filter(|&(i, j)| meets(&now[i], &now[j]))
+            .map(|(i, j)| (i as u32, j as u32))
+            .collect();
         assert_eq!(within, brute);
         // Early exit: `any` stops at the first accepted item and agrees with `query`.
         let probe = (DVec3::splat(0.4), DVec3::splat(0.6));
@@ -561,8 +567,9 @@ mod tests {
                     let mut on_segment = Vec::new();
                     tree.query_segment(o, o + d * t_far, |i| on_segment.push(i));
                     on_segment.sort_unstable();
-                    let brute: Vec<u32> =
-                        (0..boxes.len() as u32).filter(|&i| segment_meets_box(o, o + d * t_far, DVec3::ONE / (d * t_far), boxes[i as usize].0, boxes[i as usize].1)).collect();
+                    let brute: Vec<u32> = (0..boxes.len() as u32)
+                        .filter(|&i| segment_meets_box(o, o + d * t_far, DVec3::ONE / (d * t_far), boxes[i as usize].0, boxes[i as usize].1))
+                        .collect();
                     assert_eq!(on_segment, brute);
                     assert!(found.iter().all(|f| on_segment.binary_search(&f.0).is_ok()));
                 }

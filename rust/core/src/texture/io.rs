@@ -79,10 +79,7 @@ pub fn save_png_stack(t: &VolumeTexture, dir: &Path, prefix: &str) -> Result<Vec
     std::fs::create_dir_all(dir).map_err(|e| file_error(dir, format!("cannot create the folder: {e}")))?;
     let paths: Vec<PathBuf> = (0..nz).map(|z| dir.join(format!("{prefix}_{z:03}.png"))).collect();
     if let Some(other) = png_files(dir).unwrap_or_default().into_iter().find(|f| !paths.contains(f)) {
-        let message = format!(
-            "the folder already holds {}, which would load as a slice; pick an empty folder",
-            file_name(&other)
-        );
+        let message = format!("the folder already holds {}, which would load as a slice; pick an empty folder", file_name(&other));
         return Err(file_error(dir, message));
     }
     for (z, path) in paths.iter().enumerate() {
@@ -91,9 +88,7 @@ pub fn save_png_stack(t: &VolumeTexture, dir: &Path, prefix: &str) -> Result<Vec
             let a = slice[x as usize + nx * (ny - 1 - row as usize)];
             Luma([(a * 65535.0).round() as u16])
         });
-        picture
-            .save_with_format(path, ImageFormat::Png)
-            .map_err(|e| file_error(path, format!("cannot write the PNG: {e}")))?;
+        picture.save_with_format(path, ImageFormat::Png).map_err(|e| file_error(path, format!("cannot write the PNG: {e}")))?;
     }
     Ok(paths)
 }
@@ -105,8 +100,7 @@ pub fn load_exr(path: &Path) -> Result<VolumeTexture> {
     if !path.is_file() {
         return Err(file_error(path, "no such file"));
     }
-    let image = exr::prelude::read_first_flat_layer_from_file(path)
-        .map_err(|e| file_error(path, format!("not a readable OpenEXR file: {e}")))?;
+    let image = exr::prelude::read_first_flat_layer_from_file(path).map_err(|e| file_error(path, format!("not a readable OpenEXR file: {e}")))?;
     let layer = &image.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
     if w == 0 || h == 0 {
@@ -130,8 +124,7 @@ pub fn load_exr(path: &Path) -> Result<VolumeTexture> {
     let alpha: Vec<f32> = values.chunks_exact(w).rev().flatten().copied().collect();
     if let Some(i) = alpha.iter().position(|a| !a.is_finite()) {
         let (x, y, z) = (i % w, (i / w) % ny, i / (w * ny));
-        let message =
-            format!("channel {} has the non-finite value {} at x={x}, y={y}, slice {z}", channel.name, alpha[i]);
+        let message = format!("channel {} has the non-finite value {} at x={x}, y={y}, slice {z}", channel.name, alpha[i]);
         return Err(file_error(path, message));
     }
     VolumeTexture::new([w, ny, nz], alpha).map_err(|e| file_error(path, e.to_string()))
@@ -147,16 +140,8 @@ pub fn save_exr(t: &VolumeTexture, path: &Path) -> Result<()> {
     let channel = AnyChannel::new("A", FlatSamples::F32(rows));
     let mut attributes = LayerAttributes::default();
     attributes.other.insert(Text::from(DEPTH_ATTRIBUTE), AttributeValue::I32(depth));
-    let layer = Layer::new(
-        (nx, ny * nz),
-        attributes,
-        Encoding::SMALL_LOSSLESS,
-        AnyChannels::sort(std::iter::once(channel).collect()),
-    );
-    Image::from_layer(layer)
-        .write()
-        .to_file(path)
-        .map_err(|e| file_error(path, format!("cannot write the OpenEXR file: {e}")))
+    let layer = Layer::new((nx, ny * nz), attributes, Encoding::SMALL_LOSSLESS, AnyChannels::sort(std::iter::once(channel).collect()));
+    Image::from_layer(layer).write().to_file(path).map_err(|e| file_error(path, format!("cannot write the OpenEXR file: {e}")))
 }
 
 /// One decoded PNG slice, rows ordered bottom-up.
@@ -426,13 +411,7 @@ mod tests {
         // An opaque RGBA picture reads R; a text depth attribute works too.
         let path = dir.join("rgba.exr");
         let r = vec![0.25; 8];
-        write_exr(
-            &path,
-            2,
-            4,
-            &[("A", vec![1.0; 8]), ("G", vec![0.0; 8]), ("R", r)],
-            Some(AttributeValue::Text(Text::from("2"))),
-        );
+        write_exr(&path, 2, 4, &[("A", vec![1.0; 8]), ("G", vec![0.0; 8]), ("R", r)], Some(AttributeValue::Text(Text::from("2"))));
         let t = load_exr(&path).unwrap();
         assert_eq!(t.dims(), [2, 2, 2]);
         assert!(t.samples().iter().all(|&a| a == 0.25));

@@ -118,11 +118,8 @@ impl CellMap {
     pub fn jacobians(&self, q: Vec3) -> (Mat3, Mat3) {
         let (u, v) = (q.x, q.y);
         // d weights / du, d weights / dv.
-        let (du, dv): ([f32; 4], [f32; 4]) = if self.count == 4 {
-            ([-(1.0 - v), 1.0 - v, v, -v], [-(1.0 - u), -u, u, 1.0 - u])
-        } else {
-            ([-1.0, 1.0, 0.0, 0.0], [-1.0, 0.0, 1.0, 0.0])
-        };
+        let (du, dv): ([f32; 4], [f32; 4]) =
+            if self.count == 4 { ([-(1.0 - v), 1.0 - v, v, -v], [-(1.0 - u), -u, u, 1.0 - u]) } else { ([-1.0, 1.0, 0.0, 0.0], [-1.0, 0.0, 1.0, 0.0]) };
         let w = self.weights(u, v);
         let (mut pu, mut pv, mut pr, mut su, mut sv) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec2::ZERO, Vec2::ZERO);
         for k in 0..self.count {
@@ -198,11 +195,8 @@ mod tests {
             let gw = cell.gradient_to_world(q, g);
             let f = |x: Vec3| g.dot(cell.texture(cell.invert(x).unwrap()));
             let h = 1e-3;
-            let fd = Vec3::new(
-                f(x + Vec3::X * h) - f(x - Vec3::X * h),
-                f(x + Vec3::Y * h) - f(x - Vec3::Y * h),
-                f(x + Vec3::Z * h) - f(x - Vec3::Z * h),
-            ) / (2.0 * h);
+            let fd = Vec3::new(f(x + Vec3::X * h) - f(x - Vec3::X * h), f(x + Vec3::Y * h) - f(x - Vec3::Y * h), f(x + Vec3::Z * h) - f(x - Vec3::Z * h))
+                / (2.0 * h);
             assert!((gw - fd).length() < 2e-2 * fd.length(), "{gw} vs {fd}");
         }
     }

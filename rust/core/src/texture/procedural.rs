@@ -217,7 +217,8 @@ impl Features {
                 self.strands.iter().fold(f32::INFINITY, |d, s| {
                     let h = s.height * growth;
                     let u = (c.z / h).clamp(0.0, 1.0);
-                    let curl = if self.pattern == Pattern::Fur { Vec2::new((s.phase + 6.0 * u).sin(), (s.phase + 6.0 * u).cos()) * 0.02 * u } else { Vec2::ZERO };
+                    let curl =
+                        if self.pattern == Pattern::Fur { Vec2::new((s.phase + 6.0 * u).sin(), (s.phase + 6.0 * u).cos()) * 0.02 * u } else { Vec2::ZERO };
                     let centre = s.root + s.lean * u * u + curl;
                     let radius = s.radius * (1.0 - 0.85 * u);
                     let radial = wrap(st - centre).length() - radius;

@@ -133,9 +133,7 @@ fn combined_textures_are_a_union() {
     let g = VolumeTexture::from_fn([4, 4, 17], |c| if c.z < 0.8 && c.x < 0.5 { 1.0 } else { 0.0 }).unwrap();
     let p = BakeParams { resolution: 4, layers: 12, ..Default::default() };
     let one = bake(&mesh, &s, &layer(a.clone()), &p).unwrap();
-    let both =
-        bake(&mesh, &s, &[TextureLayer { texture: a, offset: Vec2::ZERO }, TextureLayer { texture: g, offset: Vec2::new(0.3, 0.1) }], &p)
-            .unwrap();
+    let both = bake(&mesh, &s, &[TextureLayer { texture: a, offset: Vec2::ZERO }, TextureLayer { texture: g, offset: Vec2::new(0.3, 0.1) }], &p).unwrap();
     let top = |b: &BakedMesh| b.texcoords.iter().map(|c| c.z).fold(0.0f32, f32::max);
     assert!(top(&both) > top(&one) + 0.2, "the second texture rises above the rivets");
     assert!(both.triangles.len() > one.triangles.len());
@@ -182,8 +180,7 @@ fn holes_from_a_vertex_group_and_a_cutter_leave_the_texture_out() {
     let full = bake(&mesh, &s, &tex, &p).unwrap();
     assert!(slab_top_near(&full, 0.5, 0.5, 0.2) > 0 && slab_top_near(&full, -0.5, -0.5, 0.2) > 0);
     // Vertex group: weight 1 around (0.5, 0.5).
-    let holes: Vec<f32> =
-        mesh.positions().iter().map(|q| if (q.truncate() - Vec2::splat(0.5)).length() < 0.3 { 1.0 } else { 0.0 }).collect();
+    let holes: Vec<f32> = mesh.positions().iter().map(|q| if (q.truncate() - Vec2::splat(0.5)).length() < 0.3 { 1.0 } else { 0.0 }).collect();
     let cut = bake(&mesh, &s, &tex, &BakeParams { holes: Some(holes), ..p.clone() }).unwrap();
     assert_eq!(slab_top_near(&cut, 0.5, 0.5, 0.15), 0);
     assert!(slab_top_near(&cut, -0.5, -0.5, 0.2) > 0);
@@ -204,8 +201,7 @@ fn holes_from_a_vertex_group_and_a_cutter_leave_the_texture_out() {
 fn a_moved_region_lands_elsewhere_and_leaves_the_base_behind() {
     let (mesh, s, tex) = sheet_with_uvs();
     // Texture only inside a disc around (-0.5, 0); the rest of the sheet is base.
-    let disc: Vec<f32> =
-        mesh.positions().iter().map(|q| if (q.truncate() - Vec2::new(-0.5, 0.0)).length() < 0.3 { 1.0 } else { 0.0 }).collect();
+    let disc: Vec<f32> = mesh.positions().iter().map(|q| if (q.truncate() - Vec2::new(-0.5, 0.0)).length() < 0.3 { 1.0 } else { 0.0 }).collect();
     let p = BakeParams { resolution: 4, layers: 12, region: Some(disc.clone()), ..Default::default() };
     let before = bake(&mesh, &s, &tex, &p).unwrap();
     assert!(slab_top_near(&before, -0.5, 0.0, 0.15) > 0 && slab_top_near(&before, 0.5, 0.0, 0.15) == 0);

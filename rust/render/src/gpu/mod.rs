@@ -32,8 +32,8 @@ use std::time::{Duration, Instant};
 use bytemuck::Zeroable;
 
 use glam::{DMat4, DVec4, Vec3};
-use thicket_core::texture::TextureLayer;
 use thicket_core::texture::CellMap;
+use thicket_core::texture::TextureLayer;
 use thicket_core::{Error, Result};
 use wgpu::util::DeviceExt;
 
@@ -43,9 +43,7 @@ use crate::mipmap::{Level, MipmapSet, Mipmaps};
 use crate::scene::ShellScene;
 use device::Gpu;
 use passes::{Draws, HazeDraws, Targets};
-use pipeline::{
-    Globals, Pipelines, CUTTER_BINS_BINDING, CUTTER_TRIANGLES_BINDING, EFFECTS_BINDING, HAZE_BINDINGS, LAYER_BINDINGS, MAX_LAYERS, MOVED_BINDING,
-};
+use pipeline::{Globals, Pipelines, CUTTER_BINS_BINDING, CUTTER_TRIANGLES_BINDING, EFFECTS_BINDING, HAZE_BINDINGS, LAYER_BINDINGS, MAX_LAYERS, MOVED_BINDING};
 use scene_data::{GpuCell, GpuFrames};
 use slices::{Eye, Family, Templates};
 
@@ -77,14 +75,7 @@ pub struct SliceParams {
 
 impl Default for SliceParams {
     fn default() -> Self {
-        Self {
-            slices: 16,
-            mode: SliceMode::Interpolating,
-            light: Vec3::new(0.3, -0.5, 0.8),
-            ambient: 0.25,
-            albedo: Vec3::splat(0.8),
-            mipmaps: Mipmaps::Double,
-        }
+        Self { slices: 16, mode: SliceMode::Interpolating, light: Vec3::new(0.3, -0.5, 0.8), ambient: 0.25, albedo: Vec3::splat(0.8), mipmaps: Mipmaps::Double }
     }
 }
 
@@ -93,12 +84,7 @@ impl SliceParams {
     pub fn validate(&self) -> Result<()> {
         let bad = |m: String| Err(Error::InvalidParameter(m));
         if !(slices::MIN_SLICES..=slices::MAX_SLICES).contains(&self.slices) {
-            return bad(format!(
-                "{} slices per cell: between {} and {} are supported",
-                self.slices,
-                slices::MIN_SLICES,
-                slices::MAX_SLICES
-            ));
+            return bad(format!("{} slices per cell: between {} and {} are supported", self.slices, slices::MIN_SLICES, slices::MAX_SLICES));
         }
         if !self.light.is_finite() || self.light.length_squared() < 1e-20 {
             return bad("the light direction must be a finite, non-zero vector".into());
@@ -177,18 +163,7 @@ impl GpuRenderer {
             mapped_at_creation: false,
         });
         gpu.wait()?;
-        Ok(Self {
-            gpu,
-            pipelines,
-            globals,
-            scene: None,
-            templates: None,
-            targets: None,
-            instances: None,
-            haze_template: None,
-            timings: None,
-            broken: false,
-        })
+        Ok(Self { gpu, pipelines, globals, scene: None, templates: None, targets: None, instances: None, haze_template: None, timings: None, broken: false })
     }
 
     /// The adapter's name and backend.
@@ -231,11 +206,7 @@ impl GpuRenderer {
             }
             Err(panic) => {
                 self.broken = true;
-                let why = panic
-                    .downcast_ref::<String>()
-                    .map(String::as_str)
-                    .or_else(|| panic.downcast_ref::<&str>().copied())
-                    .unwrap_or("unknown");
+                let why = panic.downcast_ref::<String>().map(String::as_str).or_else(|| panic.downcast_ref::<&str>().copied()).unwrap_or("unknown");
                 Err(Error::Device(format!("the GPU renderer failed ({why}); render on the CPU")))
             }
         }
@@ -275,13 +246,9 @@ impl GpuRenderer {
             return Err(Error::InvalidParameter("the GPU renderer is not set up".into()));
         };
         let haze = match (&self.haze_template, double && facing_end > slice_instances) {
-            (Some((count, layers)), true) => Some(HazeDraws {
-                layers,
-                layer_count: *count,
-                instances,
-                away: slice_instances..away_end,
-                facing: away_end..facing_end,
-            }),
+            (Some((count, layers)), true) => {
+                Some(HazeDraws { layers, layer_count: *count, instances, away: slice_instances..away_end, facing: away_end..facing_end })
+            }
             _ => None,
         };
         let draws = Draws {
@@ -290,15 +257,7 @@ impl GpuRenderer {
             families: Family::ALL.iter().map(|f| (templates.ranges[*f as usize].clone(), grouping.range(*f))).collect(),
         };
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        passes::encode(
-            &mut encoder,
-            &self.pipelines,
-            targets,
-            &scene_res.group,
-            &draws,
-            params.mode == SliceMode::Interpolating,
-            haze.as_ref(),
-        );
+        passes::encode(&mut encoder, &self.pipelines, targets, &scene_res.group, &draws, params.mode == SliceMode::Interpolating, haze.as_ref());
         self.gpu.queue.submit([encoder.finish()]);
         let prepare = start.elapsed();
         self.gpu.wait()?;
@@ -317,14 +276,9 @@ impl GpuRenderer {
     /// are the ones uploaded last.
     fn upload_scene(&mut self, scene: &ShellScene, mipmaps: Mipmaps) {
         if let Some(s) = &self.scene {
-            let same_layers = s.layers.len() == scene.textures.len()
-                && s.layers.iter().zip(&scene.textures).all(|(a, b)| a.offset == b.offset && a.texture == b.texture);
-            if same_layers
-                && s.cells == scene.cells
-                && s.mipmaps == mipmaps
-                && s.effects == scene_data::effects(scene)
-                && s.fields.are_of(scene)
-            {
+            let same_layers =
+                s.layers.len() == scene.textures.len() && s.layers.iter().zip(&scene.textures).all(|(a, b)| a.offset == b.offset && a.texture == b.texture);
+            if same_layers && s.cells == scene.cells && s.mipmaps == mipmaps && s.effects == scene_data::effects(scene) && s.fields.are_of(scene) {
                 return;
             }
         }
@@ -333,11 +287,7 @@ impl GpuRenderer {
         let cells: Vec<GpuCell> = scene.cells.iter().map(GpuCell::new).collect();
         let frames: Vec<GpuFrames> = scene.cells.iter().map(GpuFrames::new).collect();
         let storage = |label: &str, contents: &[u8]| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::STORAGE,
-            })
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage: wgpu::BufferUsages::STORAGE })
         };
         let cell_buffer = storage("cells", bytemuck::cast_slice(&cells));
         let frame_buffer = storage("cell frames", bytemuck::cast_slice(&frames));
@@ -358,11 +308,8 @@ impl GpuRenderer {
         let (cutter_tris, cutter_bins) = (storage("cutter triangles", cutter_tris), storage("cutter bins", cutter_bins));
         let moved_view = moved.create_view(&Default::default());
         let set = MipmapSet::build(&scene.textures, mipmaps);
-        let mut volumes: Vec<wgpu::Texture> = set
-            .occupancy
-            .iter()
-            .map(|chain| self.upload_chain("volume texture", chain.iter().map(|l| (l.dims, l.texels.iter().copied()))))
-            .collect();
+        let mut volumes: Vec<wgpu::Texture> =
+            set.occupancy.iter().map(|chain| self.upload_chain("volume texture", chain.iter().map(|l| (l.dims, l.texels.iter().copied())))).collect();
         let haze = self.upload_haze(&set);
         let views: Vec<wgpu::TextureView> = volumes.iter().map(|v| v.create_view(&Default::default())).collect();
         let haze_views: Vec<wgpu::TextureView> = haze.iter().map(|v| v.create_view(&Default::default())).collect();
@@ -380,17 +327,13 @@ impl GpuRenderer {
         // The slots past the last layer hold layer 0 again; the shaders skip them.
         for (k, binding) in LAYER_BINDINGS.iter().enumerate() {
             let view = views.get(k).unwrap_or(&views[0]);
-            entries
-                .push(wgpu::BindGroupEntry { binding: *binding, resource: wgpu::BindingResource::TextureView(view) });
+            entries.push(wgpu::BindGroupEntry { binding: *binding, resource: wgpu::BindingResource::TextureView(view) });
         }
         for (view, binding) in haze_views.iter().zip(HAZE_BINDINGS) {
             entries.push(wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) });
         }
-        let group = self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("scene"),
-            layout: &self.pipelines.scene_layout,
-            entries: &entries,
-        });
+        let group =
+            self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("scene"), layout: &self.pipelines.scene_layout, entries: &entries });
         let haze_dims = set.transparency_dims();
         let haze_layers = if set.transparency.is_empty() { 0 } else { haze_layer_count(haze_dims[2], set.transition) };
         volumes.extend(haze);
@@ -411,11 +354,7 @@ impl GpuRenderer {
     }
 
     /// A 3D texture with the given mip levels (size and RGBA texels each).
-    fn upload_chain<I: Iterator<Item = [f32; 4]>>(
-        &self,
-        label: &str,
-        levels: impl ExactSizeIterator<Item = ([usize; 3], I)>,
-    ) -> wgpu::Texture {
+    fn upload_chain<I: Iterator<Item = [f32; 4]>>(&self, label: &str, levels: impl ExactSizeIterator<Item = ([usize; 3], I)>) -> wgpu::Texture {
         let mut levels = levels.peekable();
         let [nx, ny, nz] = levels.peek().map_or([1; 3], |l| l.0).map(|n| n as u32);
         let volume = self.gpu.device.create_texture(&wgpu::TextureDescriptor {
@@ -432,12 +371,7 @@ impl GpuRenderer {
             let [w, h, d] = dims.map(|n| n as u32);
             let halves: Vec<u16> = texels.flat_map(|t| t.map(scene_data::f16_bits)).collect();
             self.gpu.queue.write_texture(
-                wgpu::TexelCopyTextureInfo {
-                    texture: &volume,
-                    mip_level: level as u32,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect: wgpu::TextureAspect::All,
-                },
+                wgpu::TexelCopyTextureInfo { texture: &volume, mip_level: level as u32, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
                 bytemuck::cast_slice(&halves),
                 wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(8 * w), rows_per_image: Some(h) },
                 wgpu::Extent3d { width: w, height: h, depth_or_array_layers: d },
@@ -473,11 +407,8 @@ impl GpuRenderer {
     /// diagonal and off-diagonal entries); single empty texels without one.
     fn upload_haze(&self, set: &MipmapSet) -> Vec<wgpu::Texture> {
         type Pick = fn(&crate::mipmap::Haze) -> [f32; 4];
-        let picks: [Pick; 3] = [
-            |h| h.alpha.to_array(),
-            |h| [h.ndf.x_axis.x, h.ndf.y_axis.y, h.ndf.z_axis.z, 0.0],
-            |h| [h.ndf.x_axis.y, h.ndf.x_axis.z, h.ndf.y_axis.z, 0.0],
-        ];
+        let picks: [Pick; 3] =
+            [|h| h.alpha.to_array(), |h| [h.ndf.x_axis.x, h.ndf.y_axis.y, h.ndf.z_axis.z, 0.0], |h| [h.ndf.x_axis.y, h.ndf.x_axis.z, h.ndf.y_axis.z, 0.0]];
         let empty = [Level { dims: [1; 3], texels: vec![crate::mipmap::Haze { alpha: glam::Vec4::ZERO, ndf: glam::Mat3::ZERO }] }];
         let chain: &[Level<crate::mipmap::Haze>] = if set.transparency.is_empty() { &empty } else { &set.transparency };
         picks.map(|pick| self.upload_chain("transparency texture", chain.iter().map(|l| (l.dims, l.texels.iter().map(pick))))).into()
@@ -572,10 +503,7 @@ fn validate(scene: &ShellScene, camera: &Camera, limits: &wgpu::Limits) -> Resul
         return bad("no texture to render".into());
     }
     if scene.textures.len() > MAX_LAYERS {
-        return bad(format!(
-            "{} texture layers are more than the GPU renderer unites ({MAX_LAYERS}); merge some first",
-            scene.textures.len()
-        ));
+        return bad(format!("{} texture layers are more than the GPU renderer unites ({MAX_LAYERS}); merge some first", scene.textures.len()));
     }
     let frames = scene.cells.len() as u64 * std::mem::size_of::<GpuFrames>() as u64;
     if frames > limits.max_storage_buffer_binding_size || frames > limits.max_buffer_size {
@@ -584,10 +512,7 @@ fn validate(scene: &ShellScene, camera: &Camera, limits: &wgpu::Limits) -> Resul
     for layer in &scene.textures {
         let dims = layer.texture.dims();
         if dims.iter().any(|&n| n > limits.max_texture_dimension_3d as usize) {
-            return bad(format!(
-                "the texture {dims:?} is larger than this GPU's largest 3D texture ({} a side)",
-                limits.max_texture_dimension_3d
-            ));
+            return bad(format!("the texture {dims:?} is larger than this GPU's largest 3D texture ({} a side)", limits.max_texture_dimension_3d));
         }
         if !layer.offset.is_finite() {
             return bad("the texture offset is not finite".into());
@@ -610,12 +535,8 @@ fn eye(camera: &Camera) -> Eye {
 /// [0, 1], far to near): with a float depth buffer the depth resolution is then about
 /// 2^-24 of the distance at any distance, whatever the near plane, so the two copies
 /// of a shared face (a thousandth of the cell apart) are always told apart.
-const GL_TO_WGPU: DMat4 = DMat4::from_cols(
-    DVec4::new(1.0, 0.0, 0.0, 0.0),
-    DVec4::new(0.0, 1.0, 0.0, 0.0),
-    DVec4::new(0.0, 0.0, -0.5, 0.0),
-    DVec4::new(0.0, 0.0, 0.5, 1.0),
-);
+const GL_TO_WGPU: DMat4 =
+    DMat4::from_cols(DVec4::new(1.0, 0.0, 0.0, 0.0), DVec4::new(0.0, 1.0, 0.0, 0.0), DVec4::new(0.0, 0.0, -0.5, 0.0), DVec4::new(0.0, 0.0, 0.5, 1.0));
 
 /// Transparency layers drawn (§6.5.2): the mean of the rows across the shell of the
 /// transition level and the next, at least two.

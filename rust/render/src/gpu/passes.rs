@@ -26,14 +26,7 @@ pub struct Targets {
     pub second_group: wgpu::BindGroup,
 }
 
-fn image(
-    device: &wgpu::Device,
-    label: &str,
-    w: u32,
-    h: u32,
-    format: wgpu::TextureFormat,
-    usage: wgpu::TextureUsages,
-) -> wgpu::Texture {
+fn image(device: &wgpu::Device, label: &str, w: u32, h: u32, format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
     device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
@@ -56,8 +49,7 @@ impl Targets {
         let second_hit = view(&image(device, "T2", width, height, pipeline::SECOND_HIT_FORMAT, sampled));
         let haze = view(&image(device, "transparency", width, height, pipeline::HAZE_FORMAT, sampled));
         let depth_inside = view(&image(device, "depth 1", width, height, pipeline::DEPTH_FORMAT, U::RENDER_ATTACHMENT));
-        let depth_outside =
-            view(&image(device, "depth 2", width, height, pipeline::DEPTH_FORMAT, U::RENDER_ATTACHMENT));
+        let depth_outside = view(&image(device, "depth 2", width, height, pipeline::DEPTH_FORMAT, U::RENDER_ATTACHMENT));
         let out = U::RENDER_ATTACHMENT | U::COPY_SRC;
         let color = image(device, "colour", width, height, pipeline::OUTPUT_FORMAT, out);
         let normal_depth = image(device, "normal, depth", width, height, pipeline::OUTPUT_FORMAT, out);

@@ -97,11 +97,7 @@ fn entry(binding: u32, visibility: wgpu::ShaderStages, ty: wgpu::BindingType) ->
 }
 
 fn storage() -> wgpu::BindingType {
-    wgpu::BindingType::Buffer {
-        ty: wgpu::BufferBindingType::Storage { read_only: true },
-        has_dynamic_offset: false,
-        min_binding_size: None,
-    }
+    wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only: true }, has_dynamic_offset: false, min_binding_size: None }
 }
 
 fn texture_2d(sample_type: wgpu::TextureSampleType) -> wgpu::BindingType {
@@ -142,23 +138,13 @@ fn target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
 
 impl Pipelines {
     pub fn new(device: &wgpu::Device) -> Self {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("slices.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(SLICES_WGSL)),
-        });
+        let module = device
+            .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("slices.wgsl"), source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(SLICES_WGSL)) });
         let vf = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("scene"),
             entries: &[
-                entry(
-                    0,
-                    vf,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                ),
+                entry(0, vf, wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None }),
                 entry(1, vf, storage()),
                 entry(2, wgpu::ShaderStages::FRAGMENT, storage()),
                 entry(4, wgpu::ShaderStages::FRAGMENT, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
@@ -180,11 +166,7 @@ impl Pipelines {
             label: Some("first hit"),
             entries: &[
                 entry(0, wgpu::ShaderStages::FRAGMENT, texture_2d(wgpu::TextureSampleType::Uint)),
-                entry(
-                    1,
-                    wgpu::ShaderStages::FRAGMENT,
-                    texture_2d(wgpu::TextureSampleType::Float { filterable: false }),
-                ),
+                entry(1, wgpu::ShaderStages::FRAGMENT, texture_2d(wgpu::TextureSampleType::Float { filterable: false })),
             ],
         });
         let second_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -195,11 +177,7 @@ impl Pipelines {
             ],
         });
         let layout = |label: &str, groups: &[Option<&wgpu::BindGroupLayout>]| {
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(label),
-                bind_group_layouts: groups,
-                immediate_size: 0,
-            })
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some(label), bind_group_layouts: groups, immediate_size: 0 })
         };
         let inside_layout = layout("inside", &[Some(&scene_layout)]);
         let outside_layout = layout("outside", &[Some(&scene_layout), Some(&first_layout)]);
@@ -209,50 +187,29 @@ impl Pipelines {
         let template_attributes = wgpu::vertex_attr_array![0 => Float32x4];
         let instance_attributes = wgpu::vertex_attr_array![1 => Uint32];
         let buffers = [
-            Some(wgpu::VertexBufferLayout {
-                array_stride: 16,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &template_attributes,
-            }),
-            Some(wgpu::VertexBufferLayout {
-                array_stride: 4,
-                step_mode: wgpu::VertexStepMode::Instance,
-                attributes: &instance_attributes,
-            }),
+            Some(wgpu::VertexBufferLayout { array_stride: 16, step_mode: wgpu::VertexStepMode::Vertex, attributes: &template_attributes }),
+            Some(wgpu::VertexBufferLayout { array_stride: 4, step_mode: wgpu::VertexStepMode::Instance, attributes: &instance_attributes }),
         ];
-        let slice_pipeline = |label: &str,
-                              layout: &wgpu::PipelineLayout,
-                              fragment: &str,
-                              targets: &[Option<wgpu::ColorTargetState>],
-                              compare: Option<wgpu::CompareFunction>| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_slice"),
-                    compilation_options: Default::default(),
-                    buffers: &buffers,
-                },
-                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-                depth_stencil: compare.map(|compare| wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(compare),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(fragment),
-                    compilation_options: Default::default(),
-                    targets,
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
+        let slice_pipeline =
+            |label: &str, layout: &wgpu::PipelineLayout, fragment: &str, targets: &[Option<wgpu::ColorTargetState>], compare: Option<wgpu::CompareFunction>| {
+                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(layout),
+                    vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_slice"), compilation_options: Default::default(), buffers: &buffers },
+                    primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                    depth_stencil: compare.map(|compare| wgpu::DepthStencilState {
+                        format: DEPTH_FORMAT,
+                        depth_write_enabled: Some(true),
+                        depth_compare: Some(compare),
+                        stencil: Default::default(),
+                        bias: Default::default(),
+                    }),
+                    multisample: Default::default(),
+                    fragment: Some(wgpu::FragmentState { module: &module, entry_point: Some(fragment), compilation_options: Default::default(), targets }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+            };
         let inside = slice_pipeline(
             "inside pass",
             &inside_layout,
@@ -271,11 +228,8 @@ impl Pipelines {
         );
         // Premultiplied "over", drawn from the base outward (chapter 6.5.2); no depth
         // buffer: the shader hides what lies behind Z1.
-        let over = wgpu::BlendComponent {
-            src_factor: wgpu::BlendFactor::One,
-            dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
-            operation: wgpu::BlendOperation::Add,
-        };
+        let over =
+            wgpu::BlendComponent { src_factor: wgpu::BlendFactor::One, dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha, operation: wgpu::BlendOperation::Add };
         let haze = slice_pipeline(
             "transparency pass",
             &outside_layout,
@@ -290,12 +244,7 @@ impl Pipelines {
         let shade = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("shading pass"),
             layout: Some(&shade_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_fullscreen"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
+            vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_fullscreen"), compilation_options: Default::default(), buffers: &[] },
             primitive: Default::default(),
             depth_stencil: None,
             multisample: Default::default(),

@@ -28,29 +28,15 @@ pub fn buffer(device: &wgpu::Device, width: u32, height: u32) -> wgpu::Buffer {
 }
 
 /// Records the copies of `color` and `normal_depth` into `buffer`.
-pub fn copy(
-    encoder: &mut wgpu::CommandEncoder,
-    color: &wgpu::Texture,
-    normal_depth: &wgpu::Texture,
-    buffer: &wgpu::Buffer,
-) {
+pub fn copy(encoder: &mut wgpu::CommandEncoder, color: &wgpu::Texture, normal_depth: &wgpu::Texture, buffer: &wgpu::Buffer) {
     let (w, h) = (color.width(), color.height());
     let row = padded_row(w);
     for (k, texture) in [color, normal_depth].into_iter().enumerate() {
         encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
+            wgpu::TexelCopyTextureInfo { texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
             wgpu::TexelCopyBufferInfo {
                 buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: k as u64 * row as u64 * h as u64,
-                    bytes_per_row: Some(row),
-                    rows_per_image: Some(h),
-                },
+                layout: wgpu::TexelCopyBufferLayout { offset: k as u64 * row as u64 * h as u64, bytes_per_row: Some(row), rows_per_image: Some(h) },
             },
             wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
         );
@@ -70,9 +56,7 @@ pub fn read(gpu: &Gpu, buffer: &wgpu::Buffer, width: u32, height: u32) -> Result
         Err(_) => return Err(Error::InvalidParameter("reading the GPU image back never finished".into())),
     }
     let frame = {
-        let view = buffer
-            .get_mapped_range(..)
-            .map_err(|e| Error::InvalidParameter(format!("reading the GPU image back failed: {e}")))?;
+        let view = buffer.get_mapped_range(..).map_err(|e| Error::InvalidParameter(format!("reading the GPU image back failed: {e}")))?;
         unpack(&view, width, height)
     };
     buffer.unmap();
@@ -86,14 +70,19 @@ pub fn unpack(bytes: &[u8], width: u32, height: u32) -> Frame {
     let row = padded_row(width) as usize;
     let image = row * height as usize;
     let texel = |at: usize| Vec4::from_array(bytemuck::pod_read_unaligned::<[f32; 4]>(&bytes[at..at + TEXEL as usize]));
-    Frame::from_pixels(width, height, || (), |_, x, y| {
-        let at = y * row + x * TEXEL as usize;
-        let color = texel(at);
-        let nd = texel(image + at);
-        let normal = Vec3::new(nd.x, nd.y, nd.z);
-        let surface = normal.length_squared() > 0.25;
-        (color.w > 0.0).then(|| if surface { (color, nd.w, normal) } else { (color, f32::INFINITY, Vec3::ZERO) })
-    })
+    Frame::from_pixels(
+        width,
+        height,
+        || (),
+        |_, x, y| {
+            let at = y * row + x * TEXEL as usize;
+            let color = texel(at);
+            let nd = texel(image + at);
+            let normal = Vec3::new(nd.x, nd.y, nd.z);
+            let surface = normal.length_squared() > 0.25;
+            (color.w > 0.0).then(|| if surface { (color, nd.w, normal) } else { (color, f32::INFINITY, Vec3::ZERO) })
+        },
+    )
 }
 
 #[cfg(test)]

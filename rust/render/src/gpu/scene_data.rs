@@ -17,10 +17,7 @@ pub struct GpuCell {
 
 impl GpuCell {
     pub fn new(c: &CellMap) -> Self {
-        Self {
-            corner: [0, 1, 2].map(|k| c.base[k].extend(c.st[k].x).to_array()),
-            director: [0, 1, 2].map(|k| c.director[k].extend(c.st[k].y).to_array()),
-        }
+        Self { corner: [0, 1, 2].map(|k| c.base[k].extend(c.st[k].x).to_array()), director: [0, 1, 2].map(|k| c.director[k].extend(c.st[k].y).to_array()) }
     }
 }
 
@@ -260,8 +257,7 @@ mod tests {
 
     #[test]
     fn texels_hold_alpha_and_the_cpu_gradient() {
-        let t =
-            thicket_core::texture::VolumeTexture::from_fn([8, 6, 5], |c| (0.3 * c.x + 0.2 * c.z + 0.1 * (6.0 * c.y).sin()).fract()).unwrap();
+        let t = thicket_core::texture::VolumeTexture::from_fn([8, 6, 5], |c| (0.3 * c.x + 0.2 * c.z + 0.1 * (6.0 * c.y).sin()).fract()).unwrap();
         // The finest mip level, in the half floats the GPU gets.
         let texels: Vec<u16> = crate::mipmap::finest_level(&t).texels.iter().flat_map(|t| t.map(f16_bits)).collect();
         let [nx, ny, nz] = t.dims();
@@ -280,12 +276,7 @@ mod tests {
     fn neighbours_are_found_across_shared_faces() {
         // Two prisms sharing the edge (1, 0, 0)-(0, 1, 0), with different tiles.
         let d = Vec3::Z;
-        let a = CellMap {
-            count: 3,
-            base: [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ZERO],
-            director: [d; 4],
-            st: [Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ZERO],
-        };
+        let a = CellMap { count: 3, base: [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ZERO], director: [d; 4], st: [Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ZERO] };
         let b = CellMap {
             count: 3,
             base: [Vec3::Y, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::ZERO],

@@ -129,10 +129,7 @@ impl ShellTexturingParams {
     /// Settings in range, before any GPU work.
     pub fn validate(&self) -> Result<()> {
         if !(1..=MAX_SHELLS).contains(&self.shells) {
-            return Err(Error::InvalidParameter(format!(
-                "{} shells: between 1 and {MAX_SHELLS} are supported",
-                self.shells
-            )));
+            return Err(Error::InvalidParameter(format!("{} shells: between 1 and {MAX_SHELLS} are supported", self.shells)));
         }
         // The shading settings are the slice renderer's.
         SliceParams { light: self.light, ambient: self.ambient, albedo: self.albedo, ..Default::default() }.validate()
@@ -210,11 +207,7 @@ impl ShellTexturingRenderer {
                 entry(
                     0,
                     wgpu::ShaderStages::VERTEX_FRAGMENT,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
+                    wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
                 ),
                 entry(1, wgpu::ShaderStages::FRAGMENT, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
                 volume(2),
@@ -387,11 +380,7 @@ impl ShellTexturingRenderer {
             let view = views.get(slot).unwrap_or(&views[0]);
             entries.push(wgpu::BindGroupEntry { binding: 2 + slot as u32, resource: wgpu::BindingResource::TextureView(view) });
         }
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shell texturing"),
-            layout: &self.layout,
-            entries: &entries,
-        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("shell texturing"), layout: &self.layout, entries: &entries });
         self.scene = Some(Uploaded { scene: scene.clone(), vertices, group, _volumes: volumes });
     }
 
@@ -453,11 +442,7 @@ impl ShellTexturingRenderer {
 fn globals(scene: &ShellTexturingScene, camera: &Camera, params: &ShellTexturingParams) -> Globals {
     let view = camera.view.as_dmat4();
     let view_proj = GL_TO_WGPU * camera.projection.as_dmat4() * view;
-    let eye = if camera.is_orthographic() {
-        camera.view.inverse().transform_vector3(Vec3::NEG_Z).extend(0.0)
-    } else {
-        camera.position().extend(1.0)
-    };
+    let eye = if camera.is_orthographic() { camera.view.inverse().transform_vector3(Vec3::NEG_Z).extend(0.0) } else { camera.position().extend(1.0) };
     let mut layers = [[0.0; 4]; MAX_LAYERS];
     for (info, layer) in layers.iter_mut().zip(&scene.textures) {
         *info = [layer.offset.x, layer.offset.y, layer.texture.dims()[2] as f32, 0.0];
@@ -493,8 +478,7 @@ mod tests {
     fn renderer() -> MutexGuard<'static, ShellTexturingRenderer> {
         static R: OnceLock<Mutex<ShellTexturingRenderer>> = OnceLock::new();
         R.get_or_init(|| {
-            let r = ShellTexturingRenderer::new()
-                .unwrap_or_else(|e| panic!("no GPU adapter (make test-rust installs lavapipe): {e}"));
+            let r = ShellTexturingRenderer::new().unwrap_or_else(|e| panic!("no GPU adapter (make test-rust installs lavapipe): {e}"));
             Mutex::new(r)
         })
         .lock()

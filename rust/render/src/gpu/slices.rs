@@ -123,11 +123,7 @@ pub fn templates(slices: u32) -> Templates {
             let p = k as f32 / (m - 1) as f32;
             let (a, b) = match family {
                 Family::R => {
-                    push_triangle(
-                        &mut vertices,
-                        [Vec3::new(0.0, 0.0, p), Vec3::new(1.0, 0.0, p), Vec3::new(0.0, 1.0, p)],
-                        tag,
-                    );
+                    push_triangle(&mut vertices, [Vec3::new(0.0, 0.0, p), Vec3::new(1.0, 0.0, p), Vec3::new(0.0, 1.0, p)], tag);
                     continue;
                 }
                 Family::U => (Vec2::new(p, 0.0), Vec2::new(p, 1.0 - p)),

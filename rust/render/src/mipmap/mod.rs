@@ -94,9 +94,7 @@ pub(crate) fn reduce<T: Copy + Send + Sync, U: Send>(
         .map(|k| {
             let (x, y, z) = (k % m0, (k / m0) % m1, k / (m0 * m1));
             let (cx, cy, cz) = (children(x, n0, m0), children(y, n1, m1), children(z, n2, m2));
-            let mut it = cz
-                .flat_map(|z| cy.clone().map(move |y| (y, z)))
-                .flat_map(|(y, z)| cx.clone().map(move |x| level.texels[x + n0 * (y + n1 * z)]));
+            let mut it = cz.flat_map(|z| cy.clone().map(move |y| (y, z))).flat_map(|(y, z)| cx.clone().map(move |x| level.texels[x + n0 * (y + n1 * z)]));
             combine(&mut it)
         })
         .collect();
@@ -188,9 +186,7 @@ impl MipmapSet {
         let finest: Vec<Level<[f32; 4]>> = layers.iter().map(|l| finest_level(&l.texture)).collect();
         match mode {
             Mipmaps::Off => Self { mode, occupancy: finest.into_iter().map(|l| vec![l]).collect(), transparency: vec![], transition: 0 },
-            Mipmaps::Linear => {
-                Self { mode, occupancy: finest.into_iter().map(linear_chain).collect(), transparency: vec![], transition: 0 }
-            }
+            Mipmaps::Linear => Self { mode, occupancy: finest.into_iter().map(linear_chain).collect(), transparency: vec![], transition: 0 },
             Mipmaps::Double => {
                 let united = united_level(layers, &finest);
                 let united_chain = linear_chain(united.clone());
@@ -198,12 +194,7 @@ impl MipmapSet {
                 let vanishing = transition_level(&united_chain);
                 if vanishing >= last {
                     // Nothing vanishes: averaged levels all the way (no hand-over).
-                    return Self {
-                        mode,
-                        occupancy: finest.into_iter().map(linear_chain).collect(),
-                        transparency: vec![],
-                        transition: last,
-                    };
+                    return Self { mode, occupancy: finest.into_iter().map(linear_chain).collect(), transparency: vec![], transition: last };
                 }
                 let transition = vanishing.max(1);
                 let transparency = transparency_chain(&united, transition);

@@ -57,11 +57,7 @@ fn wedge(v: DVec3, d1: DVec3, d2: DVec3, n: DVec3, x: DVec3, w: f64) -> (f64, DV
     let q_minus_ub = if ub > 0.0 { (perp * perp + w * w) / (q + ub) } else { q - ub };
     let hu = sin_b / (q * q_minus_ub);
     let hv = 1.0 / (q * q_minus_u) - cos_b / (q * q_minus_ub);
-    let hw = if aw == 0.0 {
-        0.0
-    } else {
-        -h / w + ((rho2 - q * u) * sin_b - q * vv * (1.0 - cos_b)) / (q * w * q_minus_u * q_minus_ub)
-    };
+    let hw = if aw == 0.0 { 0.0 } else { -h / w + ((rho2 - q * u) * sin_b - q * vv * (1.0 - cos_b)) / (q * w * q_minus_u * q_minus_ub) };
     (h, e1 * hu + e2 * hv + n * hw)
 }
 

@@ -283,14 +283,9 @@ impl PatchTree {
         let (area, centroid, second, radius) = if node.count > 0 {
             let r = node.index as usize..(node.index + node.count) as usize;
             let area: f64 = self.tri_area[r.clone()].iter().sum();
-            let c = if area > 0.0 {
-                r.clone().map(|i| self.tri_centroid[i] * self.tri_area[i]).sum::<DVec3>() / area
-            } else {
-                self.tri_centroid[r.start]
-            };
+            let c = if area > 0.0 { r.clone().map(|i| self.tri_centroid[i] * self.tri_area[i]).sum::<DVec3>() / area } else { self.tri_centroid[r.start] };
             let second = shifted(c, &mut r.clone().map(|i| (self.tri_area[i], self.tri_centroid[i], self.tri_second[i])));
-            self.boxes[n] =
-                self.tris[r.clone()].iter().flatten().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), p| (l.min(*p), h.max(*p)));
+            self.boxes[n] = self.tris[r.clone()].iter().flatten().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(l, h), p| (l.min(*p), h.max(*p)));
             let rad = self.tris[r].iter().flatten().map(|p| (*p - c).length()).fold(0.0, f64::max);
             (area, c, second, rad)
         } else {
@@ -482,8 +477,7 @@ mod tests {
     fn refitting_some_triangles_matches_a_rebuilt_tree() {
         let flat = sheet(12, |_| 0.0);
         let bumped = sheet(12, |k| if (40..60).contains(&k) { 0.3 } else { 0.0 });
-        let moved: Vec<(usize, [DVec3; 3])> =
-            flat.iter().zip(&bumped).enumerate().filter(|(_, (a, b))| a != b).map(|(i, (_, b))| (i, *b)).collect();
+        let moved: Vec<(usize, [DVec3; 3])> = flat.iter().zip(&bumped).enumerate().filter(|(_, (a, b))| a != b).map(|(i, (_, b))| (i, *b)).collect();
         assert!(!moved.is_empty() && moved.len() < flat.len() / 4);
         let mut tree = PatchTree::build(&flat);
         assert!(tree.refit_triangles(&moved));

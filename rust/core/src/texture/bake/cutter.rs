@@ -58,9 +58,8 @@ impl Cutter {
         // sees it; `contains` tests each triangle exactly, so extra ones change nothing.
         let pad = DVec2::splat(1e-4 * cell);
         for (k, t) in tris.iter().enumerate() {
-            let (a, b) = t.iter().fold((DVec2::splat(f64::MAX), DVec2::splat(f64::MIN)), |(a, b), p| {
-                (a.min(p.truncate().as_dvec2()), b.max(p.truncate().as_dvec2()))
-            });
+            let (a, b) =
+                t.iter().fold((DVec2::splat(f64::MAX), DVec2::splat(f64::MIN)), |(a, b), p| (a.min(p.truncate().as_dvec2()), b.max(p.truncate().as_dvec2())));
             let (a, b) = (a - pad, b + pad);
             for y in bin(a.y, lo.y)..=bin(b.y, lo.y) {
                 for x in bin(a.x, lo.x)..=bin(b.x, lo.x) {

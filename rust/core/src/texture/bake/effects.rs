@@ -112,7 +112,6 @@ impl Effects {
         self.moved.as_ref().map(|(mask, d)| (mask.raster(), *d))
     }
 
-
     /// The region and hole weights at the corners of cell `t`, in `[0, 1]` (1 and 0
     /// where there is none); [`Self::site`] interpolates them, exactly where the
     /// corners agree.
@@ -133,9 +132,9 @@ impl Effects {
     /// keep. Per-vertex weights are linear, so their extremes are at the corners.
     pub fn bounds(&self, t: usize, w: &[[f32; 4]; 3]) -> (bool, f32) {
         let range = |values: Option<&[f32]>| {
-            w.iter().filter_map(|w| self.per_vertex(values, t, w)).fold(None, |r: Option<(f32, f32)>, x| {
-                Some(r.map_or((x, x), |(lo, hi)| (lo.min(x), hi.max(x))))
-            })
+            w.iter()
+                .filter_map(|w| self.per_vertex(values, t, w))
+                .fold(None, |r: Option<(f32, f32)>, x| Some(r.map_or((x, x), |(lo, hi)| (lo.min(x), hi.max(x)))))
         };
         let textures_only = range(self.region.as_deref()).is_none_or(|(lo, _)| lo >= 1.0) && self.moved.is_none();
         (textures_only, range(self.holes.as_deref()).map_or(1.0, |(lo, _)| 1.0 - lo))

@@ -115,7 +115,15 @@ impl Lattice {
             let at = |v: u32| self.corner(other.iter().position(|c| *c == v).unwrap_or(0));
             let (pa, pb) = (at(p), at(q));
             // Corners sit at 0 or n, so the step moves by exactly `step` per axis.
-            let go = |a: u32, b: u32| if b > a { a + step } else if b < a { a - step } else { a };
+            let go = |a: u32, b: u32| {
+                if b > a {
+                    a + step
+                } else if b < a {
+                    a - step
+                } else {
+                    a
+                }
+            };
             (o, go(pa.0, pb.0), go(pa.1, pb.1))
         };
         match (i, j) {

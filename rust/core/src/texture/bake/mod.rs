@@ -24,25 +24,25 @@
 mod bounds;
 pub mod cutter;
 pub mod effects;
-mod occupancy;
 mod lattice;
+mod occupancy;
 mod polygonize;
 mod simplify;
 mod uv_mask;
 
 use super::mapping::{TextureCoordinates, TriangleCells};
 use super::TextureLayer;
-use crate::shell::Shell;
+use crate::polygonize::weld::{weld, Piece};
 use crate::progress::Progress;
+use crate::shell::Shell;
 use crate::{Error, Mesh, Result};
+use bounds::MaxPyramid;
 pub use cutter::Cutter;
 pub use effects::{Effects, Site};
-use bounds::MaxPyramid;
-use occupancy::Occupancy;
 use glam::{Vec2, Vec3};
 use lattice::Lattice;
+use occupancy::Occupancy;
 use polygonize::{Cells, Scratch};
-use crate::polygonize::weld::{weld, Piece};
 use rayon::prelude::*;
 
 /// Bake settings.
@@ -465,7 +465,6 @@ pub fn estimate_bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], para
 pub fn estimate_triangles(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<usize> {
     Ok(estimate_bake(mesh, shell, textures, params)?.triangles)
 }
-
 
 #[cfg(test)]
 mod layer_tests {

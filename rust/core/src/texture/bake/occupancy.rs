@@ -6,9 +6,9 @@
 
 use super::bounds::MaxPyramid;
 use super::effects::Effects;
-use crate::texture::TextureLayer;
 use crate::texture::mapping::CellMap;
 use crate::texture::volume::Column;
+use crate::texture::TextureLayer;
 use glam::{Vec2, Vec3};
 
 pub(super) struct Occupancy<'a> {

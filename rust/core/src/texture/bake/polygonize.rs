@@ -8,8 +8,8 @@
 //! occupancy's crossing by [`crossing`]; those on the cell's rim carry a global edge
 //! key so [`crate::polygonize::weld`] can join them with the neighbour's.
 
-use super::occupancy::Occupancy;
 use super::lattice::Lattice;
+use super::occupancy::Occupancy;
 use crate::polygonize::marching::{crossing, linear, march_prism, off_level, Refine};
 use crate::polygonize::weld::{edge_key, Piece, UNSHARED};
 use crate::texture::mapping::CellMap;
@@ -103,11 +103,7 @@ impl Scratch {
                         }
                     }
                     for (i, j) in lat.local_points() {
-                        let inside = if upper {
-                            i <= i0 + k && j <= j0 + k && i + j >= i0 + j0 + k
-                        } else {
-                            i >= i0 && j >= j0 && i + j <= i0 + j0 + k
-                        };
+                        let inside = if upper { i <= i0 + k && j <= j0 + k && i + j >= i0 + j0 + k } else { i >= i0 && j >= j0 && i + j <= i0 + j0 + k };
                         if inside && on_rim((i, j)) {
                             rim.push(lat.local_index(i, j));
                         }
@@ -312,9 +308,7 @@ impl Cells<'_> {
         let (blocks, smalls, mixed) = (&s.blocks, &s.smalls, &s.mixed);
         for &columns in mixed.iter().flat_map(|&b| &smalls[blocks[b].smalls.clone()]) {
             let base = columns.map(|c| c * lm);
-            let mut prism = |l: usize| {
-                emit(&mut piece, [base[0] + l, base[1] + l, base[2] + l, base[0] + l + 1, base[1] + l + 1, base[2] + l + 1])
-            };
+            let mut prism = |l: usize| emit(&mut piece, [base[0] + l, base[1] + l, base[2] + l, base[0] + l + 1, base[1] + l + 1, base[2] + l + 1]);
             let [a, b, c] = columns.map(|c| masks[c]);
             if bitwise {
                 // Only the layers whose six corners are not all on one side.
