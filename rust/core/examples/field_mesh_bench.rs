@@ -75,9 +75,10 @@ fn bench<F: ScalarField>(name: &str, field: &F, bounds: (Vec3, Vec3), cells: u32
 
     // fast-surface-nets on the same grid of samples (padded by one sample each side,
     // as it needs), sampled in parallel like ours; it polygonizes on one thread.
-    let side = cells + 3;
-    let shape = RuntimeShape::<u32, 3>::new([side; 3]);
-    let origin = bounds.0 - Vec3::splat(cell);
+    let step = (bounds.1 - bounds.0) / mesh.cells.as_vec3();
+    let dims = (mesh.cells + 3).to_array();
+    let shape = RuntimeShape::<u32, 3>::new(dims);
+    let origin = bounds.0 - step;
     let mut buffer = SurfaceNetsBuffer::default();
     let mut theirs = Vec::new();
     for _ in 0..3 {
@@ -85,15 +86,15 @@ fn bench<F: ScalarField>(name: &str, field: &F, bounds: (Vec3, Vec3), cells: u32
         let points: Vec<Vec3> = (0..shape.size())
             .map(|i| {
                 let [x, y, z] = shape.delinearize(i);
-                origin + Vec3::new(x as f32, y as f32, z as f32) * cell
+                origin + Vec3::new(x as f32, y as f32, z as f32) * step
             })
             .collect();
         let mut sdf = vec![0.0f32; points.len()];
         sdf.par_chunks_mut(4096).zip(points.par_chunks(4096)).for_each(|(out, p)| field.values(p, out));
-        surface_nets(&sdf, &shape, [0; 3], [side - 1; 3], &mut buffer);
+        surface_nets(&sdf, &shape, [0; 3], dims.map(|d| d - 1), &mut buffer);
         theirs.push(start.elapsed().as_secs_f64());
     }
-    let nets: Vec<Vec3> = buffer.positions.iter().map(|p| origin + Vec3::from(*p) * cell).collect();
+    let nets: Vec<Vec3> = buffer.positions.iter().map(|p| origin + Vec3::from(*p) * step).collect();
     let (nets_worst, nets_mean) = distance(field, &nets, cell);
     let (ours, theirs) = (median(ours), median(theirs));
     println!("{name}, {cells} cells along the longest side:");

@@ -5,13 +5,19 @@
 //! without cracks. The solid is cut by the box (the field's maximum with the box's
 //! signed distance): the surface is closed on the box's faces where it leaves it.
 //!
-//! The grid is marched in slabs of cube layers in parallel; a slab samples its own
-//! planes (one batch of [`ScalarField::values`] per plane), keeps a slot per lattice
-//! edge for its iso-vertices, and the slabs are joined by [`weld`] through the keys of
-//! the vertices on their common planes. Normals are the field's gradient at the
-//! vertices, attributes the field's own at the vertices (one batch per slab).
+//! The grid is marched in slabs of [`SLAB`] cube layers in parallel, each layer from
+//! two planes of samples (one batch of [`ScalarField::values`] per plane) and a slot
+//! per lattice edge of those planes for its iso-vertices, so memory grows with a
+//! plane per slab in flight and with the output, not with the grid. Iso-vertices are
+//! then refined on the field's own crossing, one batch per step for the whole slab,
+//! and the slabs are joined by [`weld`] through the keys of the vertices on their
+//! common planes. Normals are the cut field's gradient at the vertices, attributes
+//! the field's own there.
+//!
+//! Values are taken as distance-like (unit-gradient fields, or near them): samples
+//! within 1% of a cell of the level are moved off it by that much ([`OFF_ISO`]).
 
-use super::marching::{crossing, linear, march_prism, Refine, OFF_ISO};
+use super::marching::{march_prism, Crossing, OFF_ISO};
 use super::weld::{edge_key, weld, Piece, UNSHARED};
 use crate::field::ScalarField;
 use crate::{Error, Result};
@@ -21,16 +27,24 @@ use rayon::prelude::*;
 /// The most cells along the box's longest side.
 pub const MAX_RESOLUTION: u32 = 2048;
 
+/// Cube layers per slab: a fixed number, so the output does not depend on the number
+/// of threads; each slab samples one plane more than it owns.
+const SLAB: u32 = 8;
+
+/// Most evaluations refining one iso-vertex, and how near the level (in cells) ends it.
+const REFINE_STEPS: usize = 8;
+const REFINE_TOLERANCE: f32 = 1e-4;
+
 /// What [`mesh_field`] meshes, and how finely.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GridParams {
     /// The box meshed: lowest and highest corner.
     pub bounds: (Vec3, Vec3),
-    /// Cells along the box's longest side; the other sides get as many as keep the
-    /// cells nearest to cubes.
+    /// Cells along the box's longest side (at least 2); the other sides get as many as
+    /// keep the cells nearest to cubes, and at least 2 (the box's faces are outside).
     pub resolution: u32,
-    /// Iso-vertices on the field's own crossing of each edge ([`crossing`]); else the
-    /// linear guess from the edge's two samples.
+    /// Iso-vertices on the field's own crossing of each edge (Illinois regula falsi,
+    /// up to eight evaluations each); else the linear guess from the edge's samples.
     pub refine: bool,
 }
 
@@ -39,7 +53,8 @@ pub struct GridParams {
 #[derive(Debug, Clone, Default)]
 pub struct FieldMesh {
     pub positions: Vec<Vec3>,
-    /// The field's unit gradient at each vertex.
+    /// The cut field's unit gradient at each vertex (the box face's normal where the
+    /// box cut the solid; the faces' normal where the field's gradient is not a number).
     pub normals: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
     /// [`ScalarField::attribute_count`] values per vertex.
@@ -52,8 +67,11 @@ pub struct FieldMesh {
 /// The grid's geometry.
 struct Grid {
     lo: Vec3,
+    hi: Vec3,
     step: Vec3,
     cells: UVec3,
+    /// Iso-level offset of samples: [`OFF_ISO`] of the smallest cell side.
+    eps: f32,
 }
 
 impl Grid {
@@ -62,13 +80,22 @@ impl Grid {
         if !(lo.is_finite() && hi.is_finite() && hi.cmpgt(lo).all()) {
             return Err(Error::InvalidParameter(format!("the box to mesh must be finite and not empty, got {lo} to {hi}")));
         }
-        if !(1..=MAX_RESOLUTION).contains(&params.resolution) {
-            return Err(Error::InvalidParameter(format!("resolution must be 1 to {MAX_RESOLUTION} cells, got {}", params.resolution)));
+        if !(2..=MAX_RESOLUTION).contains(&params.resolution) {
+            return Err(Error::InvalidParameter(format!("resolution must be 2 to {MAX_RESOLUTION} cells, got {}", params.resolution)));
         }
         let extent = hi - lo;
         let h = extent.max_element() / params.resolution as f32;
-        let cells = (extent / h).ceil().max(Vec3::ONE).as_uvec3().min(UVec3::splat(params.resolution));
-        Ok(Self { lo, step: extent / cells.as_vec3(), cells })
+        let cells = (extent / h).ceil().as_uvec3().clamp(UVec3::splat(2), UVec3::splat(params.resolution));
+        let step = extent / cells.as_vec3();
+        // Vertices 1% of a cell apart must stay apart in single precision.
+        let far = lo.abs().max(hi.abs()).max_element();
+        if step.min_element() < 2e-5 * far {
+            return Err(Error::InvalidParameter(format!(
+                "cells of {} are too small for single precision at coordinates near {far}: mesh a box nearer the origin or use fewer cells",
+                step.min_element()
+            )));
+        }
+        Ok(Self { lo, hi, step, cells, eps: OFF_ISO * step.min_element() })
     }
     fn point(&self, i: u32, j: u32, k: u32) -> Vec3 {
         self.lo + self.step * Vec3::new(i as f32, j as f32, k as f32)
@@ -77,23 +104,44 @@ impl Grid {
         let (nx, ny) = (u64::from(self.cells.x) + 1, u64::from(self.cells.y) + 1);
         u64::from(i) + nx * (u64::from(j) + ny * u64::from(k))
     }
-    /// The value marched at `p` for the field's value `f` there: `-max(f, box)` where
-    /// `box` is the signed distance to the box (the solid cut by the box, so the
-    /// surface closes on the box's faces), kept [`OFF_ISO`] off the level, and
-    /// outside where the field has no value.
-    fn inside(&self, f: f32, p: Vec3, scale: f32) -> f32 {
-        if !f.is_finite() {
-            return -scale;
-        }
-        let (lo, hi) = (self.lo, self.lo + self.step * self.cells.as_vec3());
-        let to_box = (lo - p).max(p - hi).max_element();
-        // On the level counts as outside, so the box's own faces are.
-        let eps = OFF_ISO * scale;
-        let g = f.max(to_box);
-        if g >= 0.0 {
-            -g.max(eps)
+    /// Signed distance to the box (negative inside), and the outward normal of the
+    /// nearest face.
+    fn to_box(&self, p: Vec3) -> (f32, Vec3) {
+        let (below, above) = (self.lo - p, p - self.hi);
+        let d = below.max(above);
+        let axis = if d.x >= d.y && d.x >= d.z {
+            0
+        } else if d.y >= d.z {
+            1
         } else {
-            (-g).max(eps)
+            2
+        };
+        let mut normal = Vec3::ZERO;
+        normal[axis] = if below[axis] >= above[axis] { -1.0 } else { 1.0 };
+        (d[axis], normal)
+    }
+    /// `-max(f, box)` at `p`: the solid cut by the box, inside `>= 0` as marching
+    /// prisms count it. Not a number where `f` is not.
+    fn cut(&self, f: f32, p: Vec3) -> f32 {
+        if f.is_nan() {
+            return f32::NAN;
+        }
+        -f.max(self.to_box(p).0)
+    }
+    /// The value marched at `p`: [`Grid::cut`] kept `eps` off the level (the box's own
+    /// faces, and `f` not a number, outside; `f = 0` inside, as `V(f) = {f <= 0}`),
+    /// and within a range where differences stay finite.
+    fn sample(&self, f: f32, p: Vec3) -> f32 {
+        const LIMIT: f32 = f32::MAX / 4.0;
+        if f.is_nan() || self.to_box(p).0 >= 0.0 {
+            let outside = if f > 0.0 { f.min(LIMIT) } else { 0.0 };
+            return -self.eps.max(outside);
+        }
+        let v = self.cut(f, p);
+        if v >= 0.0 {
+            v.max(self.eps).min(LIMIT)
+        } else {
+            v.min(-self.eps).max(-LIMIT)
         }
     }
 }
@@ -106,10 +154,7 @@ const DIRECTIONS: usize = 4;
 pub fn mesh_field<F: ScalarField + ?Sized>(field: &F, params: &GridParams) -> Result<FieldMesh> {
     let grid = Grid::new(params)?;
     let nz = grid.cells.z;
-    // Slabs: enough for every thread to take several, few enough that the planes
-    // sampled twice (where slabs meet) stay a small share.
-    let slab = nz.div_ceil((4 * rayon::current_num_threads() as u32).min(nz)).max(2);
-    let slabs: Vec<(u32, u32)> = (0..nz).step_by(slab as usize).map(|k0| (k0, (k0 + slab).min(nz))).collect();
+    let slabs: Vec<(u32, u32)> = (0..nz).step_by(SLAB as usize).map(|k0| (k0, (k0 + SLAB).min(nz))).collect();
     let pieces: Vec<Piece> = slabs.par_iter().map(|&(k0, k1)| march_slab(field, &grid, k0, k1, params.refine)).collect();
     let tags: Vec<u32> = (0..pieces.len() as u32).collect();
     let welded = weld(pieces, &tags);
@@ -122,88 +167,142 @@ pub fn mesh_field<F: ScalarField + ?Sized>(field: &F, params: &GridParams) -> Re
     Ok(FieldMesh { positions: welded.positions, normals: welded.normals, triangles: welded.triangles, attributes, attribute_count: count, cells: grid.cells })
 }
 
+/// The samples of plane `k`, marched values ([`Grid::sample`]).
+fn sample_plane<F: ScalarField + ?Sized>(field: &F, grid: &Grid, k: u32, points: &mut Vec<Vec3>, out: &mut [f32]) {
+    let (nx, ny) = (grid.cells.x, grid.cells.y);
+    points.clear();
+    points.extend((0..=ny).flat_map(|j| (0..=nx).map(move |i| (i, j))).map(|(i, j)| grid.point(i, j, k)));
+    field.values(points, out);
+    for (v, p) in out.iter_mut().zip(points.iter()) {
+        *v = grid.sample(*v, *p);
+    }
+}
+
 /// The piece of cube layers `k0..k1`.
 fn march_slab<F: ScalarField + ?Sized>(field: &F, grid: &Grid, k0: u32, k1: u32, refine: bool) -> Piece {
     let (nx, ny) = (grid.cells.x, grid.cells.y);
     let plane = ((nx + 1) * (ny + 1)) as usize;
-    let planes = (k1 - k0 + 1) as usize;
-    // Values, as `-f` so that inside is `>= 0` as marching prisms count it.
-    let scale = grid.step.min_element();
-    let mut values = vec![0.0f32; plane * planes];
+    let at = |i: u32, j: u32| i as usize + (nx as usize + 1) * j as usize;
     let mut points = Vec::with_capacity(plane);
-    for (k, out) in (k0..=k1).zip(values.chunks_exact_mut(plane)) {
-        points.clear();
-        points.extend((0..=ny).flat_map(|j| (0..=nx).map(move |i| (i, j))).map(|(i, j)| grid.point(i, j, k)));
-        field.values(&points, out);
-        for (v, p) in out.iter_mut().zip(&points) {
-            *v = grid.inside(*v, *p, scale);
-        }
-    }
-    let local = |i: u32, j: u32, k: u32| i as usize + (nx as usize + 1) * (j as usize + (ny as usize + 1) * (k - k0) as usize);
-    let mut slots = vec![u32::MAX; plane * planes * DIRECTIONS];
+    // Values and iso-vertex slots of the layer's bottom and top planes; a plane's
+    // in-plane edges keep their vertices from one layer to the next.
+    let (mut below, mut above) = (vec![0.0f32; plane], vec![0.0f32; plane]);
+    let (mut slots_below, mut slots_above) = (vec![u32::MAX; plane * DIRECTIONS], vec![u32::MAX; plane * DIRECTIONS]);
+    sample_plane(field, grid, k0, &mut points, &mut below);
     let mut piece = Piece::default();
+    let mut ends: Vec<(Vec3, Vec3)> = Vec::new();
+    let mut guesses: Vec<Crossing> = Vec::new();
     let mut tris = Vec::new();
     for k in k0..k1 {
+        sample_plane(field, grid, k + 1, &mut points, &mut above);
         for j in 0..ny {
             for i in 0..nx {
                 // Two prisms per cube, bottom corners counter-clockwise seen from +z.
                 for bottom in [[(i, j), (i + 1, j), (i + 1, j + 1)], [(i, j), (i + 1, j + 1), (i, j + 1)]] {
-                    let corner = |c: usize| {
-                        let (a, b) = bottom[c % 3];
-                        (a, b, k + (c / 3) as u32)
+                    let corner = |c: usize| (bottom[c % 3], c >= 3);
+                    let value = |c: usize| {
+                        let ((a, b), up) = corner(c);
+                        if up {
+                            above[at(a, b)]
+                        } else {
+                            below[at(a, b)]
+                        }
                     };
-                    let vals: [f32; 6] = std::array::from_fn(|c| {
-                        let (a, b, kk) = corner(c);
-                        values[local(a, b, kk)]
-                    });
-                    march_prism(
-                        &vals,
-                        0.0,
-                        false,
-                        |ca, cb| {
-                            let (mut pa, mut pb) = (corner(ca), corner(cb));
-                            if grid.id(pb.0, pb.1, pb.2) < grid.id(pa.0, pa.1, pa.2) {
-                                std::mem::swap(&mut pa, &mut pb);
-                            }
-                            let direction = match (pb.0 - pa.0, pb.1 - pa.1, pb.2 - pa.2) {
-                                (1, 0, 0) => 0,
-                                (0, 1, 0) => 1,
-                                (1, 1, 0) => 2,
-                                _ => 3,
-                            };
-                            let (la, lb) = (local(pa.0, pa.1, pa.2), local(pb.0, pb.1, pb.2));
-                            let slot = la * DIRECTIONS + direction;
-                            if slots[slot] != u32::MAX {
-                                return slots[slot];
-                            }
-                            let (xa, xb) = (grid.point(pa.0, pa.1, pa.2), grid.point(pb.0, pb.1, pb.2));
-                            let (va, vb) = (values[la], values[lb]);
-                            let f = if refine {
-                                let at = |f: f32| {
-                                    let x = xa.lerp(xb, f);
-                                    grid.inside(field.value(x), x, scale)
-                                };
-                                crossing(va, vb, 0.0, Refine { steps: 8, tolerance: 1e-4 * scale }, at)
-                            } else {
-                                linear(va, vb, 0.0)
-                            };
-                            // Vertices in the slab's first or last plane are made by the
-                            // neighbouring slab too.
-                            let shared = pa.2 == pb.2 && (pa.2 == k0 || pa.2 == k1);
-                            let index = piece.pos.len() as u32;
-                            piece.keys.push(if shared { edge_key(grid.id(pa.0, pa.1, pa.2), grid.id(pb.0, pb.1, pb.2)) } else { UNSHARED });
-                            piece.pos.push(xa.lerp(xb, f));
-                            slots[slot] = index;
-                            index
-                        },
-                        &mut tris,
-                    );
+                    let vals: [f32; 6] = std::array::from_fn(value);
+                    let vertex = |ca: usize, cb: usize| {
+                        // From the lower lattice point to the higher one (x, y, then z).
+                        let (mut a, mut b) = (ca, cb);
+                        let ((ia, ja), ua) = corner(a);
+                        let ((ib, jb), ub) = corner(b);
+                        if (ub, jb, ib) < (ua, ja, ia) {
+                            std::mem::swap(&mut a, &mut b);
+                        }
+                        let (((ia, ja), ua), ((ib, jb), ub)) = (corner(a), corner(b));
+                        let (direction, slots) = match (ib - ia, jb - ja, ub != ua) {
+                            (1, 0, false) => (0, if ua { &mut slots_above } else { &mut slots_below }),
+                            (0, 1, false) => (1, if ua { &mut slots_above } else { &mut slots_below }),
+                            (1, 1, false) => (2, if ua { &mut slots_above } else { &mut slots_below }),
+                            _ => (3, &mut slots_below),
+                        };
+                        let slot = at(ia, ja) * DIRECTIONS + direction;
+                        if slots[slot] != u32::MAX {
+                            return slots[slot];
+                        }
+                        let (ka, kb) = (k + u32::from(ua), k + u32::from(ub));
+                        let (xa, xb) = (grid.point(ia, ja, ka), grid.point(ib, jb, kb));
+                        let guess = Crossing::new(value(a), value(b), 0.0);
+                        // Vertices in the slab's first or last plane are made by the
+                        // neighbouring slab too.
+                        let shared = ka == kb && (ka == k0 || ka == k1);
+                        let index = piece.pos.len() as u32;
+                        piece.keys.push(if shared { edge_key(grid.id(ia, ja, ka), grid.id(ib, jb, kb)) } else { UNSHARED });
+                        piece.pos.push(xa.lerp(xb, guess.result()));
+                        ends.push((xa, xb));
+                        guesses.push(guess);
+                        slots[slot] = index;
+                        index
+                    };
+                    march_prism(&vals, 0.0, false, vertex, &mut tris);
                 }
             }
         }
+        std::mem::swap(&mut below, &mut above);
+        std::mem::swap(&mut slots_below, &mut slots_above);
+        slots_above.fill(u32::MAX);
     }
     piece.tris = tris;
-    piece.grad = vec![Vec3::ZERO; piece.pos.len()];
-    field.gradients(&piece.pos, &mut piece.grad);
+    if refine {
+        refine_vertices(field, grid, &mut piece.pos, &ends, &mut guesses);
+    }
+    normals(field, grid, &mut piece);
     piece
+}
+
+/// Moves each vertex onto the cut field's crossing of its edge: every step evaluates
+/// the unfinished vertices' next points as one batch.
+fn refine_vertices<F: ScalarField + ?Sized>(field: &F, grid: &Grid, pos: &mut [Vec3], ends: &[(Vec3, Vec3)], guesses: &mut [Crossing]) {
+    let tolerance = REFINE_TOLERANCE * grid.step.min_element();
+    let mut pending: Vec<usize> = (0..pos.len()).collect();
+    let mut points = Vec::with_capacity(pending.len());
+    let mut values = Vec::with_capacity(pending.len());
+    for _ in 0..REFINE_STEPS {
+        if pending.is_empty() {
+            break;
+        }
+        points.clear();
+        points.extend(pending.iter().map(|&v| ends[v].0.lerp(ends[v].1, guesses[v].at())));
+        values.resize(points.len(), 0.0);
+        field.values(&points, &mut values);
+        let mut kept = 0;
+        for n in 0..pending.len() {
+            let v = pending[n];
+            if guesses[v].step(grid.cut(values[n], points[n]), tolerance) {
+                pending[kept] = v;
+                kept += 1;
+            }
+        }
+        pending.truncate(kept);
+    }
+    for ((p, (a, b)), guess) in pos.iter_mut().zip(ends).zip(guesses.iter()) {
+        *p = a.lerp(*b, guess.result());
+    }
+}
+
+/// Each vertex's gradient of the cut field: the field's where it is inside the box,
+/// the nearest box face's normal where the box cut it; zero where the field's is not
+/// a number (the weld then takes the faces' normal).
+fn normals<F: ScalarField + ?Sized>(field: &F, grid: &Grid, piece: &mut Piece) {
+    let n = piece.pos.len();
+    piece.grad = vec![Vec3::ZERO; n];
+    field.gradients(&piece.pos, &mut piece.grad);
+    let mut values = vec![0.0; n];
+    field.values(&piece.pos, &mut values);
+    for ((g, p), f) in piece.grad.iter_mut().zip(&piece.pos).zip(&values) {
+        let (d, face) = grid.to_box(*p);
+        if d >= *f {
+            *g = face;
+        } else if !g.is_finite() {
+            *g = Vec3::ZERO;
+        }
+    }
 }

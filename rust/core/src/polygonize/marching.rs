@@ -47,41 +47,78 @@ pub struct Refine {
 
 /// Where a field `value(f)` crosses `level` on a lattice edge from `f = 0` (sample
 /// `a`) to `f = 1` (sample `b`, on the other side): Illinois regula falsi from the
-/// linear guess, as [`Refine`] allows. Where the field is curved along the
-/// edge (a trilinear texture between columns, any nonlinear implicit), linear
+/// linear guess ([`Crossing`]), as [`Refine`] allows. Where the field is curved along
+/// the edge (a trilinear texture between columns, any nonlinear implicit), linear
 /// interpolation of the end values moves the surface inward and thins features a few
-/// lattice steps wide. The result is clamped to [`OFF_ISO`] of the edge from its
-/// ends, and a field that cannot be evaluated leaves the linear guess.
+/// lattice steps wide. The result is kept [`OFF_ISO`] of the edge from its ends, and
+/// a field that cannot be evaluated leaves the last guess.
 pub fn crossing(a: f32, b: f32, level: f32, refine: Refine, mut value: impl FnMut(f32) -> f32) -> f32 {
-    let (mut lo, mut hi, mut fa, mut fb) = (0.0f32, 1.0f32, a - level, b - level);
-    let mut x = linear(a, b, level);
-    let mut side = 0i8;
+    let mut c = Crossing::new(a, b, level);
     for _ in 0..refine.steps {
-        let fx = value(x) - level;
-        if !fx.is_finite() || fx.abs() <= refine.tolerance {
+        if !c.step(value(c.at()), refine.tolerance) {
             break;
         }
-        if (fx >= 0.0) == (fb >= 0.0) {
-            (hi, fb) = (x, fx);
-            if side == 1 {
-                fa *= 0.5;
-            }
-            side = 1;
-        } else {
-            (lo, fa) = (x, fx);
-            if side == -1 {
-                fb *= 0.5;
-            }
-            side = -1;
-        }
-        let next = lo - fa * (hi - lo) / (fb - fa);
-        x = if next.is_finite() && next > lo && next < hi { next } else { 0.5 * (lo + hi) };
     }
-    x.clamp(OFF_ISO, 1.0 - OFF_ISO)
+    c.result()
 }
 
-/// The linear guess of [`crossing`]: where the straight line through the two samples
-/// meets `level`, in `[0, 1]`.
+/// The state of one [`crossing`], for callers that evaluate many edges' next points
+/// as one batch: [`Crossing::at`] is where to evaluate, [`Crossing::step`] takes the
+/// value there.
+#[derive(Debug, Clone, Copy)]
+pub struct Crossing {
+    lo: f32,
+    hi: f32,
+    fa: f32,
+    fb: f32,
+    x: f32,
+    side: i8,
+    level: f32,
+}
+
+impl Crossing {
+    /// The bracket `[0, 1]` with samples `a` and `b`; the first guess is linear.
+    pub fn new(a: f32, b: f32, level: f32) -> Self {
+        let (fa, fb) = (a - level, b - level);
+        Self { lo: 0.0, hi: 1.0, fa, fb, x: (fa / (fa - fb)).clamp(0.0, 1.0), side: 0, level }
+    }
+    /// The parameter to evaluate next.
+    pub fn at(&self) -> f32 {
+        self.x
+    }
+    /// Takes the field's value at [`Crossing::at`]; false when it is done (within
+    /// `tolerance` of the level, or not a number: the guess stays).
+    pub fn step(&mut self, value: f32, tolerance: f32) -> bool {
+        let fx = value - self.level;
+        if !fx.is_finite() || fx.abs() <= tolerance {
+            return false;
+        }
+        if (fx >= 0.0) == (self.fb >= 0.0) {
+            (self.hi, self.fb) = (self.x, fx);
+            if self.side == 1 {
+                self.fa *= 0.5;
+            }
+            self.side = 1;
+        } else {
+            (self.lo, self.fa) = (self.x, fx);
+            if self.side == -1 {
+                self.fb *= 0.5;
+            }
+            self.side = -1;
+        }
+        let next = self.lo - self.fa * (self.hi - self.lo) / (self.fb - self.fa);
+        self.x = if next.is_finite() && next > self.lo && next < self.hi { next } else { 0.5 * (self.lo + self.hi) };
+        true
+    }
+    /// The crossing found, kept [`OFF_ISO`] of the edge from its ends.
+    pub fn result(&self) -> f32 {
+        self.x.clamp(OFF_ISO, 1.0 - OFF_ISO)
+    }
+}
+
+/// Where the straight line through the two samples meets `level`, in `[0, 1]`. Not
+/// kept off the ends: a lattice that uses it alone keeps its samples off the level
+/// ([`off_level`]) and within a bounded range, which keeps the vertices off them.
 #[inline]
 pub fn linear(a: f32, b: f32, level: f32) -> f32 {
     ((level - a) / (b - a)).clamp(0.0, 1.0)

@@ -83,6 +83,21 @@ fn worst_distance<F: ScalarField>(field: &F, m: &FieldMesh) -> f32 {
     values.iter().zip(&grads).map(|(v, g)| v.abs() / g.length().max(1e-6)).fold(0.0, f32::max)
 }
 
+/// Unit normals, and every triangle faces the way its corners' normals point.
+fn assert_faces_follow_normals(m: &FieldMesh) {
+    assert!(m.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-4), "normals are unit vectors");
+    let against = m
+        .triangles
+        .iter()
+        .filter(|t| {
+            let [a, b, c] = t.map(|v| m.positions[v as usize]);
+            let n = t.iter().map(|&v| m.normals[v as usize]).sum::<Vec3>();
+            (b - a).cross(c - a).dot(n) <= 0.0
+        })
+        .count();
+    assert_eq!(against, 0, "of {} triangles", m.triangles.len());
+}
+
 fn check(m: &FieldMesh) -> SurfaceCheck {
     let c = SurfaceCheck::of(&m.positions, &m.triangles);
     assert!(c.is_closed_manifold(), "{c:?}");
@@ -108,14 +123,7 @@ fn a_sphere_meshes_closed_on_its_zero_set_with_its_volume_and_normals() {
         for (p, n) in m.positions.iter().zip(&m.normals) {
             assert!(n.dot((*p - sphere.center).normalize()) > 0.999, "normal {n} at {p}");
         }
-        // Triangles face the way the normals point.
-        let mut agree = 0;
-        for t in &m.triangles {
-            let [a, b, c] = t.map(|v| m.positions[v as usize]);
-            let n = t.iter().map(|&v| m.normals[v as usize]).sum::<Vec3>();
-            agree += usize::from((b - a).cross(c - a).dot(n) > 0.0);
-        }
-        assert_eq!(agree, m.triangles.len(), "resolution {resolution}");
+        assert_faces_follow_normals(&m);
     }
 }
 
@@ -168,8 +176,7 @@ fn unions_with_creases_and_shapes_cut_by_the_box_stay_closed_manifolds() {
         let resolution = [9, 16, 31][seed % 3];
         let m = mesh_field(&field, &GridParams { bounds: cube(1.0), resolution, refine: true }).unwrap();
         assert!(!m.triangles.is_empty());
-        let c = check(&m);
-        assert_eq!(c.euler_characteristic % 2, 0, "seed {seed}: {c:?}");
+        check(&m);
         assert!(signed_volume(&m) > 0.0, "seed {seed}");
         // Every vertex near the zero set (creases bend the field along an edge, so the
         // crossing converges slower there), except where the box cut the surface.
@@ -187,31 +194,133 @@ fn unions_with_creases_and_shapes_cut_by_the_box_stay_closed_manifolds() {
 }
 
 #[test]
-fn a_sphere_larger_than_the_box_is_closed_by_it() {
+fn a_sphere_larger_than_the_box_is_closed_by_it_with_the_faces_normals() {
     let sphere = Sphere { center: Vec3::ZERO, radius: 1.5 };
     let m = mesh_field(&sphere, &GridParams { bounds: cube(1.0), resolution: 10, refine: true }).unwrap();
     let c = check(&m);
     assert_eq!((c.components, c.euler_characteristic), (1, 2));
-    // Nearly the box itself: within a cell of each face.
+    // The box cut the sphere: the cube less its corners beyond the sphere, and less
+    // the chamfers along the box's edges (sampled marching keeps no sharp edge).
     let v = signed_volume(&m);
-    assert!(v > 1.6f64.powi(3) && v < 8.0, "{v}");
+    assert!(v > 7.0 && v < 8.0, "{v}");
+    assert_faces_follow_normals(&m);
+    // A half-space: its cut face and the box's faces, each with its own normal.
+    struct Below;
+    impl ScalarField for Below {
+        fn values(&self, points: &[Vec3], out: &mut [f32]) {
+            for (o, p) in out.iter_mut().zip(points) {
+                *o = p.z - 0.2;
+            }
+        }
+    }
+    let m = mesh_field(&Below, &GridParams { bounds: cube(1.0), resolution: 8, refine: false }).unwrap();
+    check(&m);
+    assert_faces_follow_normals(&m);
+    // 2 x 2 x 1.2, less chamfers a cell wide along the cut's edges.
+    let v = signed_volume(&m);
+    assert!(v > 4.8 - 8.0 * 0.25 * 0.25 * 2.0 && v < 4.8, "{v}");
+    // Away from the box the cut face is the plane z = 0.2 with normal +z.
+    for (p, n) in m.positions.iter().zip(&m.normals) {
+        if p.z > 0.0 && p.x.abs().max(p.y.abs()) < 0.7 {
+            assert!((p.z - 0.2).abs() < 1e-5 && n.z > 0.9999, "{p} {n}");
+        }
+    }
+    // A field inside everywhere: the box itself.
+    struct Full;
+    impl ScalarField for Full {
+        fn values(&self, _: &[Vec3], out: &mut [f32]) {
+            out.fill(-1.0);
+        }
+    }
+    // A flat box gets at least two cells across its thin side (its faces are outside).
+    let m = mesh_field(&Full, &GridParams { bounds: (Vec3::ZERO, Vec3::new(10.0, 10.0, 0.5)), resolution: 10, refine: true }).unwrap();
+    assert_eq!(m.cells, glam::UVec3::new(10, 10, 2));
+    let c = check(&m);
+    assert_eq!((c.components, c.euler_characteristic), (1, 2));
+    assert!(signed_volume(&m) > 10.0 && signed_volume(&m) < 50.0, "{}", signed_volume(&m));
+    assert_faces_follow_normals(&m);
 }
 
 #[test]
-fn an_empty_or_full_box_makes_nothing_and_bad_settings_are_refused() {
+fn the_contract_holds_for_extreme_values_infinities_and_zeros() {
+    // A huge value outside a thin layer, meshed without refinement: vertices stay off
+    // the lattice points (no degenerate triangles).
+    struct Cliff;
+    impl ScalarField for Cliff {
+        fn values(&self, points: &[Vec3], out: &mut [f32]) {
+            for (o, p) in out.iter_mut().zip(points) {
+                let d = p.length() - 0.7;
+                *o = if d > 0.05 {
+                    1e6
+                } else if d > 0.5 {
+                    f32::MAX
+                } else {
+                    d
+                };
+            }
+        }
+    }
+    for refine in [false, true] {
+        check(&mesh_field(&Cliff, &GridParams { bounds: cube(1.0), resolution: 16, refine }).unwrap());
+    }
+    // Minus infinity is inside: a solid ball, not a hollow shell.
+    struct Core;
+    impl ScalarField for Core {
+        fn values(&self, points: &[Vec3], out: &mut [f32]) {
+            for (o, p) in out.iter_mut().zip(points) {
+                *o = if p.length() < 0.4 { f32::NEG_INFINITY } else { p.length() - 0.8 };
+            }
+        }
+    }
+    let c = check(&mesh_field(&Core, &GridParams { bounds: cube(1.0), resolution: 16, refine: true }).unwrap());
+    assert_eq!((c.components, c.euler_characteristic), (1, 2));
+    // Zero is inside (V(f) = {f <= 0}): a ball where the field is 0.
+    struct Flat;
+    impl ScalarField for Flat {
+        fn values(&self, points: &[Vec3], out: &mut [f32]) {
+            for (o, p) in out.iter_mut().zip(points) {
+                *o = (p.length() - 0.6).max(0.0);
+            }
+        }
+    }
+    let m = mesh_field(&Flat, &GridParams { bounds: cube(1.0), resolution: 16, refine: true }).unwrap();
+    let c = check(&m);
+    assert_eq!((c.components, c.euler_characteristic), (1, 2));
+    // Every vertex on the zero set (where the field is 0 throughout, anywhere in it).
+    assert!(m.positions.iter().all(|p| p.length() < 0.6 + 2.0 / 16.0), "the ball of radius 0.6, within a cell");
+}
+
+#[test]
+fn the_mesh_does_not_depend_on_the_number_of_threads() {
+    let torus = Torus { major: 0.7, minor: 0.25 };
+    let params = GridParams { bounds: (Vec3::new(-1.0, -1.0, -0.4), Vec3::new(1.0, 1.0, 0.4)), resolution: 40, refine: true };
+    let run = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| mesh_field(&torus, &params).unwrap())
+    };
+    let (one, three) = (run(1), run(3));
+    assert_eq!(one.positions, three.positions);
+    assert_eq!(one.triangles, three.triangles);
+}
+
+#[test]
+fn an_empty_box_makes_nothing_and_bad_settings_are_refused() {
     let far = Sphere { center: Vec3::splat(10.0), radius: 1.0 };
     let m = mesh_field(&far, &GridParams { bounds: cube(1.0), resolution: 8, refine: true }).unwrap();
     assert!(m.triangles.is_empty() && m.positions.is_empty());
     let sphere = Sphere { center: Vec3::ZERO, radius: 1.0 };
     for bad in [
-        GridParams { bounds: cube(1.0), resolution: 0, refine: true },
+        GridParams { bounds: cube(1.0), resolution: 1, refine: true },
         GridParams { bounds: cube(1.0), resolution: grid::MAX_RESOLUTION + 1, refine: true },
         GridParams { bounds: (Vec3::ONE, Vec3::ZERO), resolution: 8, refine: true },
         GridParams { bounds: (Vec3::ZERO, Vec3::new(1.0, f32::NAN, 1.0)), resolution: 8, refine: true },
+        // Cells too small to keep vertices apart in single precision so far out.
+        GridParams { bounds: (Vec3::splat(1e6), Vec3::splat(1e6 + 1.0)), resolution: 16, refine: true },
     ] {
         assert!(matches!(mesh_field(&sphere, &bad), Err(crate::Error::InvalidParameter(_))), "{bad:?}");
     }
-    // A field that is NaN somewhere counts as outside there and still closes.
+    // A field that is NaN somewhere counts as outside there and still closes, with
+    // unit normals (the faces' own where the field's gradient is not a number).
     struct Holey;
     impl ScalarField for Holey {
         fn values(&self, points: &[Vec3], out: &mut [f32]) {
@@ -220,5 +329,7 @@ fn an_empty_or_full_box_makes_nothing_and_bad_settings_are_refused() {
             }
         }
     }
-    check(&mesh_field(&Holey, &GridParams { bounds: cube(1.0), resolution: 16, refine: true }).unwrap());
+    let m = mesh_field(&Holey, &GridParams { bounds: cube(1.0), resolution: 16, refine: true }).unwrap();
+    check(&m);
+    assert!(m.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-4));
 }

@@ -19,11 +19,13 @@ pub struct SurfaceCheck {
     pub misoriented_edges: usize,
     /// Vertices whose triangles form more than one fan (two sheets touching at a point).
     pub pinched_vertices: usize,
-    /// Triangles with a repeated vertex or zero area.
+    /// Triangles with a repeated vertex or exactly zero area (coincident or collinear
+    /// corners in single precision).
     pub degenerate_triangles: usize,
     /// Triangles on the same three vertices as another (either orientation).
     pub duplicate_triangles: usize,
-    /// Connected pieces (by shared edges).
+    /// Connected pieces, joined through shared vertices (pieces touching at a point
+    /// count as one; [`SurfaceCheck::pinched_vertices`] reports those points).
     pub components: usize,
     /// `V - E + F`: 2 per closed sphere-like piece, 2 - 2g for genus g.
     pub euler_characteristic: i64,

@@ -160,7 +160,7 @@ pub fn weld(mut pieces: Vec<Piece>, tags: &[u32]) -> Welded {
     });
     // Freeing thousands of pieces takes a while; the caller need not wait for it.
     rayon::spawn(move || drop(pieces));
-    let flat = |n: &Vec3| n.length_squared() <= 1e-20;
+    let flat = |n: &Vec3| !(n.length_squared() > 1e-20); // NaN too
     if out.normals.par_iter().any(flat) {
         let mut face = vec![Vec3::ZERO; out.positions.len()];
         for t in &out.triangles {
