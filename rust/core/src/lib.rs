@@ -10,6 +10,7 @@ pub mod field;
 pub mod mesh;
 pub mod polygonize;
 pub mod progress;
+pub mod raycast;
 pub mod shell;
 pub mod spatial;
 pub mod texture;

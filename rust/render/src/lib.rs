@@ -1,7 +1,8 @@
 //! Renderers for volume-textured shells (thick surfaces, chapters 5 and 6).
 //!
-//! - [`camera`]: a pinhole or orthographic camera given by Blender's own view and
-//!   projection matrices, and the rays through its pixels.
+//! - [`Camera`]: a pinhole or orthographic camera given by Blender's own view and
+//!   projection matrices, from [`thicket_core::raycast`] (the rays through its pixels,
+//!   one convention for every ray caster).
 //! - [`scene`]: a shell with its texture, ready to render (cells, bounds).
 //! - [`reference`]: the CPU reference renderer, ray marching through the shell map with
 //!   exact root bracketing of `alpha = 0.5`; ground truth and fallback.
@@ -14,7 +15,6 @@
 //! - [`silhouette`]: pixel coverage of a mesh or a frame and their intersection over
 //!   union: a bake's fidelity to the reference render of its shell.
 
-pub mod camera;
 pub mod gpu;
 pub mod image_out;
 pub mod mipmap;
@@ -22,6 +22,6 @@ pub mod reference;
 pub mod scene;
 pub mod silhouette;
 
-pub use camera::Camera;
 pub use image_out::Frame;
 pub use scene::ShellScene;
+pub use thicket_core::raycast::Camera;

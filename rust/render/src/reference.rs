@@ -15,16 +15,16 @@
 //! carried to world space through the cell map, or, where `alpha` jumps (the texture
 //! meets a face of the shell), that face's normal.
 
-use glam::{DMat4, DVec3, Mat3, Vec3};
+use glam::{DVec3, Mat3, Vec3};
 use rayon::prelude::*;
 use thicket_core::progress::Progress;
 use thicket_core::spatial::Bvh;
 use thicket_core::texture::CellMap;
 use thicket_core::{Error, Result};
 
-use crate::camera::Camera;
 use crate::image_out::Frame;
 use crate::scene::ShellScene;
+use thicket_core::raycast::{Camera, PixelRays};
 
 /// Settings of the reference renderer.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,7 +81,7 @@ pub fn render_watched(scene: &ShellScene, camera: &Camera, params: &RenderParams
         return Err(Error::InvalidParameter(format!("the viewport is {}x{}: nothing to render", camera.width, camera.height)));
     }
     let marcher = Marcher::new(scene, params)?;
-    let rays = Rays::new(camera)?;
+    let rays = PixelRays::new(camera)?;
     let light = params.light.normalize();
     if let Some(p) = progress {
         p.start(camera.height as usize);
@@ -104,36 +104,6 @@ pub fn render_watched(scene: &ShellScene, camera: &Camera, params: &RenderParams
     match progress.is_some_and(Progress::is_cancelled) {
         true => Err(Error::Cancelled),
         false => Ok(frame),
-    }
-}
-
-/// Pixel rays, computed in double precision from the inverse view-projection (shared
-/// with [`crate::silhouette`], so both use one pixel convention).
-pub(crate) struct Rays {
-    inverse: DMat4,
-    width: f64,
-    height: f64,
-}
-
-impl Rays {
-    pub(crate) fn new(camera: &Camera) -> Result<Self> {
-        let inverse = (camera.projection.as_dmat4() * camera.view.as_dmat4()).inverse();
-        if !inverse.is_finite() {
-            return Err(Error::InvalidParameter("the camera matrices are not invertible".into()));
-        }
-        Ok(Self { inverse, width: camera.width as f64, height: camera.height as f64 })
-    }
-
-    /// Origin on the near plane, unit direction and distance to the far plane of pixel
-    /// `(x, y)` (row 0 at the top), as [`Camera::ray`] gives them.
-    pub(crate) fn ray(&self, x: usize, y: usize) -> Option<(DVec3, DVec3, f64)> {
-        let nx = 2.0 * (x as f64 + 0.5) / self.width - 1.0;
-        let ny = 1.0 - 2.0 * (y as f64 + 0.5) / self.height;
-        let near = self.inverse.project_point3(DVec3::new(nx, ny, -1.0));
-        let far = self.inverse.project_point3(DVec3::new(nx, ny, 1.0));
-        let d = far - near;
-        let length = d.length();
-        (near.is_finite() && length.is_finite() && length > 0.0).then(|| (near, d / length, length))
     }
 }
 

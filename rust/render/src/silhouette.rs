@@ -13,10 +13,10 @@ use thicket_core::spatial::Bvh;
 use thicket_core::texture::{BakeParams, TextureLayer, TexturedShell};
 use thicket_core::{Mesh, Result};
 
-use crate::camera::Camera;
 use crate::image_out::Frame;
-use crate::reference::{self, Rays, RenderParams};
+use crate::reference::{self, RenderParams};
 use crate::scene::ShellScene;
+use thicket_core::raycast::{Camera, PixelRays};
 
 /// Per pixel (row 0 at the top), whether its ray meets any of `triangles` between the
 /// near and the far plane. Degenerate triangles and those with an index out of range
@@ -24,7 +24,7 @@ use crate::scene::ShellScene;
 pub fn mesh_coverage(positions: &[Vec3], triangles: &[[u32; 3]], camera: &Camera) -> Vec<bool> {
     let (width, height) = (camera.width as usize, camera.height as usize);
     let mut covered = vec![false; width * height];
-    let (Ok(rays), Some(tris)) = (Rays::new(camera), Triangles::new(positions, triangles)) else {
+    let (Ok(rays), Some(tris)) = (PixelRays::new(camera), Triangles::new(positions, triangles)) else {
         return covered;
     };
     covered.par_chunks_mut(width.max(1)).enumerate().for_each(|(y, row)| {
@@ -228,7 +228,7 @@ mod tests {
         let view = Mat4::look_at_rh(Vec3::new(1.5, -2.5, 1.0), Vec3::ZERO, Vec3::Z);
         let camera = Camera::new(view, Mat4::perspective_rh_gl(0.9, 1.0, 0.01, 10.0), 64, 64).unwrap();
         let mask = mesh_coverage(positions, &tris, &camera);
-        let rays = Rays::new(&camera).unwrap();
+        let rays = PixelRays::new(&camera).unwrap();
         let corners: Vec<[Vec3; 3]> = tris.iter().map(|t| t.map(|i| positions[i as usize])).collect();
         for y in 0..64 {
             for x in 0..64 {

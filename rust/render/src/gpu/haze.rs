@@ -14,7 +14,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use thicket_core::texture::CellMap;
 
-use crate::camera::Camera;
+use thicket_core::raycast::Camera;
 
 /// The mip level of detail the shader's `cell_lod` gives a fragment of `cell` at view
 /// depth `depth`, before adding the texture's `log2(texels per tile side)`.

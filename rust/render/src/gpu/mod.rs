@@ -37,7 +37,6 @@ use thicket_core::texture::TextureLayer;
 use thicket_core::{Error, Result};
 use wgpu::util::DeviceExt;
 
-use crate::camera::Camera;
 use crate::image_out::Frame;
 use crate::mipmap::{Level, MipmapSet, Mipmaps};
 use crate::scene::ShellScene;
@@ -46,6 +45,7 @@ use passes::{Draws, HazeDraws, Targets};
 use pipeline::{Globals, Pipelines, CUTTER_BINS_BINDING, CUTTER_TRIANGLES_BINDING, EFFECTS_BINDING, HAZE_BINDINGS, LAYER_BINDINGS, MAX_LAYERS, MOVED_BINDING};
 use scene_data::{GpuCell, GpuFrames};
 use slices::{Eye, Family, Templates};
+use thicket_core::raycast::Camera;
 
 pub use shell_texturing::{ShellTexturingParams, ShellTexturingRenderer, ShellTexturingScene};
 

@@ -25,8 +25,8 @@ use super::device::Gpu;
 use super::pipeline::{DEPTH_FORMAT, MAX_LAYERS, OUTPUT_FORMAT};
 use super::scene_data::f16_bits;
 use super::{readback, FrameTimings, SliceParams, GL_TO_WGPU};
-use crate::camera::Camera;
 use crate::image_out::Frame;
+use thicket_core::raycast::Camera;
 
 /// The shell-texturing shaders.
 pub const SHELL_TEXTURING_WGSL: &str = include_str!("../../../../shaders/shell_texturing.wgsl");

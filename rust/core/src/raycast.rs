@@ -1,9 +1,13 @@
-//! The camera: Blender's own view matrix (world to camera; the camera looks down its
-//! −Z axis) and projection matrix (OpenGL clip space, as `Object.calc_matrix_camera`
-//! returns it, so sensor fit, shift, lens and orthographic scale are all Blender's).
+//! Cameras and the rays through their pixels, one convention for every ray caster
+//! (the CPU reference renderer, the silhouettes that measure bakes, and the sphere
+//! tracer and discoid ray caster to come): Blender's own view matrix (world to camera;
+//! the camera looks down its −Z axis) and projection matrix (OpenGL clip space, as
+//! `Object.calc_matrix_camera` returns it, so sensor fit, shift, lens and orthographic
+//! scale are all Blender's); pixel `(x, y)` with row 0 at the top of the image, its ray
+//! through the pixel's centre from the near plane to the far plane.
 
-use glam::{Mat4, Vec3, Vec4};
-use thicket_core::{Error, Result};
+use crate::{Error, Result};
+use glam::{DMat4, DVec3, Mat4, Vec3, Vec4};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
@@ -64,6 +68,37 @@ impl Camera {
     }
 }
 
+/// Pixel rays in double precision from the inverse view-projection: the ray casters'
+/// form of [`Camera::ray`] (same pixels, same ends).
+#[derive(Debug, Clone)]
+pub struct PixelRays {
+    inverse: DMat4,
+    width: f64,
+    height: f64,
+}
+
+impl PixelRays {
+    pub fn new(camera: &Camera) -> Result<Self> {
+        let inverse = (camera.projection.as_dmat4() * camera.view.as_dmat4()).inverse();
+        if !inverse.is_finite() {
+            return Err(Error::InvalidParameter("the camera matrices are not invertible".into()));
+        }
+        Ok(Self { inverse, width: camera.width as f64, height: camera.height as f64 })
+    }
+
+    /// Origin on the near plane, unit direction and distance to the far plane of pixel
+    /// `(x, y)` (row 0 at the top); `None` where the projection gives no finite ray.
+    pub fn ray(&self, x: usize, y: usize) -> Option<(DVec3, DVec3, f64)> {
+        let nx = 2.0 * (x as f64 + 0.5) / self.width - 1.0;
+        let ny = 1.0 - 2.0 * (y as f64 + 0.5) / self.height;
+        let near = self.inverse.project_point3(DVec3::new(nx, ny, -1.0));
+        let far = self.inverse.project_point3(DVec3::new(nx, ny, 1.0));
+        let d = far - near;
+        let length = d.length();
+        (near.is_finite() && length.is_finite() && length > 0.0).then(|| (near, d / length, length))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -89,5 +124,23 @@ mod tests {
         assert!((o1.x + 2.0 - 0.01).abs() < 1e-3 && (o1.z - 1.0 + 0.01).abs() < 1e-3, "{o1}");
         assert!(Camera::new(view, Mat4::ZERO, 10, 10).is_err());
         assert!(Camera::new(view, persp.projection, 0, 10).is_err());
+    }
+
+    #[test]
+    fn pixel_rays_are_the_cameras_rays_in_double_precision_and_end_on_the_far_plane() {
+        let view = Mat4::look_at_rh(Vec3::new(1.0, -4.0, 2.0), Vec3::new(0.2, 0.0, 0.1), Vec3::Z);
+        for projection in [Mat4::perspective_rh_gl(0.9, 1.5, 0.1, 50.0), Mat4::orthographic_rh_gl(-3.0, 3.0, -2.0, 2.0, 0.1, 50.0)] {
+            let camera = Camera::new(view, projection, 60, 40).unwrap();
+            let rays = PixelRays::new(&camera).unwrap();
+            for (x, y) in [(0, 0), (59, 0), (30, 20), (0, 39), (59, 39)] {
+                let (o, d) = camera.ray(x as f32, y as f32);
+                let (o64, d64, length) = rays.ray(x, y).unwrap();
+                assert!((o64.as_vec3() - o).length() < 1e-4 && (d64.as_vec3() - d).length() < 1e-5, "pixel ({x}, {y})");
+                // The far end projects to the same pixel, at depth 1 in NDC.
+                let far = camera.view_projection().as_dmat4().project_point3(o64 + d64 * length);
+                let (nx, ny) = camera.ndc(x as f32, y as f32);
+                assert!((far.x - f64::from(nx)).abs() < 1e-6 && (far.y - f64::from(ny)).abs() < 1e-6 && (far.z - 1.0).abs() < 1e-6, "{far}");
+            }
+        }
     }
 }
