@@ -1,5 +1,5 @@
 """The stack is open: the evaluator walks items by what each kind declares it
-consumes and produces (`stack.evaluate.KINDS`), so a new kind is its settings, its
+consumes and produces (`stack.kinds.KINDS`), so a new kind is its settings, its
 step and one registration line; nothing else in the evaluator changes."""
 
 from dataclasses import dataclass
@@ -9,6 +9,7 @@ import pytest
 
 from thicket.arrays import MeshArrays
 from thicket.stack import evaluate as E
+from thicket.stack import kinds as K
 from thicket.stack import settings as S
 
 
@@ -34,11 +35,11 @@ def quad():
 
 @pytest.fixture
 def with_lift():
-    E.KINDS[Lift] = E.Kind("mesh", "mesh", 0.1, lift_step)
+    K.KINDS[Lift] = K.Kind("mesh", "mesh", 0.1, lift_step)
     try:
         yield
     finally:
-        del E.KINDS[Lift]
+        del K.KINDS[Lift]
 
 
 def test_a_registered_kind_runs_in_a_stack_with_the_others(with_lift):
@@ -65,7 +66,7 @@ def test_the_renderers_stop_before_the_first_drawn_kind_without_running_it(with_
     def must_not_run(*args):
         raise AssertionError("texture_setup ran the texture's step")
 
-    monkeypatch.setitem(E.KINDS, S.VolumetricTexture, E.KINDS[S.VolumetricTexture]._replace(step=must_not_run))
+    monkeypatch.setitem(K.KINDS, S.VolumetricTexture, K.KINDS[S.VolumetricTexture]._replace(step=must_not_run))
     shell = S.OffsetShell(thickness=0.1, relative=False)
     setup = E.texture_setup(quad(), [Lift(height=1.0), shell, S.VolumetricTexture(texture_size=8)])
     assert setup.item.kind == S.VolumetricTexture.kind

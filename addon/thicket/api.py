@@ -161,7 +161,7 @@ def export_texture(obj, path, index=None):
     """Writes the texture of `obj`'s Volumetric Texture item (`index`, or the last one)
     to `path`: an OpenEXR volume when it ends in .exr, else PNG slices in that folder.
     Returns the paths written."""
-    from .stack.evaluate import item_texture
+    from .stack.kinds.volumetric_texture import item_texture
 
     _require_mesh(obj)
     items = [i for i in obj.thicket.items if i.kind == "VOLUMETRIC_TEXTURE"]

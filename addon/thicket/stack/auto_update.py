@@ -42,7 +42,7 @@ def flush() -> None:
     (`last_error`, shown in the panel), never raised into Blender's event loop."""
     if busy():
         return
-    from .evaluate import BakeNeedsConfirmation
+    from .kinds.volumetric_texture import BakeNeedsConfirmation
     from .regenerate import regenerate
 
     while _pending:

@@ -3,8 +3,9 @@
 import bpy
 
 from .. import mesh_io
-from .evaluate import evaluate_stack, summary_text
+from .evaluate import evaluate_stack
 from .guard import suspended
+from .kinds.shell import summary_text
 
 
 def result_name(source: bpy.types.Object) -> str:

@@ -1,0 +1,139 @@
+"""The Volumetric Texture kind (thick surfaces, chapters 3 and 7): a texture placed
+in the latest shell, with its region, holes, cutter and moved region, baked to
+geometry; renderers draw it from the shell instead. No bpy here."""
+
+import os
+
+import numpy as np
+
+from ... import native
+from ...arrays import MeshArrays
+from .. import settings as S
+from ..state import ShellContext, State, group_weights
+
+TEXCOORD_ATTRIBUTE = "thicket_texcoord"
+
+
+_loaded = {}  # (path, modification time) -> texture array: files are read once
+_LOADED_KEEP = 8
+
+
+def _modified(path):
+    """Newest modification time of a texture file, or of a PNG stack's folder and
+    slices (a .png path stands for its folder, as `load_texture` reads it)."""
+    folder = path if os.path.isdir(path) else os.path.dirname(path) if path.lower().endswith(".png") else None
+    files = [path] if folder is None else [folder] + [os.path.join(folder, f) for f in os.listdir(folder)]
+    return max(map(os.path.getmtime, files))
+
+
+def _texture_file(tn, path):
+    """A texture file's alpha, cached while the file is unchanged."""
+    try:
+        key = (path, _modified(path))
+    except OSError:
+        return tn.load_texture(path)  # the loader names what is missing
+    if key not in _loaded:
+        if len(_loaded) >= _LOADED_KEEP:
+            _loaded.pop(next(iter(_loaded)))
+        _loaded[key] = tn.load_texture(path)
+    return _loaded[key]
+
+
+def _texture(tn, pattern, item: S.VolumetricTexture):
+    size = int(item.texture_size)
+    return tn.texture(pattern, size=(size, size, max(2, size // 2)), seed=int(item.seed), time=float(item.time), thickness=float(item.feature_thickness))
+
+
+def item_texture(item: S.VolumetricTexture):
+    """The item's texture as a float32 (nz, ny, nx) alpha array: its file or its pattern."""
+    tn = native.get()
+    return _texture_file(tn, item.filepath) if item.filepath else _texture(tn, item.pattern, item)
+
+
+class BakeNeedsConfirmation(Exception):
+    """A bake estimated above the item's `confirm_above`: the UI asks before baking."""
+
+    def __init__(self, label, estimate, limit):
+        super().__init__(f"'{label}' would make about {estimate:,} triangles (over {limit:,}): click Regenerate to confirm")
+        self.estimate = estimate
+
+
+def placed_textures(item: S.VolumetricTexture):
+    """The item's texture, and the texture it combines with at its offset (united)."""
+    textures = [item_texture(item)]
+    if item.combine:
+        textures.append((_texture(native.get(), item.combine, item), tuple(float(v) for v in item.offset)))
+    return textures
+
+
+def texture_settings(shell: ShellContext, item: S.VolumetricTexture, weights):
+    """What the bake, its estimate and the renderers take besides the shell and the
+    textures: one argument list, so a preview shows what the bake makes (UVs, tiling,
+    region, holes, cutter, moved region). `weights`: per-vertex region, holes and
+    move arrays (or None) by name."""
+    return dict(
+        uvs=shell.base.uvs,
+        tiling=float(item.tiling),
+        resolution=int(item.resolution),
+        layers=int(item.layers),
+        region=weights["region"],
+        holes=weights["holes"],
+        cutter=item.cutter,
+        move_region=weights["move"],
+        move_offset=tuple(float(v) for v in item.move_offset),
+        follow_texture=bool(item.follow_texture),
+    )
+
+
+def bake(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, progress=None):
+    """Bakes the item's texture(s) over `shell` (thick surfaces, chapter 3);
+    `weights`: per-vertex region, holes and move arrays (or None) by name;
+    `progress`: the bake's callback (see `evaluate_stack`)."""
+    tn = native.get()
+    textures = placed_textures(item)
+    base = shell.base
+    # One argument list for the estimate and the bake, so the estimate sees what the
+    # bake will (UVs, region, holes, cutter, moved region).
+    args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures)
+    settings = dict(texture_settings(shell, item, weights), triangle_budget=int(item.triangle_budget), max_triangles=int(item.max_triangles))
+    if ask:
+        estimate = tn.estimate_bake(*args, **settings)
+        if estimate > item.confirm_above:
+            raise BakeNeedsConfirmation(item.label, estimate, item.confirm_above)
+    out = tn.bake_texture(*args, **settings, progress=progress)
+    result = MeshArrays.from_native(out)
+    result.normals = out["normals"]
+    result.point_attributes = {TEXCOORD_ATTRIBUTE: out["texcoords"]}
+    # Shaded like the base: each triangle takes the material of the face it grew from,
+    # and a UV map carries the base's UVs (the texture's (s, t) over Tiling), or each
+    # face's own tile where the base has no UV map.
+    if base.material_index is not None:
+        result.material_index = base.material_index[out["source_face"]]
+    st = out["corner_texcoords"][:, :2]
+    result.uv_maps = {base.uv_name: st if base.uvs is None else st / np.float32(item.tiling)}
+    notes = []
+    if out["per_face_tiles"]:
+        notes.append("the mesh has no UV map: each face got its own texture tile")
+    if out["texture_finer_than_lattice"]:
+        steps = out["lattice_steps"][0]
+        notes.append(
+            f"'{item.label}': the texture is finer than the bake lattice ({steps} steps per face edge) on many faces, so thin features may be lost; "
+            "raise Sample Limit or lower Tiling or Texture Size"
+        )
+    return result, notes
+
+
+def texture_weights(state: State, item: S.VolumetricTexture):
+    """The item's per-vertex region, holes and move weights at the shell's base vertices."""
+    at, group = state.shell.origin, lambda name: group_weights(state.source, name, at)
+    return {"region": group(item.vertex_group), "holes": group(item.hole_group), "move": group(item.move_group)}
+
+
+def texture_step(state: State, item: S.VolumetricTexture, ask, progress):
+    state.current, notes = bake(state.shell, item, texture_weights(state, item), ask, progress)
+    state.notes.extend(notes)
+    if state.current.face_count == 0:
+        # Not an error (a hole group may cut everything away), but rarely wanted.
+        state.notes.append(
+            f"'{item.label}' baked no geometry: its features may be finer than the bake lattice; raise Resolution or Feature Thickness, or lower Tiling"
+        )

@@ -1,0 +1,49 @@
+"""What a stack's walk carries from item to item (no bpy): the current mesh, where its
+vertices came from, the latest shell, and the notes for the user. Every item kind's
+step reads and updates it (`stack.kinds`); the walk itself is `stack.evaluate`."""
+
+import numpy as np
+
+from ..arrays import MeshArrays, weight_attribute
+
+
+class ShellContext:
+    """The shell a later Volumetric Texture maps into: the mesh it was built on and
+    its base offsets and directors (layer r of vertex v at v + base_offset + r * director)."""
+
+    def __init__(self, base: MeshArrays, out, origin):
+        self.base = base
+        self.directors = np.ascontiguousarray(out["directors"], dtype=np.float32)
+        offset = out.get("base_offset")
+        self.base_offset = np.zeros_like(self.directors) if offset is None else np.ascontiguousarray(offset, dtype=np.float32)
+        self.origin = origin  # source vertex of each base vertex
+
+
+class StackError(ValueError):
+    """A stack that cannot be evaluated as ordered (e.g. a texture without a shell)."""
+
+
+def group_weights(source: MeshArrays, name, at):
+    """Vertex group `name`'s weights at the vertices `at` (source indices: the walk
+    never reaches a kind that reads groups once they are gone); None without a name."""
+    if not name:
+        return None
+    weights = source.point_attributes.get(weight_attribute(name))
+    if weights is None:
+        raise KeyError(f"vertex group '{name}' was not read from the source")
+    return np.ascontiguousarray(weights[at], dtype=np.float32)
+
+
+class State:
+    """What the items so far have made: the current mesh, the source vertex of each of
+    its vertices (None once geometry comes from no single source vertex), the latest
+    shell, notes for the user and the field shells' final checks."""
+
+    def __init__(self, source: MeshArrays):
+        self.source = source
+        self.current = source
+        self.origin = np.arange(source.vertex_count)
+        self.shell = None
+        self.made_by = ""  # the label of the kind that made geometry without provenance
+        self.notes = []
+        self.summaries = []
