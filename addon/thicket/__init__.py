@@ -3,26 +3,34 @@
 Registration only: one class tuple registered in order, unregistered in reverse.
 Geometry lives in the Rust core (`thicket_native`); `mesh_io` is the only module
 touching mesh data; scripts use `thicket.api`.
+
+The Blender side is imported when the add-on registers, not with the package, so the
+modules that need no Blender (the stack's settings, kinds and walk, arrays, the
+native loader) import in plain Python too (`tests/test_pure_modules.py`).
 """
-
-import bpy
-
-from . import cli
-from .operators import CLASSES as OPERATOR_CLASSES
-from .stack import auto_update
-from .stack.properties import CLASSES as PROPERTY_CLASSES
-from .stack.properties import register_properties, unregister_properties
-from .ui import CLASSES as UI_CLASSES
-from .ui import MENU_ENTRIES
-
-CLASSES = PROPERTY_CLASSES + OPERATOR_CLASSES + UI_CLASSES
 
 _cli_handle = None
 
 
+def classes():
+    """Every class to register, in order: PropertyGroups, operators, panels."""
+    from .operators import CLASSES as OPERATOR_CLASSES
+    from .stack.properties import CLASSES as PROPERTY_CLASSES
+    from .ui import CLASSES as UI_CLASSES
+
+    return PROPERTY_CLASSES + OPERATOR_CLASSES + UI_CLASSES
+
+
 def register():
     global _cli_handle
-    for cls in CLASSES:
+    import bpy
+
+    from . import cli
+    from .stack import auto_update
+    from .stack.properties import register_properties
+    from .ui import MENU_ENTRIES
+
+    for cls in classes():
         bpy.utils.register_class(cls)
     register_properties()
     for menu, entry in MENU_ENTRIES:
@@ -33,7 +41,13 @@ def register():
 
 def unregister():
     global _cli_handle
+    import bpy
+
+    from . import cli
     from .render import overlay
+    from .stack import auto_update
+    from .stack.properties import unregister_properties
+    from .ui import MENU_ENTRIES
 
     overlay.disable()
     cli.unregister(_cli_handle)
@@ -42,5 +56,5 @@ def unregister():
     for menu, entry in reversed(MENU_ENTRIES):
         getattr(bpy.types, menu).remove(entry)
     unregister_properties()
-    for cls in reversed(CLASSES):
+    for cls in reversed(classes()):
         bpy.utils.unregister_class(cls)
