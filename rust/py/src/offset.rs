@@ -4,7 +4,7 @@ use pyo3::types::PyDict;
 use thicket_core::shell::{build_geometry, normal_offset_directors, ShellOutput, Thickness};
 
 use crate::arrays;
-use crate::errors::{run_detached, InvalidInput};
+use crate::errors::run_detached;
 
 /// The inputs every shell-building function shares, converted once: the mesh,
 /// per-vertex factors, requested output and thickness.
@@ -41,12 +41,7 @@ impl ShellRequest {
 }
 
 pub fn parse_output(output: &str, layers: u32) -> PyResult<ShellOutput> {
-    match output {
-        "outer" => Ok(ShellOutput::Outer),
-        "solid" => Ok(ShellOutput::Solid),
-        "layers" => Ok(ShellOutput::Layers(layers)),
-        other => Err(InvalidInput::new_err(format!("output must be 'outer', 'solid' or 'layers', not {other:?}"))),
-    }
+    ShellOutput::parse(output, layers).map_err(crate::errors::to_py)
 }
 
 /// offset_shell(vertices, face_sizes, corners, thickness, relative=False, factors=None,

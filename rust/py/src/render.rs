@@ -5,14 +5,14 @@
 use numpy::{IntoPyArray, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::sync::Mutex;
 use thicket_core::glam::{Mat4, Vec3, Vec4};
-use thicket_render::gpu::{GpuRenderer, SliceMode, SliceParams};
+use thicket_render::gpu::SliceParams;
 use thicket_render::mipmap::Mipmaps;
-use thicket_render::reference::{render_watched, RenderParams};
+use thicket_render::preview::{render_preview, PreviewParams, RenderMethod};
+use thicket_render::reference::RenderParams;
 use thicket_render::{Camera, Frame, ShellScene};
 
-use crate::errors::{run_detached, run_maybe_watched, to_py, InvalidInput};
+use crate::errors::{run_detached, run_maybe_watched, to_py, InternalError, InvalidInput};
 
 /// Pixels the renderer accepts in one frame (16384 x 16384).
 const MAX_PIXELS: u64 = 1 << 28;
@@ -46,30 +46,6 @@ fn matrix(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Mat4> {
     }
     // Row-major data read as columns is the transpose.
     Ok(Mat4::from_cols_array(&cols).transpose())
-}
-
-/// The process's GPU renderer: created on first use; its creation error is kept (no
-/// adapter does not appear later), a lost device is dropped so the next call retries.
-static GPU: Mutex<Option<std::result::Result<GpuRenderer, String>>> = Mutex::new(None);
-
-/// Renders with the slice renderer, or says why it could not.
-fn render_on_gpu(scene: &ShellScene, camera: &Camera, params: &SliceParams) -> std::result::Result<(Frame, String), String> {
-    let mut gpu = GPU.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-    if gpu.is_none() {
-        *gpu = Some(GpuRenderer::new().map_err(|e| e.to_string()));
-    }
-    let renderer = match gpu.as_mut().expect("set above") {
-        Ok(r) => r,
-        Err(e) => return Err(e.clone()),
-    };
-    let name = renderer.adapter_name();
-    match renderer.render(scene, camera, params) {
-        Ok(frame) => Ok((frame, name)),
-        Err(e) => {
-            *gpu = None;
-            Err(e.to_string())
-        }
-    }
 }
 
 /// render_shell(vertices, face_sizes, corners, base_offset, directors, textures,
@@ -137,18 +113,8 @@ pub fn render_shell<'py>(
     follow_texture: bool,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let mipmaps = match mipmaps {
-        "double" => Mipmaps::Double,
-        "linear" => Mipmaps::Linear,
-        "off" => Mipmaps::Off,
-        other => return Err(InvalidInput::new_err(format!("unknown mipmaps {other:?}; one of double, linear, off"))),
-    };
-    let mode = match method {
-        "auto" | "interpolating" => Some(SliceMode::Interpolating),
-        "plain" => Some(SliceMode::Plain),
-        "reference" => None,
-        other => return Err(InvalidInput::new_err(format!("unknown render method {other:?}; one of auto, interpolating, plain, reference"))),
-    };
+    let mipmaps = Mipmaps::parse(mipmaps).map_err(to_py)?;
+    let method = RenderMethod::parse(method).map_err(to_py)?;
     // The bake's own inputs: the preview applies the same region, holes, cutter and
     // moved region as the bake (`thicket_core::texture::bake::effects`).
     let inputs = crate::texture::BakeInputs::read(
@@ -174,45 +140,29 @@ pub fn render_shell<'py>(
         return Err(InvalidInput::new_err(format!("{width}x{height} pixels are too many for one frame")));
     }
     let light = Vec3::new(light.0, light.1, light.2);
-    if let Some(mode) = mode {
-        // Bad settings are the caller's error, not a reason to fall back to the CPU.
-        SliceParams { slices, mode, light, ambient, mipmaps, ..Default::default() }.validate().map_err(to_py)?;
-    }
-    let auto = method == "auto";
-    let (frame, per_face_tiles, renderer, fallback) = run_maybe_watched(py, progress.as_ref(), move |watch| {
+    let params = PreviewParams {
+        method,
+        slices: SliceParams { slices, light, ambient, mipmaps, ..Default::default() },
+        reference: RenderParams { step, light, ambient, ..Default::default() },
+    };
+    // Bad settings are the caller's error, not a reason to fall back to the CPU.
+    params.validate().map_err(to_py)?;
+    let (preview, per_face_tiles) = run_maybe_watched(py, progress.as_ref(), move |watch| {
         let camera = Camera::new(view, projection, width, height)?;
         let scene = inputs.run(ShellScene::of)?;
         // The slice renderer draws every effect the bake applies (region, holes,
         // cutter, moved region), as the reference does.
-        let reference = |why: String| -> thicket_core::Result<(Frame, String, String)> {
-            let params = RenderParams { step, light, ambient, ..Default::default() };
-            Ok((render_watched(&scene, &camera, &params, watch)?, "CPU reference renderer".to_string(), why))
-        };
-        let (frame, renderer, fallback) = match mode {
-            None => reference(String::new())?,
-            Some(mode) => {
-                let params = SliceParams { slices, mode, light, ambient, mipmaps, ..Default::default() };
-                match render_on_gpu(&scene, &camera, &params) {
-                    Ok((frame, name)) => (frame, format!("GPU slice renderer on {name}"), String::new()),
-                    Err(why) if auto => reference(format!("the GPU slice renderer is unavailable ({why}); rendered on the CPU instead"))?,
-                    Err(why) => return Err(thicket_core::Error::Device(format!("the GPU slice renderer failed: {why}"))),
-                }
-            }
-        };
-        // A GPU frame is not interrupted; one cancelled while it was drawn is dropped.
-        if watch.is_some_and(|w| w.is_cancelled()) {
-            return Err(thicket_core::Error::Cancelled);
-        }
-        Ok((frame, scene.per_face_tiles, renderer, fallback))
+        Ok((render_preview(&scene, &camera, &params, watch)?, scene.per_face_tiles))
     })?;
+    let (frame, renderer, fallback) = (preview.frame, preview.renderer, preview.fallback);
     let (w, h) = (frame.width as usize, frame.height as usize);
     let shaped = |data: Vec<f32>, channels: usize| {
         let flat = numpy::ndarray::Array1::from_vec(data);
-        flat.into_shape_with_order((h, w, channels)).map_err(|e| InvalidInput::new_err(e.to_string()))
+        flat.into_shape_with_order((h, w, channels)).map_err(|e| InternalError::new_err(e.to_string()))
     };
     let rgba = shaped(frame.rgba.iter().flat_map(|c| c.to_array()).collect(), 4)?;
     let normal = shaped(frame.normal.iter().flat_map(|c| c.to_array()).collect(), 3)?;
-    let depth = numpy::ndarray::Array1::from_vec(frame.depth).into_shape_with_order((h, w)).map_err(|e| InvalidInput::new_err(e.to_string()))?;
+    let depth = numpy::ndarray::Array1::from_vec(frame.depth).into_shape_with_order((h, w)).map_err(|e| InternalError::new_err(e.to_string()))?;
     let d = PyDict::new(py);
     d.set_item("rgba", rgba.into_pyarray(py))?;
     d.set_item("depth", depth.into_pyarray(py))?;

@@ -12,12 +12,15 @@
 //!   transparency levels with directional alpha and normal-distribution ellipsoids.
 //! - [`image_out`]: the rendered frame (colour, alpha, depth, normal) and its PNG and
 //!   OpenEXR outputs.
+//! - [`preview`]: a preview by the method asked for (`auto`, `interpolating`,
+//!   `plain`, `reference`), with the one GPU-to-CPU fallback policy every caller shares.
 //! - [`silhouette`]: pixel coverage of a mesh or a frame and their intersection over
 //!   union: a bake's fidelity to the reference render of its shell.
 
 pub mod gpu;
 pub mod image_out;
 pub mod mipmap;
+pub mod preview;
 pub mod reference;
 pub mod scene;
 pub mod silhouette;

@@ -17,6 +17,18 @@ pub enum ShellOutput {
     Solid,
 }
 
+impl ShellOutput {
+    /// `"outer"`, `"solid"` or `"layers"` (then `layers` copies).
+    pub fn parse(s: &str, layers: u32) -> crate::Result<Self> {
+        match s {
+            "outer" => Ok(ShellOutput::Outer),
+            "solid" => Ok(ShellOutput::Solid),
+            "layers" => Ok(ShellOutput::Layers(layers)),
+            other => Err(crate::Error::InvalidParameter(format!("output must be 'outer', 'solid' or 'layers', not {other:?}"))),
+        }
+    }
+}
+
 /// Generated shell geometry, with per-vertex provenance so callers can attach
 /// attributes (directors, thickness) without recomputing anything.
 #[derive(Debug, Clone)]
