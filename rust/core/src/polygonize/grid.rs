@@ -5,7 +5,7 @@
 //! without cracks. The solid is cut by the box (the field's maximum with the box's
 //! signed distance): the surface is closed on the box's faces where it leaves it.
 //!
-//! The grid is marched in slabs of [`SLAB`] cube layers in parallel, each layer from
+//! The grid is marched in slabs of eight cube layers in parallel, each layer from
 //! two planes of samples (one batch of [`ScalarField::values`] per plane) and a slot
 //! per lattice edge of those planes for its iso-vertices, so memory grows with a
 //! plane per slab in flight and with the output, not with the grid. Iso-vertices are
@@ -32,6 +32,8 @@ pub const MAX_RESOLUTION: u32 = 2048;
 const SLAB: u32 = 8;
 
 /// Most evaluations refining one iso-vertex, and how near the level (in cells) ends it.
+/// Not from a paper: with these the analytic torus's vertices lie within 0.013 cells
+/// of its zero set (`field_mesh_bench`); the tolerance ends most refinements earlier.
 const REFINE_STEPS: usize = 8;
 const REFINE_TOLERANCE: f32 = 1e-4;
 

@@ -20,7 +20,8 @@ use super::Shell;
 use crate::Mesh;
 use glam::Vec3;
 
-/// The share of its target a vertex should reach; vertices below it are retried.
+/// The share of its target a vertex should reach; vertices below it are retried
+/// (issue 14's 95% rule, not the thesis's).
 pub const GOAL: f32 = 0.95;
 
 /// Attempts in turn: how far towards the normal the vertex turns, how many rings of

@@ -15,9 +15,12 @@ use super::quadrature::Quadrature;
 use crate::shell::intersect::{segment_crosses_triangle, segment_meets_box};
 use glam::DVec3;
 
+/// Triangles per leaf of the patch tree (not from the thesis; `shell_bench`).
 const LEAF: usize = 4;
 
-/// The soft localization ball has full weight up to `TAPER` times its radius.
+/// The soft localization ball has full weight up to `TAPER` times its radius. The
+/// thesis cuts sharply (4.3.1); the taper and its width are ours, chosen with
+/// `shell_bench` (a sharp cut opened every node on the ball's rim).
 pub const TAPER: f64 = 0.8;
 
 /// Localization weight of a patch whose centroid is `d` from the evaluation point:
