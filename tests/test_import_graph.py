@@ -13,6 +13,13 @@ def module_name(path):
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
+def relative_target(package, node):
+    """The module a relative `from ... import` in `package` names."""
+    base = package.split(".")
+    base = ".".join(base[: len(base) - node.level + 1])
+    return f"{base}.{node.module}" if node.module else base
+
+
 def import_graph():
     modules = {module_name(p): p for p in ROOT.rglob("*.py")}
     graph = {}
@@ -21,9 +28,7 @@ def import_graph():
         edges = set()
         for node in ast.walk(ast.parse(path.read_text(), str(path))):
             if isinstance(node, ast.ImportFrom) and node.level:
-                base = package.split(".")
-                base = ".".join(base[: len(base) - node.level + 1])
-                target = f"{base}.{node.module}" if node.module else base
+                target = relative_target(package, node)
                 for alias in node.names:
                     # `from . import x`: the submodule x where there is one.
                     sub = f"{target}.{alias.name}"

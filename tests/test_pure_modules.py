@@ -9,32 +9,27 @@ import pathlib
 import subprocess
 import sys
 
+from test_import_graph import module_name, relative_target
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-ADDON = ROOT / "addon" / "thicket"
+ADDON = ROOT / "addon" / "thicket"  # the modules test_import_graph names
 BLENDER_MODULES = {"bpy", "bmesh", "mathutils", "gpu", "gpu_extras", "bpy_extras", "blf", "aud", "freestyle", "bl_math", "idprop", "imbuf", "_bpy"}
-
-
-def module_name(path):
-    parts = list(path.relative_to(ADDON.parent).with_suffix("").parts)
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
 def top_level_imports(path, package):
     """The modules `path` imports when it is imported: its statements outside
-    functions and classes (lazy imports inside functions do not count)."""
+    functions (lazy imports inside functions do not count; class bodies run too)."""
     names = set()
     todo = list(ast.parse(path.read_text(), str(path)).body)
     while todo:
         node = todo.pop()
-        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             continue
         if isinstance(node, ast.Import):
             names.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
             if node.level:
-                base = package.split(".")
-                base = ".".join(base[: len(base) - node.level + 1])
-                target = f"{base}.{node.module}" if node.module else base
+                target = relative_target(package, node)
                 names.update(f"{target}.{a.name}" for a in node.names)
                 names.add(target)
             else:
@@ -110,3 +105,23 @@ def test_pure_modules_import_and_evaluate_a_stack_without_blender():
     # at an open mesh's rim, where the field shell compresses).
     assert len(result["z"]) == 4 and all(0.05 < z <= 0.1 + 1e-5 for z in result["z"]), result
     assert result["blender"] == []
+
+
+def test_unregister_removes_what_was_registered_even_after_a_reload():
+    """Reloading a module while the add-on is registered makes new classes; unregister
+    removes the registered ones (not the new ones, which Blender never saw), and
+    registering again works."""
+    import importlib
+
+    import bpy
+
+    import thicket
+    import thicket.operators
+    from thicket.operators import remove_stack
+
+    importlib.reload(remove_stack)
+    importlib.reload(thicket.operators)  # its CLASSES now names the new, unregistered class
+    thicket.unregister()
+    assert not hasattr(bpy.types, "THICKET_OT_remove")
+    thicket.register()
+    assert hasattr(bpy.types, "THICKET_OT_remove") and bpy.ops.thicket.remove.poll() in (True, False)

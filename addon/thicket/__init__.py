@@ -1,6 +1,7 @@
 """Thicket: thick surfaces for Blender meshes.
 
-Registration only: one class tuple registered in order, unregistered in reverse.
+Registration only: the classes (`classes()`) registered in order, unregistered in
+reverse.
 Geometry lives in the Rust core (`thicket_native`); `mesh_io` is the only module
 touching mesh data; scripts use `thicket.api`.
 
@@ -10,6 +11,9 @@ native loader) import in plain Python too (`tests/test_pure_modules.py`).
 """
 
 _cli_handle = None
+#: What `register` registered (classes, menu entries), so `unregister` removes exactly
+#: those, even after the modules were reloaded in between.
+_registered = ((), ())
 
 
 def classes():
@@ -22,7 +26,7 @@ def classes():
 
 
 def register():
-    global _cli_handle
+    global _cli_handle, _registered
     import bpy
 
     from . import cli
@@ -30,31 +34,33 @@ def register():
     from .stack.properties import register_properties
     from .ui import MENU_ENTRIES
 
-    for cls in classes():
+    _registered = (classes(), tuple(MENU_ENTRIES))
+    for cls in _registered[0]:
         bpy.utils.register_class(cls)
     register_properties()
-    for menu, entry in MENU_ENTRIES:
+    for menu, entry in _registered[1]:
         getattr(bpy.types, menu).append(entry)
     auto_update.register_handlers()
     _cli_handle = cli.register()
 
 
 def unregister():
-    global _cli_handle
+    global _cli_handle, _registered
     import bpy
 
     from . import cli
     from .render import overlay
     from .stack import auto_update
     from .stack.properties import unregister_properties
-    from .ui import MENU_ENTRIES
 
     overlay.disable()
     cli.unregister(_cli_handle)
     _cli_handle = None
     auto_update.unregister_handlers()
-    for menu, entry in reversed(MENU_ENTRIES):
+    classes_done, menu_entries = _registered
+    _registered = ((), ())
+    for menu, entry in reversed(menu_entries):
         getattr(bpy.types, menu).remove(entry)
     unregister_properties()
-    for cls in reversed(classes()):
+    for cls in reversed(classes_done):
         bpy.utils.unregister_class(cls)

@@ -35,6 +35,7 @@ import bpy
 from . import native
 from .stack import live_shells
 from .stack import settings as S
+from .stack.kinds.volumetric_texture import BakeNeedsConfirmation  # noqa: F401 (raised by regenerate(ask=True))
 from .stack.regenerate import regenerate as _regenerate
 
 __all__ = [
@@ -52,6 +53,7 @@ __all__ = [
     "export_glb",
     "result_of",
     "ThicketError",  # noqa: F822 (module __getattr__)
+    "BakeNeedsConfirmation",
 ]
 
 

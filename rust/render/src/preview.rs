@@ -225,9 +225,12 @@ mod tests {
         // Bad settings are refused before any renderer runs, not fallen back from.
         let bad = PreviewParams { slices: SliceParams { slices: 0, ..SliceParams::default() }, ..params(RenderMethod::Auto) };
         assert!(matches!(render_preview_with(&scene, &camera, &bad, None, must_not_run), Err(Error::InvalidParameter(_))));
-        // A cancelled watch drops the frame.
+        // A cancelled watch drops the frame: the reference's, and a GPU frame drawn while
+        // the cancel came.
         let watch = Progress::default();
         watch.cancel();
         assert!(matches!(render_preview_with(&scene, &camera, &params(RenderMethod::Auto), Some(&watch), no_gpu), Err(Error::Cancelled)));
+        let drawn_anyway = |_: &ShellScene, _: &Camera, _: &SliceParams| Ok((reference.frame.clone(), "Test Adapter".to_string()));
+        assert!(matches!(render_preview_with(&scene, &camera, &params(RenderMethod::Plain), Some(&watch), drawn_anyway), Err(Error::Cancelled)));
     }
 }

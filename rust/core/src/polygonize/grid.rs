@@ -47,6 +47,7 @@ pub struct GridParams {
     pub resolution: u32,
     /// Iso-vertices on the field's own crossing of each edge (Illinois regula falsi,
     /// up to eight evaluations each); else the linear guess from the edge's samples.
+    /// Either way they stay 1% of an edge from its ends.
     pub refine: bool,
 }
 

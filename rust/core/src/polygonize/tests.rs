@@ -250,10 +250,10 @@ fn the_contract_holds_for_extreme_values_infinities_and_zeros() {
         fn values(&self, points: &[Vec3], out: &mut [f32]) {
             for (o, p) in out.iter_mut().zip(points) {
                 let d = p.length() - 0.7;
-                *o = if d > 0.05 {
-                    1e6
-                } else if d > 0.5 {
+                *o = if d > 0.5 {
                     f32::MAX
+                } else if d > 0.05 {
+                    1e6
                 } else {
                     d
                 };
