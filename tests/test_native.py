@@ -137,3 +137,34 @@ def test_the_stub_matches_the_module():
         for member in members:
             if callable(getattr(real, member)):
                 assert _stub_parameters(methods[member]) == _real_parameters(getattr(real, member)), (name, member)
+
+
+def test_a_textured_shell_handle_gives_what_the_functions_give():
+    """Read and checked once, the handle bakes, estimates and renders as bake_texture,
+    estimate_bake and render_shell do with the same arguments; bad input raises when
+    it is made."""
+    sizes, corners = np.full(6, 4, np.int32), CUBE_F.ravel()
+    shell = tn.offset_shell(CUBE_V, sizes, corners, 0.3)
+    args = (CUBE_V, sizes, corners, np.zeros_like(shell["directors"]), shell["directors"], [tn.texture("rivets", size=(16, 16, 8))])
+    settings = dict(resolution=4, layers=8, holes=(CUBE_V[:, 0] > 0).astype(np.float32))
+    handle = tn.TexturedShell(*args, **settings)
+    assert handle.vertex_count == 8
+    baked, direct = handle.bake(), tn.bake_texture(*args, **settings)
+    assert len(direct["corners"]) > 0
+    for key in ("vertices", "corners", "normals", "texcoords", "source_face"):
+        np.testing.assert_array_equal(baked[key], direct[key], err_msg=key)
+    assert handle.estimate() == tn.estimate_bake(*args, **settings)
+    fractions = []
+    handle.bake(progress=fractions.append)
+    assert fractions and fractions[-1] == 1.0
+    view = np.array([[1, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, -6], [0, 0, 0, 1]], np.float32)
+    projection = np.array([[2, 0, 0, 0], [0, 2, 0, 0], [0, 0, -1.02, -0.2], [0, 0, -1, 0]], np.float32)
+    for _ in range(2):  # the second frame from the kept scene
+        frame = handle.render(view, projection, 24, 24, method="reference")
+        want = tn.render_shell(*args, view, projection, 24, 24, method="reference", **{k: v for k, v in settings.items()})
+        np.testing.assert_array_equal(frame["rgba"], want["rgba"])
+    assert frame["rgba"][..., 3].max() > 0.5, "the cube is in view"
+    with pytest.raises(tn.InvalidInput, match="resolution"):
+        tn.TexturedShell(*args, resolution=0)
+    with pytest.raises(tn.ThicketError, match="render method"):
+        handle.render(view, projection, 24, 24, method="raytrace")

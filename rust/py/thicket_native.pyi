@@ -145,6 +145,51 @@ def estimate_bake(
     triangle_budget: int = 1_000_000,
     max_triangles: int = 20_000_000,
 ) -> dict[str, Any]: ...
+
+class TexturedShell:
+    """A textured shell read and checked once; baked, estimated and rendered many times."""
+
+    def __init__(
+        self,
+        vertices: Floats,
+        face_sizes: Indices,
+        corners: Indices,
+        base_offset: Floats,
+        directors: Floats,
+        textures: Sequence[Any],
+        uvs: Floats | None = None,
+        tiling: float = 1.0,
+        resolution: int = 8,
+        layers: int = 16,
+        region: Floats | None = None,
+        base_layer: float = 0.1,
+        holes: Floats | None = None,
+        cutter: Cutter = None,
+        move_region: Floats | None = None,
+        move_offset: tuple[float, float] = (0.0, 0.0),
+        follow_texture: bool = True,
+        triangle_budget: int = 1_000_000,
+        max_triangles: int = 20_000_000,
+    ) -> None: ...
+    def bake(self, progress: Progress = None) -> dict[str, Any]: ...
+    def estimate(self) -> int: ...
+    def render(
+        self,
+        view: Floats,
+        projection: Floats,
+        width: int,
+        height: int,
+        method: str = "auto",
+        slices: int = 16,
+        light: tuple[float, float, float] = (0.3, -0.5, 0.8),
+        ambient: float = 0.25,
+        step: float = 0.05,
+        mipmaps: str = "double",
+        progress: Progress = None,
+    ) -> dict[str, Any]: ...
+    @property
+    def vertex_count(self) -> int: ...
+
 def load_texture(path: str) -> Floats: ...
 def save_texture(path: str, alpha: Floats) -> list[str]: ...
 def render_shell(

@@ -16,6 +16,7 @@ mod report;
 mod shell;
 mod texture;
 mod texture_io;
+mod textured_shell;
 
 use pyo3::prelude::*;
 
@@ -38,6 +39,7 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(texture::texture, m)?)?;
     m.add_function(wrap_pyfunction!(texture::bake_texture, m)?)?;
     m.add_function(wrap_pyfunction!(texture::estimate_bake, m)?)?;
+    m.add_class::<textured_shell::TexturedShell>()?;
     m.add_function(wrap_pyfunction!(texture_io::load_texture, m)?)?;
     m.add_function(wrap_pyfunction!(texture_io::save_texture, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_shell, m)?)?;

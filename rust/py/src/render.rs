@@ -8,7 +8,7 @@ use pyo3::types::PyDict;
 use thicket_core::glam::{Mat4, Vec3, Vec4};
 use thicket_render::gpu::SliceParams;
 use thicket_render::mipmap::Mipmaps;
-use thicket_render::preview::{render_preview, PreviewParams, RenderMethod};
+use thicket_render::preview::{render_preview, Preview, PreviewParams, RenderMethod};
 use thicket_render::reference::RenderParams;
 use thicket_render::{Camera, Frame, ShellScene};
 
@@ -113,8 +113,6 @@ pub fn render_shell<'py>(
     follow_texture: bool,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let mipmaps = Mipmaps::parse(mipmaps).map_err(to_py)?;
-    let method = RenderMethod::parse(method).map_err(to_py)?;
     // The bake's own inputs: the preview applies the same region, holes, cutter and
     // moved region as the bake (`thicket_core::texture::bake::effects`).
     let inputs = crate::texture::BakeInputs::read(
@@ -134,27 +132,66 @@ pub fn render_shell<'py>(
         move_offset,
         (follow_texture, 0, usize::MAX),
     )?;
-    let view = matrix(view, "view")?;
-    let projection = matrix(projection, "projection")?;
-    if width as u64 * height as u64 > MAX_PIXELS {
-        return Err(InvalidInput::new_err(format!("{width}x{height} pixels are too many for one frame")));
-    }
-    let light = Vec3::new(light.0, light.1, light.2);
-    let params = PreviewParams {
-        method,
-        slices: SliceParams { slices, light, ambient, mipmaps, ..Default::default() },
-        reference: RenderParams { step, light, ambient, ..Default::default() },
-    };
-    // Bad settings are the caller's error, not a reason to fall back to the CPU.
-    params.validate().map_err(to_py)?;
+    let request = FrameRequest::read(view, projection, width, height, method, slices, light, ambient, step, mipmaps)?;
     let (preview, per_face_tiles) = run_maybe_watched(py, progress.as_ref(), move |watch| {
-        let camera = Camera::new(view, projection, width, height)?;
         let scene = inputs.run(ShellScene::of)?;
-        // The slice renderer draws every effect the bake applies (region, holes,
-        // cutter, moved region), as the reference does.
-        Ok((render_preview(&scene, &camera, &params, watch)?, scene.per_face_tiles))
+        Ok((request.render(&scene, watch)?, scene.per_face_tiles))
     })?;
-    let (frame, renderer, fallback) = (preview.frame, preview.renderer, preview.fallback);
+    frame_dict(py, preview, per_face_tiles)
+}
+
+/// A frame asked for: the camera and how to draw, checked before any work.
+pub(crate) struct FrameRequest {
+    view: Mat4,
+    projection: Mat4,
+    width: u32,
+    height: u32,
+    params: PreviewParams,
+}
+
+impl FrameRequest {
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn read(
+        view: &Bound<'_, PyAny>,
+        projection: &Bound<'_, PyAny>,
+        width: u32,
+        height: u32,
+        method: &str,
+        slices: u32,
+        light: (f32, f32, f32),
+        ambient: f32,
+        step: f32,
+        mipmaps: &str,
+    ) -> PyResult<Self> {
+        let mipmaps = Mipmaps::parse(mipmaps).map_err(to_py)?;
+        let method = RenderMethod::parse(method).map_err(to_py)?;
+        let view = matrix(view, "view")?;
+        let projection = matrix(projection, "projection")?;
+        if width as u64 * height as u64 > MAX_PIXELS {
+            return Err(InvalidInput::new_err(format!("{width}x{height} pixels are too many for one frame")));
+        }
+        let light = Vec3::new(light.0, light.1, light.2);
+        let params = PreviewParams {
+            method,
+            slices: SliceParams { slices, light, ambient, mipmaps, ..Default::default() },
+            reference: RenderParams { step, light, ambient, ..Default::default() },
+        };
+        // Bad settings are the caller's error, not a reason to fall back to the CPU.
+        params.validate().map_err(to_py)?;
+        Ok(Self { view, projection, width, height, params })
+    }
+
+    /// Draws `scene` (the slice renderer draws every effect the bake applies: region,
+    /// holes, cutter, moved region, as the reference does).
+    pub(crate) fn render(&self, scene: &ShellScene, watch: Option<&thicket_core::progress::Progress>) -> thicket_core::Result<Preview> {
+        let camera = Camera::new(self.view, self.projection, self.width, self.height)?;
+        render_preview(scene, &camera, &self.params, watch)
+    }
+}
+
+/// A drawn frame as `render_shell` returns it.
+pub(crate) fn frame_dict(py: Python<'_>, preview: Preview, per_face_tiles: bool) -> PyResult<Bound<'_, PyDict>> {
+    let Preview { frame, renderer, fallback } = preview;
     let (w, h) = (frame.width as usize, frame.height as usize);
     let shaped = |data: Vec<f32>, channels: usize| {
         let flat = numpy::ndarray::Array1::from_vec(data);

@@ -147,14 +147,19 @@ impl BakeInputs {
 
     /// `work` given the [`TexturedShell`] of the inputs, the cutter built first
     /// (heavy: call without the GIL).
-    pub(crate) fn run<T>(mut self, work: impl FnOnce(&TexturedShell) -> thicket_core::Result<T>) -> thicket_core::Result<T> {
+    pub(crate) fn run<T>(self, work: impl FnOnce(&TexturedShell) -> thicket_core::Result<T>) -> thicket_core::Result<T> {
+        work(&self.build()?)
+    }
+
+    /// The checked textured shell (its cutter built), to keep.
+    pub(crate) fn build(mut self) -> thicket_core::Result<TexturedShell> {
         if let Some((v, t)) = self.cutter.take() {
             if t.len() % 3 != 0 {
                 return Err(thicket_core::Error::InvalidParameter("cutter triangles: three indices per triangle".into()));
             }
             self.params.cutter = Some(Cutter::new(&v, &t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect::<Vec<_>>())?);
         }
-        work(&TexturedShell::new(self.mesh, self.shell, self.textures, self.params)?)
+        TexturedShell::new(self.mesh, self.shell, self.textures, self.params)
     }
 }
 
@@ -240,6 +245,11 @@ pub fn bake_texture<'py>(
         }
         None => run_detached(py, move || inputs.run(TexturedShell::bake))?,
     };
+    baked_dict(py, out)
+}
+
+/// A bake's result as `bake_texture` returns it.
+pub(crate) fn baked_dict(py: Python<'_>, out: thicket_core::texture::BakedMesh) -> PyResult<Bound<'_, PyDict>> {
     let d = PyDict::new(py);
     let count = out.triangles.len();
     d.set_item("vertices", arrays::vec3_array(py, out.positions)?)?;

@@ -96,11 +96,13 @@ def bake(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, pro
     # bake will (UVs, region, holes, cutter, moved region).
     args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures)
     settings = dict(texture_settings(shell, item, weights), triangle_budget=int(item.triangle_budget), max_triangles=int(item.max_triangles))
+    # Read and checked once, estimated and baked from the same handle.
+    textured = tn.TexturedShell(*args, **settings)
     if ask:
-        estimate = tn.estimate_bake(*args, **settings)
+        estimate = textured.estimate()
         if estimate > item.confirm_above:
             raise BakeNeedsConfirmation(item.label, estimate, item.confirm_above)
-    out = tn.bake_texture(*args, **settings, progress=progress)
+    out = textured.bake(progress=progress)
     result = MeshArrays.from_native(out)
     result.normals = out["normals"]
     result.point_attributes = {TEXCOORD_ATTRIBUTE: out["texcoords"]}

@@ -33,6 +33,13 @@ impl TexturedShell {
     }
 
     /// What [`Self::bake`] is expected to make ([`bake::estimate_bake`]).
+    /// [`TexturedShell::bake`] watched by `progress` (cells baked, a cancel flag)
+    /// instead of the settings' own.
+    pub fn bake_watched(&self, progress: Option<std::sync::Arc<crate::progress::Progress>>) -> Result<BakedMesh> {
+        let params = BakeParams { progress, ..self.params.clone() };
+        bake::bake(&self.mesh, &self.shell, &self.layers, &params)
+    }
+
     pub fn estimate(&self) -> Result<Estimate> {
         bake::estimate_bake(&self.mesh, &self.shell, &self.layers, &self.params)
     }
