@@ -252,6 +252,49 @@ impl Bvh {
         )
     }
 
+    /// The item nearest to `p` and its distance, by `distance(item)` (the exact
+    /// distance to the item, at least the distance to its box), among those nearer
+    /// than `max`: nodes are visited nearest box first and skipped once their box is
+    /// no nearer than the best found. `None` when no item is nearer than `max`.
+    pub fn closest(&self, p: DVec3, max: f64, mut distance: impl FnMut(u32) -> f64) -> Option<(u32, f64)> {
+        let to_box = |lo: DVec3, hi: DVec3| (lo - p).max(p - hi).max(DVec3::ZERO).length();
+        let mut best: Option<(u32, f64)> = None;
+        let mut bound = max;
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let mut stack = [(0u32, 0.0f64); 64];
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let (n, near) = stack[sp];
+            if near >= bound {
+                continue;
+            }
+            let node = self.nodes[n as usize];
+            if node.count > 0 {
+                let range = node.index as usize..(node.index + node.count) as usize;
+                for (&i, b) in self.items[range.clone()].iter().zip(&self.boxes[range]) {
+                    if to_box(b.0, b.1) < bound {
+                        let d = distance(i);
+                        if d < bound {
+                            (best, bound) = (Some((i, d)), d);
+                        }
+                    }
+                }
+            } else if sp + 2 <= stack.len() {
+                // The nearer child on top, visited first.
+                let (a, b) = (n + 1, node.index);
+                let (da, db) = (to_box(self.nodes[a as usize].lo, self.nodes[a as usize].hi), to_box(self.nodes[b as usize].lo, self.nodes[b as usize].hi));
+                let (first, second) = if da <= db { ((a, da), (b, db)) } else { ((b, db), (a, da)) };
+                stack[sp] = second;
+                stack[sp + 1] = first;
+                sp += 2;
+            }
+        }
+        best
+    }
+
     /// The pairs `(i, j)`, `i < j`, whose boxes overlap and that `keep` accepts, in
     /// no particular order: one traversal of the tree against itself (each pair of
     /// overlapping nodes visited once), in parallel, rather than one query per item.
@@ -398,6 +441,45 @@ impl<K: Fn(u32, u32) -> bool + Sync> Join<'_, K> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The nearest triangle to random points against every triangle measured, also
+    /// after a refit, and nothing nearer than a bound that no triangle meets.
+    #[test]
+    fn closest_finds_the_nearest_item_as_brute_force_does() {
+        use crate::shell::intersect::point_triangle_distance2;
+        let mut state = 0x9e37_79b9u32;
+        let mut rand = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            f64::from(state) / f64::from(u32::MAX)
+        };
+        let mut tris: Vec<[DVec3; 3]> = (0..300)
+            .map(|_| {
+                let c = DVec3::new(rand(), rand(), rand()) * 10.0;
+                [c, c + DVec3::new(rand(), rand(), rand()), c + DVec3::new(rand(), rand(), rand())]
+            })
+            .collect();
+        let mut tree = Bvh::from_triangles(&tris);
+        for round in 0..2 {
+            for _ in 0..200 {
+                let p = DVec3::new(rand(), rand(), rand()) * 12.0 - 1.0;
+                let d = |i: u32| point_triangle_distance2(p, &tris[i as usize]).sqrt();
+                let want = (0..tris.len() as u32).map(|i| (i, d(i))).min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+                let got = tree.closest(p, f64::INFINITY, d).unwrap();
+                assert!((got.1 - want.1).abs() < 1e-12, "round {round}: {got:?} vs {want:?}");
+                assert_eq!(tree.closest(p, want.1 * 0.999, d), None);
+            }
+            // Move some triangles and refit.
+            let moved: Vec<u32> = (0..tris.len() as u32).step_by(7).collect();
+            for &i in &moved {
+                let shift = DVec3::new(rand(), rand(), rand()) * 3.0;
+                tris[i as usize] = tris[i as usize].map(|v| v + shift);
+            }
+            tree.refit_items(moved.iter().map(|&i| (i, tri_box(&tris[i as usize]))));
+        }
+        assert_eq!(Bvh::from_boxes(Vec::new()).closest(DVec3::ZERO, f64::INFINITY, |_| 0.0), None);
+    }
 
     /// Random small boxes in a unit cube, overlapping some of their neighbours.
     fn random_boxes(n: usize, seed: u64) -> Vec<(DVec3, DVec3)> {
