@@ -14,35 +14,25 @@ import numpy as np
 from .arrays import SELECTED_FACES, MeshArrays, weight_attribute
 
 
-def _get(mesh, attribute, key, out, collection, prop):
-    """Fills `out` from the attribute's `key`, or from `collection`'s `prop` where the
-    mesh has no such attribute."""
+def _transfer(method, mesh, attribute, key, array, collection, prop):
+    """`foreach_get` or `foreach_set` (`method`) of `array` through the attribute's
+    `key`, or through `collection`'s `prop` where the mesh has no such attribute."""
     attr = mesh.attributes.get(attribute)
     if attr is not None:
-        attr.data.foreach_get(key, out)
+        getattr(attr.data, method)(key, array)
     else:
-        collection.foreach_get(prop, out)
-
-
-def _set(mesh, attribute, key, values, collection, prop):
-    """Writes `values` to the attribute's `key`, or to `collection`'s `prop` where the
-    mesh has no such attribute."""
-    attr = mesh.attributes.get(attribute)
-    if attr is not None:
-        attr.data.foreach_set(key, values)
-    else:
-        collection.foreach_set(prop, values)
+        getattr(collection, method)(prop, array)
 
 
 def read_mesh(mesh: bpy.types.Mesh, float_attributes=()) -> MeshArrays:
     """Positions, faces and the named float point attributes of `mesh`."""
     n, f, c = len(mesh.vertices), len(mesh.polygons), len(mesh.loops)
     vertices = np.empty(n * 3, dtype=np.float32)
-    _get(mesh, "position", "vector", vertices, mesh.vertices, "co")
+    _transfer("foreach_get", mesh, "position", "vector", vertices, mesh.vertices, "co")
     face_sizes = np.empty(f, dtype=np.int32)
     mesh.polygons.foreach_get("loop_total", face_sizes)
     corners = np.empty(c, dtype=np.int32)
-    _get(mesh, ".corner_vert", "value", corners, mesh.loops, "vertex_index")
+    _transfer("foreach_get", mesh, ".corner_vert", "value", corners, mesh.loops, "vertex_index")
     attrs = {}
     for name in float_attributes:
         attr = mesh.attributes.get(name)
@@ -74,9 +64,9 @@ def write_mesh(mesh: bpy.types.Mesh, arrays: MeshArrays) -> None:
     mesh.clear_geometry()
     n, f, c = arrays.vertex_count, arrays.face_count, len(arrays.corners)
     mesh.vertices.add(n)
-    _set(mesh, "position", "vector", np.ascontiguousarray(arrays.vertices, dtype=np.float32).ravel(), mesh.vertices, "co")
+    _transfer("foreach_set", mesh, "position", "vector", np.ascontiguousarray(arrays.vertices, dtype=np.float32).ravel(), mesh.vertices, "co")
     mesh.loops.add(c)
-    _set(mesh, ".corner_vert", "value", np.ascontiguousarray(arrays.corners, dtype=np.int32), mesh.loops, "vertex_index")
+    _transfer("foreach_set", mesh, ".corner_vert", "value", np.ascontiguousarray(arrays.corners, dtype=np.int32), mesh.loops, "vertex_index")
     mesh.polygons.add(f)
     starts = np.zeros(f, dtype=np.int32)
     np.cumsum(arrays.face_sizes[:-1], out=starts[1:])
