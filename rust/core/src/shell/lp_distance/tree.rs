@@ -107,12 +107,15 @@ impl Kernel {
             let k = area * r2.powf(-0.5 * p);
             return (k, d * (p * k / r2));
         }
-        let rp = 1.0 / (r2 * r);
+        // One division for all the inverse powers: this runs for every accepted patch.
+        let inv_r = 1.0 / r;
+        let inv_r2 = inv_r * inv_r;
+        let rp = inv_r2 * inv_r;
         let (qd, trace) = (sym_times(second, d), second[0] + second[1] + second[2]);
-        let dqd = d.dot(qd) / r2;
-        let value = rp * (area + 0.5 * p * ((p + 2.0) * dqd - trace) / r2);
+        let dqd = d.dot(qd) * inv_r2;
+        let value = rp * (area + 0.5 * p * ((p + 2.0) * dqd - trace) * inv_r2);
         let q = p + 2.0;
-        let push = d * (p * rp / r2) * (area + 0.5 * q * ((q + 2.0) * dqd - trace) / r2) - qd * (p * q * rp / (r2 * r2));
+        let push = d * (p * rp * inv_r2) * (area + 0.5 * q * ((q + 2.0) * dqd - trace) * inv_r2) - qd * (p * q * rp * inv_r2 * inv_r2);
         (value, push)
     }
     #[inline]
