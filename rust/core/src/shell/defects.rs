@@ -230,7 +230,7 @@ impl Checker {
         self.items_of(t, shell.side).any(|i| {
             let mine = self.skin_tri(mesh, shell, i);
             let (lo, hi) = tri_box(&mine);
-            tree.any(lo, hi, |j| !(self.own[t as usize] || self.own[self.skin_item(j).0 as usize]) && self.skins_cross(mesh, shell, i, &mine, j))
+            tree.any(lo, hi, |j| !(self.own[t as usize] || self.own[self.skin_item(j).0 as usize]) && self.skins_cross(mesh, shell, i, || mine, j))
         })
     }
 
@@ -294,8 +294,8 @@ impl Checker {
             // which visits each pair of overlapping nodes once.
             (None, Some(tree)) => {
                 debug_assert_eq!(tree.len(), self.tris.len() * skins(shell.side).len(), "the skin tree must hold every skin triangle");
-                let skin = tree.overlapping_pairs(&|i, j| self.skins_cross(mesh, shell, i, &self.skin_tri(mesh, shell, i), j));
-                let base = tree.overlapping_pairs_with(&self.base_bvh, &|i, j| self.skin_crosses_base(mesh, shell, i, &self.skin_tri(mesh, shell, i), j));
+                let skin = tree.overlapping_pairs(&|i, j| self.skins_cross(mesh, shell, i, || self.skin_tri(mesh, shell, i), j));
+                let base = tree.overlapping_pairs_with(&self.base_bvh, &|i, j| self.skin_crosses_base(mesh, shell, i, || self.skin_tri(mesh, shell, i), j));
                 let kind = |t: u32, u: u32, k: u8| if self.own[t as usize] || self.own[u as usize] { 2 } else { k };
                 let skin = skin.into_iter().map(|(i, j)| (kind(self.skin_item(i).0, self.skin_item(j).0, 0), i, j));
                 skin.chain(base.into_iter().map(|(i, j)| (kind(self.skin_item(i).0, j, 1), i, j))).collect()
@@ -311,11 +311,12 @@ impl Checker {
         Findings { self_pairs: pairs(0), base_pairs: pairs(1), inverted, inherited: hits.iter().filter(|h| h.0 == 2).count() }
     }
 
-    /// Whether skin items `i` (at `mine`) and `j` cross, their base triangles sharing
-    /// no vertex.
-    fn skins_cross(&self, mesh: &Mesh, shell: &Shell, i: u32, mine: &[DVec3; 3], j: u32) -> bool {
+    /// Whether skin items `i` (at `mine()`, computed only once the pair is not ruled
+    /// out by topology: most candidate pairs are neighbours) and `j` cross, their base
+    /// triangles sharing no vertex.
+    fn skins_cross(&self, mesh: &Mesh, shell: &Shell, i: u32, mine: impl FnOnce() -> [DVec3; 3], j: u32) -> bool {
         let (t, u) = (self.skin_item(i).0 as usize, self.skin_item(j).0 as usize);
-        !shares(&self.tris[t], &self.tris[u]) && triangles_intersect(mine, &self.skin_tri(mesh, shell, j))
+        !shares(&self.tris[t], &self.tris[u]) && triangles_intersect(&mine(), &self.skin_tri(mesh, shell, j))
     }
 
     /// Whether skin item `i` (at `mine`) crosses base triangle `j`. The two splits of
@@ -323,14 +324,14 @@ impl Checker {
     /// checked against its own face's base in the same split only; and not against a
     /// base triangle it shares a vertex with whose skin point coincides with the base
     /// point.
-    fn skin_crosses_base(&self, mesh: &Mesh, shell: &Shell, i: u32, mine: &[DVec3; 3], j: u32) -> bool {
+    fn skin_crosses_base(&self, mesh: &Mesh, shell: &Shell, i: u32, mine: impl FnOnce() -> [DVec3; 3], j: u32) -> bool {
         let (p, tris) = (mesh.positions(), &self.tris);
         let (t, r) = self.skin_item(i);
         let (t, j) = (t as usize, j as usize);
         let coincide = |v: u32| (shell.point(p, v as usize, r).as_dvec3() - p[v as usize].as_dvec3()).length() <= 1e-6 * self.diag;
         let other_split = self.face_of[j] == self.face_of[t] && (t < self.first_other) != (j < self.first_other);
         let touching = tris[t].iter().any(|v| tris[j].contains(v) && coincide(*v));
-        !other_split && !touching && triangles_intersect(mine, &self.base[j])
+        !other_split && !touching && triangles_intersect(&mine(), &self.base[j])
     }
 
     /// [`find`](Self::find)'s pairs, one query per flagged skin triangle.
@@ -353,13 +354,13 @@ impl Checker {
                         let u = self.skin_item(j).0 as usize;
                         // Each pair once: by the lower item, unless only the higher is flagged.
                         let first = j > i || !tri_flagged(u);
-                        if first && self.skins_cross(mesh, shell, i, &mine, j) {
+                        if first && self.skins_cross(mesh, shell, i, || mine, j) {
                             hits.push((if self.own[tu] || self.own[u] { 2 } else { 0 }, i, j));
                         }
                     });
                 }
                 self.base_bvh.query(lo, hi, |j| {
-                    if self.skin_crosses_base(mesh, shell, i, &mine, j) {
+                    if self.skin_crosses_base(mesh, shell, i, || mine, j) {
                         hits.push((if self.own[tu] || self.own[j as usize] { 2 } else { 1 }, i, j));
                     }
                 });
