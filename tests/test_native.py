@@ -98,28 +98,39 @@ def _stub():
 
 
 def _stub_parameters(function):
-    """(name, has a default) of a stubbed function's parameters, `self` left out."""
+    """(name, has a default, kind) of a stubbed function's parameters, `self` left out."""
+    import inspect
+
+    P = inspect.Parameter
     args = function.args
-    positional = args.posonlyargs + args.args
+    positional = [(a, P.POSITIONAL_ONLY) for a in args.posonlyargs] + [(a, P.POSITIONAL_OR_KEYWORD) for a in args.args]
     defaults = [False] * (len(positional) - len(args.defaults)) + [True] * len(args.defaults)
-    out = [(a.arg, d) for a, d in zip(positional, defaults) if a.arg != "self"]
-    return out + [(a.arg, d is not None) for a, d in zip(args.kwonlyargs, args.kw_defaults)]
+    out = [(a.arg, d, kind) for (a, kind), d in zip(positional, defaults) if a.arg != "self"]
+    out += [(args.vararg.arg, False, P.VAR_POSITIONAL)] if args.vararg else []
+    out += [(a.arg, d is not None, P.KEYWORD_ONLY) for a, d in zip(args.kwonlyargs, args.kw_defaults)]
+    return out + ([(args.kwarg.arg, False, P.VAR_KEYWORD)] if args.kwarg else [])
 
 
 def _real_parameters(callable_):
     import inspect
 
-    return [(p.name, p.default is not inspect.Parameter.empty) for p in inspect.signature(callable_).parameters.values() if p.name != "self"]
+    parameters = inspect.signature(callable_).parameters.values()
+    return [(p.name, p.default is not inspect.Parameter.empty, p.kind) for p in parameters if p.name != "self"]
+
+
+def _stub_only(name):
+    """The stub's own typing helpers (the keyword settings' TypedDicts): not in the module."""
+    return name.startswith("_")
 
 
 def test_the_stub_matches_the_module():
     """Every public function, class and exception of thicket_native is in the stub,
-    with the module's own parameter names, order and defaults; and nothing else."""
+    with the module's own parameter names, order, kinds and defaults; and nothing else."""
     import ast
 
     tree = _stub()
-    functions = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
-    classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef)}
+    functions = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef) and not _stub_only(n.name)}
+    classes = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef) and not _stub_only(n.name)}
     public = {name for name in dir(tn) if not name.startswith("_") and name != "thicket_native"}
     assert public == set(functions) | set(classes), public ^ (set(functions) | set(classes))
     for name, node in functions.items():
@@ -137,6 +148,61 @@ def test_the_stub_matches_the_module():
         for member in members:
             if callable(getattr(real, member)):
                 assert _stub_parameters(methods[member]) == _real_parameters(getattr(real, member)), (name, member)
+
+
+def _stub_settings():
+    """The keys of each keyword-settings TypedDict in the stub (its bases' included),
+    and which TypedDict each function's `**settings` is."""
+    import ast
+
+    tree = _stub()
+    dicts = {n.name: n for n in tree.body if isinstance(n, ast.ClassDef) and _stub_only(n.name)}
+
+    def keys(name):
+        node = dicts[name]
+        inherited = {k for b in node.bases if isinstance(b, ast.Name) and b.id in dicts for k in keys(b.id)}
+        return inherited | {s.target.id for s in node.body if isinstance(s, ast.AnnAssign)}
+
+    def settings_of(function):
+        return keys(function.args.kwarg.annotation.slice.id)
+
+    functions = {n.name: settings_of(n) for n in tree.body if isinstance(n, ast.FunctionDef) and n.args.kwarg}
+    for node in (n for n in tree.body if isinstance(n, ast.ClassDef) and not _stub_only(n.name)):
+        for method in (m for m in node.body if isinstance(m, ast.FunctionDef) and m.args.kwarg):
+            functions[f"{node.name}.{method.name}"] = settings_of(method)
+    return functions, set().union(*map(keys, dicts))
+
+
+def test_each_function_takes_exactly_the_keyword_settings_its_stub_names():
+    """`**settings` is read by name in the binding (one list for the four textured-shell
+    entry points): each function reads every key of its stub's TypedDict (a value of
+    the wrong kind is refused as that argument) and refuses any other, as Python
+    refuses an unexpected keyword argument; `render_shell` takes no triangle budget."""
+    sizes, corners = np.full(6, 4, np.int32), CUBE_F.ravel()
+    shell = tn.offset_shell(CUBE_V, sizes, corners, 0.3)
+    args = (CUBE_V, sizes, corners, np.zeros_like(shell["directors"]), shell["directors"], [tn.texture("rivets", size=(8, 8, 4))])
+    camera = (np.eye(4, dtype=np.float32), np.eye(4, dtype=np.float32), 8, 8)
+    handle = tn.TexturedShell(*args, resolution=2, layers=4)
+    calls = {
+        "bake_texture": lambda **kw: tn.bake_texture(*args, **kw),
+        "estimate_bake": lambda **kw: tn.estimate_bake(*args, **kw),
+        "render_shell": lambda **kw: tn.render_shell(*args, *camera, **kw),
+        "TexturedShell.__init__": lambda **kw: tn.TexturedShell(*args, **kw),
+        "TexturedShell.render": lambda **kw: handle.render(*camera, **kw),
+    }
+    functions, every_key = _stub_settings()
+    assert set(functions) == set(calls)
+    assert "triangle_budget" in functions["bake_texture"] and "triangle_budget" not in functions["render_shell"]
+    for name, call in calls.items():
+        for key in sorted(every_key | {"resolutoin", "progres"}):
+            with pytest.raises(Exception) as raised:
+                call(**{key: object()})
+            unexpected = isinstance(raised.value, TypeError) and "unexpected keyword argument" in str(raised.value)
+            assert unexpected == (key not in functions[name]), (name, key, raised.value)
+            if unexpected:
+                assert f"'{key}'" in str(raised.value)
+            elif isinstance(raised.value, TypeError):
+                assert str(raised.value).startswith(f"argument '{key}':"), (name, key, raised.value)
 
 
 def test_a_textured_shell_handle_gives_what_the_functions_give():

@@ -7,7 +7,7 @@ signatures against the module's own.
 """
 
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import NDArray
@@ -102,6 +102,43 @@ class IncrementalShell:
     def tolerance(self, tolerance: float) -> None: ...
 
 def texture(pattern: str, size: tuple[int, int, int] = (64, 64, 32), seed: int = 0, time: float = 1.0, thickness: float = 1.0) -> Floats: ...
+
+class _TextureSettings(TypedDict, total=False):
+    """The keyword settings of a textured shell that `bake_texture`, `estimate_bake`,
+    `render_shell` and `TexturedShell` share (defaults in the comments)."""
+
+    uvs: Floats | None  # None
+    tiling: float  # 1.0
+    resolution: int  # 8
+    layers: int  # 16
+    region: PerVertex | None  # None
+    base_layer: float  # 0.1
+    holes: PerVertex | None  # None
+    cutter: Cutter  # None
+    move_region: PerVertex | None  # None
+    move_offset: tuple[float, float]  # (0.0, 0.0)
+    follow_texture: bool  # True
+
+class _BakeSettings(_TextureSettings, total=False):
+    """A bake's settings (`bake_texture`, `estimate_bake`, `TexturedShell`): a render
+    takes neither of these."""
+
+    triangle_budget: int  # 1_000_000
+    max_triangles: int  # 20_000_000
+
+class _FrameSettings(TypedDict, total=False):
+    """How `render_shell` and `TexturedShell.render` draw a frame."""
+
+    method: str  # "auto"
+    slices: int  # 16
+    light: tuple[float, float, float]  # (0.3, -0.5, 0.8)
+    ambient: float  # 0.25
+    step: float  # 0.05
+    mipmaps: str  # "double"
+
+class _RenderSettings(_TextureSettings, _FrameSettings, total=False):
+    """`render_shell`'s settings: the textured shell's and the frame's."""
+
 def bake_texture(
     vertices: Floats,
     face_sizes: Indices,
@@ -109,42 +146,13 @@ def bake_texture(
     base_offset: Floats,
     directors: Floats,
     textures: Sequence[Any],
-    uvs: Floats | None = None,
-    tiling: float = 1.0,
-    resolution: int = 8,
-    layers: int = 16,
-    region: Floats | None = None,
-    base_layer: float = 0.1,
-    holes: Floats | None = None,
-    cutter: Cutter = None,
-    move_region: Floats | None = None,
-    move_offset: tuple[float, float] = (0.0, 0.0),
-    follow_texture: bool = True,
-    triangle_budget: int = 1_000_000,
-    max_triangles: int = 20_000_000,
+    *,
     progress: Progress = None,
+    **settings: Unpack[_BakeSettings],
 ) -> dict[str, Any]: ...
 def estimate_bake(
-    vertices: Floats,
-    face_sizes: Indices,
-    corners: Indices,
-    base_offset: Floats,
-    directors: Floats,
-    textures: Sequence[Any],
-    uvs: Floats | None = None,
-    tiling: float = 1.0,
-    resolution: int = 8,
-    layers: int = 16,
-    region: Floats | None = None,
-    base_layer: float = 0.1,
-    holes: Floats | None = None,
-    cutter: Cutter = None,
-    move_region: Floats | None = None,
-    move_offset: tuple[float, float] = (0.0, 0.0),
-    follow_texture: bool = True,
-    triangle_budget: int = 1_000_000,
-    max_triangles: int = 20_000_000,
-) -> dict[str, Any]: ...
+    vertices: Floats, face_sizes: Indices, corners: Indices, base_offset: Floats, directors: Floats, textures: Sequence[Any], **settings: Unpack[_BakeSettings]
+) -> int: ...
 
 class TexturedShell:
     """A textured shell read and checked once; baked, estimated and rendered many times."""
@@ -157,35 +165,12 @@ class TexturedShell:
         base_offset: Floats,
         directors: Floats,
         textures: Sequence[Any],
-        uvs: Floats | None = None,
-        tiling: float = 1.0,
-        resolution: int = 8,
-        layers: int = 16,
-        region: Floats | None = None,
-        base_layer: float = 0.1,
-        holes: Floats | None = None,
-        cutter: Cutter = None,
-        move_region: Floats | None = None,
-        move_offset: tuple[float, float] = (0.0, 0.0),
-        follow_texture: bool = True,
-        triangle_budget: int = 1_000_000,
-        max_triangles: int = 20_000_000,
+        **settings: Unpack[_BakeSettings],
     ) -> None: ...
     def bake(self, progress: Progress = None) -> dict[str, Any]: ...
     def estimate(self) -> int: ...
     def render(
-        self,
-        view: Floats,
-        projection: Floats,
-        width: int,
-        height: int,
-        method: str = "auto",
-        slices: int = 16,
-        light: tuple[float, float, float] = (0.3, -0.5, 0.8),
-        ambient: float = 0.25,
-        step: float = 0.05,
-        mipmaps: str = "double",
-        progress: Progress = None,
+        self, view: Floats, projection: Floats, width: int, height: int, *, progress: Progress = None, **settings: Unpack[_FrameSettings]
     ) -> dict[str, Any]: ...
     @property
     def vertex_count(self) -> int: ...
@@ -203,23 +188,8 @@ def render_shell(
     projection: Floats,
     width: int,
     height: int,
-    uvs: Floats | None = None,
-    tiling: float = 1.0,
-    method: str = "auto",
-    slices: int = 16,
-    light: tuple[float, float, float] = (0.3, -0.5, 0.8),
-    ambient: float = 0.25,
-    step: float = 0.05,
-    mipmaps: str = "double",
-    resolution: int = 8,
-    layers: int = 16,
-    region: Floats | None = None,
-    base_layer: float = 0.1,
-    holes: Floats | None = None,
-    cutter: Cutter = None,
-    move_region: Floats | None = None,
-    move_offset: tuple[float, float] = (0.0, 0.0),
-    follow_texture: bool = True,
+    *,
     progress: Progress = None,
+    **settings: Unpack[_RenderSettings],
 ) -> dict[str, Any]: ...
 def save_render(path: str, rgba: Floats, depth: Floats | None = None, normal: Floats | None = None) -> None: ...

@@ -10,6 +10,7 @@
 mod arrays;
 mod errors;
 mod incremental;
+mod keywords;
 mod offset;
 mod render;
 mod report;

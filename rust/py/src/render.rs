@@ -13,6 +13,8 @@ use thicket_render::reference::RenderParams;
 use thicket_render::{Camera, Frame, ShellScene};
 
 use crate::errors::{run_detached, run_maybe_watched, to_py, InternalError, InvalidInput};
+use crate::keywords::Keywords;
+use crate::texture::{BakeInputs, ShellArrays, TextureSettings};
 
 /// Pixels the renderer accepts in one frame (16384 x 16384).
 const MAX_PIXELS: u64 = 1 << 28;
@@ -49,15 +51,18 @@ fn matrix(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Mat4> {
 }
 
 /// render_shell(vertices, face_sizes, corners, base_offset, directors, textures,
-///              view, projection, width, height, uvs=None, tiling=1.0,
-///              method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25,
-///              step=0.05, mipmaps="double", resolution=8, layers=16,
-///              region=None, base_layer=0.1, holes=None, cutter=None,
-///              move_region=None, move_offset=(0.0, 0.0), follow_texture=True,
-///              progress=None) -> dict
+///              view, projection, width, height, *, progress=None, **settings)
+///              -> dict
 ///
 /// Renders the alpha = 0.5 iso-surface of volumetric textures mapped into a shell
 /// (layer r of vertex v at v + base_offset + r * director) without baking it.
+/// `settings` (keywords): how to draw, method="auto", slices=16,
+/// light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05, mipmaps="double" (as for
+/// `TexturedShell.render`), and `bake_texture`'s settings but `triangle_budget` and
+/// `max_triangles` (uvs, tiling, resolution, layers, region, base_layer, holes,
+/// cutter, move_region, move_offset, follow_texture): the frame shows what the bake
+/// makes of them (partial region, holes, cut and moved texture; the slice renderer
+/// draws all four, as the reference does).
 /// `method`: "interpolating" or "plain" (the GPU slice renderer of chapter 5, `slices`
 /// slices per cell), "reference" (CPU ray marching with exact root bracketing; `step`
 /// as a fraction of the mean shell thickness), or "auto" (interpolating slices, the
@@ -65,22 +70,18 @@ fn matrix(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Mat4> {
 /// only): "double" (chapter 6: far textures become semi-transparent instead of
 /// vanishing), "linear" (averaged mipmaps, for comparison) or "off" (the full
 /// texture everywhere; the reference always uses it). `textures`: a list
-/// of float32 (nz, ny, nx) arrays or (array, (ds, dt)) pairs, united. `uvs`: float32
-/// (corners, 2) or None (one tile per face). `view` (world to camera) and
-/// `projection` (camera to OpenGL clip space, as `Object.calc_matrix_camera` gives
-/// it): 4x4, row-major as `numpy.array(matrix)` of a Blender Matrix. `light`:
-/// direction toward the light (world). Returns rgba float32 (height, width, 4)
-/// (linear colour, straight alpha, row 0 at the top), depth float32 (height, width)
-/// (distance along the view axis, inf where empty), normal float32 (height, width,
-/// 3), per_face_tiles, renderer (what drew it) and fallback (why the GPU was not
-/// used, or ""). `resolution`, `layers`, `region`, `base_layer`, `holes`, `cutter`,
-/// `move_region`, `move_offset` and `follow_texture` are `bake_texture`'s: the frame
-/// shows what the bake makes of them (partial region, holes, cut and moved texture).
-/// The slice renderer draws all four, as the reference does.
+/// of float32 (nz, ny, nx) arrays or (array, (ds, dt)) pairs, united. `view` (world
+/// to camera) and `projection` (camera to OpenGL clip space, as
+/// `Object.calc_matrix_camera` gives it): 4x4, row-major as `numpy.array(matrix)` of
+/// a Blender Matrix. `light`: direction toward the light (world). Returns rgba
+/// float32 (height, width, 4) (linear colour, straight alpha, row 0 at the top),
+/// depth float32 (height, width) (distance along the view axis, inf where empty),
+/// normal float32 (height, width, 3), per_face_tiles, renderer (what drew it) and
+/// fallback (why the GPU was not used, or "").
 /// `progress`: as for `bake_texture` (rows of the CPU reference; a GPU frame is one
 /// step and is not interrupted); returning False cancels with `Cancelled`.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, view, projection, width, height, uvs=None, tiling=1.0, method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05, mipmaps="double", resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true, progress=None))]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, view, projection, width, height, *, progress=None, **settings))]
 #[allow(clippy::too_many_arguments)]
 pub fn render_shell<'py>(
     py: Python<'py>,
@@ -94,50 +95,47 @@ pub fn render_shell<'py>(
     projection: &Bound<'py, PyAny>,
     width: u32,
     height: u32,
-    uvs: Option<PyReadonlyArray2<'py, f32>>,
-    tiling: f32,
-    method: &str,
-    slices: u32,
-    light: (f32, f32, f32),
-    ambient: f32,
-    step: f32,
-    mipmaps: &str,
-    resolution: u32,
-    layers: u32,
-    region: Option<&Bound<'py, PyAny>>,
-    base_layer: f32,
-    holes: Option<&Bound<'py, PyAny>>,
-    cutter: Option<(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
-    move_region: Option<&Bound<'py, PyAny>>,
-    move_offset: (f32, f32),
-    follow_texture: bool,
     progress: Option<Bound<'py, PyAny>>,
+    settings: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     // The bake's own inputs: the preview applies the same region, holes, cutter and
     // moved region as the bake (`thicket_core::texture::bake::effects`).
-    let inputs = crate::texture::BakeInputs::read(
-        &vertices,
-        face_sizes,
-        corners,
-        &base_offset,
-        &directors,
-        textures,
-        uvs.as_ref(),
-        (tiling, resolution, layers),
-        region,
-        base_layer,
-        holes,
-        cutter.as_ref(),
-        move_region,
-        move_offset,
-        (follow_texture, 0, usize::MAX),
-    )?;
-    let request = FrameRequest::read(view, projection, width, height, method, slices, light, ambient, step, mipmaps)?;
+    let keywords = Keywords::new("render_shell", settings);
+    let texture = TextureSettings::read(&keywords, false)?;
+    let frame = FrameSettings::read(&keywords)?;
+    keywords.finish()?;
+    let inputs = BakeInputs::read(ShellArrays { vertices, face_sizes, corners, base_offset, directors, textures }, texture)?;
+    let request = FrameRequest::read(view, projection, width, height, frame)?;
     let (preview, per_face_tiles) = run_maybe_watched(py, progress.as_ref(), move |watch| {
         let scene = inputs.run(ShellScene::of)?;
         Ok((request.render(&scene, watch)?, scene.per_face_tiles))
     })?;
     frame_dict(py, preview, per_face_tiles)
+}
+
+/// How to draw a frame: the keyword arguments that `render_shell` and
+/// `TexturedShell.render` share, each named here once with its default (the stub's
+/// `_FrameSettings`).
+pub(crate) struct FrameSettings {
+    method: String,
+    slices: u32,
+    light: (f32, f32, f32),
+    ambient: f32,
+    step: f32,
+    mipmaps: String,
+}
+
+impl FrameSettings {
+    pub(crate) fn read(keywords: &Keywords<'_, '_>) -> PyResult<Self> {
+        Ok(Self {
+            method: keywords.get("method", "auto".to_owned())?,
+            slices: keywords.get("slices", 16)?,
+            light: keywords.get("light", (0.3, -0.5, 0.8))?,
+            ambient: keywords.get("ambient", 0.25)?,
+            step: keywords.get("step", 0.05)?,
+            mipmaps: keywords.get("mipmaps", "double".to_owned())?,
+        })
+    }
 }
 
 /// A frame asked for: the camera and how to draw, checked before any work.
@@ -150,21 +148,10 @@ pub(crate) struct FrameRequest {
 }
 
 impl FrameRequest {
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn read(
-        view: &Bound<'_, PyAny>,
-        projection: &Bound<'_, PyAny>,
-        width: u32,
-        height: u32,
-        method: &str,
-        slices: u32,
-        light: (f32, f32, f32),
-        ambient: f32,
-        step: f32,
-        mipmaps: &str,
-    ) -> PyResult<Self> {
-        let mipmaps = Mipmaps::parse(mipmaps).map_err(to_py)?;
-        let method = RenderMethod::parse(method).map_err(to_py)?;
+    pub(crate) fn read(view: &Bound<'_, PyAny>, projection: &Bound<'_, PyAny>, width: u32, height: u32, settings: FrameSettings) -> PyResult<Self> {
+        let FrameSettings { method, slices, light, ambient, step, mipmaps } = settings;
+        let mipmaps = Mipmaps::parse(&mipmaps).map_err(to_py)?;
+        let method = RenderMethod::parse(&method).map_err(to_py)?;
         let view = matrix(view, "view")?;
         let projection = matrix(projection, "projection")?;
         if width as u64 * height as u64 > MAX_PIXELS {

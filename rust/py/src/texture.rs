@@ -11,6 +11,7 @@ use thicket_core::Mesh;
 
 use crate::arrays;
 use crate::errors::{run_detached, run_watched, to_py, InvalidInput};
+use crate::keywords::Keywords;
 use std::sync::Arc;
 use thicket_core::progress::Progress;
 
@@ -62,22 +63,6 @@ fn layers(textures: &Bound<'_, PyAny>) -> PyResult<Vec<TextureLayer>> {
 
 /// A shell given by its base offsets and directors (layer r of vertex v at
 /// v + base_offset + r * director), one row per vertex of an `n`-vertex mesh.
-/// The base mesh (with its UVs), its shell and the textures of a bake or render call,
-/// checked against each other.
-pub(crate) fn textured_shell(
-    vertices: &PyReadonlyArray2<'_, f32>,
-    face_sizes: &Bound<'_, PyAny>,
-    corners: &Bound<'_, PyAny>,
-    uvs: Option<&PyReadonlyArray2<'_, f32>>,
-    base_offset: &PyReadonlyArray2<'_, f32>,
-    directors: &PyReadonlyArray2<'_, f32>,
-    textures: &Bound<'_, PyAny>,
-) -> PyResult<(Mesh, Shell, Vec<TextureLayer>)> {
-    let mesh = arrays::mesh_with_uvs(vertices, face_sizes, corners, uvs)?;
-    let shell = shell_of(base_offset, directors, mesh.vertex_count())?;
-    Ok((mesh, shell, layers(textures)?))
-}
-
 fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyReadonlyArray2<'_, f32>, n: usize) -> PyResult<Shell> {
     let base_offset = arrays::positions(base_offset)?;
     let directors = arrays::positions(directors)?;
@@ -85,6 +70,63 @@ fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyReadonlyArray
         return Err(InvalidInput::new_err("base_offset and directors need one row per vertex"));
     }
     Ok(Shell::from_directors(base_offset, directors))
+}
+
+/// The arrays of a textured shell, the positional arguments `bake_texture`,
+/// `estimate_bake`, `render_shell` and `TexturedShell` begin with: the base mesh, its
+/// shell (base offsets and directors) and the textures.
+pub(crate) struct ShellArrays<'a, 'py> {
+    pub vertices: PyReadonlyArray2<'py, f32>,
+    pub face_sizes: &'a Bound<'py, PyAny>,
+    pub corners: &'a Bound<'py, PyAny>,
+    pub base_offset: PyReadonlyArray2<'py, f32>,
+    pub directors: PyReadonlyArray2<'py, f32>,
+    pub textures: &'a Bound<'py, PyAny>,
+}
+
+/// A textured shell's settings besides its arrays: the keyword arguments that
+/// `bake_texture`, `estimate_bake`, `render_shell` and `TexturedShell` share, each
+/// named here once with its default (the stub's `_TextureSettings` and
+/// `_BakeSettings`).
+pub(crate) struct TextureSettings<'py> {
+    uvs: Option<PyReadonlyArray2<'py, f32>>,
+    tiling: f32,
+    resolution: u32,
+    layers: u32,
+    region: Option<Bound<'py, PyAny>>,
+    base_layer: f32,
+    holes: Option<Bound<'py, PyAny>>,
+    cutter: Option<(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
+    move_region: Option<Bound<'py, PyAny>>,
+    move_offset: (f32, f32),
+    follow_texture: bool,
+    triangle_budget: usize,
+    max_triangles: usize,
+}
+
+impl<'py> TextureSettings<'py> {
+    /// The settings among `keywords`. `budget`: whether the bake's `triangle_budget`
+    /// and `max_triangles` are among them; a render takes neither (it draws every
+    /// cell: no simplification, no limit).
+    pub(crate) fn read(keywords: &Keywords<'_, 'py>, budget: bool) -> PyResult<Self> {
+        let (triangle_budget, max_triangles) =
+            if budget { (keywords.get("triangle_budget", 1_000_000)?, keywords.get("max_triangles", 20_000_000)?) } else { (0, usize::MAX) };
+        Ok(Self {
+            uvs: keywords.get("uvs", None)?,
+            tiling: keywords.get("tiling", 1.0)?,
+            resolution: keywords.get("resolution", 8)?,
+            layers: keywords.get("layers", 16)?,
+            region: keywords.get("region", None)?,
+            base_layer: keywords.get("base_layer", 0.1)?,
+            holes: keywords.get("holes", None)?,
+            cutter: keywords.get("cutter", None)?,
+            move_region: keywords.get("move_region", None)?,
+            move_offset: keywords.get("move_offset", (0.0, 0.0))?,
+            follow_texture: keywords.get("follow_texture", true)?,
+            triangle_budget,
+            max_triangles,
+        })
+    }
 }
 
 /// Everything a bake is given, read from Python and checked against the mesh; the
@@ -98,51 +140,50 @@ pub(crate) struct BakeInputs {
 }
 
 impl BakeInputs {
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn read<'py>(
-        vertices: &PyReadonlyArray2<'py, f32>,
-        face_sizes: &Bound<'py, PyAny>,
-        corners: &Bound<'py, PyAny>,
-        base_offset: &PyReadonlyArray2<'py, f32>,
-        directors: &PyReadonlyArray2<'py, f32>,
-        textures: &Bound<'py, PyAny>,
-        uvs: Option<&PyReadonlyArray2<'py, f32>>,
-        (tiling, resolution, layers): (f32, u32, u32),
-        region: Option<&Bound<'py, PyAny>>,
-        base_layer: f32,
-        holes: Option<&Bound<'py, PyAny>>,
-        cutter: Option<&(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
-        move_region: Option<&Bound<'py, PyAny>>,
-        move_offset: (f32, f32),
-        (follow_texture, triangle_budget, max_triangles): (bool, usize, usize),
-    ) -> PyResult<Self> {
-        let (mesh, shell, textures) = textured_shell(vertices, face_sizes, corners, uvs, base_offset, directors, textures)?;
+    /// The arrays and settings of a bake, estimate or render call, checked against
+    /// each other.
+    pub(crate) fn read(arrays: ShellArrays<'_, '_>, settings: TextureSettings<'_>) -> PyResult<Self> {
+        let ShellArrays { vertices, face_sizes, corners, base_offset, directors, textures } = arrays;
+        let mesh = arrays::mesh_with_uvs(&vertices, face_sizes, corners, settings.uvs.as_ref())?;
         let n = mesh.vertex_count();
-        let region = region.map(|r| arrays::per_vertex_or_scalar(r, n, "region")).transpose()?;
-        let holes = holes.map(|r| arrays::per_vertex_or_scalar(r, n, "holes")).transpose()?;
-        let moved = move_region
-            .map(|r| arrays::per_vertex_or_scalar(r, n, "move_region"))
+        let shell = shell_of(&base_offset, &directors, n)?;
+        let textures = layers(textures)?;
+        let region = settings.region.map(|r| arrays::per_vertex_or_scalar(&r, n, "region")).transpose()?;
+        let holes = settings.holes.map(|r| arrays::per_vertex_or_scalar(&r, n, "holes")).transpose()?;
+        let moved = settings
+            .move_region
+            .map(|r| arrays::per_vertex_or_scalar(&r, n, "move_region"))
             .transpose()?
-            .map(|weights| MovedRegion { weights, offset: Vec2::new(move_offset.0, move_offset.1) });
-        let cutter = match cutter {
+            .map(|weights| MovedRegion { weights, offset: Vec2::new(settings.move_offset.0, settings.move_offset.1) });
+        let cutter = match &settings.cutter {
             Some((v, t)) => Some((arrays::positions(v)?, arrays::indices(t, "cutter triangles")?)),
             None => None,
         };
         let params = BakeParams {
-            resolution,
-            layers,
-            follow_texture,
-            tiling,
+            resolution: settings.resolution,
+            layers: settings.layers,
+            follow_texture: settings.follow_texture,
+            tiling: settings.tiling,
             region,
-            base_layer,
+            base_layer: settings.base_layer,
             holes,
             cutter: None,
             moved,
             progress: None,
-            triangle_budget,
-            max_triangles,
+            triangle_budget: settings.triangle_budget,
+            max_triangles: settings.max_triangles,
         };
         Ok(Self { mesh, shell, textures, cutter, params })
+    }
+
+    /// The inputs of a call given `arrays` and keyword `settings`, read as `function`
+    /// reads them (`budget`: see [`TextureSettings::read`]); the keywords it does not
+    /// take are refused before any array is read.
+    pub(crate) fn of_call<'py>(function: &'static str, arrays: ShellArrays<'_, 'py>, settings: Option<&Bound<'py, PyDict>>, budget: bool) -> PyResult<Self> {
+        let keywords = Keywords::new(function, settings);
+        let settings = TextureSettings::read(&keywords, budget)?;
+        keywords.finish()?;
+        Self::read(arrays, settings)
     }
 
     /// `work` given the [`TexturedShell`] of the inputs, the cutter built first
@@ -163,17 +204,18 @@ impl BakeInputs {
     }
 }
 
-/// bake_texture(vertices, face_sizes, corners, base_offset, directors, textures,
-///              uvs=None, tiling=1.0, resolution=8, layers=16, region=None,
-///              base_layer=0.1, holes=None, cutter=None, move_region=None,
-///              move_offset=(0.0, 0.0), follow_texture=True,
-///              triangle_budget=1_000_000, max_triangles=20_000_000,
-///              progress=None) -> dict
+/// bake_texture(vertices, face_sizes, corners, base_offset, directors, textures, *,
+///              progress=None, **settings) -> dict
 ///
 /// Bakes the alpha = 0.5 iso-surface of volumetric textures mapped into a shell (layer
 /// r of vertex v at v + base_offset + r * director) into one closed, crack-free mesh.
 /// `textures`: a list of float32 (nz, ny, nx) arrays or (array, (ds, dt)) pairs,
-/// united. `uvs`: float32 (corners, 2) or None (one tile per face). `region`: float32
+/// united. `settings` (keywords, the same for `estimate_bake`, `TexturedShell` and,
+/// but for the last two, `render_shell`): uvs=None, tiling=1.0, resolution=8,
+/// layers=16, region=None, base_layer=0.1, holes=None, cutter=None,
+/// move_region=None, move_offset=(0.0, 0.0), follow_texture=True,
+/// triangle_budget=1_000_000, max_triangles=20_000_000.
+/// `uvs`: float32 (corners, 2) or None (one tile per face). `region`: float32
 /// (n,) where the texture exists (elsewhere a thin base slab). `holes`: float32 (n,)
 /// where the texture is cut away. `cutter`: (vertices float32 (k,3), triangles (t,3))
 /// of a closed mesh in the same coordinates; the texture is cut away inside it.
@@ -195,7 +237,7 @@ impl BakeInputs {
 /// exception from it, raised once the bake stops, or Ctrl-C), which then raises
 /// thicket_native.Cancelled (a ThicketError, message "cancelled").
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true, triangle_budget=1_000_000, max_triangles=20_000_000, progress=None))]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, *, progress=None, **settings))]
 #[allow(clippy::too_many_arguments)]
 pub fn bake_texture<'py>(
     py: Python<'py>,
@@ -205,38 +247,10 @@ pub fn bake_texture<'py>(
     base_offset: PyReadonlyArray2<'py, f32>,
     directors: PyReadonlyArray2<'py, f32>,
     textures: &Bound<'py, PyAny>,
-    uvs: Option<PyReadonlyArray2<'py, f32>>,
-    tiling: f32,
-    resolution: u32,
-    layers: u32,
-    region: Option<&Bound<'py, PyAny>>,
-    base_layer: f32,
-    holes: Option<&Bound<'py, PyAny>>,
-    cutter: Option<(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
-    move_region: Option<&Bound<'py, PyAny>>,
-    move_offset: (f32, f32),
-    follow_texture: bool,
-    triangle_budget: usize,
-    max_triangles: usize,
     progress: Option<Bound<'py, PyAny>>,
+    settings: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let mut inputs = BakeInputs::read(
-        &vertices,
-        face_sizes,
-        corners,
-        &base_offset,
-        &directors,
-        textures,
-        uvs.as_ref(),
-        (tiling, resolution, layers),
-        region,
-        base_layer,
-        holes,
-        cutter.as_ref(),
-        move_region,
-        move_offset,
-        (follow_texture, triangle_budget, max_triangles),
-    )?;
+    let mut inputs = BakeInputs::of_call("bake_texture", ShellArrays { vertices, face_sizes, corners, base_offset, directors, textures }, settings, true)?;
     let out = match progress {
         Some(callback) => {
             let watch = Arc::new(Progress::default());
@@ -266,16 +280,13 @@ pub(crate) fn baked_dict(py: Python<'_>, out: thicket_core::texture::BakedMesh) 
 }
 
 /// estimate_bake(vertices, face_sizes, corners, base_offset, directors, textures,
-///               uvs=None, tiling=1.0, resolution=8, layers=16, region=None,
-///               base_layer=0.1, holes=None, cutter=None, move_region=None,
-///               move_offset=(0.0, 0.0), follow_texture=True,
-///               triangle_budget=1_000_000, max_triangles=20_000_000) -> int
+///               **settings) -> int
 ///
 /// The triangle count `bake_texture` is expected to make when given the same
 /// arguments (checked alike, refused alike), before baking: the bake's own lattice,
 /// field and simplification on a sample of its cells.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true, triangle_budget=1_000_000, max_triangles=20_000_000))]
+#[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, **settings))]
 #[allow(clippy::too_many_arguments)]
 pub fn estimate_bake<'py>(
     py: Python<'py>,
@@ -285,36 +296,8 @@ pub fn estimate_bake<'py>(
     base_offset: PyReadonlyArray2<'py, f32>,
     directors: PyReadonlyArray2<'py, f32>,
     textures: &Bound<'py, PyAny>,
-    uvs: Option<PyReadonlyArray2<'py, f32>>,
-    tiling: f32,
-    resolution: u32,
-    layers: u32,
-    region: Option<&Bound<'py, PyAny>>,
-    base_layer: f32,
-    holes: Option<&Bound<'py, PyAny>>,
-    cutter: Option<(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
-    move_region: Option<&Bound<'py, PyAny>>,
-    move_offset: (f32, f32),
-    follow_texture: bool,
-    triangle_budget: usize,
-    max_triangles: usize,
+    settings: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<usize> {
-    let inputs = BakeInputs::read(
-        &vertices,
-        face_sizes,
-        corners,
-        &base_offset,
-        &directors,
-        textures,
-        uvs.as_ref(),
-        (tiling, resolution, layers),
-        region,
-        base_layer,
-        holes,
-        cutter.as_ref(),
-        move_region,
-        move_offset,
-        (follow_texture, triangle_budget, max_triangles),
-    )?;
+    let inputs = BakeInputs::of_call("estimate_bake", ShellArrays { vertices, face_sizes, corners, base_offset, directors, textures }, settings, true)?;
     run_detached(py, move || inputs.run(|textured| Ok(textured.estimate()?.triangles)))
 }

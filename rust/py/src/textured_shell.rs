@@ -11,14 +11,12 @@ use thicket_core::texture::TexturedShell as Core;
 use thicket_render::ShellScene;
 
 use crate::errors::{run_detached, run_maybe_watched, run_watched};
-use crate::render::{frame_dict, FrameRequest};
-use crate::texture::{baked_dict, BakeInputs};
+use crate::keywords::Keywords;
+use crate::render::{frame_dict, FrameRequest, FrameSettings};
+use crate::texture::{baked_dict, BakeInputs, ShellArrays};
 
 /// TexturedShell(vertices, face_sizes, corners, base_offset, directors, textures,
-///               uvs=None, tiling=1.0, resolution=8, layers=16, region=None,
-///               base_layer=0.1, holes=None, cutter=None, move_region=None,
-///               move_offset=(0.0, 0.0), follow_texture=True,
-///               triangle_budget=1_000_000, max_triangles=20_000_000)
+///               **settings)
 ///
 /// The arguments of `bake_texture` (without `progress`), read and checked once (with
 /// the GIL released): bad input raises here. `bake()`, `estimate()` and `render(...)`
@@ -33,7 +31,7 @@ pub struct TexturedShell {
 #[pymethods]
 impl TexturedShell {
     #[new]
-    #[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, uvs=None, tiling=1.0, resolution=8, layers=16, region=None, base_layer=0.1, holes=None, cutter=None, move_region=None, move_offset=(0.0, 0.0), follow_texture=true, triangle_budget=1_000_000, max_triangles=20_000_000))]
+    #[pyo3(signature = (vertices, face_sizes, corners, base_offset, directors, textures, **settings))]
     #[allow(clippy::too_many_arguments)]
     fn new<'py>(
         py: Python<'py>,
@@ -43,37 +41,9 @@ impl TexturedShell {
         base_offset: PyReadonlyArray2<'py, f32>,
         directors: PyReadonlyArray2<'py, f32>,
         textures: &Bound<'py, PyAny>,
-        uvs: Option<PyReadonlyArray2<'py, f32>>,
-        tiling: f32,
-        resolution: u32,
-        layers: u32,
-        region: Option<&Bound<'py, PyAny>>,
-        base_layer: f32,
-        holes: Option<&Bound<'py, PyAny>>,
-        cutter: Option<(PyReadonlyArray2<'py, f32>, Bound<'py, PyAny>)>,
-        move_region: Option<&Bound<'py, PyAny>>,
-        move_offset: (f32, f32),
-        follow_texture: bool,
-        triangle_budget: usize,
-        max_triangles: usize,
+        settings: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Self> {
-        let inputs = BakeInputs::read(
-            &vertices,
-            face_sizes,
-            corners,
-            &base_offset,
-            &directors,
-            textures,
-            uvs.as_ref(),
-            (tiling, resolution, layers),
-            region,
-            base_layer,
-            holes,
-            cutter.as_ref(),
-            move_region,
-            move_offset,
-            (follow_texture, triangle_budget, max_triangles),
-        )?;
+        let inputs = BakeInputs::of_call("TexturedShell", ShellArrays { vertices, face_sizes, corners, base_offset, directors, textures }, settings, true)?;
         let inner = run_detached(py, move || inputs.build())?;
         Ok(Self { inner: Arc::new(inner), scene: Arc::new(Mutex::new(None)) })
     }
@@ -99,10 +69,11 @@ impl TexturedShell {
         run_detached(py, move || Ok(inner.estimate()?.triangles))
     }
 
-    /// render(view, projection, width, height, method="auto", slices=16,
-    ///        light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05, mipmaps="double",
-    ///        progress=None) -> dict: `render_shell`'s frame of this shell.
-    #[pyo3(signature = (view, projection, width, height, method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05, mipmaps="double", progress=None))]
+    /// render(view, projection, width, height, *, progress=None, **settings) -> dict:
+    /// `render_shell`'s frame of this shell. `settings`: how to draw (keywords),
+    /// method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05,
+    /// mipmaps="double" (see `render_shell`).
+    #[pyo3(signature = (view, projection, width, height, *, progress=None, **settings))]
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(
         &self,
@@ -111,15 +82,13 @@ impl TexturedShell {
         projection: &Bound<'py, PyAny>,
         width: u32,
         height: u32,
-        method: &str,
-        slices: u32,
-        light: (f32, f32, f32),
-        ambient: f32,
-        step: f32,
-        mipmaps: &str,
         progress: Option<Bound<'py, PyAny>>,
+        settings: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let request = FrameRequest::read(view, projection, width, height, method, slices, light, ambient, step, mipmaps)?;
+        let keywords = Keywords::new("TexturedShell.render", settings);
+        let frame = FrameSettings::read(&keywords)?;
+        keywords.finish()?;
+        let request = FrameRequest::read(view, projection, width, height, frame)?;
         let (inner, cache) = (self.inner.clone(), self.scene.clone());
         let (preview, per_face_tiles) = run_maybe_watched(py, progress.as_ref(), move |watch| {
             let kept = cache.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).clone();

@@ -1,0 +1,57 @@
+//! Settings given as keyword arguments (`**settings`), read by name with their
+//! defaults where they are defined, once for every function that takes them.
+
+use pyo3::conversion::FromPyObjectOwned;
+use pyo3::exceptions::PyTypeError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::cell::RefCell;
+
+/// The `**settings` of one call: each [`Keywords::get`] reads a name (or gives its
+/// default), and [`Keywords::finish`] refuses any name no reader asked for, as Python
+/// refuses an unexpected keyword argument.
+pub(crate) struct Keywords<'a, 'py> {
+    function: &'static str,
+    given: Option<&'a Bound<'py, PyDict>>,
+    asked: RefCell<Vec<&'static str>>,
+}
+
+impl<'a, 'py> Keywords<'a, 'py> {
+    /// The keywords `given` to `function` (its name, for the messages).
+    pub(crate) fn new(function: &'static str, given: Option<&'a Bound<'py, PyDict>>) -> Self {
+        Self { function, given, asked: RefCell::new(Vec::new()) }
+    }
+
+    /// The setting `name`, or `default` where it was not given; a value of the wrong
+    /// type is a `TypeError` naming the argument, as for a declared parameter.
+    pub(crate) fn get<T: FromPyObjectOwned<'py>>(&self, name: &'static str, default: T) -> PyResult<T> {
+        self.asked.borrow_mut().push(name);
+        let Some(value) = self.given.map(|d| d.get_item(name)).transpose()?.flatten() else {
+            return Ok(default);
+        };
+        value.extract::<T>().map_err(|e| argument_error(value.py(), name, e.into()))
+    }
+
+    /// Refuses the keywords that no reader asked for.
+    pub(crate) fn finish(self) -> PyResult<()> {
+        let asked = self.asked.into_inner();
+        for key in self.given.map(|d| d.keys()).into_iter().flatten() {
+            let name: String = key.extract()?;
+            if !asked.contains(&name.as_str()) {
+                return Err(PyTypeError::new_err(format!("{}() got an unexpected keyword argument '{name}'", self.function)));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A failed extraction of argument `name`, worded as pyo3 words it for a declared
+/// parameter (`argument 'name': ...`, the cause kept).
+fn argument_error(py: Python<'_>, name: &str, error: PyErr) -> PyErr {
+    if !error.get_type(py).is(py.get_type::<PyTypeError>()) {
+        return error;
+    }
+    let remapped = PyTypeError::new_err(format!("argument '{name}': {}", error.value(py)));
+    remapped.set_cause(py, error.cause(py));
+    remapped
+}
