@@ -173,22 +173,63 @@ def test_live_preview_worker_renders_off_the_main_thread(scene, tmp_path):
 
     sphere = slab_sphere(tmp_path)
     bpy.context.view_layer.objects.active = sphere
-    key, (shell, item, textures, settings) = overlay._prepared(sphere)
-    assert overlay._prepared(sphere)[0] == key, "unchanged source: cached"
+    key, handle = overlay._prepared(sphere)
     view = np.array(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, -6), (0, 0, 0, 1)), np.float32)  # looking along +y from y = -6
     projection = np.array(((2, 0, 0, 0), (0, 2, 0, 0), (0, 0, -1.02, -0.2), (0, 0, -1, 0)), np.float32)
-    base = shell.base
-    args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures, view, projection, 40, 30)
+    camera, settings = (view, projection, 40, 30), dict(method="reference")
     state = {"busy": True, "result": None, "want": "this render"}
-    worker = threading.Thread(target=overlay._work, args=(state, "this render", args, settings))
+    worker = threading.Thread(target=overlay._work, args=(state, "this render", handle, camera, settings))
     worker.start()
     worker.join(60)
     assert not state["busy"] and state["result"].shape == (30, 40, 4)
     assert (state["result"][:, :, 3] > 0.5).mean() > 0.1
     # A render the view no longer wants (it moved on) stops and leaves no image.
     stale = {"busy": True, "result": None, "want": "the view moved", "key": "old"}
-    overlay._work(stale, "old", args, settings)
+    overlay._work(stale, "old", handle, camera, settings)
     assert not stale["busy"] and stale["result"] is None and stale["key"] is None
+
+
+def test_live_preview_keeps_one_native_handle_until_the_content_changes(scene, tmp_path):
+    # The overlay renders every frame from one thicket_native.TexturedShell (its arrays
+    # read and checked once, the renderers' scene kept), not render_shell's whole
+    # setup per frame; a new handle only once the stack's content changed.
+    from thicket.render import overlay
+
+    sphere = slab_sphere(tmp_path)
+    bpy.context.view_layer.objects.active = sphere
+    overlay._state["prepared"] = None  # nothing kept from an earlier scene's object of the same name
+    key, handle = overlay._prepared(sphere)
+    assert isinstance(handle, tn.TexturedShell) and handle.vertex_count == len(sphere.data.vertices)
+    view = np.array(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, -6), (0, 0, 0, 1)), np.float32)
+    projection = np.array(((2, 0, 0, 0), (0, 2, 0, 0), (0, 0, -1.02, -0.2), (0, 0, -1, 0)), np.float32)
+    frames = []
+    for _ in range(2):  # frame after frame, the same handle
+        again, same = overlay._prepared(sphere)
+        assert again == key and same is handle, "unchanged content: the same handle"
+        state = {"busy": True, "result": None, "want": "frame"}
+        overlay._work(state, "frame", same, (view, projection, 40, 30), dict(method="reference"))
+        frames.append(state["result"])
+    np.testing.assert_array_equal(frames[0], frames[1])
+    # What render_shell draws from the same arrays and settings, every frame anew.
+    setup = texture_setup_of(sphere)
+    base, shell = setup.shell.base, setup.shell
+    args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, setup.textures, view, projection, 40, 30)
+    np.testing.assert_array_equal(frames[0], tn.render_shell(*args, method="reference", **setup.settings)["rgba"])
+    sphere.thicket.items[-1].tiling = 2.0  # the content changed: a new handle
+    changed, rebuilt = overlay._prepared(sphere)
+    assert changed != key and rebuilt is not handle and isinstance(rebuilt, tn.TexturedShell)
+    assert overlay._prepared(sphere)[1] is rebuilt
+
+
+def texture_setup_of(obj):
+    """The overlay's own setup of `obj` (source read as it reads it)."""
+    from thicket import mesh_io
+    from thicket.stack.evaluate import texture_setup
+    from thicket.stack.regenerate import enabled_settings
+
+    items = enabled_settings(obj)
+    groups = sorted({g for item in items for g in item.vertex_groups()})
+    return texture_setup(mesh_io.read_evaluated(obj, bpy.context.evaluated_depsgraph_get(), groups), items)
 
 
 def test_gpu_slices_agree_with_the_reference_in_blender(scene, tmp_path):

@@ -103,8 +103,10 @@ def _source():
 
 
 def _prepared(obj):
-    """(key, TexturedShell) of `obj`, rebuilt only when its `content_key` changed
-    (the shell is the expensive part)."""
+    """(key, thicket_native.TexturedShell) of `obj`: one handle, rendered frame after
+    frame, made again only when its `content_key` changed (the shell, the native
+    read and checks, and the renderers' scene, which the handle makes on its first
+    frame and keeps, are the expensive parts)."""
     from .. import mesh_io
     from ..stack.evaluate import texture_setup
     from ..stack.guard import suspended
@@ -118,7 +120,7 @@ def _prepared(obj):
             depsgraph = bpy.context.evaluated_depsgraph_get()
             groups = sorted({g for item in items for g in item.vertex_groups()})
             source = mesh_io.read_evaluated(obj, depsgraph, groups)
-        _state["prepared"] = (key, texture_setup(source, items))
+        _state["prepared"] = (key, texture_setup(source, items).handle())
     return _state["prepared"]
 
 
@@ -149,7 +151,7 @@ def _tick():
             if view["busy"] or (key == view["key"] and _state["prepared"] is not None) or now - view["last"] < THROTTLE:
                 continue
             try:
-                _, (shell, _, textures, settings) = _prepared(obj)
+                _, handle = _prepared(obj)
                 v, p = camera.viewport_camera(r3d, obj)
                 light = lights.scene_light(bpy.context.evaluated_depsgraph_get(), obj)
             except Exception as exc:  # shown in the view; never raised into Blender's loop
@@ -157,18 +159,17 @@ def _tick():
                 area.tag_redraw()
                 continue
             view.update(key=key, busy=True, last=now)
-            base = shell.base
-            args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures, v, p, width, height)
-            kwargs = dict(settings, light=light)
-            threading.Thread(target=_work, args=(view, key, args, kwargs), daemon=True).start()
+            threading.Thread(target=_work, args=(view, key, handle, (v, p, width, height), dict(light=light)), daemon=True).start()
     return 0.1
 
 
-def _work(view, key, args, kwargs):
-    """Renders for `key`; stops (keeping the last image) once the view wants another."""
+def _work(view, key, handle, camera, settings):
+    """Renders a frame of `handle` (a `thicket_native.TexturedShell`) for `key` from
+    `camera` (view, projection, width, height) with the frame `settings`; stops
+    (keeping the last image) once the view wants another."""
     tn = native.get()
     try:
-        out = tn.render_shell(*args, **kwargs, progress=lambda _: view.get("want") == key)
+        out = handle.render(*camera, **settings, progress=lambda _: view.get("want") == key)
         view["result"] = out["rgba"]
         _state["error"], _state["note"] = "", out["fallback"]
     except tn.Cancelled:

@@ -5,7 +5,7 @@ import time
 import bpy
 import numpy as np
 
-from .. import mesh_io, native
+from .. import mesh_io
 from ..stack.evaluate import cancelled_error, texture_setup
 from ..stack.guard import suspended
 from ..stack.regenerate import enabled_settings
@@ -47,17 +47,10 @@ def render_native(source, items, light, view, projection, width, height, method=
     `progress`: as in `evaluate_stack`, up to `SHELL_SHARE` over the shells, the rest
     over the render; False cancels either (a GPU frame once it is drawn)."""
     scaled = None if progress is None else (lambda f: progress(SHELL_SHARE * f))
-    shell, _, textures, settings = texture_setup(source, items, scaled)
+    setup = texture_setup(source, items, scaled)
     if progress is not None and progress(SHELL_SHARE) is False:
         raise cancelled_error()
-    base = shell.base
-    out = native.get().render_shell(
-        base.vertices,
-        base.face_sizes,
-        base.corners,
-        shell.base_offset,
-        shell.directors,
-        textures,
+    out = setup.handle().render(
         view,
         projection,
         int(width),
@@ -66,7 +59,6 @@ def render_native(source, items, light, view, projection, width, height, method=
         slices=int(slices),
         mipmaps=mipmaps,
         light=tuple(float(v) for v in light),
-        **settings,
         progress=None if progress is None else (lambda f: progress(SHELL_SHARE + (1.0 - SHELL_SHARE) * f)),
     )
     if progress is not None:

@@ -12,7 +12,7 @@ from .. import native
 from ..arrays import MeshArrays
 from . import settings as S
 from .kinds import KINDS, Kind
-from .kinds.volumetric_texture import placed_textures, texture_settings, texture_weights
+from .kinds.volumetric_texture import native_shell, placed_textures, texture_settings, texture_weights
 from .state import ShellContext, StackError, State
 
 
@@ -29,6 +29,10 @@ class TexturedShell(NamedTuple):
     item: S.VolumetricTexture
     textures: list
     settings: dict
+
+    def handle(self):
+        """Its native handle (`volumetric_texture.native_shell`), to render from."""
+        return native_shell(self.shell, self.textures, self.settings)
 
 
 def texture_setup(source: MeshArrays, items, progress=None) -> TexturedShell:

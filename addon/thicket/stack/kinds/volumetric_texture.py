@@ -85,19 +85,25 @@ def texture_settings(shell: ShellContext, item: S.VolumetricTexture, weights):
     )
 
 
+def native_shell(shell: ShellContext, textures, settings):
+    """The native handle (`thicket_native.TexturedShell`) of `shell` with the placed
+    `textures` and `settings` (`texture_settings`, plus a bake's budget): read and
+    checked once, then estimated, baked or rendered as often as wanted (the renderers'
+    scene is made on its first frame and kept)."""
+    base = shell.base
+    return native.get().TexturedShell(base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures, **settings)
+
+
 def bake(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, progress=None):
     """Bakes the item's texture(s) over `shell` (thick surfaces, chapter 3);
     `weights`: per-vertex region, holes and move arrays (or None) by name;
     `progress`: the bake's callback (see `evaluate_stack`)."""
-    tn = native.get()
     textures = placed_textures(item)
     base = shell.base
-    # One argument list for the estimate and the bake, so the estimate sees what the
-    # bake will (UVs, region, holes, cutter, moved region).
-    args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures)
+    # Read and checked once, estimated and baked from the same handle, so the estimate
+    # sees what the bake will (UVs, region, holes, cutter, moved region).
     settings = dict(texture_settings(shell, item, weights), triangle_budget=int(item.triangle_budget), max_triangles=int(item.max_triangles))
-    # Read and checked once, estimated and baked from the same handle.
-    textured = tn.TexturedShell(*args, **settings)
+    textured = native_shell(shell, textures, settings)
     if ask:
         estimate = textured.estimate()
         if estimate > item.confirm_above:
