@@ -281,15 +281,16 @@ impl Tracer {
         (Self { tree, kernel, normals, min_edge, onset: params.compression_onset, boundary, faces_around }, tris)
     }
 
-    /// The unit field direction at `x`, the speed along it (module docs) and `|push|`.
-    fn sample(&self, x: DVec3, radius: f64, reference: DVec3) -> Option<(DVec3, f64, f64)> {
-        let FieldEval { push, abs_along, .. } = self.tree.eval(x, radius, reference, &self.kernel);
+    /// The unit field direction at `x`, the speed along it (module docs), `|push|` and
+    /// a lower bound on the distance from `x` to the integration triangles.
+    fn sample(&self, x: DVec3, radius: f64, reference: DVec3) -> Option<(DVec3, f64, f64, f64)> {
+        let FieldEval { push, abs_along, clearance, .. } = self.tree.eval(x, radius, reference, &self.kernel);
         let len = push.length();
         if !(len > 0.0 && len.is_finite() && abs_along > 0.0) {
             return None;
         }
         let dir = push / len;
-        Some((dir, (push.dot(reference) / (abs_along * self.onset)).clamp(0.0, 1.0), len))
+        Some((dir, (push.dot(reference) / (abs_along * self.onset)).clamp(0.0, 1.0), len, clearance))
     }
 
     /// Traces the trajectory of vertex `v` towards side `sign` (+1 outward, -1 inward)
@@ -319,7 +320,7 @@ impl Tracer {
             Trace { end: x.as_vec3(), center: ((lo + hi) * 0.5).as_vec3(), radius: ((hi - lo).length() * 0.5) as f32, samples }
         };
         let mut evals = 1u32;
-        let Some((mut g, mut speed, mut push)) = self.sample(x, radius, n.as_dvec3()) else {
+        let Some((mut g, mut speed, mut push, mut clearance)) = self.sample(x, radius, n.as_dvec3()) else {
             return finish(x, lo, hi, samples, 0.0);
         };
         samples[0].push = push as f32;
@@ -336,7 +337,9 @@ impl Tracer {
             let mut halvings = 0;
             loop {
                 let xn = x + g * (speed * delta);
-                if self.tree.segment_crosses(x, xn) {
+                // Steps shorter than the clearance the evaluation at `x` found cannot
+                // reach a triangle; past the first steps most are.
+                if speed * delta >= CLEAR_SHARE * clearance && self.tree.segment_crosses(x, xn) {
                     // The step jumped over a thin part (the field is singular on the
                     // surface, so the trajectory itself never crosses it).
                     if halvings >= params.max_halvings {
@@ -349,7 +352,7 @@ impl Tracer {
                 evals += 1;
                 lo = lo.min(xn);
                 hi = hi.max(xn);
-                let Some((gn, sn, pn)) = self.sample(xn, radius, g) else { break 'outer };
+                let Some((gn, sn, pn, cn)) = self.sample(xn, radius, g) else { break 'outer };
                 let turn = gn.dot(g).clamp(-1.0, 1.0).acos();
                 // A step that hardly moves (a trajectory stalled near the medial axis,
                 // where the direction swings) is accepted whatever the turn: shortening it
@@ -358,7 +361,7 @@ impl Tracer {
                 if turn <= params.max_turn || still || halvings >= params.max_halvings || evals >= params.max_evaluations {
                     t += delta;
                     next = if turn <= params.max_turn { delta * next_step(turn, params.max_turn) } else { 2.0 * delta }.min(step0);
-                    (x, g, speed, push) = (xn, gn, sn, pn);
+                    (x, g, speed, push, clearance) = (xn, gn, sn, pn, cn);
                     if slot < TRACE_SAMPLES - 1 && t >= h * slot as f64 / (TRACE_SAMPLES - 1) as f64 {
                         samples[slot] = Sample { at: x.as_vec3(), push: push as f32 };
                         slot += 1;
@@ -372,6 +375,10 @@ impl Tracer {
         finish(x, lo, hi, samples, push)
     }
 }
+
+/// The share of an evaluation's clearance a step may take without a crossing test
+/// (a margin for rounding: the bound and the test are both in double precision).
+const CLEAR_SHARE: f64 = 0.99;
 
 /// Factor from a step whose field direction turned by `turn` to the next step (or to
 /// the retry of this one when `turn` exceeds `max_turn`): the step that would turn by
