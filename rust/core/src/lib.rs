@@ -7,6 +7,7 @@
 
 pub mod error;
 pub mod field;
+pub mod implicit;
 pub mod mesh;
 pub mod polygonize;
 pub mod progress;
