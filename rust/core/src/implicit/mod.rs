@@ -2,9 +2,13 @@
 //! *Coupled Modeling of Solid Textures and Implicit Shapes*, Implicit Surfaces 1999):
 //! the field core that the implicit, BlobTree and discoid features evaluate.
 //!
-//! A field tree is a tree of [`Node`]s (building blocks, the `h` operation, exact and
-//! approximate set operations, texture displacements), read from and written to the
-//! JSON below and checked ([`Node::validate`]) before anything evaluates it.
+//! A [`FieldTree`] is a tree of [`Node`]s (building blocks, the `h` operation, exact and
+//! approximate set operations, texture displacements) checked and compiled once, then
+//! evaluated at batches of points: value, analytic gradient (section 5's gradient
+//! tree, never finite differences), colour (section 5: each building block's diffuse
+//! colour, blended by the weights the gradient uses), texture value and the dominant
+//! primitive's id ([`FieldTree::evaluate`]). It implements [`ScalarField`], so
+//! [`crate::polygonize::mesh_field`] meshes it.
 //!
 //! Negative inside: `V(f) = {f <= 0}`, as in the paper.
 //!
@@ -72,9 +76,143 @@
 //! JSON has no references, so a tree cannot have cycles; nesting deeper than 128
 //! levels is refused by the parser.
 
+mod eval;
+mod kernel;
 pub mod tree;
 
 #[cfg(test)]
 mod tests;
 
 pub use tree::{Node, Op, DEFAULT_COLOR};
+
+use crate::field::ScalarField;
+use crate::Result;
+use eval::{for_blocks, Need, Scratch, Tape};
+use glam::{DVec3, Vec3};
+
+/// Attribute values per point of the [`ScalarField`] implementation: colour (4), then
+/// texture, then the primitive id (as a float, exact below 2^24).
+pub const ATTRIBUTE_COUNT: usize = 6;
+/// Index of the texture value among a point's attributes.
+pub const ATTRIBUTE_TEXTURE: usize = 4;
+/// Index of the primitive id among a point's attributes.
+pub const ATTRIBUTE_ID: usize = 5;
+
+/// A checked field tree, compiled for evaluation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FieldTree {
+    node: Node,
+    tape: Tape,
+}
+
+/// Everything the tree carries at one point, in double precision.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Sample {
+    pub value: f64,
+    pub gradient: DVec3,
+    pub color: [f64; 4],
+    pub texture: f64,
+    pub id: u32,
+}
+
+/// The evaluation of a batch of points.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Evaluation {
+    pub values: Vec<f32>,
+    pub gradients: Vec<Vec3>,
+    pub colors: Vec<[f32; 4]>,
+    pub textures: Vec<f32>,
+    pub ids: Vec<u32>,
+}
+
+impl FieldTree {
+    /// Checks and compiles a tree.
+    pub fn new(node: Node) -> Result<Self> {
+        let tape = Tape::compile(&node)?;
+        Ok(Self { node, tape })
+    }
+
+    /// Reads, checks and compiles a tree from its JSON (see the [module docs](crate::implicit)).
+    pub fn from_json(text: &str) -> Result<Self> {
+        Self::new(Node::from_json(text)?)
+    }
+
+    pub fn to_json(&self) -> String {
+        self.node.to_json()
+    }
+
+    pub fn node(&self) -> &Node {
+        &self.node
+    }
+
+    /// How many primitives the tree has (ids run from 0 to this, exclusive).
+    pub fn primitive_count(&self) -> u32 {
+        self.tape.primitives
+    }
+
+    /// Value, gradient, colour, texture and primitive id at every point, in parallel.
+    pub fn evaluate(&self, points: &[Vec3]) -> Evaluation {
+        let mut samples = vec![Sample::default(); points.len()];
+        for_blocks(&self.tape, points, &mut samples, 1, Need::ALL, |slot, n, out| {
+            for (j, o) in out[..n].iter_mut().enumerate() {
+                *o = sample(slot, j);
+            }
+        });
+        let mut e = Evaluation::default();
+        for s in samples {
+            e.values.push(s.value as f32);
+            e.gradients.push(s.gradient.as_vec3());
+            e.colors.push(s.color.map(|c| c as f32));
+            e.textures.push(s.texture as f32);
+            e.ids.push(s.id);
+        }
+        e
+    }
+
+    /// Everything at one point, in double precision (for ray marchers, tests and
+    /// single queries; batches go through [`FieldTree::evaluate`]).
+    pub fn sample(&self, x: DVec3) -> Sample {
+        let mut scratch = Scratch::new(&self.tape);
+        sample(self.tape.run(&[x], Need::ALL, &mut scratch), 0)
+    }
+}
+
+fn sample(slot: &eval::Slot, j: usize) -> Sample {
+    Sample { value: slot.f[j], gradient: slot.gradient(j), color: std::array::from_fn(|a| slot.c[a][j]), texture: slot.t[j], id: slot.id[j] }
+}
+
+impl ScalarField for FieldTree {
+    fn values(&self, points: &[Vec3], out: &mut [f32]) {
+        for_blocks(&self.tape, points, out, 1, Need::VALUE, |slot, n, out| {
+            for (o, v) in out[..n].iter_mut().zip(&slot.f) {
+                *o = *v as f32;
+            }
+        });
+    }
+
+    /// The tree's analytic gradient.
+    fn gradients(&self, points: &[Vec3], out: &mut [Vec3]) {
+        for_blocks(&self.tape, points, out, 1, Need::GRADIENT, |slot, n, out| {
+            for (j, o) in out[..n].iter_mut().enumerate() {
+                *o = slot.gradient(j).as_vec3();
+            }
+        });
+    }
+
+    fn attribute_count(&self) -> usize {
+        ATTRIBUTE_COUNT
+    }
+
+    /// Colour `[r, g, b, a]`, texture, primitive id per point.
+    fn attributes(&self, points: &[Vec3], out: &mut [f32]) {
+        for_blocks(&self.tape, points, out, ATTRIBUTE_COUNT, Need::ATTRIBUTES, |slot, n, out| {
+            for (j, o) in out.chunks_exact_mut(ATTRIBUTE_COUNT).take(n).enumerate() {
+                for (o, c) in o.iter_mut().zip(&slot.c) {
+                    *o = c[j] as f32;
+                }
+                o[ATTRIBUTE_TEXTURE] = slot.t[j] as f32;
+                o[ATTRIBUTE_ID] = slot.id[j] as f32;
+            }
+        });
+    }
+}

@@ -1,12 +1,48 @@
-//! The field tree's JSON form against its own text: every op read, written and read
-//! back equal, and bad trees refused with errors that say where and what.
+//! The field core against independent references: central differences of its own
+//! values for the gradients, the paper's identities (`|∇h| = 1` on orthogonal
+//! unit-gradient inputs, `h[f, -f] = |f|`, `|∇w_p| <= 1`, `w_p -> max`), sampled values
+//! the JSON text for the round trip, and the polygonizer's closed
+//! 2-manifold contract for meshes of random trees.
 
 use super::*;
-use glam::DVec3;
+use crate::polygonize::{mesh_field, GridParams, SurfaceCheck};
 use serde_json::{json, Value};
 
-fn tree(v: &Value) -> Node {
-    Node::from_json(&v.to_string()).unwrap_or_else(|e| panic!("{e}: {v}"))
+/// A seeded xorshift sequence.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+    fn vec(&mut self, half: f64) -> DVec3 {
+        DVec3::new(self.range(-half, half), self.range(-half, half), self.range(-half, half))
+    }
+    fn unit(&mut self) -> DVec3 {
+        loop {
+            let v = self.vec(1.0);
+            if v.length() > 0.2 && v.length() <= 1.0 {
+                return v.normalize();
+            }
+        }
+    }
+    fn pick(&mut self, n: usize) -> usize {
+        ((self.next() * n as f64) as usize).min(n - 1)
+    }
+}
+
+fn v3(v: DVec3) -> Value {
+    json!([v.x, v.y, v.z])
+}
+
+fn tree(v: &Value) -> FieldTree {
+    FieldTree::from_json(&v.to_string()).unwrap_or_else(|e| panic!("{e}: {v}"))
 }
 
 /// One tree per op (and a few combinations), as JSON.
@@ -40,11 +76,204 @@ fn catalogue() -> Vec<Value> {
     ]
 }
 
+/// Central, forward and backward differences of the tree's values at `x`.
+fn differences(t: &FieldTree, x: DVec3, h: f64) -> (DVec3, DVec3, DVec3) {
+    let f = |x: DVec3| t.sample(x).value;
+    let f0 = f(x);
+    let (mut central, mut forward, mut backward) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+    for a in 0..3 {
+        let mut e = DVec3::ZERO;
+        e[a] = h;
+        let (fp, fm) = (f(x + e), f(x - e));
+        central[a] = (fp - fm) / (2.0 * h);
+        forward[a] = (fp - f0) / h;
+        backward[a] = (f0 - fm) / h;
+    }
+    (central, forward, backward)
+}
+
 #[test]
 fn the_catalogue_has_every_op() {
     let ops: Vec<String> = catalogue().iter().map(|v| v["op"].as_str().unwrap().to_string()).collect();
     for name in Op::NAMES {
         assert!(ops.iter().any(|o| o == name), "{name} missing");
+    }
+}
+
+#[test]
+fn gradients_match_central_differences_for_every_node_type() {
+    let mut rng = Rng(0x1234_5678_9abc_def1);
+    for doc in catalogue() {
+        let t = tree(&doc);
+        let (mut checked, mut kinks) = (0, 0);
+        for _ in 0..400 {
+            let x = rng.vec(1.5);
+            let (central, forward, backward) = differences(&t, x, 1e-6);
+            // A kink within the step: the one-sided differences disagree (they do not
+            // involve the analytic gradient, so this cannot hide a wrong one).
+            if (forward - backward).abs().max_element() > 1e-3 {
+                kinks += 1;
+                continue;
+            }
+            let g = t.sample(x).gradient;
+            assert!((g - central).length() < 1e-5 * (1.0 + central.length()), "{}: at {x} gradient {g} vs differences {central}", doc["op"]);
+            checked += 1;
+        }
+        assert!(checked >= 360, "{}: only {checked} points away from kinks ({kinks} near)", doc["op"]);
+    }
+}
+
+#[test]
+fn h_of_orthogonal_unit_gradient_inputs_has_a_unit_gradient() {
+    let mut rng = Rng(77);
+    for _ in 0..200 {
+        // Plane functions along an orthonormal frame, with offsets, some negated:
+        // pairwise orthogonal gradients, as section 3's closure property asks.
+        let n1 = rng.unit();
+        let n2 = n1.any_orthonormal_pair().0;
+        let frame = [n1, n2, n1.cross(n2)];
+        let mut children: Vec<Value> = Vec::new();
+        for n in frame {
+            if rng.next() < 0.8 {
+                let s = if rng.next() < 0.5 { 1.0 } else { -1.0 };
+                children.push(json!({"op": "plane", "point": v3(rng.vec(0.5)), "normal": v3(n * s)}));
+            }
+        }
+        if children.is_empty() {
+            continue;
+        }
+        let t = tree(&json!({"op": "h", "children": children}));
+        for _ in 0..20 {
+            let g = t.sample(rng.vec(2.0)).gradient;
+            assert!((g.length() - 1.0).abs() < 1e-12, "|∇h| = {}", g.length());
+        }
+    }
+    // The skeletons are built that way: unit gradients everywhere but on the skeleton.
+    for doc in &catalogue()[2..7] {
+        let t = tree(doc);
+        for _ in 0..500 {
+            let s = t.sample(rng.vec(1.5));
+            assert!((s.gradient.length() - 1.0).abs() < 1e-12, "{}: |∇f| = {}", doc["op"], s.gradient.length());
+        }
+    }
+}
+
+#[test]
+fn h_of_f_and_minus_f_is_the_absolute_value() {
+    let mut rng = Rng(5);
+    for doc in catalogue() {
+        let f = tree(&doc);
+        let abs = tree(&json!({"op": "h", "children": [doc.clone(), {"op": "negate", "child": doc}]}));
+        for _ in 0..100 {
+            let x = rng.vec(1.5);
+            let (a, b) = (abs.sample(x), f.sample(x));
+            assert!((a.value - b.value.abs()).abs() <= 1e-12 * (1.0 + b.value.abs()), "{} vs |{}|", a.value, b.value);
+            assert!((a.gradient - b.gradient * b.value.signum()).length() < 1e-9 || b.value == 0.0);
+        }
+    }
+}
+
+/// A random tree of unit-gradient leaves and the operations that keep `|∇f| <= 1`.
+fn random_soft_tree(rng: &mut Rng, depth: u32) -> Value {
+    if depth == 0 || rng.next() < 0.25 {
+        return random_leaf(rng);
+    }
+    let p = rng.range(0.5, 40.0);
+    let which = rng.pick(7);
+    let mut kids = |n: usize| (0..n).map(|_| random_soft_tree(rng, depth - 1)).collect::<Vec<_>>();
+    match which {
+        0 => json!({"op": "intersection_wp", "p": p, "children": kids(2 + depth as usize % 2)}),
+        1 => json!({"op": "union_wp", "p": p, "children": kids(2 + depth as usize % 3)}),
+        2 => json!({"op": "difference_wp", "p": p, "children": kids(2)}),
+        3 => json!({"op": "min", "children": kids(2)}),
+        4 => json!({"op": "max", "children": kids(2)}),
+        5 => json!({"op": "offset", "amount": 0.1, "child": kids(1)[0]}),
+        _ => json!({"op": "negate", "child": kids(1)[0]}),
+    }
+}
+
+fn color(rng: &mut Rng) -> Value {
+    json!([rng.next(), rng.next(), rng.next(), 1.0])
+}
+
+/// A random bounded building block inside `[-0.9, 0.9]³`.
+fn random_leaf(rng: &mut Rng) -> Value {
+    let c = v3(rng.vec(0.5));
+    let q = json!([rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(0.1, 1.0)]);
+    let r = rng.range(0.08, 0.3);
+    match rng.pick(6) {
+        0 => json!({"op": "sphere", "center": c, "radius": rng.range(0.15, 0.45), "color": color(rng)}),
+        1 => json!({"op": "point", "center": c, "radius": rng.range(0.15, 0.4), "color": color(rng)}),
+        2 => json!({"op": "segment", "a": c, "b": v3(rng.vec(0.5)), "radius": r, "color": color(rng)}),
+        3 => json!({"op": "rectangle", "center": c, "half_size": [rng.range(0.0, 0.3), rng.range(0.0, 0.3)], "rotation": q, "radius": r, "color": color(rng)}),
+        4 => {
+            json!({"op": "box", "center": c, "half_size": [rng.range(0.05, 0.3), rng.range(0.05, 0.3), rng.range(0.05, 0.3)], "rotation": q, "radius": rng.range(0.0, 0.1), "color": color(rng)})
+        }
+        _ => json!({"op": "torus", "center": c, "axis": v3(rng.unit()), "major": rng.range(0.15, 0.35), "minor": rng.range(0.05, 0.12), "color": color(rng)}),
+    }
+}
+
+#[test]
+fn wp_trees_have_gradients_no_longer_than_one() {
+    let mut rng = Rng(99);
+    for _ in 0..60 {
+        let t = tree(&random_soft_tree(&mut rng, 4));
+        for _ in 0..200 {
+            let g = t.sample(rng.vec(1.5)).gradient;
+            assert!(g.length() <= 1.0 + 1e-12, "|∇f| = {} in {}", g.length(), t.to_json());
+        }
+    }
+}
+
+#[test]
+fn wp_approaches_max_and_min_as_p_grows() {
+    let mut rng = Rng(3);
+    let spheres: Vec<Value> = (0..3).map(|_| json!({"op": "sphere", "center": v3(rng.vec(1.0)), "radius": rng.range(0.2, 0.6)})).collect();
+    let f: Vec<FieldTree> = spheres.iter().map(tree).collect();
+    let ln3 = 3f64.ln();
+    for _ in 0..100 {
+        let x = rng.vec(2.0);
+        let v: Vec<f64> = f.iter().map(|t| t.sample(x).value).collect();
+        let (max, min) = (v.iter().copied().fold(f64::MIN, f64::max), v.iter().copied().fold(f64::MAX, f64::min));
+        let mut last = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        for p in [0.5, 2.0, 8.0, 32.0, 128.0, 512.0] {
+            let i = tree(&json!({"op": "intersection_wp", "p": p, "children": spheres})).sample(x).value;
+            let u = tree(&json!({"op": "union_wp", "p": p, "children": spheres})).sample(x).value;
+            let d = tree(&json!({"op": "difference_wp", "p": p, "children": [spheres[0], spheres[1]]})).sample(x).value;
+            let dmax = v[0].max(-v[1]);
+            // max <= w_p <= max + ln(n) / p, and the gap shrinks with p.
+            assert!(i >= max - 1e-12 && i <= max + ln3 / p + 1e-12, "p {p}: {i} vs max {max}");
+            assert!(u <= min + 1e-12 && u >= min - ln3 / p - 1e-12, "p {p}: {u} vs min {min}");
+            assert!(d >= dmax - 1e-12 && d <= dmax + 2f64.ln() / p + 1e-12, "p {p}: {d} vs {dmax}");
+            let gaps = (i - max, min - u, d - dmax);
+            assert!(gaps.0 <= last.0 && gaps.1 <= last.1 && gaps.2 <= last.2);
+            last = gaps;
+        }
+        assert!(last.0 < 2e-3 && last.1 < 2e-3 && last.2 < 2e-3);
+    }
+}
+
+#[test]
+fn large_p_and_large_values_stay_finite() {
+    // Spheres 1e3 apart, evaluated 1e3 from them: p f = 2e5, far past e^709.
+    let a = json!({"op": "sphere", "center": [1000, 0, 0], "radius": 1, "color": [1, 0, 0, 1]});
+    let b = json!({"op": "sphere", "center": [-1000, 0, 0], "radius": 1, "color": [0, 0, 1, 1]});
+    for op in ["intersection_wp", "union_wp", "difference_wp"] {
+        let t = tree(&json!({"op": op, "p": 200, "children": [a, b]}));
+        for x in [DVec3::ZERO, DVec3::new(0.0, 1000.0, 0.0), DVec3::new(999.0, 0.0, 0.0), DVec3::new(-2000.0, 0.0, 5.0)] {
+            let s = t.sample(x);
+            assert!(s.value.is_finite() && s.gradient.is_finite() && s.color.iter().all(|c| c.is_finite()), "{op} at {x}: {s:?}");
+            assert!(s.gradient.length() <= 1.0 + 1e-12);
+            let (fa, fb) = ((x - DVec3::new(1000.0, 0.0, 0.0)).length() - 1.0, (x + DVec3::new(1000.0, 0.0, 0.0)).length() - 1.0);
+            let want = match op {
+                "intersection_wp" => fa.max(fb),
+                "union_wp" => fa.min(fb),
+                _ => fa.max(-fb),
+            };
+            assert!((s.value - want).abs() < 1e-2, "{op} at {x}: {} vs {want}", s.value);
+        }
+        let e = t.evaluate(&[Vec3::ZERO, Vec3::new(0.0, 1000.0, 0.0)]);
+        assert!(e.values.iter().all(|v| v.is_finite()) && e.gradients.iter().all(|g| g.is_finite()));
     }
 }
 
@@ -66,8 +295,8 @@ fn json_round_trips_every_node_type() {
     for doc in catalogue() {
         let t = tree(&doc);
         let text = t.to_json();
-        let back = Node::from_json(&text).unwrap();
-        assert_eq!(back, t, "{text}");
+        let back = FieldTree::from_json(&text).unwrap();
+        assert_eq!(back.node(), t.node(), "{text}");
         assert_eq!(back.to_json(), text);
         // What was written is what was read: every given field, the defaults added.
         let written: Value = serde_json::from_str(&text).unwrap();
@@ -75,10 +304,10 @@ fn json_round_trips_every_node_type() {
     }
     // Exact numbers survive.
     let t = tree(&json!({"op": "sphere", "center": [0.1, 1e-300, -7.3e12], "radius": 0.30000000000000004}));
-    assert_eq!(Node::from_json(&t.to_json()).unwrap(), t);
+    assert_eq!(FieldTree::from_json(&t.to_json()).unwrap().node(), t.node());
     // Defaults are filled in.
     let t = tree(&json!({"op": "segment", "a": [0, 0, 0], "b": [1, 0, 0]}));
-    assert_eq!(t.op, Op::Segment { a: DVec3::ZERO, b: DVec3::X, radius: 0.0 });
+    assert_eq!(t.node().op, Op::Segment { a: DVec3::ZERO, b: DVec3::X, radius: 0.0 });
 }
 
 #[test]
@@ -118,7 +347,7 @@ fn bad_input_gives_clear_errors() {
         ),
     ];
     for (text, want) in cases {
-        match Node::from_json(&text) {
+        match FieldTree::from_json(&text) {
             Err(crate::Error::InvalidParameter(msg)) => assert!(msg.contains(want), "{text}: {msg:?} should say {want:?}"),
             other => panic!("{text}: {other:?}"),
         }
@@ -134,14 +363,138 @@ fn bad_input_gives_clear_errors() {
     ];
     for op in bad {
         let name = op.name();
-        assert!(matches!(Node::new(op).validate(), Err(crate::Error::InvalidParameter(_))), "{name}");
+        assert!(matches!(FieldTree::new(Node::new(op)), Err(crate::Error::InvalidParameter(_))), "{name}");
     }
     let painted = Node::new(Op::Point { center: DVec3::ZERO, radius: 1.0 }).with_color([0.0, f64::NAN, 0.0, 1.0]);
-    assert!(painted.validate().is_err());
+    assert!(FieldTree::new(painted).is_err());
     // Deep nesting is refused by the parser, not a stack overflow.
     let mut deep = s.to_string();
     for _ in 0..400 {
         deep = format!(r#"{{"op": "negate", "child": {deep}}}"#);
     }
-    assert!(Node::from_json(&deep).is_err());
+    assert!(FieldTree::from_json(&deep).is_err());
+}
+
+#[test]
+fn colours_ids_and_textures_follow_the_weights() {
+    let red = json!({"op": "sphere", "center": [-1, 0, 0], "radius": 0.5, "color": [1, 0, 0, 1]});
+    let blue = json!({"op": "sphere", "center": [1, 0, 0], "radius": 0.5, "color": [0, 0, 1, 1]});
+    let u = tree(&json!({"op": "union_wp", "p": 4, "children": [red, blue]}));
+    // Midway the weights are equal; near one sphere its colour dominates, with the
+    // softmax's weight e^(-p f) / Σ.
+    let mid = u.sample(DVec3::ZERO);
+    assert!((mid.color[0] - 0.5).abs() < 1e-12 && (mid.color[2] - 0.5).abs() < 1e-12 && mid.color[3] == 1.0);
+    let near = u.sample(DVec3::new(-1.5, 0.0, 0.0));
+    let (fr, fb) = (0.0f64, 2.0f64);
+    let wr = (-4.0 * fr).exp() / ((-4.0 * fr).exp() + (-4.0 * fb).exp());
+    assert!((near.color[0] - wr).abs() < 1e-12 && near.id == 0);
+    assert_eq!(u.sample(DVec3::new(1.2, 0.0, 0.0)).id, 1);
+    // min takes the nearer's colour and id; a colour on an operation paints it all.
+    let m = tree(&json!({"op": "min", "children": [red, blue]}));
+    assert_eq!((m.sample(DVec3::new(0.9, 0.0, 0.0)).color, m.sample(DVec3::new(0.9, 0.0, 0.0)).id), ([0.0, 0.0, 1.0, 1.0], 1));
+    let painted = tree(&json!({"op": "min", "children": [red, blue], "color": [0, 1, 0, 1]}));
+    assert_eq!(painted.sample(DVec3::new(0.9, 0.0, 0.0)).color, [0.0, 1.0, 0.0, 1.0]);
+    // h blends by its positive parts fi / Σ fj where both are outside.
+    let hb = tree(&json!({"op": "h", "children": [
+        {"op": "plane", "point": [0, 0, 0], "normal": [1, 0, 0], "color": [1, 0, 0, 1]},
+        {"op": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "color": [0, 0, 1, 1]}]}));
+    let s = hb.sample(DVec3::new(3.0, 1.0, 0.0));
+    assert!((s.value - 10f64.sqrt()).abs() < 1e-12 && (s.color[0] - 0.75).abs() < 1e-12 && (s.color[2] - 0.25).abs() < 1e-12 && s.id == 0);
+    let s = hb.sample(DVec3::new(-3.0, -1.0, 0.0));
+    assert_eq!((s.value, s.color, s.id), (-1.0, [0.0, 0.0, 1.0, 1.0], 1));
+    // The texture function of the texture child, (1 + cos(omega f1 + tau)) / 2,
+    // carried without displacing at amplitude 0.
+    let plane = json!({"op": "plane", "point": [0, 0, 0], "normal": [0, 0, 1]});
+    let d = tree(&json!({"op": "displace", "shape": red, "texture": plane, "amplitude": 0, "omega": 3, "tau": 0.25}));
+    for z in [-0.4, 0.1, 0.7] {
+        let s = d.sample(DVec3::new(-1.0, 0.2, z));
+        assert!((s.texture - 0.5 * (1.0 + (3.0 * z + 0.25).cos())).abs() < 1e-12);
+        assert!((s.value - ((DVec3::new(0.0, 0.2, z)).length() - 0.5)).abs() < 1e-12);
+        assert_eq!((s.color, s.id), ([1.0, 0.0, 0.0, 1.0], 0));
+    }
+    // Primitives count in JSON order, a displace's texture included.
+    assert_eq!(d.primitive_count(), 2);
+}
+
+#[test]
+fn batches_equal_single_samples_across_blocks_and_chunks() {
+    let mut rng = Rng(8);
+    let t = tree(&catalogue()[16]);
+    let points: Vec<Vec3> = (0..2500).map(|_| rng.vec(1.5).as_vec3()).collect();
+    let e = t.evaluate(&points);
+    let mut values = vec![0.0; points.len()];
+    let mut grads = vec![Vec3::ZERO; points.len()];
+    let mut attrs = vec![0.0; points.len() * ATTRIBUTE_COUNT];
+    t.values(&points, &mut values);
+    t.gradients(&points, &mut grads);
+    t.attributes(&points, &mut attrs);
+    for (i, p) in points.iter().enumerate() {
+        let s = t.sample(p.as_dvec3());
+        assert_eq!((e.values[i], values[i]), (s.value as f32, s.value as f32));
+        assert_eq!((e.gradients[i], grads[i]), (s.gradient.as_vec3(), s.gradient.as_vec3()));
+        assert_eq!(e.colors[i], s.color.map(|c| c as f32));
+        assert_eq!(&attrs[i * ATTRIBUTE_COUNT..i * ATTRIBUTE_COUNT + 4], &e.colors[i][..]);
+        assert_eq!((attrs[i * ATTRIBUTE_COUNT + ATTRIBUTE_TEXTURE], e.textures[i]), (s.texture as f32, s.texture as f32));
+        assert_eq!((attrs[i * ATTRIBUTE_COUNT + ATTRIBUTE_ID], e.ids[i]), (s.id as f32, s.id));
+    }
+}
+
+/// A random closed, bounded tree for meshing: soft unions of shapes, some cut,
+/// intersected, grown or displaced.
+fn random_mesh_tree(rng: &mut Rng) -> Value {
+    let part = |rng: &mut Rng| -> Value {
+        let a = random_leaf(rng);
+        match rng.pick(6) {
+            0 => json!({"op": "difference_wp", "p": rng.range(4.0, 30.0), "children": [a, random_leaf(rng)]}),
+            1 => json!({"op": "intersection_wp", "p": rng.range(4.0, 30.0), "children": [a, {"op": "sphere", "center": v3(rng.vec(0.3)), "radius": 0.6}]}),
+            2 => {
+                json!({"op": "displace", "shape": a, "texture": random_leaf(rng), "amplitude": rng.range(0.0, 0.04), "omega": rng.range(5.0, 15.0), "tau": rng.range(0.0, 6.0)})
+            }
+            3 => json!({"op": "offset", "child": a, "amount": rng.range(-0.03, 0.05)}),
+            4 => json!({"op": "h", "children": [a, random_leaf(rng)]}),
+            _ => a,
+        }
+    };
+    let parts: Vec<Value> = (0..2 + rng.pick(3)).map(|_| part(rng)).collect();
+    if rng.next() < 0.5 {
+        json!({"op": "union_wp", "p": rng.range(3.0, 30.0), "children": parts})
+    } else {
+        json!({"op": "min", "children": parts})
+    }
+}
+
+#[test]
+fn random_trees_mesh_closed_manifold_on_their_zero_set() {
+    let mut rng = Rng(0xfeed_beef);
+    let mut meshed = 0;
+    for seed in 0..20 {
+        let doc = random_mesh_tree(&mut rng);
+        let t = tree(&doc);
+        let resolution = 36;
+        let bounds = (Vec3::splat(-1.5), Vec3::splat(1.5));
+        let m = mesh_field(&t, &GridParams { bounds, resolution, refine: true }).unwrap();
+        let check = SurfaceCheck::of(&m.positions, &m.triangles);
+        assert!(check.is_closed_manifold(), "seed {seed}: {check:?}: {doc}");
+        if m.triangles.is_empty() {
+            continue;
+        }
+        meshed += 1;
+        let cell = ((bounds.1 - bounds.0) / m.cells.as_vec3()).max_element() as f64;
+        for p in &m.positions {
+            if p.abs().max_element() > 1.5 - 1.01 * cell as f32 {
+                continue; // cut by the box
+            }
+            let s = t.sample(p.as_dvec3());
+            let d = s.value.abs() / s.gradient.length().max(1e-9);
+            assert!(d < 0.5 * cell, "seed {seed}: vertex {p} is {d} from the zero set (cell {cell}): {doc}");
+        }
+        // The carried attributes ride along: colour, texture, a primitive's id.
+        assert_eq!(m.attribute_count, ATTRIBUTE_COUNT);
+        for a in m.attributes.chunks_exact(ATTRIBUTE_COUNT) {
+            assert!(a[..4].iter().all(|c| (-1e-6..=1.0 + 1e-6).contains(c)), "{a:?}");
+            assert!((0.0..=1.0).contains(&a[ATTRIBUTE_TEXTURE]));
+            assert!(a[ATTRIBUTE_ID].fract() == 0.0 && (a[ATTRIBUTE_ID] as u32) < t.primitive_count());
+        }
+    }
+    assert!(meshed >= 18, "{meshed} of 20 trees had a surface");
 }

@@ -1,0 +1,516 @@
+//! The one evaluator: a [`Node`] tree compiled to a post-order tape of instructions,
+//! run over blocks of [`BLOCK`] points at a time. Each instruction loops over the block
+//! on arrays (values, gradient components, colour channels), the layout the compiler
+//! vectorizes; rayon spreads chunks of [`CHUNK`] points over the threads.
+//!
+//! Everything is computed in double precision: value, analytic gradient (the chain
+//! rule per node, section 5's gradient tree), colour (section 5: blended by the
+//! weights the gradient uses), the texture value and the dominant primitive's id.
+
+use super::kernel::{self, Prim, PrimKind};
+use super::tree::{Node, Op, DEFAULT_COLOR};
+use crate::Result;
+use glam::{DMat3, DQuat, DVec3, Vec3};
+use rayon::prelude::*;
+
+/// Points per block of the tape's array loops.
+pub(crate) const BLOCK: usize = 64;
+/// Points per parallel task.
+const CHUNK: usize = 1024;
+
+/// How an approximate set operation signs its arguments and result:
+/// `result = outer · w_p(sign_i · f_i)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum WpKind {
+    /// `w_p(f1, ..., fn)`.
+    Intersection,
+    /// `-w_p(-f1, ..., -fn)`.
+    Union,
+    /// `w_p(f1, -f2)`.
+    Difference,
+}
+
+impl WpKind {
+    pub fn sign(self, child: usize) -> f64 {
+        match self {
+            WpKind::Intersection => 1.0,
+            WpKind::Union => -1.0,
+            WpKind::Difference => {
+                if child == 0 {
+                    1.0
+                } else {
+                    -1.0
+                }
+            }
+        }
+    }
+    pub fn outer(self) -> f64 {
+        if self == WpKind::Union {
+            -1.0
+        } else {
+            1.0
+        }
+    }
+}
+
+/// One instruction of the tape: pops its children's results and pushes its own.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Inst {
+    Prim {
+        prim: Prim,
+        id: u32,
+        color: [f64; 4],
+    },
+    Offset(f64),
+    Negate,
+    H(usize),
+    Min(usize),
+    Max(usize),
+    Wp {
+        p: f64,
+        n: usize,
+        kind: WpKind,
+    },
+    Displace {
+        amplitude: f64,
+        omega: f64,
+        tau: f64,
+    },
+    Fractal {
+        terms: Vec<[f64; 2]>,
+        tau: f64,
+    },
+    /// Sets the colour of the result below it (a `color` on an operation node).
+    Paint([f64; 4]),
+}
+
+/// A validated tree compiled to its tape.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Tape {
+    pub insts: Vec<Inst>,
+    pub primitives: u32,
+    /// The most results alive at once.
+    pub depth: usize,
+}
+
+impl Tape {
+    /// Compiles a tree; the tree must be valid ([`Node::validate`]).
+    pub fn compile(node: &Node) -> Result<Self> {
+        node.validate()?;
+        let mut tape = Tape { insts: Vec::new(), primitives: 0, depth: 0 };
+        let mut live = 0;
+        tape.emit(node, &mut live);
+        Ok(tape)
+    }
+
+    fn emit(&mut self, node: &Node, live: &mut usize) {
+        let children = node.op.children();
+        for (_, child) in &children {
+            self.emit(child, live);
+        }
+        let n = children.len();
+        let inst = match &node.op {
+            op if op.is_primitive() => {
+                let id = self.primitives;
+                self.primitives += 1;
+                Inst::Prim { prim: compile_prim(op), id, color: node.color.unwrap_or(DEFAULT_COLOR) }
+            }
+            Op::Offset { amount, .. } => Inst::Offset(*amount),
+            Op::Negate { .. } => Inst::Negate,
+            Op::H { .. } => Inst::H(n),
+            Op::Min { .. } => Inst::Min(n),
+            Op::Max { .. } => Inst::Max(n),
+            Op::IntersectionWp { p, .. } => Inst::Wp { p: *p, n, kind: WpKind::Intersection },
+            Op::UnionWp { p, .. } => Inst::Wp { p: *p, n, kind: WpKind::Union },
+            Op::DifferenceWp { p, .. } => Inst::Wp { p: *p, n, kind: WpKind::Difference },
+            Op::Displace { amplitude, omega, tau, .. } => Inst::Displace { amplitude: *amplitude, omega: *omega, tau: *tau },
+            Op::Fractal { terms, tau, .. } => Inst::Fractal { terms: terms.clone(), tau: *tau },
+            _ => unreachable!("every op is handled"),
+        };
+        let primitive = matches!(inst, Inst::Prim { .. });
+        *live = *live + 1 - n;
+        self.depth = self.depth.max(*live);
+        self.insts.push(inst);
+        if let (Some(c), false) = (node.color, primitive) {
+            self.insts.push(Inst::Paint(c));
+        }
+    }
+}
+
+/// The frame of a quaternion `[w, x, y, z]`, normalized.
+fn frame(q: [f64; 4]) -> [DVec3; 3] {
+    let m = DMat3::from_quat(DQuat::from_xyzw(q[1], q[2], q[3], q[0]).normalize());
+    [m.x_axis, m.y_axis, m.z_axis]
+}
+
+/// A valid primitive's compiled form.
+fn compile_prim(op: &Op) -> Prim {
+    let world = [DVec3::X, DVec3::Y, DVec3::Z];
+    match op {
+        Op::Plane { point, normal } => {
+            let n = normal.normalize();
+            let (a, b) = n.any_orthonormal_pair();
+            Prim { kind: PrimKind::Plane, center: *point, axes: [n, a, b], half: [0.0; 3], radius: 0.0 }
+        }
+        Op::Sphere { center, radius } => Prim { kind: PrimKind::Sphere, center: *center, axes: world, half: [0.0; 3], radius: *radius },
+        Op::Point { center, radius } => Prim { kind: PrimKind::Cuboid, center: *center, axes: world, half: [0.0; 3], radius: *radius },
+        Op::Segment { a, b, radius } => {
+            let n = (*b - *a).normalize();
+            let (u, v) = n.any_orthonormal_pair();
+            let half = 0.5 * (*b - *a).length();
+            Prim { kind: PrimKind::Cuboid, center: 0.5 * (*a + *b), axes: [n, u, v], half: [half, 0.0, 0.0], radius: *radius }
+        }
+        Op::Rectangle { center, half_size, rotation, radius } => {
+            Prim { kind: PrimKind::Cuboid, center: *center, axes: frame(*rotation), half: [half_size[0], half_size[1], 0.0], radius: *radius }
+        }
+        Op::Box { center, half_size, rotation, radius } => {
+            Prim { kind: PrimKind::Cuboid, center: *center, axes: frame(*rotation), half: *half_size, radius: *radius }
+        }
+        Op::Torus { center, axis, major, minor } => {
+            let n = axis.normalize();
+            let (u, v) = n.any_orthonormal_pair();
+            Prim { kind: PrimKind::Torus, center: *center, axes: [u, v, n], half: [*major, 0.0, 0.0], radius: *minor }
+        }
+        _ => unreachable!("not a primitive"),
+    }
+}
+
+/// What a run computes besides the values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Need {
+    pub gradient: bool,
+    pub attributes: bool,
+}
+
+impl Need {
+    pub const VALUE: Need = Need { gradient: false, attributes: false };
+    pub const GRADIENT: Need = Need { gradient: true, attributes: false };
+    pub const ATTRIBUTES: Need = Need { gradient: false, attributes: true };
+    pub const ALL: Need = Need { gradient: true, attributes: true };
+}
+
+/// One result of the tape over a block: structure of arrays.
+#[derive(Clone)]
+pub(crate) struct Slot {
+    pub f: [f64; BLOCK],
+    pub g: [[f64; BLOCK]; 3],
+    pub c: [[f64; BLOCK]; 4],
+    pub t: [f64; BLOCK],
+    pub id: [u32; BLOCK],
+}
+
+impl Slot {
+    fn new() -> Box<Self> {
+        Box::new(Slot { f: [0.0; BLOCK], g: [[0.0; BLOCK]; 3], c: [[0.0; BLOCK]; 4], t: [0.0; BLOCK], id: [0; BLOCK] })
+    }
+    pub fn gradient(&self, j: usize) -> DVec3 {
+        DVec3::new(self.g[0][j], self.g[1][j], self.g[2][j])
+    }
+    fn copy_point(&mut self, j: usize, from: &Slot, need: Need) {
+        self.f[j] = from.f[j];
+        if need.gradient {
+            for a in 0..3 {
+                self.g[a][j] = from.g[a][j];
+            }
+        }
+        if need.attributes {
+            for a in 0..4 {
+                self.c[a][j] = from.c[a][j];
+            }
+            self.t[j] = from.t[j];
+        }
+        self.id[j] = from.id[j];
+    }
+}
+
+/// Per-thread working memory of a run: the tape's stack and the n-ary operations'
+/// accumulators.
+pub(crate) struct Scratch {
+    stack: Vec<Box<Slot>>,
+    work: Work,
+}
+
+struct Work {
+    acc: Box<Slot>,
+    top: [f64; BLOCK],
+    arg: [usize; BLOCK],
+    sum: [f64; BLOCK],
+}
+
+impl Scratch {
+    pub fn new(tape: &Tape) -> Self {
+        let work = Work { acc: Slot::new(), top: [0.0; BLOCK], arg: [0; BLOCK], sum: [0.0; BLOCK] };
+        Scratch { stack: (0..tape.depth).map(|_| Slot::new()).collect(), work }
+    }
+}
+
+impl Tape {
+    /// Runs the tape over up to [`BLOCK`] points; the result is the returned slot's
+    /// first `points.len()` entries.
+    pub fn run<'s>(&self, points: &[DVec3], need: Need, s: &'s mut Scratch) -> &'s Slot {
+        let n = points.len();
+        debug_assert!(n <= BLOCK);
+        let mut sp = 0;
+        for inst in &self.insts {
+            match inst {
+                Inst::Prim { prim, id, color } => {
+                    let out = &mut s.stack[sp];
+                    if need.gradient {
+                        for (j, x) in points.iter().enumerate() {
+                            let (v, g) = prim.eval(*x);
+                            out.f[j] = v;
+                            out.g[0][j] = g.x;
+                            out.g[1][j] = g.y;
+                            out.g[2][j] = g.z;
+                        }
+                    } else {
+                        // The same code; inlined, its unused gradient is optimized away.
+                        for (o, x) in out.f.iter_mut().zip(points) {
+                            *o = prim.eval(*x).0;
+                        }
+                    }
+                    out.id[..n].fill(*id);
+                    if need.attributes {
+                        for (c, v) in out.c.iter_mut().zip(color) {
+                            c[..n].fill(*v);
+                        }
+                        out.t[..n].fill(0.0);
+                    }
+                    sp += 1;
+                }
+                Inst::Offset(amount) => s.stack[sp - 1].f[..n].iter_mut().for_each(|v| *v -= amount),
+                Inst::Negate => {
+                    let top = &mut s.stack[sp - 1];
+                    top.f[..n].iter_mut().for_each(|v| *v = -*v);
+                    if need.gradient {
+                        top.g.iter_mut().for_each(|g| g[..n].iter_mut().for_each(|v| *v = -*v));
+                    }
+                }
+                Inst::Paint(color) => {
+                    if need.attributes {
+                        for (c, v) in s.stack[sp - 1].c.iter_mut().zip(color) {
+                            c[..n].fill(*v);
+                        }
+                    }
+                }
+                Inst::Min(k) | Inst::Max(k) => {
+                    let first = sp - k;
+                    let less = matches!(inst, Inst::Min(_));
+                    for j in 0..n {
+                        let mut best = first;
+                        for i in first + 1..sp {
+                            let (v, b) = (s.stack[i].f[j], s.stack[best].f[j]);
+                            if if less { v < b } else { v > b } {
+                                best = i;
+                            }
+                        }
+                        if best != first {
+                            let (lower, upper) = s.stack.split_at_mut(best);
+                            lower[first].copy_point(j, &upper[0], need);
+                        }
+                    }
+                    sp = first + 1;
+                }
+                Inst::H(k) => {
+                    sp -= k;
+                    h_block(&mut s.stack[sp..sp + k], n, need, &mut s.work);
+                    sp += 1;
+                }
+                Inst::Wp { p, n: k, kind } => {
+                    sp -= k;
+                    wp_block(&mut s.stack[sp..sp + k], n, *p, *kind, need, &mut s.work);
+                    sp += 1;
+                }
+                Inst::Displace { amplitude, omega, tau } => {
+                    sp -= 1;
+                    let (lower, upper) = s.stack.split_at_mut(sp);
+                    let (shape, tex) = (&mut lower[sp - 1], &upper[0]);
+                    for j in 0..n {
+                        let phase = omega * tex.f[j] + tau;
+                        shape.f[j] += amplitude * (phase.cos() + 1.0);
+                        if need.gradient {
+                            let d = -amplitude * omega * phase.sin();
+                            for a in 0..3 {
+                                shape.g[a][j] += d * tex.g[a][j];
+                            }
+                        }
+                        if need.attributes {
+                            shape.t[j] = 0.5 * (1.0 + phase.cos());
+                        }
+                    }
+                }
+                Inst::Fractal { terms, tau } => {
+                    sp -= 1;
+                    let (lower, upper) = s.stack.split_at_mut(sp);
+                    let (shape, tex) = (&mut lower[sp - 1], &upper[0]);
+                    let weight: f64 = terms.iter().map(|t| t[0].abs()).sum();
+                    for j in 0..n {
+                        let (mut add, mut d, mut t) = (0.0, 0.0, 0.0);
+                        for &[a, omega] in terms {
+                            let phase = omega * tex.f[j] + tau;
+                            add += a * (phase.cos() + 1.0);
+                            d -= a * omega * phase.sin();
+                            t += a.abs() * kernel::texture(omega, *tau, tex.f[j]);
+                        }
+                        shape.f[j] += add;
+                        if need.gradient {
+                            for a in 0..3 {
+                                shape.g[a][j] += d * tex.g[a][j];
+                            }
+                        }
+                        if need.attributes {
+                            shape.t[j] = if weight > 0.0 { t / weight } else { kernel::texture(terms[0][1], *tau, tex.f[j]) };
+                        }
+                    }
+                }
+            }
+        }
+        debug_assert_eq!(sp, 1);
+        &s.stack[0]
+    }
+}
+
+/// `h` over the `k` children in `slots` into `slots[0]`: per point the largest value,
+/// then the positive parts' length, gradient, colour and texture weights.
+fn h_block(slots: &mut [Box<Slot>], n: usize, need: Need, s: &mut Work) {
+    argmax(slots, n, |_| 1.0, &mut s.top, &mut s.arg);
+    let acc = &mut s.acc;
+    acc.f[..n].fill(0.0);
+    s.sum[..n].fill(0.0);
+    clear(acc, n, need);
+    for slot in slots.iter() {
+        for j in 0..n {
+            // Positive parts over the largest: the weights `fi⁺ / max`.
+            let w = if s.top[j] > 0.0 { slot.f[j].max(0.0) / s.top[j] } else { 0.0 };
+            acc.f[j] += w * w;
+            s.sum[j] += w;
+            accumulate(acc, slot, j, w, w, need);
+        }
+    }
+    for j in 0..n {
+        let (m, best) = (s.top[j], s.arg[j]);
+        if m > 0.0 {
+            let id = slots[best].id[j];
+            let out = &mut slots[0];
+            let len = acc.f[j].sqrt();
+            out.f[j] = m * len;
+            if need.gradient {
+                for a in 0..3 {
+                    out.g[a][j] = acc.g[a][j] / len;
+                }
+            }
+            if need.attributes {
+                // Colours by the gradient's weights, normalized to sum to one.
+                for a in 0..4 {
+                    out.c[a][j] = acc.c[a][j] / s.sum[j];
+                }
+                out.t[j] = acc.t[j] / s.sum[j];
+            }
+            out.id[j] = id;
+        } else {
+            take(slots, best, j, need);
+        }
+    }
+}
+
+/// `outer · w_p(sign_i f_i)` over the `k` children into `slots[0]`, by log-sum-exp.
+fn wp_block(slots: &mut [Box<Slot>], n: usize, p: f64, kind: WpKind, need: Need, s: &mut Work) {
+    argmax(slots, n, |i| p * kind.sign(i), &mut s.top, &mut s.arg);
+    let acc = &mut s.acc;
+    s.sum[..n].fill(0.0);
+    clear(acc, n, need);
+    for (i, slot) in slots.iter().enumerate() {
+        let ps = p * kind.sign(i);
+        for j in 0..n {
+            let e = (ps * slot.f[j] - s.top[j]).exp();
+            s.sum[j] += e;
+            // The gradient takes the arguments' signs; the colours the bare weights.
+            accumulate(acc, slot, j, e * kind.sign(i) * kind.outer(), e, need);
+        }
+    }
+    for j in 0..n {
+        let id = slots[s.arg[j]].id[j];
+        let out = &mut slots[0];
+        let sum = s.sum[j];
+        out.f[j] = kind.outer() * (s.top[j] + sum.ln()) / p;
+        if need.gradient {
+            for a in 0..3 {
+                out.g[a][j] = acc.g[a][j] / sum;
+            }
+        }
+        if need.attributes {
+            for a in 0..4 {
+                out.c[a][j] = acc.c[a][j] / sum;
+            }
+            out.t[j] = acc.t[j] / sum;
+        }
+        out.id[j] = id;
+    }
+}
+
+/// Per point the largest `scale(i) · f_i` and its child.
+fn argmax(slots: &[Box<Slot>], n: usize, scale: impl Fn(usize) -> f64, top: &mut [f64; BLOCK], arg: &mut [usize; BLOCK]) {
+    top[..n].fill(f64::NEG_INFINITY);
+    arg[..n].fill(0);
+    for (i, slot) in slots.iter().enumerate() {
+        let k = scale(i);
+        for j in 0..n {
+            let v = k * slot.f[j];
+            if v > top[j] {
+                top[j] = v;
+                arg[j] = i;
+            }
+        }
+    }
+}
+
+fn clear(acc: &mut Slot, n: usize, need: Need) {
+    if need.gradient {
+        acc.g.iter_mut().for_each(|g| g[..n].fill(0.0));
+    }
+    if need.attributes {
+        acc.c.iter_mut().for_each(|c| c[..n].fill(0.0));
+        acc.t[..n].fill(0.0);
+    }
+}
+
+/// Adds `wg` times the child's gradient and `wc` times its colour and texture.
+#[inline]
+fn accumulate(acc: &mut Slot, slot: &Slot, j: usize, wg: f64, wc: f64, need: Need) {
+    if need.gradient {
+        for a in 0..3 {
+            acc.g[a][j] += wg * slot.g[a][j];
+        }
+    }
+    if need.attributes {
+        for a in 0..4 {
+            acc.c[a][j] += wc * slot.c[a][j];
+        }
+        acc.t[j] += wc * slot.t[j];
+    }
+}
+
+/// Point `j` of child `i` as the result (slot 0).
+fn take(slots: &mut [Box<Slot>], i: usize, j: usize, need: Need) {
+    if i != 0 {
+        let (lower, upper) = slots.split_at_mut(i);
+        lower[0].copy_point(j, &upper[0], need);
+    }
+}
+
+/// Runs `tape` over `points` in parallel chunks, handing each block's result and its
+/// range of points to `write`.
+pub(crate) fn for_blocks<T: Send>(tape: &Tape, points: &[Vec3], out: &mut [T], per_point: usize, need: Need, write: impl Fn(&Slot, usize, &mut [T]) + Sync) {
+    debug_assert_eq!(out.len(), points.len() * per_point);
+    points.par_chunks(CHUNK).zip(out.par_chunks_mut(CHUNK * per_point)).for_each(|(points, out)| {
+        let mut scratch = Scratch::new(tape);
+        let mut xs = [DVec3::ZERO; BLOCK];
+        for (block, out) in points.chunks(BLOCK).zip(out.chunks_mut(BLOCK * per_point)) {
+            for (x, p) in xs.iter_mut().zip(block) {
+                *x = p.as_dvec3();
+            }
+            let slot = tape.run(&xs[..block.len()], need, &mut scratch);
+            write(slot, block.len(), out);
+        }
+    });
+}
