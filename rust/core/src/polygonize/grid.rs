@@ -294,18 +294,24 @@ fn refine_vertices<F: ScalarField + ?Sized>(field: &F, grid: &Grid, pos: &mut [V
 /// Each vertex's gradient of the cut field: the field's where it is inside the box,
 /// the nearest box face's normal where the box cut it; zero where the field's is not
 /// a number (the weld then takes the faces' normal).
+///
+/// Only vertices within one lattice edge of the box are asked which of the two made
+/// them: a vertex farther inside lies on an edge with both ends inside the box (its
+/// distance is 1-Lipschitz), where the cut field changes sign only with the field.
 fn normals<F: ScalarField + ?Sized>(field: &F, grid: &Grid, piece: &mut Piece) {
     let n = piece.pos.len();
     piece.grad = vec![Vec3::ZERO; n];
     field.gradients(&piece.pos, &mut piece.grad);
-    let mut values = vec![0.0; n];
-    field.values(&piece.pos, &mut values);
-    for ((g, p), f) in piece.grad.iter_mut().zip(&piece.pos).zip(&values) {
-        let (d, face) = grid.to_box(*p);
+    let edge = grid.step.length();
+    let near: Vec<usize> = (0..n).filter(|&v| grid.to_box(piece.pos[v]).0 > -edge).collect();
+    let points: Vec<Vec3> = near.iter().map(|&v| piece.pos[v]).collect();
+    let mut values = vec![0.0; near.len()];
+    field.values(&points, &mut values);
+    for (&v, f) in near.iter().zip(&values) {
+        let (d, face) = grid.to_box(piece.pos[v]);
         if d >= *f {
-            *g = face;
-        } else if !g.is_finite() {
-            *g = Vec3::ZERO;
+            piece.grad[v] = face;
         }
     }
+    piece.grad.iter_mut().filter(|g| !g.is_finite()).for_each(|g| *g = Vec3::ZERO);
 }
