@@ -83,3 +83,16 @@ def test_watching_stops(watched):
     obj.modifiers.new("twist", "SIMPLE_DEFORM")
     bpy.context.view_layer.update()
     assert overlay.generation() == start
+
+
+def test_an_object_made_again_under_the_same_name_is_a_new_preview(scene):
+    """A stale handle must not outlive its object: the same name and settings in a
+    new object (or a file loaded anew) are another preview, also when no update was
+    counted in between (nothing watched here)."""
+    obj = _source()
+    name, before = obj.name, overlay.content_key(obj)
+    bpy.data.objects.remove(obj)
+    again = _source()
+    again.name = name
+    assert again.name == name
+    assert overlay.content_key(again) != before

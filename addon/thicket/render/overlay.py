@@ -84,9 +84,11 @@ def _plain(value):
 def content_key(obj):
     """What `obj`'s preview shows, besides the view and the object's placement: its
     stack items' properties (read as stored, without reading a cutter's mesh: its
-    changes count in `generation`) and the changes of its result seen so far."""
+    changes count in `generation`) and the changes of its result seen so far. The
+    object is named by its session id, which a file loaded anew or an object made
+    again under the same name does not share."""
     items = tuple(tuple((name, _plain(getattr(item, name))) for name in item.bl_rna.properties.keys() if name != "rna_type") for item in obj.thicket.items)
-    return (obj.name, items, _state["generation"])
+    return (obj.session_uid, obj.data.session_uid, items, _state["generation"])
 
 
 def _redraw_all():
