@@ -7,7 +7,9 @@
 //! evaluated at batches of points: value, analytic gradient (section 5's gradient
 //! tree, never finite differences), colour (section 5: each building block's diffuse
 //! colour, blended by the weights the gradient uses), texture value and the dominant
-//! primitive's id ([`FieldTree::evaluate`]). It implements [`ScalarField`], so
+//! primitive's id ([`FieldTree::evaluate`]). It reports bounds for culling
+//! ([`FieldTree::lipschitz`], [`FieldTree::interval`], [`FieldTree::bounds`]; the
+//! rules per node are in [`bounds`]) and implements [`ScalarField`], so
 //! [`crate::polygonize::mesh_field`] meshes it.
 //!
 //! Negative inside: `V(f) = {f <= 0}`, as in the paper.
@@ -76,6 +78,7 @@
 //! JSON has no references, so a tree cannot have cycles; nesting deeper than 128
 //! levels is refused by the parser.
 
+pub mod bounds;
 mod eval;
 mod kernel;
 pub mod tree;
@@ -83,6 +86,7 @@ pub mod tree;
 #[cfg(test)]
 mod tests;
 
+pub use bounds::Aabb;
 pub use tree::{Node, Op, DEFAULT_COLOR};
 
 use crate::field::ScalarField;
@@ -174,6 +178,40 @@ impl FieldTree {
     pub fn sample(&self, x: DVec3) -> Sample {
         let mut scratch = Scratch::new(&self.tape);
         sample(self.tape.run(&[x], Need::ALL, &mut scratch), 0)
+    }
+
+    /// A Lipschitz bound: `|f(x) - f(y)| <= L |x - y|` (1 for every building block;
+    /// the rules per node are in [`bounds`]).
+    pub fn lipschitz(&self) -> f64 {
+        self.tape.lipschitz()
+    }
+
+    /// An enclosure of the values over the box `[lo, hi]` by interval arithmetic
+    /// (rules per node in [`bounds`]).
+    pub fn interval(&self, lo: DVec3, hi: DVec3) -> (f64, f64) {
+        self.tape.interval(lo, hi)
+    }
+
+    /// [`FieldTree::interval`] narrowed by the Lipschitz bound around the box's centre:
+    /// the tightest enclosure the core offers, one evaluation more.
+    pub fn range(&self, lo: DVec3, hi: DVec3) -> (f64, f64) {
+        let (l, u) = self.interval(lo, hi);
+        let v = self.sample((lo + hi) * 0.5).value;
+        let r = self.lipschitz() * ((hi - lo) * 0.5).length();
+        (l.max(v - r), u.min(v + r))
+    }
+
+    /// A box around the solid `V(f)` in double precision, `None` where the tree does not
+    /// bound it (a plane, a complement, a union with one of those).
+    pub fn solid_box(&self) -> Option<Aabb> {
+        self.tape.solid_box()
+    }
+
+    /// [`FieldTree::solid_box`] in single precision, rounded outward: the box to mesh
+    /// (add a margin of a cell or two so the grid's faces stay off the surface).
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let b = self.solid_box()?;
+        Some((Vec3::from_array(b.lo.to_array().map(|c| (c as f32).next_down())), Vec3::from_array(b.hi.to_array().map(|c| (c as f32).next_up()))))
     }
 }
 

@@ -1,7 +1,7 @@
 //! The field core against independent references: central differences of its own
 //! values for the gradients, the paper's identities (`|∇h| = 1` on orthogonal
 //! unit-gradient inputs, `h[f, -f] = |f|`, `|∇w_p| <= 1`, `w_p -> max`), sampled values
-//! the JSON text for the round trip, and the polygonizer's closed
+//! for the bounds, the JSON text for the round trip, and the polygonizer's closed
 //! 2-manifold contract for meshes of random trees.
 
 use super::*;
@@ -143,6 +143,7 @@ fn h_of_orthogonal_unit_gradient_inputs_has_a_unit_gradient() {
             continue;
         }
         let t = tree(&json!({"op": "h", "children": children}));
+        assert_eq!(t.lipschitz(), (children.len() as f64).sqrt(), "the generic bound");
         for _ in 0..20 {
             let g = t.sample(rng.vec(2.0)).gradient;
             assert!((g.length() - 1.0).abs() < 1e-12, "|∇h| = {}", g.length());
@@ -218,6 +219,7 @@ fn wp_trees_have_gradients_no_longer_than_one() {
     let mut rng = Rng(99);
     for _ in 0..60 {
         let t = tree(&random_soft_tree(&mut rng, 4));
+        assert!(t.lipschitz() <= 1.0);
         for _ in 0..200 {
             let g = t.sample(rng.vec(1.5)).gradient;
             assert!(g.length() <= 1.0 + 1e-12, "|∇f| = {} in {}", g.length(), t.to_json());
@@ -375,6 +377,103 @@ fn bad_input_gives_clear_errors() {
     assert!(FieldTree::from_json(&deep).is_err());
 }
 
+/// A random tree of every kind of node (planes and complements included).
+fn random_any_tree(rng: &mut Rng, depth: u32) -> Value {
+    if depth == 0 || rng.next() < 0.2 {
+        return if rng.next() < 0.15 { json!({"op": "plane", "point": v3(rng.vec(0.5)), "normal": v3(rng.unit())}) } else { random_leaf(rng) };
+    }
+    let mut kid = || random_any_tree(rng, depth - 1);
+    let (a, b, c) = (kid(), kid(), kid());
+    match rng.pick(10) {
+        0 => json!({"op": "h", "children": [a, b]}),
+        1 => json!({"op": "displace", "shape": a, "texture": b, "amplitude": rng.range(-0.1, 0.2), "omega": rng.range(1.0, 20.0), "tau": rng.range(-3.0, 3.0)}),
+        2 => {
+            json!({"op": "fractal", "shape": a, "texture": b, "terms": [[rng.range(0.0, 0.1), rng.range(1.0, 9.0)], [rng.range(-0.05, 0.05), rng.range(5.0, 30.0)]]})
+        }
+        3 => json!({"op": "min", "children": [a, b, c]}),
+        4 => json!({"op": "max", "children": [a, b]}),
+        5 => json!({"op": "intersection_wp", "p": rng.range(0.5, 30.0), "children": [a, b, c]}),
+        6 => json!({"op": "union_wp", "p": rng.range(0.5, 30.0), "children": [a, b]}),
+        7 => json!({"op": "difference_wp", "p": rng.range(0.5, 30.0), "children": [a, b]}),
+        8 => json!({"op": "offset", "child": a, "amount": rng.range(-0.2, 0.3)}),
+        _ => json!({"op": "negate", "child": a}),
+    }
+}
+
+#[test]
+fn interval_and_lipschitz_bounds_hold_at_sampled_points() {
+    let mut rng = Rng(2024);
+    let mut docs = catalogue();
+    docs.extend((0..60).map(|_| random_any_tree(&mut rng, 4)));
+    for doc in docs {
+        let t = tree(&doc);
+        let l = t.lipschitz();
+        for _ in 0..20 {
+            let c = rng.vec(1.2);
+            let half = DVec3::new(rng.range(0.0, 0.5), rng.range(0.0, 0.5), rng.range(0.0, 0.5));
+            let (lo, hi) = (c - half, c + half);
+            let (il, iu) = t.interval(lo, hi);
+            let (rl, ru) = t.range(lo, hi);
+            assert!(il <= iu && rl <= ru && rl >= il && ru <= iu);
+            for _ in 0..50 {
+                let x = lo + (hi - lo) * DVec3::new(rng.next(), rng.next(), rng.next());
+                let v = t.sample(x).value;
+                let tol = 1e-9 * (1.0 + v.abs());
+                assert!(v >= rl - tol && v <= ru + tol, "{v} outside [{rl}, {ru}] (interval [{il}, {iu}]) in {lo}..{hi}: {doc}");
+            }
+        }
+        for _ in 0..200 {
+            let x = rng.vec(1.5);
+            let y = x + rng.vec(0.3);
+            let (fx, fy) = (t.sample(x).value, t.sample(y).value);
+            assert!((fx - fy).abs() <= l * (x - y).length() * (1.0 + 1e-9) + 1e-12, "Lipschitz {l}: {fx} vs {fy} over {}: {doc}", (x - y).length());
+        }
+    }
+}
+
+#[test]
+fn intervals_are_tight_for_planes_and_spheres() {
+    let t = tree(&json!({"op": "sphere", "center": [0, 0, 0], "radius": 1}));
+    assert_eq!(t.interval(DVec3::new(2.0, -1.0, -1.0), DVec3::new(3.0, 1.0, 1.0)), (1.0, 11f64.sqrt() - 1.0));
+    let t = tree(&json!({"op": "plane", "point": [0, 0, 0], "normal": [0, 0, 2]}));
+    assert_eq!(t.interval(DVec3::splat(-1.0), DVec3::new(1.0, 1.0, 3.0)), (-1.0, 3.0));
+    // A culled box: no surface where the interval keeps one sign.
+    let t = tree(&catalogue()[13]);
+    let (l, _) = t.interval(DVec3::splat(3.0), DVec3::splat(3.5));
+    assert!(l > 0.0);
+}
+
+#[test]
+fn the_solid_lies_inside_its_box() {
+    let mut rng = Rng(31337);
+    let mut bounded = 0;
+    for _ in 0..120 {
+        let doc = random_any_tree(&mut rng, 3);
+        let t = tree(&doc);
+        let Some(b) = t.solid_box() else { continue };
+        bounded += 1;
+        let (lo, hi) = t.bounds().unwrap();
+        assert!(lo.as_dvec3().cmple(b.lo).all() && hi.as_dvec3().cmpge(b.hi).all());
+        for _ in 0..400 {
+            let x = rng.vec(2.5);
+            let inside_box = x.cmpge(b.lo).all() && x.cmple(b.hi).all();
+            assert!(inside_box || t.sample(x).value > 0.0, "{x} is in the solid, outside {b:?}: {doc}");
+        }
+    }
+    assert!(bounded > 40, "{bounded}");
+    // What cannot be bounded says so.
+    for doc in [&catalogue()[0], &catalogue()[8]] {
+        assert_eq!(tree(doc).solid_box(), None);
+    }
+    // The rules on known shapes.
+    let b = tree(&json!({"op": "offset", "amount": 0.5, "child": {"op": "sphere", "center": [1, 2, 3], "radius": 1}})).solid_box().unwrap();
+    assert_eq!((b.lo, b.hi), (DVec3::new(-0.5, 0.5, 1.5), DVec3::new(2.5, 3.5, 4.5)));
+    let b = tree(&catalogue()[6]).solid_box().unwrap();
+    let axis = DVec3::new(0.2, 1.0, 0.3).normalize();
+    let want = (DVec3::ONE - axis * axis).powf(0.5) * 0.8 + 0.25;
+    assert!((b.hi - DVec3::new(0.0, 0.0, 0.1) - want).abs().max_element() < 1e-12);
+}
+
 #[test]
 fn colours_ids_and_textures_follow_the_weights() {
     let red = json!({"op": "sphere", "center": [-1, 0, 0], "radius": 0.5, "color": [1, 0, 0, 1]});
@@ -470,8 +569,10 @@ fn random_trees_mesh_closed_manifold_on_their_zero_set() {
     for seed in 0..20 {
         let doc = random_mesh_tree(&mut rng);
         let t = tree(&doc);
+        let (lo, hi) = t.bounds().expect("bounded");
         let resolution = 36;
-        let bounds = (Vec3::splat(-1.5), Vec3::splat(1.5));
+        let margin = 2.5 * (hi - lo).max_element() / resolution as f32;
+        let bounds = (lo - margin, hi + margin);
         let m = mesh_field(&t, &GridParams { bounds, resolution, refine: true }).unwrap();
         let check = SurfaceCheck::of(&m.positions, &m.triangles);
         assert!(check.is_closed_manifold(), "seed {seed}: {check:?}: {doc}");
@@ -481,9 +582,6 @@ fn random_trees_mesh_closed_manifold_on_their_zero_set() {
         meshed += 1;
         let cell = ((bounds.1 - bounds.0) / m.cells.as_vec3()).max_element() as f64;
         for p in &m.positions {
-            if p.abs().max_element() > 1.5 - 1.01 * cell as f32 {
-                continue; // cut by the box
-            }
             let s = t.sample(p.as_dvec3());
             let d = s.value.abs() / s.gradient.length().max(1e-9);
             assert!(d < 0.5 * cell, "seed {seed}: vertex {p} is {d} from the zero set (cell {cell}): {doc}");
