@@ -22,6 +22,9 @@ pub mod texture;
 pub mod hard_meshes;
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
+pub mod test_rng;
+#[cfg(any(test, feature = "test-support"))]
+#[doc(hidden)]
 pub mod testmeshes;
 
 pub use error::{Error, Result};

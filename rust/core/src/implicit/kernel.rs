@@ -189,13 +189,8 @@ mod tests {
 
     #[test]
     fn cos_range_matches_dense_sampling() {
-        let mut state = 0x9e37_79b9u32;
-        let mut rand = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            state as f64 / u32::MAX as f64
-        };
+        let mut rng = crate::test_rng::Rng(0x9e37_79b9);
+        let mut rand = || rng.next();
         for _ in 0..2000 {
             let a = 40.0 * rand() - 20.0;
             let b = a + 8.0 * rand() * rand();

@@ -447,13 +447,8 @@ mod tests {
     #[test]
     fn closest_finds_the_nearest_item_as_brute_force_does() {
         use crate::shell::intersect::point_triangle_distance2;
-        let mut state = 0x9e37_79b9u32;
-        let mut rand = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            f64::from(state) / f64::from(u32::MAX)
-        };
+        let mut rng = crate::test_rng::Rng(0x9e37_79b9);
+        let mut rand = || rng.next();
         let mut tris: Vec<[DVec3; 3]> = (0..300)
             .map(|_| {
                 let c = DVec3::new(rand(), rand(), rand()) * 10.0;

@@ -97,19 +97,7 @@ mod tests {
     use super::*;
     use crate::shell::lp_distance::quadrature::Quadrature;
 
-    /// Small deterministic generator (xorshift) so tests need no dependency.
-    pub(crate) struct Rng(u64);
-    impl Rng {
-        pub fn f(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-        pub fn v(&mut self) -> DVec3 {
-            DVec3::new(self.f() * 2.0 - 1.0, self.f() * 2.0 - 1.0, self.f() * 2.0 - 1.0)
-        }
-    }
+    use crate::test_rng::Rng;
 
     fn rel(a: f64, b: f64) -> f64 {
         (a - b).abs() / b.abs().max(1e-300)
@@ -121,11 +109,11 @@ mod tests {
         let mut rng = Rng(0x9e3779b97f4a7c15);
         let mut worst: f64 = 0.0;
         for k in 0..300 {
-            let (a, b, c) = (rng.v(), rng.v(), rng.v());
+            let (a, b, c) = (rng.vec(1.0), rng.vec(1.0), rng.vec(1.0));
             let n = (b - a).cross(c - a).normalize();
             // A point off the plane: random projection (inside or outside), random height.
-            let h = (0.02 + rng.f()) * if k % 2 == 0 { 1.0 } else { -1.0 };
-            let x = a + (rng.v() * 1.5) + n * h;
+            let h = (0.02 + rng.next()) * if k % 2 == 0 { 1.0 } else { -1.0 };
+            let x = a + (rng.vec(1.0) * 1.5) + n * h;
             let x = x - n * (x - a).dot(n) + n * h;
             let e = triangle_p3(a, b, c, x);
             let (v, push) = quad.integrate([a, b, c], x, 3.0);
@@ -142,8 +130,8 @@ mod tests {
     fn gradient_matches_finite_differences() {
         let mut rng = Rng(12345);
         for k in 0..200 {
-            let (a, b, c) = (rng.v(), rng.v(), rng.v());
-            let x = rng.v() * 2.0;
+            let (a, b, c) = (rng.vec(1.0), rng.vec(1.0), rng.vec(1.0));
+            let x = rng.vec(1.0) * 2.0;
             let n = (b - a).cross(c - a).normalize();
             if (x - a).dot(n).abs() < 0.05 {
                 continue;

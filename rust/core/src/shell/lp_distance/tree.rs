@@ -532,13 +532,8 @@ mod tests {
         let tris = sheet(16, |k| 0.3 * ((k % 5) as f64).sin() + 0.01 * (k as f64));
         let tree = PatchTree::build(&tris);
         let kernel = Kernel::new(3.0, 0.65);
-        let mut state = 0x2545_f491u32;
-        let mut rand = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            f64::from(state) / f64::from(u32::MAX)
-        };
+        let mut rng = crate::test_rng::Rng(0x2545_f491);
+        let mut rand = || rng.next();
         let mut useful = 0;
         for k in 0..400 {
             let x = DVec3::new(20.0 * rand() - 2.0, 20.0 * rand() - 2.0, 6.0 * rand() - 2.0);
