@@ -36,7 +36,7 @@ for pattern, tiling in (("chain_mail", 3), ("weave", 2), ("rivets", 2), ("grass"
     # diagonal is 2 * sqrt(2)); grass and fur stand taller.
     half_tile = 0.5 * (2.0 / tiling) / (2.0 * math.sqrt(2.0))
     shell = 0.12 if pattern in ("grass", "fur") else half_tile
-    res = api.add_volumetric_texture(plane, pattern, shell_thickness=shell, tiling=tiling, resolution=24, texture_layers=24, texture_size=96)
+    res = api.add_volumetric_texture(plane, pattern, shell_thickness=shell, tiling=tiling, resolution=24, depth_steps=24, texture_size=96)
     plane.hide_render = True
     scene.render.filepath = str(OUT / f"{pattern}.png")
     bpy.ops.render.render(write_still=True)

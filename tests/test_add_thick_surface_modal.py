@@ -57,7 +57,7 @@ def two_pairs():
     for x in (0, 6):
         monkey = add("monkey", location=(x, 0, 0))
         sphere = add("ico_sphere", subdivisions=3, location=(x, 3, 0))
-        api.add_item(sphere, "OFFSET_SHELL", thickness=0.1, thickness_mode="ABSOLUTE", output="LAYERS", layers=2)
+        api.add_item(sphere, "OFFSET_SHELL", thickness=0.1, thickness_mode="ABSOLUTE", output="LAYERS", surfaces=2)
         pairs.append((monkey, sphere))
     return pairs
 

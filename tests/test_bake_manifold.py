@@ -119,7 +119,7 @@ def blender_defects(out):
     }
 
 
-def bake_and_check(base, side, pattern, variant, size=(12, 12, 8), resolution=6, layers=8, thickness=0.05):
+def bake_and_check(base, side, pattern, variant, size=(12, 12, 8), resolution=6, depth_steps=8, thickness=0.05):
     shell = tn.shell(base.vertices, base.face_sizes, base.corners, thickness, relative=True, side=side)
     # Thick features (3 times the default), so the coarse test lattices keep them.
     texture = tn.texture(pattern, size=size, thickness=3.0)
@@ -127,7 +127,7 @@ def bake_and_check(base, side, pattern, variant, size=(12, 12, 8), resolution=6,
     half = (x > np.median(x)).astype(np.float32)
     # A budget below what most of these lattices sample, so the bakes are simplified
     # too (checked below against the estimate of the unsimplified lattice).
-    settings = dict(resolution=resolution, layers=layers, triangle_budget=20_000)
+    settings = dict(resolution=resolution, depth_steps=depth_steps, triangle_budget=20_000)
     if variant == "uv":
         settings.update(uvs=base.uvs, tiling=2.0)
     elif variant == "region":
@@ -203,7 +203,7 @@ def test_estimates_and_renders_refuse_bad_settings_instead_of_crashing(scene):
     base = primitive("ico_sphere", subdivisions=1)
     shell = tn.shell(base.vertices, base.face_sizes, base.corners, 0.1, relative=True)
     args = (base.vertices, base.face_sizes, base.corners, shell["base_offset"], shell["directors"], [tn.texture("weave", size=(8, 8, 4))])
-    for bad in (dict(resolution=0), dict(layers=1_000_000), dict(tiling=float("nan")), dict(region=np.zeros(3, np.float32))):
+    for bad in (dict(resolution=0), dict(depth_steps=1_000_000), dict(tiling=float("nan")), dict(region=np.zeros(3, np.float32))):
         with pytest.raises(tn.ThicketError):
             tn.estimate_bake(*args, **bad)
         with pytest.raises(tn.ThicketError):
@@ -216,7 +216,7 @@ def test_estimates_and_renders_refuse_bad_settings_instead_of_crashing(scene):
 
 
 def test_the_defaults_that_made_opposite_faces_and_crossings_now_bake_clean(scene):
-    # Default texture and bake settings (resolution 8, 16 layers) where the first
+    # Default texture and bake settings (resolution 8, 16 depth steps) where the first
     # bakes failed: chain mail with one tile per face left coincident opposite faces
     # along the tile seams; a region or holes weighted 1 on half the vertices left
     # samples at exactly 0.5 and triangles crossing at their lattice points.

@@ -182,7 +182,7 @@ def test_each_function_takes_exactly_the_keyword_settings_its_stub_names():
     shell = tn.offset_shell(CUBE_V, sizes, corners, 0.3)
     args = (CUBE_V, sizes, corners, np.zeros_like(shell["directors"]), shell["directors"], [tn.texture("rivets", size=(8, 8, 4))])
     camera = (np.eye(4, dtype=np.float32), np.eye(4, dtype=np.float32), 8, 8)
-    handle = tn.TexturedShell(*args, resolution=2, layers=4)
+    handle = tn.TexturedShell(*args, resolution=2, depth_steps=4)
     calls = {
         "bake_texture": lambda **kw: tn.bake_texture(*args, **kw),
         "estimate_bake": lambda **kw: tn.estimate_bake(*args, **kw),
@@ -212,7 +212,7 @@ def test_a_textured_shell_handle_gives_what_the_functions_give():
     sizes, corners = np.full(6, 4, np.int32), CUBE_F.ravel()
     shell = tn.offset_shell(CUBE_V, sizes, corners, 0.3)
     args = (CUBE_V, sizes, corners, np.zeros_like(shell["directors"]), shell["directors"], [tn.texture("rivets", size=(16, 16, 8))])
-    settings = dict(resolution=4, layers=8, holes=(CUBE_V[:, 0] > 0).astype(np.float32))
+    settings = dict(resolution=4, depth_steps=8, holes=(CUBE_V[:, 0] > 0).astype(np.float32))
     handle = tn.TexturedShell(*args, **settings)
     assert handle.vertex_count == 8
     baked, direct = handle.bake(), tn.bake_texture(*args, **settings)
@@ -234,3 +234,44 @@ def test_a_textured_shell_handle_gives_what_the_functions_give():
         tn.TexturedShell(*args, resolution=0)
     with pytest.raises(tn.ThicketError, match="render method"):
         handle.render(view, projection, 24, 24, method="raytrace")
+
+
+def test_the_former_layers_keyword_works_for_one_release_with_a_warning():
+    """ "layers" meant two settings here: the shell functions' count of surfaces (now
+    `surfaces`) and the textured shell's lattice steps across the shell (now
+    `depth_steps`). The old keyword gives the same result with a DeprecationWarning;
+    both names at once are refused."""
+    import warnings
+
+    sizes, corners = np.full(6, 4, np.int32), CUBE_F.ravel()
+    want = tn.offset_shell(CUBE_V, sizes, corners, 0.3, output="layers", surfaces=3)
+    assert len(want["vertices"]) == 3 * 8
+    shells = {
+        "offset_shell": lambda **kw: tn.offset_shell(CUBE_V, sizes, corners, 0.3, output="layers", **kw)["vertices"],
+        "shell": lambda **kw: tn.shell(CUBE_V, sizes, corners, 0.3, output="layers", **kw)["vertices"],
+        "IncrementalShell": lambda **kw: tn.IncrementalShell(CUBE_V, sizes, corners, 0.3, output="layers", **kw).result()["vertices"],
+    }
+    for name, call in shells.items():
+        with pytest.warns(DeprecationWarning, match=rf"{name}\(\): keyword 'layers' is deprecated .* use 'surfaces'"):
+            old = call(layers=3)
+        np.testing.assert_array_equal(old, call(surfaces=3), err_msg=name)
+        with pytest.raises(TypeError, match="former name 'layers'"):
+            call(surfaces=2, layers=3)
+
+    args = (CUBE_V, sizes, corners, np.zeros_like(want["directors"]), want["directors"], [tn.texture("rivets", size=(8, 8, 4))])
+    calls = {
+        "estimate_bake": lambda **kw: tn.estimate_bake(*args, resolution=2, **kw),
+        "bake_texture": lambda **kw: len(tn.bake_texture(*args, resolution=2, **kw)["vertices"]),
+        "TexturedShell": lambda **kw: tn.TexturedShell(*args, resolution=2, **kw).estimate(),
+    }
+    for name, call in calls.items():
+        with pytest.warns(DeprecationWarning, match=rf"{name}\(\): keyword 'layers' is deprecated .* use 'depth_steps'"):
+            old = call(layers=5)
+        assert old == call(depth_steps=5) != call(depth_steps=12), name
+        with pytest.raises(TypeError, match="former name 'layers'"):
+            call(depth_steps=5, layers=5)
+        with pytest.raises(TypeError, match="argument 'layers'"):
+            call(layers="five")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tn.estimate_bake(*args, resolution=2, depth_steps=4)  # the new names warn about nothing

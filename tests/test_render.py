@@ -22,7 +22,7 @@ def slab_sphere(tmp_path, radius=1.0):
     path = str(tmp_path / "slab.exr")
     tn.save_texture(path, slab)
     sphere = add("uv_sphere", segments=48, ring_count=24, radius=radius)
-    api.add_volumetric_texture(sphere, "weave", shell_thickness=0.05, resolution=6, texture_layers=40, source="FILE", filepath=path)
+    api.add_volumetric_texture(sphere, "weave", shell_thickness=0.05, resolution=6, depth_steps=40, source="FILE", filepath=path)
     return sphere
 
 
@@ -257,7 +257,7 @@ def test_double_mipmaps_keep_far_chain_mail_from_vanishing(scene, tmp_path):
     # vanish; double mipmaps keep about the coverage the reference renderer finds at
     # 8x the resolution, averaged down.
     sphere = add("uv_sphere", segments=32, ring_count=16, radius=1.0)
-    api.add_volumetric_texture(sphere, "chain_mail", shell_thickness=0.04, tiling=12, resolution=2, texture_layers=8)
+    api.add_volumetric_texture(sphere, "chain_mail", shell_thickness=0.04, tiling=12, resolution=2, depth_steps=8)
     view = np.array(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, -6), (0, 0, 0, 1)), np.float32)
     projection = np.array(((2, 0, 0, 0), (0, 2.6667, 0, 0), (0, 0, -1.02, -0.2), (0, 0, -1, 0)), np.float32)
     fine = preview.render_arrays(sphere, view, projection, 512, 384, method="reference")["rgba"][:, :, 3]

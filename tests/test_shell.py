@@ -105,7 +105,7 @@ def test_shell_results_keep_the_uv_maps_and_material_indices_of_their_base(scene
     materials = (np.arange(len(mesh.polygons)) % 2).astype(np.int32)
     mesh.polygons.foreach_set("material_index", materials)
     base_uv = {name: uv_map(mesh, name) for name in ("UVMap", "Second")}
-    result = api.add_thick_surface(grid, kind=kind, thickness=0.1, thickness_mode="ABSOLUTE", output=output, layers=2)
+    result = api.add_thick_surface(grid, kind=kind, thickness=0.1, thickness_mode="ABSOLUTE", output=output, surfaces=2)
     out = result.data
     assert [layer.name for layer in out.uv_layers] == ["UVMap", "Second"]
     assert [m.name for m in out.materials] == ["Red", "Blue"]

@@ -43,17 +43,17 @@ def test_offset_matches_blender_solidify(scene):
 
 def test_persistence_through_save_and_reload(scene, tmp_path):
     cube = add("cube")
-    api.add_thick_surface(cube, thickness=0.25, thickness_mode="ABSOLUTE", output="LAYERS", layers=3)
+    api.add_thick_surface(cube, thickness=0.25, thickness_mode="ABSOLUTE", output="LAYERS", surfaces=3)
     path = str(tmp_path / "stack.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.wm.open_mainfile(filepath=path)
     cube = bpy.data.objects["Cube"]
     item = cube.thicket.items[0]
-    assert (item.thickness, item.thickness_mode, item.output, item.layers) == (0.25, "ABSOLUTE", "LAYERS", 3)
+    assert (item.thickness, item.thickness_mode, item.output, item.surfaces) == (0.25, "ABSOLUTE", "LAYERS", 3)
     assert cube.thicket.result.name == "Cube_thicket"
     assert cube.thicket.result.thicket.source == cube
-    item.layers = 2  # still live after reload
+    item.surfaces = 2  # still live after reload
     assert len(cube.thicket.result.data.vertices) == 16
 
 
@@ -100,11 +100,11 @@ def test_vertex_group_scales_thickness(scene):
 def test_chained_items_follow_vertex_group_through_provenance(scene):
     grid = add("grid", x_subdivisions=3, y_subdivisions=3, size=2)
     grid.vertex_groups.new(name="w").add(list(range(len(grid.data.vertices))), 1.0, "REPLACE")
-    api.add_thick_surface(grid, thickness=0.1, thickness_mode="ABSOLUTE", output="LAYERS", layers=2)
+    api.add_thick_surface(grid, thickness=0.1, thickness_mode="ABSOLUTE", output="LAYERS", surfaces=2)
     api.add_item(grid, "OFFSET_SHELL", thickness=0.05, thickness_mode="ABSOLUTE", vertex_group="w")
     result = api.regenerate(grid)
     z = np.unique(np.round(positions(result)[:, 2], 5))
-    np.testing.assert_allclose(z, [0.1, 0.15], atol=1e-5)  # layers at 0.05 and 0.1, then +0.05
+    np.testing.assert_allclose(z, [0.1, 0.15], atol=1e-5)  # surfaces at 0.05 and 0.1, then +0.05
     director = np.empty(len(result.data.vertices) * 3, np.float32)
     result.data.attributes["thicket_director"].data.foreach_get("vector", director)
     np.testing.assert_allclose(director.reshape(-1, 3)[:, 2], 0.05, atol=1e-6)

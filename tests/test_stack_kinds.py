@@ -59,7 +59,7 @@ def test_declarations_are_checked_before_a_step_runs(with_lift):
     # A texture's result has no provenance: a kind that consumes a mesh cannot follow.
     shell = S.OffsetShell(thickness=0.1, relative=False)
     with pytest.raises(E.StackError, match="cannot follow a Volumetric Texture"):
-        E.evaluate_stack(quad(), [shell, S.VolumetricTexture(texture_size=8, resolution=2, layers=2), Lift()])
+        E.evaluate_stack(quad(), [shell, S.VolumetricTexture(texture_size=8, resolution=2, depth_steps=2), Lift()])
 
 
 def test_the_renderers_stop_before_the_first_drawn_kind_without_running_it(with_lift, monkeypatch):

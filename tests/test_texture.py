@@ -37,7 +37,7 @@ def test_procedural_textures_have_their_shape_and_errors_are_clear():
 def test_chain_mail_on_a_uv_sphere_bakes_a_closed_mesh_and_leaves_the_source(scene):
     sphere = add("uv_sphere", segments=24, ring_count=12, radius=1.0)
     before = positions(sphere).copy()
-    result = api.add_volumetric_texture(sphere, "chain_mail", shell_thickness=0.04, tiling=6.0, resolution=4, texture_layers=8)
+    result = api.add_volumetric_texture(sphere, "chain_mail", shell_thickness=0.04, tiling=6.0, resolution=4, depth_steps=8)
     counts = edge_use_counts(result)
     assert len(result.data.polygons) > 5000
     assert (counts == 2).all(), f"{(counts == 1).sum()} boundary and {(counts > 2).sum()} non-manifold edges"
@@ -57,7 +57,7 @@ def test_chain_mail_on_a_uv_sphere_bakes_a_closed_mesh_and_leaves_the_source(sce
 def test_without_uvs_each_face_is_a_tile_and_the_user_is_told(scene):
     cube = add("cube", size=2.0)
     cube.data.uv_layers.remove(cube.data.uv_layers[0])
-    result = api.add_volumetric_texture(cube, "rivets", shell_thickness=0.05, resolution=8, texture_layers=8)
+    result = api.add_volumetric_texture(cube, "rivets", shell_thickness=0.05, resolution=8, depth_steps=8)
     assert len(result.data.polygons) > 0
     assert "no UV map" in cube.thicket.last_note
 
@@ -176,7 +176,7 @@ def test_texture_without_a_shell_is_a_clear_error_and_changes_nothing(scene):
 def test_over_budget_bakes_say_how_big_they_would_be(scene):
     sphere = add("ico_sphere", subdivisions=3)
     with pytest.raises(tn.ThicketError, match=r"about \d+ triangles"):
-        api.add_volumetric_texture(sphere, "fur", resolution=16, texture_layers=32, max_triangles=1000)
+        api.add_volumetric_texture(sphere, "fur", resolution=16, depth_steps=32, max_triangles=1000)
     assert api.result_of(sphere) is None
 
 
@@ -185,7 +185,7 @@ def test_region_vertex_group_limits_the_texture(scene):
     group = sphere.vertex_groups.new(name="top")
     top = [v.index for v in sphere.data.vertices if v.co.z > 0.2]
     group.add(top, 1.0, "REPLACE")
-    result = api.add_volumetric_texture(sphere, "grass", shell_thickness=0.1, resolution=10, texture_layers=12, vertex_group="top", tiling=1.0)
+    result = api.add_volumetric_texture(sphere, "grass", shell_thickness=0.1, resolution=10, depth_steps=12, vertex_group="top", tiling=1.0)
     p = positions(result)
     tex = np.empty(len(p) * 3, np.float32)
     result.data.attributes[TEXCOORD_ATTRIBUTE].data.foreach_get("vector", tex)
@@ -198,7 +198,7 @@ def test_region_vertex_group_limits_the_texture(scene):
 
 def test_animated_texture_follows_the_frame_and_bakes_a_range(scene, tmp_path):
     plane = add("grid", x_subdivisions=6, y_subdivisions=6, size=2.0)
-    result = api.add_volumetric_texture(plane, "bubbles", shell_thickness=0.1, tiling=2.0, resolution=8, texture_layers=12, follow_frame=True, speed=0.5)
+    result = api.add_volumetric_texture(plane, "bubbles", shell_thickness=0.1, tiling=2.0, resolution=8, depth_steps=12, follow_frame=True, speed=0.5)
     first = positions(result).copy()
     bpy.context.scene.frame_set(12)  # frame_change handler regenerates
     second = positions(plane.thicket.result)
@@ -211,7 +211,7 @@ def test_animated_texture_follows_the_frame_and_bakes_a_range(scene, tmp_path):
 
 def test_combined_pattern_adds_to_the_first(scene):
     sphere = add("uv_sphere", segments=16, ring_count=8)
-    one = len(api.add_volumetric_texture(sphere, "rivets", tiling=4.0, resolution=6, texture_layers=10).data.polygons)
+    one = len(api.add_volumetric_texture(sphere, "rivets", tiling=4.0, resolution=6, depth_steps=10).data.polygons)
     sphere.thicket.items[1].combine = "weave"
     api.regenerate(sphere)
     assert len(sphere.thicket.result.data.polygons) > one
@@ -237,7 +237,7 @@ def test_holes_from_a_vertex_group_and_a_cutter_object(scene):
     sheet = uv_grid()
     group = sheet.vertex_groups.new(name="hole")
     group.add([v.index for v in sheet.data.vertices if (v.co.x - 0.5) ** 2 + (v.co.y - 0.5) ** 2 < 0.3**2], 1.0, "REPLACE")
-    result = api.add_volumetric_texture(sheet, "rivets", shell_thickness=0.05, tiling=4.0, resolution=6, texture_layers=10)
+    result = api.add_volumetric_texture(sheet, "rivets", shell_thickness=0.05, tiling=4.0, resolution=6, depth_steps=10)
     assert near(result, (0.5, 0.5), 0.15).any() and near(result, (-0.5, -0.5), 0.15).any()
     item = sheet.thicket.items[1]
     item.hole_group = "hole"
@@ -259,7 +259,7 @@ def test_holes_from_a_vertex_group_and_a_cutter_object(scene):
 
 def test_an_open_cutter_is_a_clear_error_and_the_result_stays(scene):
     sheet = uv_grid()
-    result = api.add_volumetric_texture(sheet, "rivets", shell_thickness=0.05, tiling=4.0, resolution=4, texture_layers=8)
+    result = api.add_volumetric_texture(sheet, "rivets", shell_thickness=0.05, tiling=4.0, resolution=4, depth_steps=8)
     before = positions(result).copy()
     sheet.thicket.items[1].cutter = add("grid", size=0.5)
     with pytest.raises(tn.ThicketError, match="not closed"):
@@ -271,7 +271,7 @@ def test_moving_a_texture_region_leaves_the_base_in_its_trace(scene):
     sheet = uv_grid()
     group = sheet.vertex_groups.new(name="piece")
     group.add([v.index for v in sheet.data.vertices if (v.co.x + 0.5) ** 2 + v.co.y**2 < 0.35**2], 1.0, "REPLACE")
-    api.add_volumetric_texture(sheet, "grass", shell_thickness=0.1, tiling=2.0, resolution=8, texture_layers=12, vertex_group="piece", seed=2)
+    api.add_volumetric_texture(sheet, "grass", shell_thickness=0.1, tiling=2.0, resolution=8, depth_steps=12, vertex_group="piece", seed=2)
     r, here = shell_r(sheet.thicket.result), near(sheet.thicket.result, (-0.5, 0.0), 0.2)
     there = near(sheet.thicket.result, (0.5, 0.0), 0.2)
     assert r[here].max() > 0.3 and r[there].max() < 0.22, "grass only in the piece"
@@ -290,7 +290,7 @@ def test_large_bakes_wait_for_confirmation_in_the_interface(scene):
     from thicket.stack.kinds.volumetric_texture import BakeNeedsConfirmation
 
     sphere = add("ico_sphere", subdivisions=2)
-    small = api.add_volumetric_texture(sphere, "weave", resolution=4, texture_layers=8)
+    small = api.add_volumetric_texture(sphere, "weave", resolution=4, depth_steps=8)
     before = len(small.data.polygons)
     item = sphere.thicket.items[1]
     sphere.thicket.auto_update = False
@@ -314,7 +314,7 @@ def test_a_texture_file_feeds_the_bake_and_a_missing_one_is_named(scene, tmp_pat
     tn.save_texture(exr, slab)
     tn.save_texture(str(tmp_path / "slices"), slab)
     sheet = uv_grid()
-    api.add_volumetric_texture(sheet, "weave", shell_thickness=0.05, resolution=2, texture_layers=20)
+    api.add_volumetric_texture(sheet, "weave", shell_thickness=0.05, resolution=2, depth_steps=20)
     item = sheet.thicket.items[1]
     for path in (exr, str(tmp_path / "slices" / "slice_000.png")):
         item.source = "FILE"
@@ -343,7 +343,7 @@ def test_a_texture_file_feeds_the_bake_and_a_missing_one_is_named(scene, tmp_pat
 
 def test_export_texture_writes_the_items_texture_for_blender_and_thicket(scene, tmp_path):
     sphere = add("ico_sphere", subdivisions=1)
-    api.add_volumetric_texture(sphere, "rivets", texture_size=16, resolution=2, texture_layers=4)
+    api.add_volumetric_texture(sphere, "rivets", texture_size=16, resolution=2, depth_steps=4)
     sphere.thicket.active_index = 1
     select_only(sphere)
     path = str(tmp_path / "rivets.exr")
@@ -363,7 +363,7 @@ def test_selected_faces_can_stand_in_for_a_vertex_group(scene):
     centres = centres.reshape(-1, 3)
     selected = np.linalg.norm(centres[:, :2] - (0.5, 0.5), axis=1) < 0.3
     sheet.data.polygons.foreach_set("select", selected)
-    api.add_volumetric_texture(sheet, "rivets", shell_thickness=0.05, tiling=4.0, resolution=6, texture_layers=10, face_selection="HOLES")
+    api.add_volumetric_texture(sheet, "rivets", shell_thickness=0.05, tiling=4.0, resolution=6, depth_steps=10, face_selection="HOLES")
     assert not near(sheet.thicket.result, (0.5, 0.5), 0.15).any(), "the selected faces are a hole"
     assert near(sheet.thicket.result, (-0.5, -0.5), 0.15).any()
     # As the region: the texture only on the selected faces, the base slab elsewhere.

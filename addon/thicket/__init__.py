@@ -30,7 +30,7 @@ def register():
     import bpy
 
     from . import cli
-    from .stack import auto_update
+    from .stack import auto_update, versioning
     from .stack.properties import register_properties
     from .ui import MENU_ENTRIES
 
@@ -40,6 +40,7 @@ def register():
     register_properties()
     for menu, entry in _registered[1]:
         getattr(bpy.types, menu).append(entry)
+    versioning.register()
     auto_update.register_handlers()
     _cli_handle = cli.register()
 
@@ -50,13 +51,14 @@ def unregister():
 
     from . import cli
     from .render import overlay
-    from .stack import auto_update
+    from .stack import auto_update, versioning
     from .stack.properties import unregister_properties
 
     overlay.disable()
     cli.unregister(_cli_handle)
     _cli_handle = None
     auto_update.unregister_handlers()
+    versioning.unregister()
     classes_done, menu_entries = _registered
     _registered = ((), ())
     for menu, entry in reversed(menu_entries):

@@ -87,11 +87,15 @@ def crossing_faces(obj):
 
 
 def add_item(obj, kind="OFFSET_SHELL", **settings):
-    """Appends a stack item of `kind` with the given settings (names of `ThicketItem`)."""
+    """Appends a stack item of `kind` with the given settings (names of `ThicketItem`;
+    a former name, e.g. `layers` or `texture_layers`, works with a DeprecationWarning
+    for one release)."""
     _require_mesh(obj)
     cls = S.KINDS[kind]
     from .stack.guard import suspended
+    from .stack.versioning import current_names
 
+    settings = current_names(settings)
     with suspended():
         item = obj.thicket.items.add()
         item.kind = kind
@@ -107,25 +111,34 @@ def add_thick_surface(
     thickness=S.OffsetShell.thickness,
     thickness_mode="RELATIVE",
     output="OUTER",
-    layers=S.OffsetShell.layers,
+    surfaces=S.OffsetShell.surfaces,
     vertex_group="",
     kind="OFFSET_SHELL",
     side="EXTERIOR",
     progress=None,
+    **former,
 ):
     """Gives `obj` a stack with one item of `kind` ("OFFSET_SHELL", or "SHELL" with a
     `side`) if it has none yet, and generates its result object, which is returned.
+    `surfaces`: how many surfaces output "LAYERS" (Stacked Surfaces) makes (formerly
+    `layers`, still taken in `former` with a DeprecationWarning for one release).
     `progress`: see the module docs (a cancel keeps the new stack, without result)."""
+    from .stack.versioning import current_names
+
+    former = current_names(former)
+    surfaces = former.pop("surfaces", surfaces)
+    if former:
+        raise TypeError(f"add_thick_surface() got an unexpected keyword argument '{next(iter(former))}'")
     _require_mesh(obj)
     if not obj.thicket.items:
         extra = {"side": side} if kind == "SHELL" else {}
-        add_item(obj, kind, thickness=thickness, thickness_mode=thickness_mode, output=output, layers=layers, vertex_group=vertex_group, **extra)
+        add_item(obj, kind, thickness=thickness, thickness_mode=thickness_mode, output=output, surfaces=surfaces, vertex_group=vertex_group, **extra)
     return _regenerate(obj, progress=progress)
 
 
 def add_volumetric_texture(obj, pattern="chain_mail", shell_thickness=0.05, side="EXTERIOR", progress=None, **texture_settings):
     """Adds a Volumetric Texture item (names of `ThicketItem`: tiling, resolution,
-    texture_layers, vertex_group, combine, offset, time, follow_frame...) to `obj`'s
+    depth_steps, vertex_group, combine, offset, time, follow_frame...) to `obj`'s
     stack, after a Shell item of `shell_thickness` (relative) that is added first when
     the stack has no shell yet; regenerates and returns the result object.
     `progress`: see the module docs (a cancel keeps the new items, and the previous

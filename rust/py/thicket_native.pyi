@@ -19,6 +19,9 @@ Indices = NDArray[np.int32] | NDArray[np.uint32]
 PerVertex = float | NDArray[np.float32]
 Progress = Callable[[float], bool | None] | None
 Cutter = tuple[Floats, Indices] | None
+#: The placed textures of a textured shell, united: float32 (nz, ny, nx) alpha arrays,
+#: each at offset (0, 0) or given with its (ds, dt) offset in texture space.
+PlacedTextures = Sequence[Floats | tuple[Floats, tuple[float, float]]]
 
 class ThicketError(ValueError):
     """Invalid input or a failure inside Thicket's geometry core; the message says which."""
@@ -47,7 +50,9 @@ def offset_shell(
     relative: bool = False,
     factors: Floats | None = None,
     output: str = "outer",
-    layers: int = 1,
+    surfaces: int = 1,
+    *,
+    layers: int | None = None,  # deprecated: the former name of `surfaces`
 ) -> dict[str, Any]: ...
 def build_shell(vertices: Floats, triangles: Indices, thickness: PerVertex, side: str, progress: Progress = None) -> dict[str, Any]: ...
 def shell(
@@ -59,9 +64,11 @@ def shell(
     relative: bool = False,
     factors: Floats | None = None,
     output: str = "outer",
-    layers: int = 1,
+    surfaces: int = 1,
     p: float = 3.0,
     progress: Progress = None,
+    *,
+    layers: int | None = None,  # deprecated: the former name of `surfaces`
 ) -> dict[str, Any]: ...
 def shell_report(
     vertices: Floats,
@@ -87,10 +94,12 @@ class IncrementalShell:
         relative: bool = False,
         factors: Floats | None = None,
         output: str = "outer",
-        layers: int = 1,
+        surfaces: int = 1,
         p: float = 3.0,
         tolerance: float = 0.03,
         progress: Progress = None,
+        *,
+        layers: int | None = None,  # deprecated: the former name of `surfaces`
     ) -> None: ...
     def update(self, vertices: Floats, factors: Floats | None = None) -> dict[str, Any]: ...
     def result(self) -> dict[str, Any]: ...
@@ -110,7 +119,7 @@ class _TextureSettings(TypedDict, total=False):
     uvs: Floats | None  # None
     tiling: float  # 1.0
     resolution: int  # 8
-    layers: int  # 16
+    depth_steps: int  # 16 (formerly `layers`, still taken with a DeprecationWarning)
     region: PerVertex | None  # None
     base_layer: float  # 0.1
     holes: PerVertex | None  # None
@@ -145,13 +154,13 @@ def bake_texture(
     corners: Indices,
     base_offset: Floats,
     directors: Floats,
-    textures: Sequence[Any],
+    textures: PlacedTextures,
     *,
     progress: Progress = None,
     **settings: Unpack[_BakeSettings],
 ) -> dict[str, Any]: ...
 def estimate_bake(
-    vertices: Floats, face_sizes: Indices, corners: Indices, base_offset: Floats, directors: Floats, textures: Sequence[Any], **settings: Unpack[_BakeSettings]
+    vertices: Floats, face_sizes: Indices, corners: Indices, base_offset: Floats, directors: Floats, textures: PlacedTextures, **settings: Unpack[_BakeSettings]
 ) -> int: ...
 
 class TexturedShell:
@@ -164,7 +173,7 @@ class TexturedShell:
         corners: Indices,
         base_offset: Floats,
         directors: Floats,
-        textures: Sequence[Any],
+        textures: PlacedTextures,
         **settings: Unpack[_BakeSettings],
     ) -> None: ...
     def bake(self, progress: Progress = None) -> dict[str, Any]: ...
@@ -183,7 +192,7 @@ def render_shell(
     corners: Indices,
     base_offset: Floats,
     directors: Floats,
-    textures: Sequence[Any],
+    textures: PlacedTextures,
     view: Floats,
     projection: Floats,
     width: int,

@@ -34,7 +34,7 @@ def main():
     thicket.register()
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=4)  # 5120 faces
     obj = bpy.context.object
-    api.add_volumetric_texture(obj, "chain_mail", shell_thickness=0.03, tiling=1.0, resolution=2, texture_layers=4)
+    api.add_volumetric_texture(obj, "chain_mail", shell_thickness=0.03, tiling=1.0, resolution=2, depth_steps=4)
     bpy.ops.object.camera_add(location=(0.0, -4.0, 0.0), rotation=(math.radians(90), 0.0, 0.0))
     scene = bpy.context.scene
     scene.camera = bpy.context.object

@@ -62,12 +62,20 @@ class ThicketItem(bpy.types.PropertyGroup):
         items=[
             ("OUTER", "Outer Surface", "The offset surface only"),
             ("SOLID", "Solid", "Offset surface closed with the base surface and rims"),
-            ("LAYERS", "Layers", "Evenly spaced layers between base and offset surface"),
+            ("LAYERS", "Stacked Surfaces", "Evenly spaced surfaces from the base to the offset surface (as many as Surfaces)"),
         ],
         default="OUTER",
         update=_changed,
     )
-    layers: IntProperty(name="Layers", min=1, max=256, soft_max=32, default=S.OffsetShell.layers, update=_changed)
+    surfaces: IntProperty(
+        name="Surfaces",
+        description="How many evenly spaced surfaces Stacked Surfaces makes; the last one is the offset surface",
+        min=1,
+        max=256,
+        soft_max=32,
+        default=S.OffsetShell.surfaces,
+        update=_changed,
+    )
     side: EnumProperty(
         name="Side",
         items=[
@@ -103,7 +111,14 @@ class ThicketItem(bpy.types.PropertyGroup):
     )
     tiling: FloatProperty(name="Tiling", description="Texture tiles per UV unit (per face without UVs)", min=0.01, soft_max=64.0, default=1.0, update=_changed)
     resolution: IntProperty(name="Resolution", description="Samples along each base edge of a cell", min=1, max=64, default=8, update=_changed)
-    texture_layers: IntProperty(name="Layers", description="Samples across the shell", min=2, max=256, default=16, update=_changed)
+    depth_steps: IntProperty(
+        name="Depth Steps",
+        description="Bake samples across the shell, from the base to the outer surface",
+        min=2,
+        max=256,
+        default=S.VolumetricTexture.depth_steps,
+        update=_changed,
+    )
     time: FloatProperty(name="Time", description="Time of animated patterns", default=1.0, update=_changed)
     follow_frame: BoolProperty(name="Follow Frame", description="Time follows the scene frame (seconds times Speed)", default=False, update=_changed)
     speed: FloatProperty(name="Speed", description="Texture time per second of scene time", default=1.0, update=_changed)
@@ -146,7 +161,7 @@ class ThicketItem(bpy.types.PropertyGroup):
     )
     follow_texture: BoolProperty(
         name="Follow Texture",
-        description="Sample the bake at the texture's own texel spacing (at least Resolution and Layers), so thin strands and wires survive; off: exactly Resolution and Layers (quick, coarse)",
+        description="Sample the bake at the texture's own texel spacing (at least Resolution and Depth Steps), so thin strands and wires survive; off: exactly Resolution and Depth Steps (quick, coarse)",
         default=True,
         update=_changed,
     )
@@ -191,7 +206,7 @@ class ThicketItem(bpy.types.PropertyGroup):
                 texture_size=self.texture_size,
                 tiling=self.tiling,
                 resolution=self.resolution,
-                layers=self.texture_layers,
+                depth_steps=self.depth_steps,
                 vertex_group=SELECTED_FACES if self.face_selection == "REGION" else self.vertex_group,
                 combine="" if self.combine == "NONE" else self.combine,
                 offset=tuple(self.offset),
@@ -205,7 +220,7 @@ class ThicketItem(bpy.types.PropertyGroup):
                 move_offset=tuple(self.move_offset),
                 cutter=self._cutter_arrays(depsgraph),
             )
-        return S.shell_settings(self.kind, self.thickness, self.thickness_mode, self.vertex_group, self.output, self.layers, self.side)
+        return S.shell_settings(self.kind, self.thickness, self.thickness_mode, self.vertex_group, self.output, self.surfaces, self.side)
 
     def _cutter_arrays(self, depsgraph):
         if self.cutter is None:

@@ -16,14 +16,14 @@ class OffsetShell(_Item):
     thickness: a length, or a fraction of the bounding-box diagonal when `relative`;
     negative offsets inward. vertex_group scales it per vertex (0 = no offset).
     output: "outer" (offset surface), "solid" (closed with the base and rims) or
-    "layers" (`layers` evenly spaced copies).
+    "layers" (`surfaces` evenly spaced surfaces, the last one the offset surface).
     """
 
     thickness: float = 0.05
     relative: bool = True
     vertex_group: str = ""
     output: str = "outer"
-    layers: int = 4
+    surfaces: int = 4
 
     kind = "OFFSET_SHELL"
     label = "Offset Shell"
@@ -43,7 +43,7 @@ class FieldShell(_Item):
     relative: bool = True
     vertex_group: str = ""
     output: str = "outer"
-    layers: int = 4
+    surfaces: int = 4
     side: str = "exterior"
 
     kind = "SHELL"
@@ -57,7 +57,7 @@ class VolumetricTexture(_Item):
     pattern: "chain_mail", "weave", "rivets", "grass", "fur" or "bubbles" (chapter 3);
     (s, t) come from the active UV map times `tiling` (one tile per face without UVs),
     r runs along the shell's directors. resolution: lattice steps per base edge;
-    layers: steps across the shell. vertex_group: where the texture exists (elsewhere a
+    depth_steps: lattice steps across the shell. vertex_group: where the texture exists (elsewhere a
     thin base slab, blended smoothly). combine: a second pattern united with the first
     (chapter 7), shifted by `offset` in (s, t). time: animated patterns' time.
     filepath: a texture file instead of the pattern (a folder of PNG slices, or an
@@ -65,7 +65,7 @@ class VolumetricTexture(_Item):
     (vertices, triangles) of a closed mesh in the source's space zeroes it inside;
     move_group's piece of texture moves by move_offset (UV units), its trace showing
     the base. follow_texture: sample at the texture's own texel spacing (at least
-    `resolution` and `layers` steps), so thin features survive; triangle_budget: the
+    `resolution` and `depth_steps` steps), so thin features survive; triangle_budget: the
     bake is simplified toward it (0: no simplification); max_triangles: the most
     triangles the lattice may make before simplification (a texture-following lattice
     is coarsened to fit; over it even at `resolution`, refused). confirm_above: bakes
@@ -80,7 +80,7 @@ class VolumetricTexture(_Item):
     texture_size: int = 64
     tiling: float = 1.0
     resolution: int = 8
-    layers: int = 16
+    depth_steps: int = 16
     vertex_group: str = ""
     combine: str = ""
     offset: tuple = (0.0, 0.0)
@@ -103,8 +103,8 @@ class VolumetricTexture(_Item):
 KINDS = {cls.kind: cls for cls in (OffsetShell, FieldShell, VolumetricTexture)}
 
 
-def shell_settings(kind, thickness, thickness_mode="RELATIVE", vertex_group="", output="OUTER", layers=OffsetShell.layers, side="EXTERIOR"):
+def shell_settings(kind, thickness, thickness_mode="RELATIVE", vertex_group="", output="OUTER", surfaces=OffsetShell.surfaces, side="EXTERIOR"):
     """A Shell ("SHELL") or Offset Shell item's settings from its properties' values
     (enum values as Blender stores them: "RELATIVE", "OUTER", "EXTERIOR"...)."""
-    common = dict(thickness=thickness, relative=thickness_mode == "RELATIVE", vertex_group=vertex_group, output=output.lower(), layers=layers)
+    common = dict(thickness=thickness, relative=thickness_mode == "RELATIVE", vertex_group=vertex_group, output=output.lower(), surfaces=surfaces)
     return FieldShell(side=side.lower(), **common) if kind == FieldShell.kind else OffsetShell(**common)

@@ -9,7 +9,7 @@ from ..arrays import MeshArrays, weight_attribute
 
 class ShellContext:
     """The shell a later Volumetric Texture maps into: the mesh it was built on and
-    its base offsets and directors (layer r of vertex v at v + base_offset + r * director)."""
+    its base offsets and directors (depth r over vertex v at v + base_offset + r * director)."""
 
     def __init__(self, base: MeshArrays, out, origin):
         self.base = base

@@ -15,7 +15,7 @@ def draw_item_settings(layout, obj, item):
     col.prop_search(item, "vertex_group", obj, "vertex_groups")
     col.prop(item, "output")
     if item.output == "LAYERS":
-        col.prop(item, "layers")
+        col.prop(item, "surfaces")
 
 
 def _draw_texture_settings(col, obj, item):
@@ -30,7 +30,7 @@ def _draw_texture_settings(col, obj, item):
     col.prop(item, "tiling")
     col.prop(item, "follow_texture")
     col.prop(item, "resolution")
-    col.prop(item, "texture_layers")
+    col.prop(item, "depth_steps")
     col.prop(item, "triangle_budget")
     col.prop(item, "face_selection")
     _group(col, obj, item, "vertex_group", "REGION", "Region")

@@ -13,7 +13,7 @@ use crate::offset::ShellRequest;
 use crate::shell::{params, shell_dict};
 
 /// IncrementalShell(vertices, face_sizes, corners, thickness, side="exterior",
-///                  relative=False, factors=None, output="outer", layers=1, p=3.0,
+///                  relative=False, factors=None, output="outer", surfaces=1, p=3.0,
 ///                  tolerance=0.03, progress=None)
 ///
 /// The shell of `shell()`, kept for updates: `update(vertices, factors=None)` moves
@@ -44,7 +44,7 @@ fn failed() -> PyErr {
 #[pymethods]
 impl IncrementalShell {
     #[new]
-    #[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", layers=1, p=3.0, tolerance=DEFAULT_TOLERANCE, progress=None))]
+    #[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", surfaces=1, p=3.0, tolerance=DEFAULT_TOLERANCE, progress=None, *, layers=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -56,15 +56,17 @@ impl IncrementalShell {
         relative: bool,
         factors: Option<&Bound<'_, PyAny>>,
         output: &str,
-        layers: u32,
+        surfaces: u32,
         p: f64,
         tolerance: f64,
         progress: Option<Bound<'_, PyAny>>,
+        layers: Option<u32>,
     ) -> PyResult<Self> {
+        let surfaces = crate::keywords::renamed_argument(py, "IncrementalShell", ("surfaces", surfaces), ("layers", layers), 1)?;
         if !(tolerance >= 0.0 && tolerance.is_finite()) {
             return Err(InvalidInput::new_err(format!("tolerance must be a finite number >= 0, got {tolerance}")));
         }
-        let req = ShellRequest::new(&vertices, face_sizes, corners, thickness, relative, factors, output, layers)?;
+        let req = ShellRequest::new(&vertices, face_sizes, corners, thickness, relative, factors, output, surfaces)?;
         let side = Side::parse(side).map_err(crate::errors::to_py)?;
         let (spec, output) = (req.thickness, req.output);
         let mut inner = run_maybe_watched(py, progress.as_ref(), move |watch| {

@@ -2,10 +2,11 @@
 //! defaults where they are defined, once for every function that takes them.
 
 use pyo3::conversion::FromPyObjectOwned;
-use pyo3::exceptions::PyTypeError;
+use pyo3::exceptions::{PyDeprecationWarning, PyTypeError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::cell::RefCell;
+use std::ffi::CString;
 
 /// The `**settings` of one call: each [`Keywords::get`] reads a name (or gives its
 /// default), and [`Keywords::finish`] refuses any name no reader asked for, as Python
@@ -32,6 +33,22 @@ impl<'a, 'py> Keywords<'a, 'py> {
         value.extract::<T>().map_err(|e| argument_error(value.py(), name, e.into()))
     }
 
+    /// The setting `name`, also read under its former name `old` for one release: given
+    /// as `old`, it is taken with a `DeprecationWarning`; given as both, a `TypeError`.
+    pub(crate) fn get_renamed<T: FromPyObjectOwned<'py>>(&self, name: &'static str, old: &'static str, default: T) -> PyResult<T> {
+        let Some(value) = self.given.map(|d| d.get_item(old)).transpose()?.flatten() else {
+            return self.get(name, default);
+        };
+        self.asked.borrow_mut().extend([name, old]);
+        let py = value.py();
+        if self.given.map(|d| d.contains(name)).transpose()?.unwrap_or(false) {
+            return Err(PyTypeError::new_err(format!("{}() got '{name}' and its former name '{old}': pass '{name}' only", self.function)));
+        }
+        let value = value.extract::<T>().map_err(|e| argument_error(py, old, e.into()))?;
+        deprecated_keyword(py, self.function, old, name)?;
+        Ok(value)
+    }
+
     /// Refuses the keywords that no reader asked for.
     pub(crate) fn finish(self) -> PyResult<()> {
         let asked = self.asked.into_inner();
@@ -54,4 +71,32 @@ fn argument_error(py: Python<'_>, name: &str, error: PyErr) -> PyErr {
     let remapped = PyTypeError::new_err(format!("argument '{name}': {}", error.value(py)));
     remapped.set_cause(py, error.cause(py));
     remapped
+}
+
+/// Warns that keyword `old` of `function` is now called `name` (a `DeprecationWarning`
+/// pointing at the caller's line; an error where warnings are errors).
+pub(crate) fn deprecated_keyword(py: Python<'_>, function: &str, old: &str, name: &str) -> PyResult<()> {
+    let message = format!("{function}(): keyword '{old}' is deprecated and will be removed in the next release; use '{name}'");
+    let message = CString::new(message).expect("keyword names have no NUL");
+    PyErr::warn(py, &py.get_type::<PyDeprecationWarning>(), &message, 1)
+}
+
+/// A count given under its current name or, for one release, its former name `old`
+/// (`old`: None when not given; `default`: the current name's default, which a caller
+/// passing both must leave as is): the shell functions' `surfaces`, formerly `layers`.
+pub(crate) fn renamed_argument<T: PartialEq>(
+    py: Python<'_>,
+    function: &str,
+    (name, value): (&str, T),
+    (old, given): (&str, Option<T>),
+    default: T,
+) -> PyResult<T> {
+    let Some(given) = given else {
+        return Ok(value);
+    };
+    if value != default {
+        return Err(PyTypeError::new_err(format!("{function}() got '{name}' and its former name '{old}': pass '{name}' only")));
+    }
+    deprecated_keyword(py, function, old, name)?;
+    Ok(given)
 }

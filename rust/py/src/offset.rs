@@ -5,6 +5,7 @@ use thicket_core::shell::{build_geometry, normal_offset_directors, ShellOutput, 
 
 use crate::arrays;
 use crate::errors::run_detached;
+use crate::keywords::renamed_argument;
 
 /// The inputs every shell-building function shares, converted once: the mesh,
 /// per-vertex factors, requested output and thickness.
@@ -25,11 +26,11 @@ impl ShellRequest {
         relative: bool,
         factors: Option<&Bound<'_, PyAny>>,
         output: &str,
-        layers: u32,
+        surfaces: u32,
     ) -> PyResult<Self> {
         let mesh = arrays::mesh(vertices, face_sizes, corners)?;
         let factors = factors.map(|f| arrays::per_vertex_or_scalar(f, mesh.vertex_count(), "factors")).transpose()?;
-        let output = parse_output(output, layers)?;
+        let output = parse_output(output, surfaces)?;
         let thickness = if relative { Thickness::relative(thickness) } else { Thickness::absolute(thickness) };
         Ok(Self { mesh, factors, output, thickness })
     }
@@ -40,18 +41,22 @@ impl ShellRequest {
     }
 }
 
-pub fn parse_output(output: &str, layers: u32) -> PyResult<ShellOutput> {
-    ShellOutput::parse(output, layers).map_err(crate::errors::to_py)
+/// The shell output `output` names; `surfaces`: how many evenly spaced surfaces
+/// "layers" makes (the core's `ShellOutput::Layers` count).
+pub fn parse_output(output: &str, surfaces: u32) -> PyResult<ShellOutput> {
+    ShellOutput::parse(output, surfaces).map_err(crate::errors::to_py)
 }
 
 /// offset_shell(vertices, face_sizes, corners, thickness, relative=False, factors=None,
-///              output="outer", layers=1) -> dict
+///              output="outer", surfaces=1) -> dict
 ///
 /// Offset Shell (normal displacement): each vertex moves along its angle-weighted
 /// normal by `thickness` (a length, or a fraction of the bounding-box diagonal when
 /// `relative`), times its entry of `factors` (float32 (n,), e.g. vertex-group
 /// weights). Negative thickness offsets inward. `output` is "outer" (offset surface),
-/// "solid" (closed: offset + reversed base + rims) or "layers" (`layers` copies).
+/// "solid" (closed: offset + reversed base + rims) or "layers" (`surfaces` evenly
+/// spaced copies of the base, the last one the offset surface). `layers`: the former
+/// name of `surfaces`, taken with a DeprecationWarning for one release.
 ///
 /// Returns vertices (m,3) float32, face_sizes and corners int32, source_vertex int32
 /// (base vertex of each output vertex), layer float32 (r in [0,1]), source_corner
@@ -59,7 +64,7 @@ pub fn parse_output(output: &str, layers: u32) -> PyResult<ShellOutput> {
 /// from: UV maps and material indices carry over) and directors (n,3) float32 for the
 /// base vertices.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, thickness, relative=false, factors=None, output="outer", layers=1))]
+#[pyo3(signature = (vertices, face_sizes, corners, thickness, relative=false, factors=None, output="outer", surfaces=1, *, layers=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn offset_shell<'py>(
     py: Python<'py>,
@@ -70,9 +75,11 @@ pub fn offset_shell<'py>(
     relative: bool,
     factors: Option<&Bound<'py, PyAny>>,
     output: &str,
-    layers: u32,
+    surfaces: u32,
+    layers: Option<u32>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let req = ShellRequest::new(&vertices, face_sizes, corners, thickness, relative, factors, output, layers)?;
+    let surfaces = renamed_argument(py, "offset_shell", ("surfaces", surfaces), ("layers", layers), 1)?;
+    let req = ShellRequest::new(&vertices, face_sizes, corners, thickness, relative, factors, output, surfaces)?;
     let (shell, directors) = run_detached(py, move || {
         let directors = normal_offset_directors(&req.mesh, &req.per_vertex()?);
         Ok((build_geometry(&req.mesh, &directors, req.output)?, directors))

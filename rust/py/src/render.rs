@@ -55,11 +55,11 @@ fn matrix(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Mat4> {
 ///              -> dict
 ///
 /// Renders the alpha = 0.5 iso-surface of volumetric textures mapped into a shell
-/// (layer r of vertex v at v + base_offset + r * director) without baking it.
+/// (depth r over vertex v at v + base_offset + r * director) without baking it.
 /// `settings` (keywords): how to draw, method="auto", slices=16,
 /// light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05, mipmaps="double" (as for
 /// `TexturedShell.render`), and `bake_texture`'s settings but `triangle_budget` and
-/// `max_triangles` (uvs, tiling, resolution, layers, region, base_layer, holes,
+/// `max_triangles` (uvs, tiling, resolution, depth_steps, region, base_layer, holes,
 /// cutter, move_region, move_offset, follow_texture): the frame shows what the bake
 /// makes of them (partial region, holes, cut and moved texture; the slice renderer
 /// draws all four, as the reference does).

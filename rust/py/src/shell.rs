@@ -52,18 +52,18 @@ pub fn build_shell<'py>(
 }
 
 /// shell(vertices, face_sizes, corners, thickness, side="exterior", relative=False,
-///       factors=None, output="outer", layers=1, p=3.0, progress=None) -> dict
+///       factors=None, output="outer", surfaces=1, p=3.0, progress=None) -> dict
 ///
 /// The L_p-field shell of a polygon mesh with shell geometry, as `offset_shell` but
 /// with field-integrated directors. Returns the geometry arrays plus base_offset and
-/// directors (n,3) (layer r of vertex v at v + base_offset + r * director), achieved
+/// directors (n,3) (depth r over vertex v at v + base_offset + r * director), achieved
 /// and target thickness (n,), source_vertex and layer per output vertex, source_corner
 /// and source_face per output corner and face. `progress`: a callable given the share
 /// done (vertices traced, then the repair) in [0, 1] at once, about ten times a second
 /// and 1.0 at the end, while the work runs on another thread; returning False, raising
 /// or Ctrl-C cancels it (`Cancelled`, a `ThicketError`, or the exception raised).
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", layers=1, p=3.0, progress=None))]
+#[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", surfaces=1, p=3.0, progress=None, *, layers=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn shell<'py>(
     py: Python<'py>,
@@ -75,11 +75,13 @@ pub fn shell<'py>(
     relative: bool,
     factors: Option<&Bound<'py, PyAny>>,
     output: &str,
-    layers: u32,
+    surfaces: u32,
     p: f64,
     progress: Option<Bound<'py, PyAny>>,
+    layers: Option<u32>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let req = ShellRequest::new(&vertices, face_sizes, corners, thickness, relative, factors, output, layers)?;
+    let surfaces = crate::keywords::renamed_argument(py, "shell", ("surfaces", surfaces), ("layers", layers), 1)?;
+    let req = ShellRequest::new(&vertices, face_sizes, corners, thickness, relative, factors, output, surfaces)?;
     let side = Side::parse(side).map_err(crate::errors::to_py)?;
     let (geometry, shell) = run_maybe_watched(py, progress.as_ref(), move |watch| {
         let shell = core::build_shell_watched(&req.mesh, &req.per_vertex()?, side, &params(p), watch)?;

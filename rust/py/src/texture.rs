@@ -47,8 +47,8 @@ fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
 }
 
 /// The placed textures of a `textures` argument: float32 (nz, ny, nx) arrays or
-/// (array, (ds, dt)) pairs.
-fn layers(textures: &Bound<'_, PyAny>) -> PyResult<Vec<TextureLayer>> {
+/// (array, (ds, dt)) pairs (the core's [`TextureLayer`]s).
+fn placed_textures(textures: &Bound<'_, PyAny>) -> PyResult<Vec<TextureLayer>> {
     let mut out = Vec::new();
     for item in textures.try_iter()? {
         let item = item?;
@@ -61,7 +61,7 @@ fn layers(textures: &Bound<'_, PyAny>) -> PyResult<Vec<TextureLayer>> {
     Ok(out)
 }
 
-/// A shell given by its base offsets and directors (layer r of vertex v at
+/// A shell given by its base offsets and directors (depth r over vertex v at
 /// v + base_offset + r * director), one row per vertex of an `n`-vertex mesh.
 fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyReadonlyArray2<'_, f32>, n: usize) -> PyResult<Shell> {
     let base_offset = arrays::positions(base_offset)?;
@@ -92,7 +92,7 @@ pub(crate) struct TextureSettings<'py> {
     uvs: Option<PyReadonlyArray2<'py, f32>>,
     tiling: f32,
     resolution: u32,
-    layers: u32,
+    depth_steps: u32,
     region: Option<Bound<'py, PyAny>>,
     base_layer: f32,
     holes: Option<Bound<'py, PyAny>>,
@@ -115,7 +115,7 @@ impl<'py> TextureSettings<'py> {
             uvs: keywords.get("uvs", None)?,
             tiling: keywords.get("tiling", 1.0)?,
             resolution: keywords.get("resolution", 8)?,
-            layers: keywords.get("layers", 16)?,
+            depth_steps: keywords.get_renamed("depth_steps", "layers", 16)?,
             region: keywords.get("region", None)?,
             base_layer: keywords.get("base_layer", 0.1)?,
             holes: keywords.get("holes", None)?,
@@ -147,7 +147,7 @@ impl BakeInputs {
         let mesh = arrays::mesh_with_uvs(&vertices, face_sizes, corners, settings.uvs.as_ref())?;
         let n = mesh.vertex_count();
         let shell = shell_of(&base_offset, &directors, n)?;
-        let textures = layers(textures)?;
+        let textures = placed_textures(textures)?;
         let region = settings.region.map(|r| arrays::per_vertex_or_scalar(&r, n, "region")).transpose()?;
         let holes = settings.holes.map(|r| arrays::per_vertex_or_scalar(&r, n, "holes")).transpose()?;
         let moved = settings
@@ -161,7 +161,8 @@ impl BakeInputs {
         };
         let params = BakeParams {
             resolution: settings.resolution,
-            layers: settings.layers,
+            // The core still calls the steps across the shell `layers`.
+            layers: settings.depth_steps,
             follow_texture: settings.follow_texture,
             tiling: settings.tiling,
             region,
@@ -207,22 +208,24 @@ impl BakeInputs {
 /// bake_texture(vertices, face_sizes, corners, base_offset, directors, textures, *,
 ///              progress=None, **settings) -> dict
 ///
-/// Bakes the alpha = 0.5 iso-surface of volumetric textures mapped into a shell (layer
-/// r of vertex v at v + base_offset + r * director) into one closed, crack-free mesh.
+/// Bakes the alpha = 0.5 iso-surface of volumetric textures mapped into a shell (depth
+/// r over vertex v at v + base_offset + r * director) into one closed, crack-free mesh.
 /// `textures`: a list of float32 (nz, ny, nx) arrays or (array, (ds, dt)) pairs,
 /// united. `settings` (keywords, the same for `estimate_bake`, `TexturedShell` and,
 /// but for the last two, `render_shell`): uvs=None, tiling=1.0, resolution=8,
-/// layers=16, region=None, base_layer=0.1, holes=None, cutter=None,
+/// depth_steps=16, region=None, base_layer=0.1, holes=None, cutter=None,
 /// move_region=None, move_offset=(0.0, 0.0), follow_texture=True,
 /// triangle_budget=1_000_000, max_triangles=20_000_000.
+/// `depth_steps`: lattice steps across the shell, base to outer surface (formerly
+/// `layers`, still taken with a DeprecationWarning for one release).
 /// `uvs`: float32 (corners, 2) or None (one tile per face). `region`: float32
 /// (n,) where the texture exists (elsewhere a thin base slab). `holes`: float32 (n,)
 /// where the texture is cut away. `cutter`: (vertices float32 (k,3), triangles (t,3))
 /// of a closed mesh in the same coordinates; the texture is cut away inside it.
 /// `move_region`: float32 (n,), the piece of texture moved by `move_offset` (UV
 /// units; needs `uvs`), its trace showing the base. `follow_texture`: sample at the
-/// texture's own texel spacing (at least `resolution` steps per cell edge and `layers`
-/// across the shell), so features a texel wide survive; False: exactly those steps.
+/// texture's own texel spacing (at least `resolution` steps per cell edge and
+/// `depth_steps` across the shell), so features a texel wide survive; False: exactly those steps.
 /// `triangle_budget`: simplify toward this many triangles without moving the surface
 /// by more than a quarter of a lattice step (0: keep every triangle).
 /// `max_triangles`: the most triangles the lattice may make before simplification; a

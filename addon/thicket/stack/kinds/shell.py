@@ -70,7 +70,7 @@ def summary_text(s) -> str:
 
 def _common_args(mesh: MeshArrays, item, factors):
     args = (mesh.vertices, mesh.face_sizes, mesh.corners, float(item.thickness))
-    kwargs = dict(relative=item.relative, factors=factors, output=item.output, layers=int(item.layers))
+    kwargs = dict(relative=item.relative, factors=factors, output=item.output, surfaces=int(item.surfaces))
     return args, kwargs
 
 

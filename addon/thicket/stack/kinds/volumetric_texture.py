@@ -75,7 +75,7 @@ def texture_settings(shell: ShellContext, item: S.VolumetricTexture, weights):
         uvs=shell.base.uvs,
         tiling=float(item.tiling),
         resolution=int(item.resolution),
-        layers=int(item.layers),
+        depth_steps=int(item.depth_steps),
         region=weights["region"],
         holes=weights["holes"],
         cutter=item.cutter,

@@ -1,0 +1,84 @@
+"""Files and scripts from earlier versions of Thicket: item properties that were
+renamed keep their values.
+
+A .blend stores each stack item's settings as ID properties under their property
+names, so a file saved before a rename holds its values under the former names,
+which the item no longer reads. `upgrade_file` moves them to the current names
+when a file is loaded (`load_post`) and once when the add-on is enabled with a file
+open; scripts passing a former name to `api.add_item` get a DeprecationWarning.
+"""
+
+import warnings
+
+import bpy
+from bpy.app.handlers import persistent
+
+#: Item properties by their former name. "layers" meant three things: the Stacked
+#: Surfaces output's count (now `surfaces`), the bake's lattice steps across the shell
+#: (`texture_layers`, now `depth_steps`) and, in the native core, the placed textures.
+RENAMED_ITEM_PROPERTIES = {"layers": "surfaces", "texture_layers": "depth_steps"}
+
+
+def current_names(settings: dict, stacklevel=3) -> dict:
+    """`settings` (item property names to values) with former names replaced by the
+    current ones, warning (DeprecationWarning) for each; both names given is a TypeError."""
+    out = dict(settings)
+    for old, new in RENAMED_ITEM_PROPERTIES.items():
+        if old not in out:
+            continue
+        if new in out:
+            raise TypeError(f"got '{new}' and its former name '{old}': pass '{new}' only")
+        warnings.warn(f"Thicket item setting '{old}' is now called '{new}'; the old name goes in the next release", DeprecationWarning, stacklevel=stacklevel)
+        out[new] = out.pop(old)
+    return out
+
+
+def upgrade_item(item) -> bool:
+    """Moves the item's values saved under former property names to the current
+    names (as ID properties: no update callback runs, nothing regenerates). Whether
+    anything moved."""
+    keys = set(item.keys())
+    moved = False
+    for old, new in RENAMED_ITEM_PROPERTIES.items():
+        if old in keys:
+            if new not in keys:  # a value under the current name wins
+                item[new] = item[old]
+            del item[old]
+            moved = True
+    return moved
+
+
+def upgrade_file() -> int:
+    """Upgrades every stack item of the open file's local objects (linked ones are
+    read-only and keep their library's values); how many items changed."""
+    count = 0
+    for obj in bpy.data.objects:
+        if obj.library is None:
+            count += sum(upgrade_item(item) for item in obj.thicket.items)
+    return count
+
+
+@persistent
+def on_load(*_args):
+    upgrade_file()
+
+
+def _upgrade_open_file():
+    """Once after the add-on is enabled (bpy.data is not readable while it registers)."""
+    upgrade_file()
+    return None
+
+
+def register():
+    if on_load not in bpy.app.handlers.load_post:
+        # First among Thicket's handlers: nothing reads a stack before it is upgraded.
+        bpy.app.handlers.load_post.insert(0, on_load)
+    if not bpy.app.background:
+        bpy.app.timers.register(_upgrade_open_file, first_interval=0.0)
+
+
+def unregister():
+    if on_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(on_load)
+    if bpy.app.timers.is_registered(_upgrade_open_file):
+        bpy.app.timers.unregister(_upgrade_open_file)
