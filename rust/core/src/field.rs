@@ -4,7 +4,9 @@
 //! it carries (a colour, a primitive id), all batched over point arrays so an
 //! implementation can vectorize and callers parallelize over chunks.
 //!
-//! Implementors so far: the procedural texture patterns ([`crate::texture::procedural::PatternField`]).
+//! Implementors so far: the procedural texture patterns ([`crate::texture::procedural::PatternField`])
+//! and the implicit field trees ([`crate::implicit::FieldTree`], which also bound their
+//! values over boxes: [`ScalarField::interval`]).
 
 use glam::Vec3;
 
@@ -34,6 +36,17 @@ pub trait ScalarField: Sync {
     /// The attributes at each point, [`Self::attribute_count`] values per point.
     fn attributes(&self, points: &[Vec3], out: &mut [f32]) {
         let _ = (points, out);
+    }
+
+    /// An enclosure `(lo, hi)` of `f` over the box `[lo, hi]`: every value the field
+    /// gives at a point of the box (its faces included) lies in it, so it is never
+    /// NaN there; and the field's values at a point do not depend on the batch it is
+    /// asked in. `None` (the default): the field cannot bound itself. Polygonizers
+    /// skip the boxes whose enclosure keeps one sign ([`crate::polygonize::mesh_field`]);
+    /// a field answers for every box or for none.
+    fn interval(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let _ = (lo, hi);
+        None
     }
 
     /// `f` at one point.
@@ -80,5 +93,6 @@ mod tests {
         }
         assert_eq!(Paraboloid.value(Vec3::new(1.0, 1.0, 1.0)), 2.0);
         assert_eq!(Paraboloid.attribute_count(), 0);
+        assert_eq!(Paraboloid.interval(Vec3::ZERO, Vec3::ONE), None);
     }
 }

@@ -180,6 +180,12 @@ impl FieldTree {
         sample(self.tape.run(&[x], Need::ALL, &mut scratch), 0)
     }
 
+    /// The value at one point (the value alone: no gradient or attributes computed).
+    fn value_at(&self, x: DVec3) -> f64 {
+        let mut scratch = Scratch::new(&self.tape);
+        self.tape.run(&[x], Need::VALUE, &mut scratch).f[0]
+    }
+
     /// A Lipschitz bound: `|f(x) - f(y)| <= L |x - y|` (1 for every building block;
     /// the rules per node are in [`bounds`]).
     pub fn lipschitz(&self) -> f64 {
@@ -196,7 +202,7 @@ impl FieldTree {
     /// the tightest enclosure the core offers, one evaluation more.
     pub fn range(&self, lo: DVec3, hi: DVec3) -> (f64, f64) {
         let (l, u) = self.interval(lo, hi);
-        let v = self.sample((lo + hi) * 0.5).value;
+        let v = self.value_at((lo + hi) * 0.5);
         let r = self.lipschitz() * ((hi - lo) * 0.5).length();
         (l.max(v - r), u.min(v + r))
     }
@@ -239,6 +245,14 @@ impl ScalarField for FieldTree {
 
     fn attribute_count(&self) -> usize {
         ATTRIBUTE_COUNT
+    }
+
+    /// [`FieldTree::range`], rounded outward to single precision (the values are
+    /// rounded to nearest, so they stay inside).
+    fn interval(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (l, u) = self.range(lo.as_dvec3(), hi.as_dvec3());
+        let (l32, u32) = (l as f32, u as f32);
+        Some((if f64::from(l32) > l { l32.next_down() } else { l32 }, if f64::from(u32) < u { u32.next_up() } else { u32 }))
     }
 
     /// Colour `[r, g, b, a]`, texture, primitive id per point.

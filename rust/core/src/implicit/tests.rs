@@ -596,3 +596,54 @@ fn random_trees_mesh_closed_manifold_on_their_zero_set() {
     }
     assert!(meshed >= 18, "{meshed} of 20 trees had a surface");
 }
+
+#[test]
+fn interval_culled_meshes_equal_the_unculled_bit_for_bit() {
+    use crate::polygonize::grid::Unculled;
+    let mut rng = Rng(0x5eed_cafe);
+    let same = |a: &crate::polygonize::FieldMesh, b: &crate::polygonize::FieldMesh| {
+        a.positions == b.positions
+            && a.triangles == b.triangles
+            && a.normals == b.normals
+            && a.attributes.iter().map(|v| v.to_bits()).eq(b.attributes.iter().map(|v| v.to_bits()))
+    };
+    let mut meshed = 0;
+    // Closed trees in their own bounds, and trees of every node (planes and
+    // complements: solids the box cuts, culled inside too) in a fixed box; grids whose
+    // cells the slabs and culling blocks do not divide.
+    for n in 0..16 {
+        let (doc, bounds, resolution) = if n % 2 == 0 {
+            let doc = random_mesh_tree(&mut rng);
+            let (lo, hi) = tree(&doc).bounds().expect("bounded");
+            let margin = 0.05 * (hi - lo).max_element();
+            (doc, (lo - margin, hi + margin), 29 + n)
+        } else {
+            (random_any_tree(&mut rng, 3), (Vec3::new(-1.2, -1.0, -1.1), Vec3::new(1.1, 1.2, 0.9)), 23 + n)
+        };
+        let t = tree(&doc);
+        let params = GridParams { bounds, resolution, refine: true };
+        let (dense, culled) = (mesh_field(&Unculled(&t), &params).unwrap(), mesh_field(&t, &params).unwrap());
+        assert!(same(&dense, &culled), "tree {n}: {} vs {} triangles: {doc}", dense.triangles.len(), culled.triangles.len());
+        assert!(SurfaceCheck::of(&culled.positions, &culled.triangles).is_closed_manifold(), "tree {n}: {doc}");
+        meshed += usize::from(!culled.triangles.is_empty());
+    }
+    assert!(meshed >= 12, "{meshed} of 16 trees had a surface");
+}
+
+#[test]
+fn the_scalar_field_interval_encloses_the_single_precision_values() {
+    let mut rng = Rng(77);
+    for _ in 0..40 {
+        let doc = random_any_tree(&mut rng, 3);
+        let t = tree(&doc);
+        let c = rng.vec(1.0).as_vec3();
+        let half = rng.vec(0.3).abs().as_vec3();
+        let (lo, hi) = ScalarField::interval(&t, c - half, c + half).expect("trees bound themselves");
+        let points: Vec<Vec3> = (0..200).map(|_| c - half + 2.0 * half * DVec3::new(rng.next(), rng.next(), rng.next()).as_vec3()).collect();
+        let mut values = vec![0.0; points.len()];
+        t.values(&points, &mut values);
+        assert!(values.iter().all(|v| (lo..=hi).contains(v)), "[{lo}, {hi}]: {doc}");
+        let (l, u) = t.range((c - half).as_dvec3(), (c + half).as_dvec3());
+        assert!(f64::from(lo) <= l && f64::from(hi) >= u);
+    }
+}

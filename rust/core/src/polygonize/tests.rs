@@ -333,3 +333,87 @@ fn an_empty_box_makes_nothing_and_bad_settings_are_refused() {
     check(&m);
     assert!(m.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-4));
 }
+
+/// A sphere that bounds itself over boxes (the exact range of `|x - c| - r`), and
+/// counts the points it is asked for.
+struct BoundedSphere {
+    sphere: Sphere,
+    asked: std::sync::atomic::AtomicUsize,
+}
+
+impl BoundedSphere {
+    fn new(center: Vec3, radius: f32) -> Self {
+        Self { sphere: Sphere { center, radius }, asked: Default::default() }
+    }
+    fn asked(&self) -> usize {
+        self.asked.swap(0, std::sync::atomic::Ordering::Relaxed)
+    }
+}
+
+impl ScalarField for BoundedSphere {
+    fn values(&self, points: &[Vec3], out: &mut [f32]) {
+        self.asked.fetch_add(points.len(), std::sync::atomic::Ordering::Relaxed);
+        self.sphere.values(points, out);
+    }
+    fn gradients(&self, points: &[Vec3], out: &mut [Vec3]) {
+        self.sphere.gradients(points, out);
+    }
+    fn attribute_count(&self) -> usize {
+        1
+    }
+    fn attributes(&self, points: &[Vec3], out: &mut [f32]) {
+        for (o, p) in out.iter_mut().zip(points) {
+            *o = p.x + 2.0 * p.y;
+        }
+    }
+    fn interval(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let c = self.sphere.center;
+        let near = (c.clamp(lo, hi) - c).length();
+        let far = (c - lo).abs().max((hi - c).abs()).length();
+        // Rounded outward by a little: the sampled values are rounded too.
+        let slack = 1e-5 * (1.0 + far);
+        Some((near - self.sphere.radius - slack, far - self.sphere.radius + slack))
+    }
+}
+
+#[test]
+fn interval_culling_samples_less_and_meshes_the_same_bit_for_bit() {
+    let same = |a: &FieldMesh, b: &FieldMesh| {
+        a.positions == b.positions
+            && a.triangles == b.triangles
+            && a.normals == b.normals
+            && a.attributes.iter().map(|v| v.to_bits()).eq(b.attributes.iter().map(|v| v.to_bits()))
+    };
+    // A small sphere in a large box (most of it culled outside), one through the
+    // box's faces (the cut closes there), one containing the box (all inside: only
+    // the cells on the faces are kept), one outside it; ragged grids (slabs and
+    // culling blocks that do not divide the cells), with and without refinement.
+    let cases = [
+        (Vec3::new(0.1, -0.2, 0.05), 0.45, (Vec3::new(-1.0, -1.1, -0.9), Vec3::new(1.2, 1.0, 1.05)), 37, true),
+        (Vec3::new(0.6, 0.0, 0.0), 0.7, cube(1.0), 29, true),
+        (Vec3::new(0.6, 0.0, 0.0), 0.7, cube(1.0), 29, false),
+        (Vec3::new(0.2, 0.1, 0.0), 5.0, (Vec3::splat(-1.0), Vec3::new(1.0, 0.7, 0.45)), 43, true),
+        (Vec3::splat(10.0), 1.0, cube(1.0), 20, true),
+    ];
+    for (center, radius, bounds, resolution, refine) in cases {
+        let field = BoundedSphere::new(center, radius);
+        let params = GridParams { bounds, resolution, refine };
+        let dense = mesh_field(&grid::Unculled(&field), &params).unwrap();
+        let dense_asked = field.asked();
+        let culled = mesh_field(&field, &params).unwrap();
+        let culled_asked = field.asked();
+        assert!(same(&dense, &culled), "{center} {radius} {bounds:?} {resolution}: {} vs {} triangles", dense.triangles.len(), culled.triangles.len());
+        check(&culled);
+        // Refinement and normals ask the same points either way: the lattice's
+        // samples are what culling saves, at least half of them here.
+        let lattice = (dense.cells + 1).element_product() as usize;
+        assert!(dense_asked - culled_asked > lattice / 2, "{center} {radius}: {culled_asked} of {dense_asked} points asked, {lattice} lattice points");
+    }
+    // The culled share grows with the resolution: the surface's cells are fewer.
+    let field = BoundedSphere::new(Vec3::ZERO, 0.5);
+    let params = GridParams { bounds: cube(1.0), resolution: 96, refine: true };
+    let culled = mesh_field(&field, &params).unwrap();
+    let asked = field.asked();
+    assert!(asked * 5 < 97usize.pow(3), "{asked} samples of {}", 97usize.pow(3));
+    check(&culled);
+}

@@ -1,0 +1,80 @@
+//! Meshes a soft-CSG field tree (issue 17's benchmark tree: 20 nodes, `w_p` with
+//! `p = 8` over spheres, boxes and segments, each with a colour) through
+//! `polygonize::mesh_field` at 128 and 256 cells along the longest side, with interval
+//! culling (the tree's `ScalarField::interval`) and without (the same tree behind
+//! `Unculled`, which hides its interval): the minimum and median of several runs,
+//! triangles, and whether both meshes are the same bit for bit.
+//!
+//! `cargo run --release -p thicket-core --example implicit_mesh_bench [-- --runs N --resolutions 128,256 --culled-only]`
+
+use std::time::Instant;
+use thicket_core::implicit::FieldTree;
+use thicket_core::polygonize::grid::Unculled;
+use thicket_core::polygonize::{mesh_field, FieldMesh, GridParams, SurfaceCheck};
+
+/// The 20-node tree: a soft union (p = 8) of five spheres, four boxes, four
+/// segments, a box with a sphere cut away and a box rounded by a sphere.
+pub const TREE: &str = r#"{"op": "union_wp", "p": 8, "children": [
+  {"op": "sphere", "center": [0, 0, 0], "radius": 0.45, "color": [0.9, 0.2, 0.2, 1]},
+  {"op": "sphere", "center": [0.6, 0.1, 0.2], "radius": 0.25, "color": [0.2, 0.9, 0.2, 1]},
+  {"op": "sphere", "center": [-0.55, 0.3, -0.1], "radius": 0.3, "color": [0.2, 0.2, 0.9, 1]},
+  {"op": "sphere", "center": [0.1, -0.6, 0.35], "radius": 0.2, "color": [0.9, 0.9, 0.2, 1]},
+  {"op": "sphere", "center": [-0.2, 0.1, 0.7], "radius": 0.18, "color": [0.9, 0.2, 0.9, 1]},
+  {"op": "box", "center": [0.5, 0.5, -0.4], "half_size": [0.2, 0.15, 0.1], "rotation": [0.92, 0.2, 0.3, 0.1], "radius": 0.02, "color": [0.2, 0.9, 0.9, 1]},
+  {"op": "box", "center": [-0.5, -0.5, 0.3], "half_size": [0.15, 0.25, 0.12], "color": [0.6, 0.3, 0.1, 1]},
+  {"op": "box", "center": [0.0, 0.0, -0.7], "half_size": [0.6, 0.6, 0.05], "color": [0.3, 0.3, 0.3, 1]},
+  {"op": "box", "center": [0.7, -0.3, 0.0], "half_size": [0.1, 0.3, 0.2], "rotation": [0.7, 0.0, 0.7, 0.1], "color": [0.1, 0.5, 0.3, 1]},
+  {"op": "segment", "a": [-0.8, -0.2, -0.6], "b": [0.8, 0.2, 0.6], "radius": 0.06, "color": [1, 0.5, 0, 1]},
+  {"op": "segment", "a": [-0.7, 0.7, 0.0], "b": [0.7, -0.7, 0.1], "radius": 0.05, "color": [0, 0.5, 1, 1]},
+  {"op": "segment", "a": [0.0, -0.8, -0.5], "b": [0.0, 0.8, 0.5], "radius": 0.07, "color": [0.5, 1, 0, 1]},
+  {"op": "segment", "a": [-0.3, 0.0, -0.8], "b": [0.3, 0.1, 0.8], "radius": 0.04, "color": [1, 0, 0.5, 1]},
+  {"op": "difference_wp", "p": 8, "children": [
+    {"op": "box", "center": [-0.4, 0.5, 0.5], "half_size": [0.25, 0.2, 0.2], "color": [0.8, 0.8, 0.5, 1]},
+    {"op": "sphere", "center": [-0.4, 0.5, 0.7], "radius": 0.2}]},
+  {"op": "intersection_wp", "p": 8, "children": [
+    {"op": "box", "center": [0.4, -0.5, -0.3], "half_size": [0.2, 0.2, 0.2], "color": [0.5, 0.8, 0.8, 1]},
+    {"op": "sphere", "center": [0.4, -0.5, -0.3], "radius": 0.26}]}
+]}"#;
+
+fn stats(mut t: Vec<f64>) -> (f64, f64) {
+    t.sort_by(f64::total_cmp);
+    (t[0], t[t.len() / 2])
+}
+
+fn time(runs: usize, mut f: impl FnMut() -> FieldMesh) -> ((f64, f64), FieldMesh) {
+    let mut times = Vec::new();
+    let mut mesh = None;
+    for _ in 0..runs {
+        let start = Instant::now();
+        mesh = Some(f());
+        times.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    (stats(times), mesh.unwrap())
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let arg = |name: &str| args.iter().position(|a| a == name).map(|i| args[i + 1].clone());
+    let runs: usize = arg("--runs").map_or(5, |r| r.parse().unwrap());
+    let resolutions: Vec<u32> = arg("--resolutions").map_or(vec![128, 256], |r| r.split(',').map(|s| s.parse().unwrap()).collect());
+    let tree = FieldTree::from_json(TREE).unwrap();
+    let (lo, hi) = tree.bounds().unwrap();
+    println!("{} threads; a soft-CSG tree of 20 nodes, {} primitives; bounds {lo} to {hi}", rayon::current_num_threads(), tree.primitive_count());
+    for resolution in resolutions {
+        let margin = 2.0 * (hi - lo).max_element() / resolution as f32;
+        let params = GridParams { bounds: (lo - margin, hi + margin), resolution, refine: true };
+        // `--culled-only` (for profiling): the unculled mesh is made once.
+        let dense_runs = if args.iter().any(|a| a == "--culled-only") { 1 } else { runs };
+        let ((dense_min, dense_median), dense) = time(dense_runs, || mesh_field(&Unculled(&tree), &params).unwrap());
+        let ((culled_min, culled_median), culled) = time(runs, || mesh_field(&tree, &params).unwrap());
+        let same = dense.positions == culled.positions
+            && dense.triangles == culled.triangles
+            && dense.normals == culled.normals
+            && dense.attributes.iter().map(|a| a.to_bits()).eq(culled.attributes.iter().map(|a| a.to_bits()));
+        let check = SurfaceCheck::of(&culled.positions, &culled.triangles);
+        println!("resolution {resolution} (cells {}), {} triangles, closed manifold {}:", culled.cells, culled.triangles.len(), check.is_closed_manifold());
+        println!("  every point sampled: min {dense_min:7.1} ms, median {dense_median:7.1} ms");
+        println!("  interval culling:    min {culled_min:7.1} ms, median {culled_median:7.1} ms ({:.2}x faster by the minimum)", dense_min / culled_min);
+        println!("  same mesh bit for bit: {same}");
+    }
+}
