@@ -14,7 +14,7 @@ from conftest import add, mesh_object, select_only
 
 from thicket import api, mesh_io
 from thicket.operators.add_thick_surface import watched_thick_surfaces
-from thicket.stack import live_shells
+from thicket.pure import live_shells
 
 pytest.importorskip("thicket_native")
 

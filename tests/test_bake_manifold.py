@@ -16,7 +16,7 @@ from mathutils.bvhtree import BVHTree
 
 import thicket_native as tn
 from thicket import mesh_io
-from thicket.arrays import MeshArrays
+from thicket.pure.arrays import MeshArrays
 
 PATTERNS = ["chain_mail", "weave", "rivets", "grass", "fur", "bubbles"]
 

@@ -1,6 +1,7 @@
 """The add-on's import graph (every import, also those inside functions, read from
-the source with `ast`): no module reaches itself again, and nothing in `render/` or
-`ui/` imports from `operators/` (they read the active stack through `stack/query`)."""
+the source with `ast`): no module reaches itself again, nothing in `render/` or
+`ui/` imports from `operators/` (they read the active stack through `stack/query`),
+and the pure folder (`pure/`, no Blender) imports nothing of the add-on outside it."""
 
 import ast
 import pathlib
@@ -79,6 +80,18 @@ def test_render_and_ui_never_import_operators():
     graph = import_graph()
     bad = [(a, b) for a, deps in graph.items() for b in deps if a.startswith(("thicket.render", "thicket.ui")) and b.startswith("thicket.operators")]
     assert not bad, bad
+
+
+def test_the_pure_folder_imports_only_itself():
+    """Blender code imports the pure modules, never the other way: an arrow out of
+    `pure/` (even a lazy one inside a function) would bring Blender code along."""
+    graph = import_graph()
+    pure = [name for name in graph if name.startswith("thicket.pure.") or name == "thicket.pure"]
+    assert "thicket.pure.evaluate" in pure and "thicket.pure.kinds.shell" in pure
+    bad = [(a, b) for a in pure for b in graph[a] if not b.startswith("thicket.pure")]
+    assert not bad, bad
+    # And the Blender side does import it (the graph sees arrows into pure/).
+    assert "thicket.pure.evaluate" in graph["thicket.stack.regenerate"]
 
 
 def test_the_cycle_finder_finds_a_circle():

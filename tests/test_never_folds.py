@@ -17,7 +17,7 @@ from mathutils.bvhtree import BVHTree
 
 import thicket_native as tn
 from thicket import api, mesh_io
-from thicket.stack import live_shells
+from thicket.pure import live_shells
 
 CASES = [("exterior", 0.1), ("exterior", 0.2), ("interior", 0.05), ("interior", 0.1), ("envelope", 0.1)]
 HARD = sorted(p.stem for p in (DATA / "hard").glob("*.obj") if p.stem != "cards")

@@ -15,8 +15,8 @@ from conftest import add, select_only
 from thicket import api, mesh_io
 from thicket.operators.common import Job, JobWatch
 from thicket.operators.regenerate import watched_regeneration
-from thicket.stack import live_shells
-from thicket.stack.evaluate import progress_spans
+from thicket.pure import live_shells
+from thicket.pure.evaluate import progress_spans
 from thicket.stack.regenerate import enabled_settings
 
 tn = pytest.importorskip("thicket_native")

@@ -1,7 +1,9 @@
-"""The add-on's pure modules (none of their imports, read with `ast`, reaches a
-Blender module) import and run in plain Python with every Blender module refused: the stack's
-settings, kinds and walk, arrays and the native loader serve scripts and tools that
-run without Blender. The Blender side is imported when the add-on registers."""
+"""The add-on's pure modules live in one folder, `thicket/pure/`: every module there
+(none of its imports, read with `ast`, reaches a Blender module) imports and runs in
+plain Python with every Blender module refused (the stack's settings, kinds and walk,
+arrays and the native loader serve scripts and tools that run without Blender), and
+no module outside it claims to need no Blender. The Blender side is imported when the
+add-on registers."""
 
 import ast
 import json
@@ -13,6 +15,7 @@ from test_import_graph import module_name, relative_target
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 ADDON = ROOT / "addon" / "thicket"  # the modules test_import_graph names
+PURE = ADDON / "pure"
 BLENDER_MODULES = {"bpy", "bmesh", "mathutils", "gpu", "gpu_extras", "bpy_extras", "blf", "aud", "freestyle", "bl_math", "idprop", "imbuf", "_bpy"}
 
 
@@ -77,27 +80,75 @@ sys.path[:0] = json.loads(sys.argv[2])
 for name in json.loads(sys.argv[3]):
     importlib.import_module(name)
 import numpy as np
-from thicket.arrays import MeshArrays
-from thicket.stack import settings as S
-from thicket.stack.evaluate import evaluate_stack
+from thicket.pure.arrays import MeshArrays
+from thicket.pure import settings as S
+from thicket.pure.evaluate import evaluate_stack
 quad = MeshArrays(np.float32([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]), np.int32([4]), np.int32([0, 1, 2, 3]))
 out = evaluate_stack(quad, [S.FieldShell(thickness=0.1, relative=False)])
 print(json.dumps({"z": out.vertices[:, 2].tolist(), "blender": sorted(m for m in sys.modules if m.split(".")[0] in blocked)}))
 """
 
 
-def test_the_stack_logic_is_pure():
-    pure = set(pure_modules())
-    for name in ("thicket", "thicket.arrays", "thicket.native", "thicket.stack.settings", "thicket.stack.state", "thicket.stack.evaluate"):
-        assert name in pure, f"{name} imports Blender"
-    assert {"thicket.stack.kinds", "thicket.stack.kinds.shell", "thicket.stack.kinds.volumetric_texture"} <= pure
+def pure_folder():
+    """The modules in the pure folder, packages included."""
+    return sorted(module_name(p) for p in PURE.rglob("*.py"))
+
+
+def test_every_module_in_the_pure_folder_is_pure():
+    pure, folder = set(pure_modules()), pure_folder()
+    assert not [name for name in folder if name not in pure], "these import Blender; move them out of pure/"
+    # The package itself is imported first, so it needs no Blender either.
+    assert "thicket" in pure
+    # The stack's logic is there.
+    assert {"thicket.pure.arrays", "thicket.pure.native", "thicket.pure.settings", "thicket.pure.state", "thicket.pure.evaluate"} <= set(folder)
+    assert {"thicket.pure.kinds", "thicket.pure.kinds.shell", "thicket.pure.kinds.volumetric_texture", "thicket.pure.live_shells"} <= set(folder)
     # And the Blender side is recognised as such (the test can fail).
     assert "thicket.mesh_io" not in pure and "thicket.stack.properties" not in pure
 
 
+#: How a module's docstring says that it needs no Blender.
+CLAIMS = ("no bpy", "without blender", "no blender")
+
+
+def claims_to_be_pure(path):
+    doc = (ast.get_docstring(ast.parse(path.read_text(), str(path))) or "").lower()
+    return any(claim in doc for claim in CLAIMS)
+
+
+#: Modules outside pure/ that import no Blender module when imported, and why they
+#: are Blender code all the same. A new module like them is a decision: pure/ if it
+#: runs without Blender, here if it only works on what Blender hands it.
+BLENDER_SIDE_WITHOUT_BPY_IMPORT = {
+    "thicket": "registration: imports the Blender side when register() is called",
+    "thicket.cli": "Blender's command-line command: imports bpy and the api when run",
+    "thicket.render": "package docstring only",
+    "thicket.render.camera": "reads Blender cameras, scenes and 3D views handed to it",
+    "thicket.stack": "package docstring only",
+    "thicket.stack.guard": "holds back Blender's update handlers while Thicket writes",
+    "thicket.stack.query": "reads Blender's context",
+}
+
+
+def test_the_modules_outside_the_pure_folder_that_import_no_blender_are_known():
+    outside = set(pure_modules()) - set(pure_folder())
+    assert outside == set(BLENDER_SIDE_WITHOUT_BPY_IMPORT), outside ^ set(BLENDER_SIDE_WITHOUT_BPY_IMPORT)
+
+
+def test_nothing_outside_the_pure_folder_claims_to_be_pure():
+    """A module that says it needs no Blender belongs in pure/, where the tests hold it
+    to that; outside, the package's own __init__ (registration, which imports Blender
+    when called) is the one that says why it imports without it."""
+    outside = [p for p in ADDON.rglob("*.py") if not p.is_relative_to(PURE) and p != ADDON / "__init__.py"]
+    assert len(outside) > 20
+    claiming = [module_name(p) for p in outside if claims_to_be_pure(p)]
+    assert not claiming, f"{claiming} say they need no Blender but are outside pure/"
+    # The check reads what the pure modules say of themselves.
+    assert claims_to_be_pure(PURE / "__init__.py")
+
+
 def test_pure_modules_import_and_evaluate_a_stack_without_blender():
     paths = [str(ROOT / "addon"), str(ROOT / "build" / "site")]
-    args = [sys.executable, "-c", CHILD, json.dumps(sorted(BLENDER_MODULES)), json.dumps(paths), json.dumps(pure_modules())]
+    args = [sys.executable, "-c", CHILD, json.dumps(sorted(BLENDER_MODULES)), json.dumps(paths), json.dumps(pure_folder())]
     done = subprocess.run(args, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads(done.stdout.strip().splitlines()[-1])

@@ -224,7 +224,7 @@ def test_live_preview_keeps_one_native_handle_until_the_content_changes(scene, t
 def texture_setup_of(obj):
     """The overlay's own setup of `obj` (source read as it reads it)."""
     from thicket import mesh_io
-    from thicket.stack.evaluate import texture_setup
+    from thicket.pure.evaluate import texture_setup
     from thicket.stack.regenerate import enabled_settings
 
     items = enabled_settings(obj)

@@ -216,7 +216,7 @@ def test_incremental_shell_refuses_bad_updates_and_stays_usable(scene):
 def test_shell_item_follows_source_edits_incrementally(scene):
     """Editing a source with a Shell item updates its result from the kept shell; the
     Regenerate operator builds from scratch; both agree."""
-    from thicket.stack import live_shells
+    from thicket.pure import live_shells
 
     head, a = _monkey_arrays()
     api.add_thick_surface(head, kind="SHELL", thickness=0.05)

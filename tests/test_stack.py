@@ -6,7 +6,7 @@ import pytest
 from conftest import add, positions, select_only
 
 from thicket import api
-from thicket.arrays import weight_attribute
+from thicket.pure.arrays import weight_attribute
 
 
 def test_operator_on_every_selected_mesh_skips_non_meshes(scene):

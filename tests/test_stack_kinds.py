@@ -1,5 +1,5 @@
 """The stack is open: the evaluator walks items by what each kind declares it
-consumes and produces (`stack.kinds.KINDS`), so a new kind is its settings, its
+consumes and produces (`pure.kinds.KINDS`), so a new kind is its settings, its
 step and one registration line; nothing else in the evaluator changes."""
 
 from dataclasses import dataclass
@@ -7,10 +7,10 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from thicket.arrays import MeshArrays
-from thicket.stack import evaluate as E
-from thicket.stack import kinds as K
-from thicket.stack import settings as S
+from thicket.pure import evaluate as E
+from thicket.pure import kinds as K
+from thicket.pure import settings as S
+from thicket.pure.arrays import MeshArrays
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ from conftest import add, positions, select_only
 
 import thicket_native as tn
 from thicket import api, mesh_io
-from thicket.stack.kinds.volumetric_texture import TEXCOORD_ATTRIBUTE
+from thicket.pure.kinds.volumetric_texture import TEXCOORD_ATTRIBUTE
 
 
 def edge_use_counts(obj):
@@ -287,7 +287,7 @@ def test_moving_a_texture_region_leaves_the_base_in_its_trace(scene):
 
 
 def test_large_bakes_wait_for_confirmation_in_the_interface(scene):
-    from thicket.stack.kinds.volumetric_texture import BakeNeedsConfirmation
+    from thicket.pure.kinds.volumetric_texture import BakeNeedsConfirmation
 
     sphere = add("ico_sphere", subdivisions=2)
     small = api.add_volumetric_texture(sphere, "weave", resolution=4, depth_steps=8)

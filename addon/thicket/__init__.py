@@ -6,8 +6,8 @@ Geometry lives in the Rust core (`thicket_native`); `mesh_io` is the only module
 touching mesh data; scripts use `thicket.api`.
 
 The Blender side is imported when the add-on registers, not with the package, so the
-modules that need no Blender (the stack's settings, kinds and walk, arrays, the
-native loader) import in plain Python too (`tests/test_pure_modules.py`).
+modules that need no Blender, all in `pure/` (the stack's settings, kinds and walk,
+arrays, the native loader), import in plain Python too (`tests/test_pure_modules.py`).
 """
 
 _cli_handle = None

@@ -32,10 +32,9 @@ import os
 
 import bpy
 
-from . import native
-from .stack import live_shells
-from .stack import settings as S
-from .stack.kinds.volumetric_texture import BakeNeedsConfirmation  # noqa: F401 (raised by regenerate(ask=True))
+from .pure import live_shells, native
+from .pure import settings as S
+from .pure.kinds.volumetric_texture import BakeNeedsConfirmation  # noqa: F401 (raised by regenerate(ask=True))
 from .stack.regenerate import regenerate as _regenerate
 
 __all__ = [
@@ -176,7 +175,7 @@ def export_texture(obj, path, index=None):
     """Writes the texture of `obj`'s Volumetric Texture item (`index`, or the last one)
     to `path`: an OpenEXR volume when it ends in .exr, else PNG slices in that folder.
     Returns the paths written."""
-    from .stack.kinds.volumetric_texture import item_texture
+    from .pure.kinds.volumetric_texture import item_texture
 
     _require_mesh(obj)
     items = [i for i in obj.thicket.items if i.kind == "VOLUMETRIC_TEXTURE"]

@@ -11,7 +11,7 @@ material indices go through the generic attribute API (`position`, `.corner_vert
 import bpy
 import numpy as np
 
-from .arrays import SELECTED_FACES, MeshArrays, weight_attribute
+from .pure.arrays import SELECTED_FACES, MeshArrays, weight_attribute
 
 
 def _transfer(method, mesh, attribute, key, array, collection, prop):

@@ -15,7 +15,8 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 import thicket  # noqa: E402
-from thicket import api, mesh_io, native  # noqa: E402
+from thicket import api, mesh_io  # noqa: E402
+from thicket.pure import native  # noqa: E402
 
 RUNS = 7
 THICKNESS = 0.02  # fraction of the bounding-box diagonal

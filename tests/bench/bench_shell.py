@@ -22,7 +22,8 @@ from blender_checks import blender_check, loop_triangles, overlapping  # noqa: E
 from blender_objects import mesh_object  # noqa: E402
 
 import thicket  # noqa: E402
-from thicket import mesh_io, native  # noqa: E402
+from thicket import mesh_io  # noqa: E402
+from thicket.pure import native  # noqa: E402
 
 EXTERIOR = 0.10  # fraction of the bounding-box diagonal, as in the issue
 CASES = (("exterior", 0.10), ("exterior", 0.20), ("interior", 0.05))
@@ -153,7 +154,7 @@ def interactive_edit(obj):
     the time from the edited mesh to the written result, updated from the kept shell
     against built from scratch (Regenerate), in the same run."""
     from thicket import api
-    from thicket.stack import live_shells
+    from thicket.pure import live_shells
 
     api.add_thick_surface(obj, kind="SHELL", thickness=EXTERIOR)
     a = mesh_io.read_mesh(obj.data)

@@ -2,8 +2,8 @@ import bpy
 from bpy.props import EnumProperty, FloatProperty
 
 from .. import api
-from ..stack import settings as S
-from ..stack.evaluate import evaluate_each
+from ..pure import settings as S
+from ..pure.evaluate import evaluate_each
 from ..stack.guard import suspended
 from ..stack.properties import ThicketItem
 from ..stack.regenerate import read_source, write_result

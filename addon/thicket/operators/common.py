@@ -4,7 +4,7 @@ long work on a worker thread that a modal operator watches and Esc cancels."""
 import threading
 from contextlib import contextmanager
 
-from .. import native
+from ..pure import native
 from ..stack.query import active_stack_source
 
 #: Exceptions that mean bad input or settings; reported, never raised into Blender.

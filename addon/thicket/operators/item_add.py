@@ -2,8 +2,8 @@ import bpy
 from bpy.props import EnumProperty
 
 from .. import api
+from ..pure import settings as S
 from ..stack import auto_update
-from ..stack import settings as S
 from ..stack.query import active_source
 
 

@@ -1,8 +1,8 @@
 import bpy
 
-from ..stack import live_shells
-from ..stack.evaluate import evaluate_stack
-from ..stack.kinds.volumetric_texture import BakeNeedsConfirmation
+from ..pure import live_shells
+from ..pure.evaluate import evaluate_stack
+from ..pure.kinds.volumetric_texture import BakeNeedsConfirmation
 from ..stack.query import active_stack_source
 from ..stack.regenerate import read_source, write_result
 from .common import Job, JobWatch, StackOperator, WatchedOperator, error_text

@@ -12,7 +12,7 @@ import time
 import bpy
 import numpy as np
 
-from .. import native
+from ..pure import native
 from . import camera, lights
 
 THROTTLE = 0.25
@@ -110,7 +110,7 @@ def _prepared(obj):
     read and checks, and the renderers' scene, which the handle makes on its first
     frame and keeps, are the expensive parts)."""
     from .. import mesh_io
-    from ..stack.evaluate import texture_setup
+    from ..pure.evaluate import texture_setup
     from ..stack.guard import suspended
     from ..stack.regenerate import enabled_settings
 

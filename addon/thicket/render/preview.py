@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 
 from .. import mesh_io
-from ..stack.evaluate import cancelled_error, texture_setup
+from ..pure.evaluate import cancelled_error, texture_setup
 from ..stack.guard import suspended
 from ..stack.regenerate import enabled_settings
 from . import lights

@@ -1,11 +1,11 @@
-"""The thick-surface stack: Thicket's own non-destructive, modifier-like item list.
+"""The thick-surface stack on Blender's side: Thicket's own non-destructive,
+modifier-like item list stored on objects. The plain-data settings, the kinds and the
+walk that evaluates a stack are in `pure/`.
 
-- `settings`: plain-data item settings (no bpy), one dataclass per item kind.
-- `kinds`: one module per item kind with its step, and the registry of what each
-  consumes and produces (no bpy).
-- `state`: what the walk carries from item to item (no bpy).
-- `evaluate`: walks a list of settings over mesh arrays by those declarations (no bpy).
 - `properties`: the PropertyGroups stored on objects (saved in the .blend).
-- `regenerate`: source object -> result object, the bpy side of `evaluate`.
+- `regenerate`: source object -> result object, the bpy side of `pure.evaluate`.
 - `auto_update`: debounced regeneration when a source or a setting changes.
+- `guard`: the re-entrancy guard of regeneration.
+- `query`: which stack the user is acting on.
+- `versioning`: settings of files saved by earlier versions under former names.
 """

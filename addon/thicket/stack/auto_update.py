@@ -8,8 +8,7 @@ Re-entrancy guarded: the writes a regeneration makes never schedule another one.
 import bpy
 from bpy.app.handlers import persistent
 
-from .. import native
-from . import live_shells
+from ..pure import live_shells, native
 from .guard import busy, suspended
 
 DEBOUNCE_SECONDS = 0.15
@@ -42,7 +41,7 @@ def flush() -> None:
     (`last_error`, shown in the panel), never raised into Blender's event loop."""
     if busy():
         return
-    from .kinds.volumetric_texture import BakeNeedsConfirmation
+    from ..pure.kinds.volumetric_texture import BakeNeedsConfirmation
     from .regenerate import regenerate
 
     while _pending:

@@ -3,8 +3,8 @@
 import bpy
 from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty, StringProperty
 
-from ..arrays import SELECTED_FACES
-from . import settings as S
+from ..pure import settings as S
+from ..pure.arrays import SELECTED_FACES
 
 PATTERNS = [
     ("chain_mail", "Chain Mail", "Interlocking metal rings"),
@@ -195,7 +195,7 @@ class ThicketItem(bpy.types.PropertyGroup):
         return self.time
 
     def to_settings(self, depsgraph=None):
-        """The plain-data settings `stack.evaluate` runs on (a cutter's mesh is read
+        """The plain-data settings `pure.evaluate` runs on (a cutter's mesh is read
         from `depsgraph`, in the source's object space)."""
         if self.kind == S.VolumetricTexture.kind:
             return S.VolumetricTexture(

@@ -1,11 +1,11 @@
-"""Source object -> result object: the bpy side of `stack.evaluate`."""
+"""Source object -> result object: the bpy side of `pure.evaluate`."""
 
 import bpy
 
 from .. import mesh_io
-from .evaluate import evaluate_stack
+from ..pure.evaluate import evaluate_stack
+from ..pure.kinds.shell import summary_text
 from .guard import suspended
-from .kinds.shell import summary_text
 
 
 def result_name(source: bpy.types.Object) -> str:

@@ -1,16 +1,16 @@
 """Runs a stack of item settings over a mesh (numpy arrays in, numpy arrays out): the
-walk over the items by what each kind declares (`stack.kinds`).
+walk over the items by what each kind declares (`pure.kinds`).
 
-No bpy here: the same function serves operators, the headless API and tests.
+Without Blender: the same function serves operators, the headless API and tests.
 """
 
 from typing import NamedTuple
 
 import numpy as np
 
-from .. import native
-from ..arrays import MeshArrays
+from . import native
 from . import settings as S
+from .arrays import MeshArrays
 from .kinds import KINDS, Kind
 from .kinds.volumetric_texture import native_shell, placed_textures, texture_settings, texture_weights
 from .state import ShellContext, StackError, State

@@ -1,10 +1,10 @@
-"""What a stack's walk carries from item to item (no bpy): the current mesh, where its
+"""What a stack's walk carries from item to item: the current mesh, where its
 vertices came from, the latest shell, and the notes for the user. Every item kind's
-step reads and updates it (`stack.kinds`); the walk itself is `stack.evaluate`."""
+step reads and updates it (`pure.kinds`); the walk itself is `pure.evaluate`."""
 
 import numpy as np
 
-from ..arrays import MeshArrays, weight_attribute
+from .arrays import MeshArrays, weight_attribute
 
 
 class ShellContext:

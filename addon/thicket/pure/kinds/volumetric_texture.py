@@ -1,14 +1,14 @@
 """The Volumetric Texture kind (thick surfaces, chapters 3 and 7): a texture placed
 in the latest shell, with its region, holes, cutter and moved region, baked to
-geometry; renderers draw it from the shell instead. No bpy here."""
+geometry; renderers draw it from the shell instead."""
 
 import os
 
 import numpy as np
 
-from ... import native
-from ...arrays import MeshArrays
+from .. import native
 from .. import settings as S
+from ..arrays import MeshArrays
 from ..state import ShellContext, State, group_weights
 
 TEXCOORD_ATTRIBUTE = "thicket_texcoord"

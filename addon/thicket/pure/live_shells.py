@@ -2,7 +2,7 @@
 source mesh retraces only the directors the edit can reach.
 
 A kept shell is found again by its topology and settings; positions and vertex-group
-factors may change. No bpy here. A few shells are kept (most recently used first);
+factors may change. A few shells are kept (most recently used first);
 `clear()` drops them, so that the next evaluation builds from scratch.
 """
 
@@ -11,7 +11,7 @@ from collections import OrderedDict, deque
 
 import numpy as np
 
-from .. import native
+from . import native
 
 KEEP = 4
 

@@ -1,4 +1,4 @@
-"""Meshes as flat numpy arrays: the form thicket_native takes and returns (no bpy here)."""
+"""Meshes as flat numpy arrays: the form thicket_native takes and returns."""
 
 from dataclasses import dataclass, field
 

@@ -1,7 +1,7 @@
 """Stack item kinds: what each consumes and produces, and its step. The walk
-(`stack.evaluate`) reads only these declarations, so a new kind is one module here
+(`pure.evaluate`) reads only these declarations, so a new kind is one module here
 with its step, and one line in `KINDS`; Blender also needs its settings in
-`settings.KINDS`, the item PropertyGroup and its panel. No bpy here."""
+`settings.KINDS`, the item PropertyGroup and its panel."""
 
 from typing import NamedTuple
 

@@ -1,13 +1,12 @@
 """The shell kinds, Offset Shell (normal displacement) and Shell (the L_p field,
 thick surfaces chapter 4): each builds a shell on the current mesh and reports what
-its final check found. No bpy here."""
+its final check found."""
 
 import numpy as np
 
-from ... import native
-from ...arrays import MeshArrays
-from .. import live_shells
+from .. import live_shells, native
 from .. import settings as S
+from ..arrays import MeshArrays
 from ..state import ShellContext, State, group_weights
 
 DIRECTOR_ATTRIBUTE = "thicket_director"
