@@ -211,7 +211,7 @@ def test_live_preview_keeps_one_native_handle_until_the_content_changes(scene, t
         frames.append(state["result"])
     np.testing.assert_array_equal(frames[0], frames[1])
     # What render_shell draws from the same arrays and settings, every frame anew.
-    setup = texture_setup_of(sphere)
+    setup = render_setup_of(sphere)
     base, shell = setup.shell.base, setup.shell
     args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, setup.textures, view, projection, 40, 30)
     np.testing.assert_array_equal(frames[0], tn.render_shell(*args, method="reference", **setup.settings)["rgba"])
@@ -221,15 +221,15 @@ def test_live_preview_keeps_one_native_handle_until_the_content_changes(scene, t
     assert overlay._prepared(sphere)[1] is rebuilt
 
 
-def texture_setup_of(obj):
+def render_setup_of(obj):
     """The overlay's own setup of `obj` (source read as it reads it)."""
     from thicket import mesh_io
-    from thicket.pure.evaluate import texture_setup
+    from thicket.pure.evaluate import render_setup
     from thicket.stack.regenerate import enabled_settings
 
     items = enabled_settings(obj)
     groups = sorted({g for item in items for g in item.vertex_groups()})
-    return texture_setup(mesh_io.read_evaluated(obj, bpy.context.evaluated_depsgraph_get(), groups), items)
+    return render_setup(mesh_io.read_evaluated(obj, bpy.context.evaluated_depsgraph_get(), groups), items)
 
 
 def test_gpu_slices_agree_with_the_reference_in_blender(scene, tmp_path):

@@ -4,46 +4,29 @@ walk over the items by what each kind declares (`pure.kinds`).
 Without Blender: the same function serves operators, the headless API and tests.
 """
 
-from typing import NamedTuple
-
 import numpy as np
 
 from . import native
-from . import settings as S
 from .arrays import MeshArrays
-from .kinds import KINDS, Kind
-from .kinds.volumetric_texture import native_shell, placed_textures, texture_settings, texture_weights
-from .state import ShellContext, StackError, State
+from .kinds import KINDS
+from .state import StackError, State
 
 
-def _drawn(kind: Kind) -> bool:
-    """Whether a renderer draws the kind's result directly from the shell it consumes."""
-    return kind.consumes == "shell"
+def _drawn(kind) -> bool:
+    """Whether a renderer draws the kind instead of running its step (`Kind.draw_setup`)."""
+    return kind.drawn
 
 
-class TexturedShell(NamedTuple):
-    """What a renderer draws: a shell, its Volumetric Texture item, the placed
-    textures and the settings the bake would take (`texture_settings`)."""
-
-    shell: ShellContext
-    item: S.VolumetricTexture
-    textures: list
-    settings: dict
-
-    def handle(self):
-        """Its native handle (`volumetric_texture.native_shell`), to render from."""
-        return native_shell(self.shell, self.textures, self.settings)
-
-
-def texture_setup(source: MeshArrays, items, progress=None) -> TexturedShell:
-    """Runs the shell items up to the first Volumetric Texture item and returns what a
-    renderer draws directly, without baking. `progress`: as in `evaluate_stack`, over
-    those shells."""
+def render_setup(source: MeshArrays, items, progress=None):
+    """Runs the items before the first one a renderer draws (its kind declares a
+    `draw_setup`) and returns that kind's setup of it, what the renderer draws without
+    baking (its `handle()` renders frames). `progress`: as in `evaluate_stack`, over
+    the items run."""
     state, stopped = _run(source, items, progress, stop=_drawn)
     if stopped is None:
-        raise StackError("the stack has no enabled Volumetric Texture item to render")
-    weights = texture_weights(state, stopped)
-    return TexturedShell(state.shell, stopped, placed_textures(stopped), texture_settings(state.shell, stopped, weights))
+        labels = sorted({cls.label for cls, kind in KINDS.items() if kind.drawn})
+        raise StackError(f"the stack has no enabled {' or '.join(labels)} item to render")
+    return KINDS[type(stopped)].draw_setup(state, stopped)
 
 
 def progress_spans(items, bakes=True):

@@ -105,12 +105,13 @@ def _source():
 
 
 def _prepared(obj):
-    """(key, thicket_native.TexturedShell) of `obj`: one handle, rendered frame after
+    """(key, native handle) of `obj` (a `thicket_native.TexturedShell` for a Volumetric
+    Texture; the drawn kind's `draw_setup` says): one handle, rendered frame after
     frame, made again only when its `content_key` changed (the shell, the native
     read and checks, and the renderers' scene, which the handle makes on its first
     frame and keeps, are the expensive parts)."""
     from .. import mesh_io
-    from ..pure.evaluate import texture_setup
+    from ..pure.evaluate import render_setup
     from ..stack.guard import suspended
     from ..stack.regenerate import enabled_settings
 
@@ -122,7 +123,7 @@ def _prepared(obj):
             depsgraph = bpy.context.evaluated_depsgraph_get()
             groups = sorted({g for item in items for g in item.vertex_groups()})
             source = mesh_io.read_evaluated(obj, depsgraph, groups)
-        _state["prepared"] = (key, texture_setup(source, items).handle())
+        _state["prepared"] = (key, render_setup(source, items).handle())
     return _state["prepared"]
 
 

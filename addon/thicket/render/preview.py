@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 
 from .. import mesh_io
-from ..pure.evaluate import cancelled_error, texture_setup
+from ..pure.evaluate import cancelled_error, render_setup
 from ..stack.guard import suspended
 from ..stack.regenerate import enabled_settings
 from . import lights
@@ -15,7 +15,8 @@ PREVIEW_IMAGE = "Thicket Preview"
 
 
 def render_arrays(obj, view, projection, width, height, depsgraph=None, method="auto", slices=16, mipmaps="double", light=None, progress=None):
-    """The native render of `obj`'s first Volumetric Texture over its shell: a dict
+    """The native render of the first item of `obj`'s stack that a renderer draws (a
+    Volumetric Texture over its shell; `pure.evaluate.render_setup`): a dict
     with rgba (h, w, 4, row 0 at the top), depth, normal, renderer, fallback.
     `mipmaps`: "double", "linear" or "off" (see `thicket_native.render_shell`).
     `light`: direction toward the light in `obj`'s space; the scene's main light
@@ -47,7 +48,7 @@ def render_native(source, items, light, view, projection, width, height, method=
     `progress`: as in `evaluate_stack`, up to `SHELL_SHARE` over the shells, the rest
     over the render; False cancels either (a GPU frame once it is drawn)."""
     scaled = None if progress is None else (lambda f: progress(SHELL_SHARE * f))
-    setup = texture_setup(source, items, scaled)
+    setup = render_setup(source, items, scaled)
     if progress is not None and progress(SHELL_SHARE) is False:
         raise cancelled_error()
     out = setup.handle().render(

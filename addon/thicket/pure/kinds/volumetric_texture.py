@@ -3,6 +3,7 @@ in the latest shell, with its region, holes, cutter and moved region, baked to
 geometry; renderers draw it from the shell instead."""
 
 import os
+from typing import NamedTuple
 
 import numpy as np
 
@@ -135,6 +136,25 @@ def texture_weights(state: State, item: S.VolumetricTexture):
     """The item's per-vertex region, holes and move weights at the shell's base vertices."""
     at, group = state.shell.origin, lambda name: group_weights(state.source, name, at)
     return {"region": group(item.vertex_group), "holes": group(item.hole_group), "move": group(item.move_group)}
+
+
+class TexturedShell(NamedTuple):
+    """What a renderer draws of a Volumetric Texture item: the shell, the item, the
+    placed textures and the settings the bake would take (`texture_settings`)."""
+
+    shell: ShellContext
+    item: S.VolumetricTexture
+    textures: list
+    settings: dict
+
+    def handle(self):
+        """Its native handle (`native_shell`), to render from."""
+        return native_shell(self.shell, self.textures, self.settings)
+
+
+def texture_draw_setup(state: State, item: S.VolumetricTexture) -> TexturedShell:
+    """The kind's `draw_setup`: the textured shell the renderers draw, not baked."""
+    return TexturedShell(state.shell, item, placed_textures(item), texture_settings(state.shell, item, texture_weights(state, item)))
 
 
 def texture_step(state: State, item: S.VolumetricTexture, ask, progress):
