@@ -9,6 +9,7 @@
 
 mod arrays;
 mod errors;
+mod field;
 mod incremental;
 mod keywords;
 mod offset;
@@ -45,5 +46,7 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(texture_io::save_texture, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_shell, m)?)?;
     m.add_function(wrap_pyfunction!(render::save_render, m)?)?;
+    m.add_function(wrap_pyfunction!(field::field_eval, m)?)?;
+    m.add_function(wrap_pyfunction!(field::field_mesh, m)?)?;
     Ok(())
 }
