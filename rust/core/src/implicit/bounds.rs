@@ -5,7 +5,7 @@
 //! | plane, sphere, point, segment, rectangle, box, torus | 1 (exact distances, unit gradient) | plane, sphere, point: exact; the others: the value at the box's centre ± half its diagonal, and not below the distance between the box and the skeleton's box minus the radius | the skeleton's box grown by the radius (plane: none) |
 //! | offset | `L` | shifted | grown by the amount (shrinking: the child's) |
 //! | negate | `L` | negated | none (the outside of a solid) |
-//! | h | `sqrt(Σ Li²)` (1 for orthogonal unit-gradient inputs, as the skeletons use it) | `[h(lows), h(highs)]`: `h` is non-decreasing in every argument | the children's boxes intersected (`h >= max fi`) |
+//! | h | `sqrt(Σ Li²)` (the bound used for any `h` node: `|∇h|` is 1 on orthogonal unit-gradient inputs, as the built-in skeletons use it, but the bound cannot know that) | `[h(lows), h(highs)]`: `h` is non-decreasing in every argument | the children's boxes intersected (`h >= max fi`) |
 //! | max, intersection_wp | `max Li` (`w_p`'s gradient is a convex combination) | `[op(lows), op(highs)]`, monotone | the children's boxes intersected (`w_p >= max`) |
 //! | min | `max Li` | monotone | the children's boxes' union |
 //! | union_wp | `max Li` | monotone | the union grown by `ln(n) / p` (`-w_p(-f) >= min f - ln(n)/p`) |
@@ -13,8 +13,9 @@
 //! | displace | `L0 + |a| omega L1` | `f0`'s plus `a (cos + 1)` over `omega [f1] + tau` | `a >= 0`: the shape's; else grown by `2|a|` |
 //! | fractal | `L0 + Σ |a_j| omega_j L1` | per term as displace | grown by `Σ 2 max(-a_j, 0)` |
 //!
-//! The boxes come with the invariant they are built on: `f(x) >= d(x, B) - s` for a
-//! box `B` and a slack `s` (`d` the distance to the box, 0 inside), so `V(f)` lies in
+//! The boxes come with the invariant they are built on: `f(x) >= d(x, B) - s` for
+//! every `x` outside a box `B`, with a slack `s` (`d` the distance to the box; inside
+//! it `f` may be lower, e.g. `-min(half) - radius` in a box skeleton), so `V(f)` lies in
 //! `B` grown by `s` and `V(f - a)` in `B` grown by `s + a`. Intervals are exact
 //! enclosures up to rounding; [`super::FieldTree::range`] also intersects them with
 //! the Lipschitz bound around the box's centre.

@@ -153,7 +153,9 @@ fn compile_prim(op: &Op) -> Prim {
             Prim { kind: PrimKind::Plane, center: *point, axes: [n, a, b], half: [0.0; 3], radius: 0.0 }
         }
         Op::Sphere { center, radius } => Prim { kind: PrimKind::Sphere, center: *center, axes: world, half: [0.0; 3], radius: *radius },
-        Op::Point { center, radius } => Prim { kind: PrimKind::Cuboid, center: *center, axes: world, half: [0.0; 3], radius: *radius },
+        // `h` over the six world planes through the centre is the distance to it: the
+        // sphere's function (same value and gradient), whose interval is exact.
+        Op::Point { center, radius } => Prim { kind: PrimKind::Sphere, center: *center, axes: world, half: [0.0; 3], radius: *radius },
         Op::Segment { a, b, radius } => {
             let n = (*b - *a).normalize();
             let (u, v) = n.any_orthonormal_pair();

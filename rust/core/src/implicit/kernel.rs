@@ -190,7 +190,7 @@ mod tests {
     #[test]
     fn cos_range_matches_dense_sampling() {
         let mut rng = crate::test_rng::Rng(0x9e37_79b9);
-        let mut rand = || rng.next();
+        let mut rand = || rng.uniform();
         for _ in 0..2000 {
             let a = 40.0 * rand() - 20.0;
             let b = a + 8.0 * rand() * rand();

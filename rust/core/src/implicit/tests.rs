@@ -6,36 +6,8 @@
 
 use super::*;
 use crate::polygonize::{mesh_field, GridParams, SurfaceCheck};
+use crate::test_rng::Rng;
 use serde_json::{json, Value};
-
-/// A seeded xorshift sequence.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-    fn vec(&mut self, half: f64) -> DVec3 {
-        DVec3::new(self.range(-half, half), self.range(-half, half), self.range(-half, half))
-    }
-    fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = self.vec(1.0);
-            if v.length() > 0.2 && v.length() <= 1.0 {
-                return v.normalize();
-            }
-        }
-    }
-    fn pick(&mut self, n: usize) -> usize {
-        ((self.next() * n as f64) as usize).min(n - 1)
-    }
-}
 
 fn v3(v: DVec3) -> Value {
     json!([v.x, v.y, v.z])
@@ -134,8 +106,8 @@ fn h_of_orthogonal_unit_gradient_inputs_has_a_unit_gradient() {
         let frame = [n1, n2, n1.cross(n2)];
         let mut children: Vec<Value> = Vec::new();
         for n in frame {
-            if rng.next() < 0.8 {
-                let s = if rng.next() < 0.5 { 1.0 } else { -1.0 };
+            if rng.uniform() < 0.8 {
+                let s = if rng.uniform() < 0.5 { 1.0 } else { -1.0 };
                 children.push(json!({"op": "plane", "point": v3(rng.vec(0.5)), "normal": v3(n * s)}));
             }
         }
@@ -176,7 +148,7 @@ fn h_of_f_and_minus_f_is_the_absolute_value() {
 
 /// A random tree of unit-gradient leaves and the operations that keep `|∇f| <= 1`.
 fn random_soft_tree(rng: &mut Rng, depth: u32) -> Value {
-    if depth == 0 || rng.next() < 0.25 {
+    if depth == 0 || rng.uniform() < 0.25 {
         return random_leaf(rng);
     }
     let p = rng.range(0.5, 40.0);
@@ -194,7 +166,7 @@ fn random_soft_tree(rng: &mut Rng, depth: u32) -> Value {
 }
 
 fn color(rng: &mut Rng) -> Value {
-    json!([rng.next(), rng.next(), rng.next(), 1.0])
+    json!([rng.uniform(), rng.uniform(), rng.uniform(), 1.0])
 }
 
 /// A random bounded building block inside `[-0.9, 0.9]³`.
@@ -277,6 +249,26 @@ fn large_p_and_large_values_stay_finite() {
         let e = t.evaluate(&[Vec3::ZERO, Vec3::new(0.0, 1000.0, 0.0)]);
         assert!(e.values.iter().all(|v| v.is_finite()) && e.gradients.iter().all(|g| g.is_finite()));
     }
+    // The ends of the accepted range stay finite too; beyond them is refused.
+    for p in [crate::implicit::tree::P_RANGE.0, crate::implicit::tree::P_RANGE.1] {
+        let t = tree(&json!({"op": "union_wp", "p": p, "children": [a, b]}));
+        let s = t.sample(DVec3::new(0.0, 1000.0, 0.0));
+        assert!(s.value.is_finite() && s.gradient.is_finite() && s.color.iter().all(|c| c.is_finite()), "p = {p}: {s:?}");
+    }
+    // Trees nested deeper than the limit, built in code or as a JSON value, are refused
+    // before they are compiled (the recursion stays bounded).
+    let mut deep = Node::new(Op::Sphere { center: DVec3::ZERO, radius: 1.0 });
+    let mut value = json!({"op": "sphere", "center": [0, 0, 0], "radius": 1});
+    for _ in 0..200 {
+        deep = Node::new(Op::Negate { child: Box::new(deep) });
+        value = json!({"op": "negate", "child": value});
+    }
+    assert!(FieldTree::new(deep).expect_err("refused").to_string().contains("nested deeper"));
+    assert!(Node::from_value(&value).expect_err("refused").to_string().contains("nested deeper"));
+    for p in [1e-310, 1e306] {
+        let e = FieldTree::from_json(&json!({"op": "union_wp", "p": p, "children": [a, b]}).to_string()).expect_err("refused");
+        assert!(e.to_string().contains("p must be between"), "{e}");
+    }
 }
 
 /// Every field of `given` is in `written` with the same value (numbers as f64).
@@ -335,8 +327,8 @@ fn bad_input_gives_clear_errors() {
         (json!({"op": "segment", "a": [1, 2, 3], "b": [1, 2, 3]}).to_string(), "must differ"),
         (json!({"op": "h", "children": []}).to_string(), "at least one child"),
         (json!({"op": "min", "children": s}).to_string(), "must be a list of nodes"),
-        (json!({"op": "union_wp", "p": 0, "children": [s]}).to_string(), "p must be a finite number > 0"),
-        (json!({"op": "intersection_wp", "p": -2, "children": [s]}).to_string(), "p must be a finite number > 0"),
+        (json!({"op": "union_wp", "p": 0, "children": [s]}).to_string(), "p must be between"),
+        (json!({"op": "intersection_wp", "p": -2, "children": [s]}).to_string(), "p must be between"),
         (json!({"op": "union_wp", "children": [s]}).to_string(), "missing field \"p\""),
         (json!({"op": "difference_wp", "p": 2, "children": [s, s, s]}).to_string(), "exactly two children"),
         (json!({"op": "difference_wp", "p": 2, "children": [s]}).to_string(), "exactly two children"),
@@ -379,8 +371,8 @@ fn bad_input_gives_clear_errors() {
 
 /// A random tree of every kind of node (planes and complements included).
 fn random_any_tree(rng: &mut Rng, depth: u32) -> Value {
-    if depth == 0 || rng.next() < 0.2 {
-        return if rng.next() < 0.15 { json!({"op": "plane", "point": v3(rng.vec(0.5)), "normal": v3(rng.unit())}) } else { random_leaf(rng) };
+    if depth == 0 || rng.uniform() < 0.2 {
+        return if rng.uniform() < 0.15 { json!({"op": "plane", "point": v3(rng.vec(0.5)), "normal": v3(rng.unit())}) } else { random_leaf(rng) };
     }
     let mut kid = || random_any_tree(rng, depth - 1);
     let (a, b, c) = (kid(), kid(), kid());
@@ -416,7 +408,7 @@ fn interval_and_lipschitz_bounds_hold_at_sampled_points() {
             let (rl, ru) = t.range(lo, hi);
             assert!(il <= iu && rl <= ru && rl >= il && ru <= iu);
             for _ in 0..50 {
-                let x = lo + (hi - lo) * DVec3::new(rng.next(), rng.next(), rng.next());
+                let x = lo + (hi - lo) * DVec3::new(rng.uniform(), rng.uniform(), rng.uniform());
                 let v = t.sample(x).value;
                 let tol = 1e-9 * (1.0 + v.abs());
                 assert!(v >= rl - tol && v <= ru + tol, "{v} outside [{rl}, {ru}] (interval [{il}, {iu}]) in {lo}..{hi}: {doc}");
@@ -434,6 +426,9 @@ fn interval_and_lipschitz_bounds_hold_at_sampled_points() {
 #[test]
 fn intervals_are_tight_for_planes_and_spheres() {
     let t = tree(&json!({"op": "sphere", "center": [0, 0, 0], "radius": 1}));
+    assert_eq!(t.interval(DVec3::new(2.0, -1.0, -1.0), DVec3::new(3.0, 1.0, 1.0)), (1.0, 11f64.sqrt() - 1.0));
+    // A point is the distance to its centre: as tight as the sphere's.
+    let t = tree(&json!({"op": "point", "center": [0, 0, 0], "radius": 1}));
     assert_eq!(t.interval(DVec3::new(2.0, -1.0, -1.0), DVec3::new(3.0, 1.0, 1.0)), (1.0, 11f64.sqrt() - 1.0));
     let t = tree(&json!({"op": "plane", "point": [0, 0, 0], "normal": [0, 0, 2]}));
     assert_eq!(t.interval(DVec3::splat(-1.0), DVec3::new(1.0, 1.0, 3.0)), (-1.0, 3.0));
@@ -555,7 +550,7 @@ fn random_mesh_tree(rng: &mut Rng) -> Value {
         }
     };
     let parts: Vec<Value> = (0..2 + rng.pick(3)).map(|_| part(rng)).collect();
-    if rng.next() < 0.5 {
+    if rng.uniform() < 0.5 {
         json!({"op": "union_wp", "p": rng.range(3.0, 30.0), "children": parts})
     } else {
         json!({"op": "min", "children": parts})
@@ -639,7 +634,7 @@ fn the_scalar_field_interval_encloses_the_single_precision_values() {
         let c = rng.vec(1.0).as_vec3();
         let half = rng.vec(0.3).abs().as_vec3();
         let (lo, hi) = ScalarField::interval(&t, c - half, c + half).expect("trees bound themselves");
-        let points: Vec<Vec3> = (0..200).map(|_| c - half + 2.0 * half * DVec3::new(rng.next(), rng.next(), rng.next()).as_vec3()).collect();
+        let points: Vec<Vec3> = (0..200).map(|_| c - half + 2.0 * half * DVec3::new(rng.uniform(), rng.uniform(), rng.uniform()).as_vec3()).collect();
         let mut values = vec![0.0; points.len()];
         t.values(&points, &mut values);
         assert!(values.iter().all(|v| (lo..=hi).contains(v)), "[{lo}, {hi}]: {doc}");

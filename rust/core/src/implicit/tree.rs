@@ -17,6 +17,19 @@ pub const DEFAULT_COLOR: [f64; 4] = [0.8, 0.8, 0.8, 1.0];
 /// A rotation as a quaternion `[w, x, y, z]` (Blender's order); the identity.
 pub const IDENTITY: [f64; 4] = [1.0, 0.0, 0.0, 0.0];
 
+/// The exponents `p` the `w_p` operations accept (validation says why).
+pub const P_RANGE: (f64, f64) = (1e-3, 1e6);
+
+/// The deepest nesting a tree may have, read from JSON or built in code: reading,
+/// checking and compiling recurse once per level (serde_json's own parser stops at
+/// 128 too).
+pub const MAX_DEPTH: usize = 128;
+
+/// How deep the node at `path` ("root.children[1].child") is: one `.` per level.
+fn nesting(path: &str) -> usize {
+    path.matches('.').count()
+}
+
 /// One node of a field tree: what it computes and, optionally, its colour (for a
 /// primitive, its diffuse colour; for an operation, a colour painted over what its
 /// children blend).
@@ -253,10 +266,18 @@ impl Node {
     fn validate_at(&self, path: &str) -> Result<()> {
         let op = self.op.name();
         let fail = |msg: String| Err(Error::InvalidParameter(format!("field tree {path} ({op}): {msg}")));
+        if nesting(path) > MAX_DEPTH {
+            return fail(format!("nested deeper than {MAX_DEPTH} levels"));
+        }
         let finite = |name: &str, v: f64| if v.is_finite() { Ok(()) } else { fail(format!("{name} must be a finite number, got {v}")) };
         let finite3 = |name: &str, v: DVec3| if v.is_finite() { Ok(()) } else { fail(format!("{name} must be finite, got {v}")) };
         let at_least_zero = |name: &str, v: f64| if v >= 0.0 && v.is_finite() { Ok(()) } else { fail(format!("{name} must be a finite number >= 0, got {v}")) };
         let positive = |name: &str, v: f64| if v > 0.0 && v.is_finite() { Ok(()) } else { fail(format!("{name} must be a finite number > 0, got {v}")) };
+        // `w_p`'s exponent: beyond this range `p f` overflows, or `ln(n) / p` does, for
+        // values a tree can have (`|f|` up to 1e300); within it `p = 200` at `|f| = 1e3`
+        // and everything an artist uses (1 to a few hundred) is exact to rounding.
+        let exponent =
+            |p: f64| if (P_RANGE.0..=P_RANGE.1).contains(&p) { Ok(()) } else { fail(format!("p must be between {} and {}, got {p}", P_RANGE.0, P_RANGE.1)) };
         let direction = |name: &str, v: DVec3| {
             finite3(name, v)?;
             // Normalizing must give a unit vector in double precision.
@@ -325,13 +346,13 @@ impl Node {
                 }
             }
             Op::IntersectionWp { p, children } | Op::UnionWp { p, children } => {
-                positive("p", *p)?;
+                exponent(*p)?;
                 if children.is_empty() {
                     return fail("needs at least one child".into());
                 }
             }
             Op::DifferenceWp { p, children } => {
-                positive("p", *p)?;
+                exponent(*p)?;
                 if children.len() != 2 {
                     return fail(format!("needs exactly two children (the shape and what is cut from it), got {}", children.len()));
                 }
@@ -362,6 +383,9 @@ impl Node {
 /// Reads one node at `path` (structure and types; values are checked by validate).
 fn read_node(value: &Value, path: &str) -> Result<Node> {
     let err = |msg: String| Error::InvalidParameter(format!("field tree {path}: {msg}"));
+    if nesting(path) > MAX_DEPTH {
+        return Err(err(format!("nested deeper than {MAX_DEPTH} levels")));
+    }
     let Value::Object(map) = value else {
         return Err(err(format!("a node must be a JSON object with an \"op\", got {}", kind_of(value))));
     };

@@ -162,13 +162,8 @@ fn refined_vertices_lie_nearer_the_zero_set_than_the_linear_guess() {
 fn unions_with_creases_and_shapes_cut_by_the_box_stay_closed_manifolds() {
     // Seeded random unions of spheres, some overlapping (creases), some apart, some
     // leaving the box, at a few resolutions: the contract holds for every one.
-    let mut state = 0x2545_f491u32;
-    let mut rand = || {
-        state ^= state << 13;
-        state ^= state >> 17;
-        state ^= state << 5;
-        state as f32 / u32::MAX as f32
-    };
+    let mut rng = crate::test_rng::Rng(0x2545_f491);
+    let mut rand = || rng.uniform() as f32;
     for seed in 0..12 {
         let spheres: Vec<Sphere> =
             (0..3 + seed % 5).map(|_| Sphere { center: Vec3::new(rand(), rand(), rand()) * 2.0 - 1.0, radius: 0.15 + 0.45 * rand() }).collect();

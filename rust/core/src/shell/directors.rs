@@ -531,3 +531,32 @@ pub(crate) fn assemble(mesh: &Mesh, thickness: &[f32], side: Side, traces: &[(Tr
     let achieved = directors.iter().map(|d| d.length()).collect();
     Shell { side, base_offset, directors, achieved, target: thickness.iter().map(|t| t.abs()).collect(), check: ShellCheck::default() }
 }
+
+#[cfg(test)]
+mod step_tests {
+    use super::*;
+
+    /// Where the turn grows in proportion to the step, a rejected step's retry turns
+    /// by `TURN_AIM` of the threshold (within the shrink limits) and is accepted, and an
+    /// accepted step's successor aims there too; straight runs double, never more.
+    #[test]
+    fn next_step_aims_the_turn_at_the_threshold() {
+        let eps = 0.15;
+        assert_eq!(next_step(0.0, eps), 2.0);
+        for k in 1..=400 {
+            let turn = eps * k as f64 / 100.0; // up to four times the threshold
+            let f = next_step(turn, eps);
+            if turn > eps {
+                assert!((0.25..=MIN_SHRINK).contains(&f), "rejected at {turn}: {f}");
+                if turn * MIN_SHRINK.min(TURN_AIM * eps / turn) >= 0.25 * turn {
+                    assert!(turn * f <= eps + 1e-12, "the retry of {turn} turns by {} > {eps}", turn * f);
+                }
+            } else {
+                assert!((0.25..=2.0).contains(&f), "accepted at {turn}: {f}");
+                assert!(turn * f <= eps * TURN_AIM.max(2.0 * turn / eps) + 1e-12);
+            }
+        }
+        // Just over the threshold: shrink to about the aim, not by half.
+        assert!(next_step(eps * 1.01, eps) > 0.69);
+    }
+}

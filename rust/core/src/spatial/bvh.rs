@@ -448,7 +448,7 @@ mod tests {
     fn closest_finds_the_nearest_item_as_brute_force_does() {
         use crate::shell::intersect::point_triangle_distance2;
         let mut rng = crate::test_rng::Rng(0x9e37_79b9);
-        let mut rand = || rng.next();
+        let mut rand = || rng.uniform();
         let mut tris: Vec<[DVec3; 3]> = (0..300)
             .map(|_| {
                 let c = DVec3::new(rand(), rand(), rand()) * 10.0;

@@ -112,7 +112,7 @@ mod tests {
             let (a, b, c) = (rng.vec(1.0), rng.vec(1.0), rng.vec(1.0));
             let n = (b - a).cross(c - a).normalize();
             // A point off the plane: random projection (inside or outside), random height.
-            let h = (0.02 + rng.next()) * if k % 2 == 0 { 1.0 } else { -1.0 };
+            let h = (0.02 + rng.uniform()) * if k % 2 == 0 { 1.0 } else { -1.0 };
             let x = a + (rng.vec(1.0) * 1.5) + n * h;
             let x = x - n * (x - a).dot(n) + n * h;
             let e = triangle_p3(a, b, c, x);

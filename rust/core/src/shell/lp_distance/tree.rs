@@ -533,7 +533,7 @@ mod tests {
         let tree = PatchTree::build(&tris);
         let kernel = Kernel::new(3.0, 0.65);
         let mut rng = crate::test_rng::Rng(0x2545_f491);
-        let mut rand = || rng.next();
+        let mut rand = || rng.uniform();
         let mut useful = 0;
         for k in 0..400 {
             let x = DVec3::new(20.0 * rand() - 2.0, 20.0 * rand() - 2.0, 6.0 * rand() - 2.0);
