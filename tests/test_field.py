@@ -187,8 +187,8 @@ BAD_TREES = [
     (json.dumps({"op": "sphere", "center": [float("nan"), 0, 0], "radius": 1}), "not valid JSON"),
     (json.dumps({"op": "sphere", "center": [0, 0, 0], "radius": float("inf")}), "not valid JSON"),
     ('{"op": "sphere", "center": [0, 0, 0], "radius": 1e999}', "not valid JSON"),
-    (tree({"op": "union_wp", "p": 0, "children": [sphere((0, 0, 0), 1)]}), "p must be a finite number > 0"),
-    (tree({"op": "intersection_wp", "p": -3, "children": [sphere((0, 0, 0), 1)]}), "p must be a finite number > 0"),
+    (tree({"op": "union_wp", "p": 0, "children": [sphere((0, 0, 0), 1)]}), "p must be between"),
+    (tree({"op": "intersection_wp", "p": -3, "children": [sphere((0, 0, 0), 1)]}), "p must be between"),
     (tree({"op": "min", "children": []}), "at least one child"),
     (tree({"op": "sphere", "center": [0, 0, 0], "radius": -1}), "radius must be a finite number >= 0"),
 ]
