@@ -1,7 +1,6 @@
 //! Shell directors by integrating the averaged-distance gradient field (chapter 4.3,
 //! equation 4.5) with the adaptive explicit Euler scheme of section 4.4: the step is
-//! shortened while the field direction turns by more than a threshold (the thesis
-//! halves it; we scale it by the turn, [`next_step`]), and the trajectory
+//! halved while the field direction turns by more than a threshold, and the trajectory
 //! stops when the parameter `t` reaches the target thickness. The director is the
 //! straight segment from start to end (chapter 3.1); its length is the achieved
 //! thickness.
@@ -71,8 +70,7 @@ pub struct ShellParams {
     pub steps: u32,
     /// Adaptivity threshold ε on the turn of the field direction per step, radians.
     pub max_turn: f64,
-    /// Most times one step is shortened (by the turn's [`next_step`], or halved
-    /// where it would cross the surface).
+    /// Most halvings of one step.
     pub max_halvings: u32,
     /// Most field evaluations for one trajectory (never hang).
     pub max_evaluations: u32,
@@ -325,15 +323,14 @@ impl Tracer {
         };
         samples[0].push = push as f32;
         let mut slot = 1;
+        let cos_eps = params.max_turn.cos();
         let step0 = h / params.steps as f64;
-        // Step control: the turn of the field direction over a step grows about in
-        // proportion to the step, so the next step (and the retry of a rejected one)
-        // is scaled to end just under the threshold ([`next_step`]) instead of being
-        // halved and doubled: a trajectory bending through a concavity would otherwise
-        // spend an evaluation on a rejected step at nearly every step.
-        let mut next = step0;
+        // The step grows back by at most a factor of two after a turn: a trajectory
+        // bending through a concavity would otherwise retry the full step (and halve
+        // it again, an evaluation each time) at every step.
+        let mut last = step0;
         'outer: while t < h * (1.0 - 1e-7) && evals < params.max_evaluations {
-            let mut delta = (h - t).min(next);
+            let mut delta = (h - t).min(step0).min(2.0 * last);
             let mut halvings = 0;
             loop {
                 let xn = x + g * (speed * delta);
@@ -353,14 +350,13 @@ impl Tracer {
                 lo = lo.min(xn);
                 hi = hi.max(xn);
                 let Some((gn, sn, pn, cn)) = self.sample(xn, radius, g) else { break 'outer };
-                let turn = gn.dot(g).clamp(-1.0, 1.0).acos();
                 // A step that hardly moves (a trajectory stalled near the medial axis,
-                // where the direction swings) is accepted whatever the turn: shortening it
+                // where the direction swings) is accepted whatever the turn: halving it
                 // would only spend evaluations on no motion.
                 let still = speed * delta <= STALL * h;
-                if turn <= params.max_turn || still || halvings >= params.max_halvings || evals >= params.max_evaluations {
+                if gn.dot(g) >= cos_eps || still || halvings >= params.max_halvings || evals >= params.max_evaluations {
                     t += delta;
-                    next = if turn <= params.max_turn { delta * next_step(turn, params.max_turn) } else { 2.0 * delta }.min(step0);
+                    last = delta;
                     (x, g, speed, push, clearance) = (xn, gn, sn, pn, cn);
                     if slot < TRACE_SAMPLES - 1 && t >= h * slot as f64 / (TRACE_SAMPLES - 1) as f64 {
                         samples[slot] = Sample { at: x.as_vec3(), push: push as f32 };
@@ -368,7 +364,7 @@ impl Tracer {
                     }
                     break;
                 }
-                delta *= next_step(turn, params.max_turn);
+                delta *= 0.5;
                 halvings += 1;
             }
         }
@@ -379,30 +375,6 @@ impl Tracer {
 /// The share of an evaluation's clearance a step may take without a crossing test
 /// (a margin for rounding: the bound and the test are both in double precision).
 const CLEAR_SHARE: f64 = 0.99;
-
-/// Factor from a step whose field direction turned by `turn` to the next step (or to
-/// the retry of this one when `turn` exceeds `max_turn`): the step that would turn by
-/// [`TURN_AIM`] of the threshold, the turn taken as proportional to the step, kept
-/// within `[1/4, 2]` (a rejected step shrinks by at least [`MIN_SHRINK`]).
-fn next_step(turn: f64, max_turn: f64) -> f64 {
-    let f = if turn > 0.0 { TURN_AIM * max_turn / turn } else { 2.0 };
-    if turn > max_turn {
-        f.clamp(0.25, MIN_SHRINK)
-    } else {
-        f.clamp(0.25, 2.0)
-    }
-}
-
-/// The share of the turn threshold a step aims at, and the most a rejected step keeps.
-/// Not from the thesis (its steps halve and double): the usual safety factors of
-/// adaptive step control, chosen with `shell_file` on the comb subdivided twice
-/// (24.8k vertices). Halving and doubling, 39% of the interior 5% shell's field
-/// evaluations were rejected steps; aiming at 0.5, 0.6, 0.7, 0.8, 0.9 of the
-/// threshold took 387k, 365k, 362k, 376k, 396k evaluations (486k before), exterior
-/// 10% 304k at 0.7 (384k before), with the same shells (defects none, mean ratios
-/// 0.730 and 0.881 against 0.730 and 0.880).
-const TURN_AIM: f64 = 0.7;
-const MIN_SHRINK: f64 = 0.7;
 
 /// Per-side parameter length at each vertex for the requested side.
 pub(crate) fn side_lengths(thickness: &[f32], side: Side) -> Vec<f32> {
@@ -530,33 +502,4 @@ pub(crate) fn assemble(mesh: &Mesh, thickness: &[f32], side: Side, traces: &[(Tr
     }
     let achieved = directors.iter().map(|d| d.length()).collect();
     Shell { side, base_offset, directors, achieved, target: thickness.iter().map(|t| t.abs()).collect(), check: ShellCheck::default() }
-}
-
-#[cfg(test)]
-mod step_tests {
-    use super::*;
-
-    /// Where the turn grows in proportion to the step, a rejected step's retry turns
-    /// by `TURN_AIM` of the threshold (within the shrink limits) and is accepted, and an
-    /// accepted step's successor aims there too; straight runs double, never more.
-    #[test]
-    fn next_step_aims_the_turn_at_the_threshold() {
-        let eps = 0.15;
-        assert_eq!(next_step(0.0, eps), 2.0);
-        for k in 1..=400 {
-            let turn = eps * k as f64 / 100.0; // up to four times the threshold
-            let f = next_step(turn, eps);
-            if turn > eps {
-                assert!((0.25..=MIN_SHRINK).contains(&f), "rejected at {turn}: {f}");
-                if turn * MIN_SHRINK.min(TURN_AIM * eps / turn) >= 0.25 * turn {
-                    assert!(turn * f <= eps + 1e-12, "the retry of {turn} turns by {} > {eps}", turn * f);
-                }
-            } else {
-                assert!((0.25..=2.0).contains(&f), "accepted at {turn}: {f}");
-                assert!(turn * f <= eps * TURN_AIM.max(2.0 * turn / eps) + 1e-12);
-            }
-        }
-        // Just over the threshold: shrink to about the aim, not by half.
-        assert!(next_step(eps * 1.01, eps) > 0.69);
-    }
 }
