@@ -73,9 +73,10 @@ def generation():
 
 
 def _plain(value):
-    """A property value as plain, comparable data (an ID by its name)."""
+    """A property value as plain, comparable data (an ID, such as a cutter, by its
+    session id: another object of the same name is another content)."""
     if isinstance(value, bpy.types.ID):
-        return value.name
+        return ("ID", value.session_uid)
     if hasattr(value, "__len__") and not isinstance(value, str):
         return tuple(value)
     return value
