@@ -73,6 +73,19 @@ def test_scripts_with_the_former_names_work_with_a_warning(scene):
     assert sphere.thicket.items[0].surfaces == 2 and len(result.data.vertices) == 2 * len(sphere.data.vertices)
     with pytest.raises(TypeError, match="unexpected keyword argument 'layer'"):
         api.add_thick_surface(sphere, layer=2)
+    # Both names at once are refused, whatever the values; a name of another item is
+    # refused as given, without a warning about it.
+    for surfaces in (3, 4):
+        with pytest.raises(TypeError, match="former name 'layers'"):
+            api.add_thick_surface(add("cube"), surfaces=surfaces, layers=5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(TypeError, match="unexpected keyword argument 'texture_layers'"):
+            api.add_thick_surface(add("cube"), texture_layers=5)
+    # The warning names the script's line, also through add_volumetric_texture.
+    with pytest.warns(DeprecationWarning, match="'texture_layers'") as caught:
+        api.add_volumetric_texture(add("cube"), texture_layers=8)
+    assert caught[0].filename == __file__
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         api.add_item(cube, "OFFSET_SHELL", surfaces=2)  # the new names warn about nothing

@@ -110,7 +110,7 @@ def add_thick_surface(
     thickness=S.OffsetShell.thickness,
     thickness_mode="RELATIVE",
     output="OUTER",
-    surfaces=S.OffsetShell.surfaces,
+    surfaces=None,
     vertex_group="",
     kind="OFFSET_SHELL",
     side="EXTERIOR",
@@ -119,15 +119,18 @@ def add_thick_surface(
 ):
     """Gives `obj` a stack with one item of `kind` ("OFFSET_SHELL", or "SHELL" with a
     `side`) if it has none yet, and generates its result object, which is returned.
-    `surfaces`: how many surfaces output "LAYERS" (Stacked Surfaces) makes (formerly
-    `layers`, still taken in `former` with a DeprecationWarning for one release).
+    `surfaces`: how many surfaces output "LAYERS" (Stacked Surfaces) makes (default
+    `OffsetShell.surfaces`; formerly `layers`, still taken in `former` with a
+    DeprecationWarning for one release, a TypeError together with `surfaces`).
     `progress`: see the module docs (a cancel keeps the new stack, without result)."""
     from .stack.versioning import current_names
 
-    former = current_names(former)
-    surfaces = former.pop("surfaces", surfaces)
-    if former:
-        raise TypeError(f"add_thick_surface() got an unexpected keyword argument '{next(iter(former))}'")
+    unexpected = [k for k in former if k != "layers"]
+    if unexpected:
+        raise TypeError(f"add_thick_surface() got an unexpected keyword argument '{unexpected[0]}'")
+    if former and surfaces is not None:
+        raise TypeError("add_thick_surface() got 'surfaces' and its former name 'layers': pass 'surfaces' only")
+    surfaces = current_names(former).get("surfaces", S.OffsetShell.surfaces if surfaces is None else surfaces)
     _require_mesh(obj)
     if not obj.thicket.items:
         extra = {"side": side} if kind == "SHELL" else {}
@@ -142,6 +145,9 @@ def add_volumetric_texture(obj, pattern="chain_mail", shell_thickness=0.05, side
     the stack has no shell yet; regenerates and returns the result object.
     `progress`: see the module docs (a cancel keeps the new items, and the previous
     result)."""
+    from .stack.versioning import current_names
+
+    texture_settings = current_names(texture_settings)  # warns at the caller's line
     _require_mesh(obj)
     if not any(i.kind in ("SHELL", "OFFSET_SHELL") for i in obj.thicket.items):
         add_item(obj, "SHELL", thickness=shell_thickness, side=side)
