@@ -103,3 +103,16 @@ def test_no_setting_is_called_layers_any_more():
     assert output["LAYERS"] == "Stacked Surfaces"
     for p in props:
         assert "Layers" not in p.description, (p.identifier, p.description)
+
+
+def test_values_left_under_the_former_names_are_read(scene):
+    """Linked objects cannot be upgraded (read-only): what their file saved under the
+    former names is still what the stack evaluates."""
+    cube = add("cube")
+    shell = api.add_item(cube, "OFFSET_SHELL", output="LAYERS")
+    texture = api.add_item(cube, "VOLUMETRIC_TEXTURE")
+    saved_by_the_former_add_on(shell, layers=6)
+    saved_by_the_former_add_on(texture, texture_layers=20)
+    assert shell.to_settings().surfaces == 6 and texture.to_settings().depth_steps == 20
+    shell.surfaces, texture.depth_steps = 3, 9  # a value under the current name wins
+    assert shell.to_settings().surfaces == 3 and texture.to_settings().depth_steps == 9

@@ -5,6 +5,7 @@ from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatPrope
 
 from ..pure import settings as S
 from ..pure.arrays import SELECTED_FACES
+from .versioning import saved_value
 
 PATTERNS = [
     ("chain_mail", "Chain Mail", "Interlocking metal rings"),
@@ -206,7 +207,7 @@ class ThicketItem(bpy.types.PropertyGroup):
                 texture_size=self.texture_size,
                 tiling=self.tiling,
                 resolution=self.resolution,
-                depth_steps=self.depth_steps,
+                depth_steps=saved_value(self, "depth_steps"),
                 vertex_group=SELECTED_FACES if self.face_selection == "REGION" else self.vertex_group,
                 combine="" if self.combine == "NONE" else self.combine,
                 offset=tuple(self.offset),
@@ -220,7 +221,7 @@ class ThicketItem(bpy.types.PropertyGroup):
                 move_offset=tuple(self.move_offset),
                 cutter=self._cutter_arrays(depsgraph),
             )
-        return S.shell_settings(self.kind, self.thickness, self.thickness_mode, self.vertex_group, self.output, self.surfaces, self.side)
+        return S.shell_settings(self.kind, self.thickness, self.thickness_mode, self.vertex_group, self.output, saved_value(self, "surfaces"), self.side)
 
     def _cutter_arrays(self, depsgraph):
         if self.cutter is None:

@@ -33,6 +33,18 @@ def current_names(settings: dict, stacklevel=3) -> dict:
     return out
 
 
+def saved_value(item, name):
+    """The item's setting `name`, or the value a file from before the rename left
+    under its former name where it could not be moved (linked data is read-only, see
+    `upgrade_file`)."""
+    keys = item.keys()
+    if name not in keys:
+        for old, new in RENAMED_ITEM_PROPERTIES.items():
+            if new == name and old in keys:
+                return item[old]
+    return getattr(item, name)
+
+
 def upgrade_item(item) -> bool:
     """Moves the item's values saved under former property names to the current
     names (as ID properties: no update callback runs, nothing regenerates). Whether
@@ -49,8 +61,9 @@ def upgrade_item(item) -> bool:
 
 
 def upgrade_file() -> int:
-    """Upgrades every stack item of the open file's local objects (linked ones are
-    read-only and keep their library's values); how many items changed."""
+    """Upgrades every stack item of the open file's local objects; how many items
+    changed. Linked objects are read-only: their items keep the former names, which
+    `saved_value` reads."""
     count = 0
     for obj in bpy.data.objects:
         if obj.library is None:
