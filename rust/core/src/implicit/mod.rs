@@ -49,9 +49,9 @@
 //! | `negate` | `child` | `-f` (the complement; `h[f, negate f]` is `|f|`, section 3) |
 //! | `h` | `children` (at least one) | `h[f1, ..., fn]` (section 3): `|(f1⁺, ..., fn⁺)|` where some `fi >= 0`, else `max fi`; unit on orthogonal unit inputs |
 //! | `min` / `max` | `children` (at least one) | exact union / intersection (section 4) |
-//! | `intersection_wp` | `p > 0`, `children` (at least one) | `w_p(f1, ..., fn) = log(Σ e^(p fi)) / p` |
-//! | `union_wp` | `p > 0`, `children` (at least one) | `-w_p(-f1, ..., -fn)` |
-//! | `difference_wp` | `p > 0`, `children` (exactly two) | `w_p(f1, -f2)` |
+//! | `intersection_wp` | `p` (1e-3 to 1e6), `children` (at least one) | `w_p(f1, ..., fn) = log(Σ e^(p fi)) / p` |
+//! | `union_wp` | `p` (1e-3 to 1e6), `children` (at least one) | `-w_p(-f1, ..., -fn)` |
+//! | `difference_wp` | `p` (1e-3 to 1e6), `children` (exactly two) | `w_p(f1, -f2)` |
 //! | `displace` | `shape`, `texture`, `amplitude`, `omega > 0`, `tau` (0) | `f0 + amplitude (cos(omega f1 + tau) + 1)` (equation 1 with section 7's phase `tau`) |
 //! | `fractal` | `shape`, `texture`, `terms: [[a_j, omega_j > 0], ...]` (at least one), `tau` (0) | `f0 + Σ a_j (cos(omega_j f1 + tau) + 1)` (equation 2) |
 //!
