@@ -1,8 +1,13 @@
 //! Triangulation view of a polygon mesh: ear clipping in each face's best-fit plane
 //! (Newell normal), so concave n-gons triangulate correctly; fans as the fallback.
+//! A quad folded onto its neighbour (two faces sharing three vertices, as on
+//! Suzanne's chin) is split along its other diagonal when its first split would
+//! repeat the neighbour's triangle: a repeated triangle is a cell of zero volume
+//! whose shell and bake pieces would weld onto the neighbour's, using edges four times.
 
 use super::Mesh;
 use glam::{Vec2, Vec3};
+use std::collections::HashMap;
 
 /// Triangles of a mesh, each remembering the face it came from.
 #[derive(Debug, Clone, Default)]
@@ -20,7 +25,65 @@ impl Triangulation {
             face_triangles(mesh.positions(), face, &mut scratch, &mut out.triangles);
             out.face_of_triangle.extend(std::iter::repeat_n(f as u32, out.triangles.len() - before));
         }
+        out.split_folded_quads(mesh);
         out
+    }
+
+    /// Re-splits quads whose triangle repeats another face's triangle (the same three
+    /// vertices) along their other diagonal, where that repeats nothing.
+    fn split_folded_quads(&mut self, mesh: &Mesh) {
+        let key = |t: &[u32; 3]| {
+            let mut k = *t;
+            k.sort_unstable();
+            k
+        };
+        let mut seen: HashMap<[u32; 3], u32> = HashMap::with_capacity(self.triangles.len());
+        let mut repeated = Vec::new();
+        for (i, t) in self.triangles.iter().enumerate() {
+            if let Some(&first) = seen.get(&key(t)) {
+                repeated.push(first as usize);
+                repeated.push(i);
+            } else {
+                seen.insert(key(t), i as u32);
+            }
+        }
+        if repeated.is_empty() {
+            return;
+        }
+        // A quad's two triangles are adjacent; the first of them is where its split starts.
+        let starts: Vec<usize> = (0..=mesh.face_count())
+            .scan(0usize, |acc, f| {
+                let at = *acc;
+                if f < mesh.face_count() {
+                    *acc += mesh.face(f).len().saturating_sub(2);
+                }
+                Some(at)
+            })
+            .collect();
+        repeated.sort_unstable();
+        repeated.dedup();
+        for i in repeated {
+            let f = self.face_of_triangle[i] as usize;
+            let q = mesh.face(f);
+            if q.len() != 4 {
+                continue;
+            }
+            let at = starts[f];
+            let [a, b] = [self.triangles[at], self.triangles[at + 1]];
+            let other = if a[0] == q[0] { [[q[1], q[2], q[3]], [q[1], q[3], q[0]]] } else { [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] };
+            if other.iter().any(|t| seen.contains_key(&key(t))) {
+                continue;
+            }
+            for t in [a, b] {
+                if seen.get(&key(&t)).is_some_and(|&j| j as usize == at || j as usize == at + 1) {
+                    seen.remove(&key(&t));
+                }
+            }
+            for (k, t) in other.into_iter().enumerate() {
+                seen.insert(key(&t), (at + k) as u32);
+                self.triangles[at + k] = t;
+            }
+        }
     }
 }
 
@@ -123,6 +186,43 @@ mod tests {
         assert!((area(&p, &t.triangles, Vec3::Z) - 3.0).abs() < 1e-5);
         for tri in &t.triangles {
             assert!(area(&p, &[*tri], Vec3::Z) > 0.0, "triangle {tri:?} flipped");
+        }
+    }
+
+    #[test]
+    fn a_quad_folded_onto_its_neighbour_repeats_no_triangle() {
+        // Suzanne's chin: two quads sharing vertices 0, 1 and 2, folded onto each other
+        // with opposite normals; both short diagonals run 0-2, repeating triangle 0-1-2.
+        let p = vec![
+            Vec3::new(0.0, -0.75, -0.195),
+            Vec3::new(0.0, -0.797, -0.188),
+            Vec3::new(0.0, -0.742, -0.141),
+            Vec3::new(0.039, -0.781, -0.125),
+            Vec3::new(-0.039, -0.781, -0.125),
+        ];
+        let m = Mesh::new(p, &[4, 4], vec![0, 1, 3, 2, 4, 1, 0, 2], None).unwrap();
+        let t = m.triangulate();
+        let mut keys: Vec<[u32; 3]> = t
+            .triangles
+            .iter()
+            .map(|t| {
+                let mut k = *t;
+                k.sort_unstable();
+                k
+            })
+            .collect();
+        keys.sort_unstable();
+        keys.dedup();
+        assert_eq!(keys.len(), 4, "{:?}", t.triangles);
+        assert_eq!(t.face_of_triangle, vec![0, 0, 1, 1]);
+        // Each face's triangles still cover exactly its own corners.
+        for f in 0..2 {
+            let mut used: Vec<u32> = t.triangles[2 * f..2 * f + 2].iter().flatten().copied().collect();
+            used.sort_unstable();
+            used.dedup();
+            let mut corners = m.face(f).to_vec();
+            corners.sort_unstable();
+            assert_eq!(used, corners);
         }
     }
 
