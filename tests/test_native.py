@@ -240,7 +240,7 @@ def test_the_former_layers_keyword_works_for_one_release_with_a_warning():
     """ "layers" meant two settings here: the shell functions' count of surfaces (now
     `surfaces`) and the textured shell's lattice steps across the shell (now
     `depth_steps`). The old keyword gives the same result with a DeprecationWarning;
-    both names at once are refused."""
+    both names at once are refused, whatever the values."""
     import warnings
 
     sizes, corners = np.full(6, 4, np.int32), CUBE_F.ravel()
@@ -255,8 +255,9 @@ def test_the_former_layers_keyword_works_for_one_release_with_a_warning():
         with pytest.warns(DeprecationWarning, match=rf"{name}\(\): keyword 'layers' is deprecated .* use 'surfaces'"):
             old = call(layers=3)
         np.testing.assert_array_equal(old, call(surfaces=3), err_msg=name)
-        with pytest.raises(TypeError, match="former name 'layers'"):
-            call(surfaces=2, layers=3)
+        for surfaces in (2, 1):  # also the default: both names given is ambiguous whatever the values
+            with pytest.raises(TypeError, match="former name 'layers'"):
+                call(surfaces=surfaces, layers=3)
 
     args = (CUBE_V, sizes, corners, np.zeros_like(want["directors"]), want["directors"], [tn.texture("rivets", size=(8, 8, 4))])
     calls = {

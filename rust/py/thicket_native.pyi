@@ -50,7 +50,7 @@ def offset_shell(
     relative: bool = False,
     factors: Floats | None = None,
     output: str = "outer",
-    surfaces: int = 1,
+    surfaces: int | None = None,  # 1 when neither it nor `layers` is given
     *,
     layers: int | None = None,  # deprecated: the former name of `surfaces`
 ) -> dict[str, Any]: ...
@@ -64,7 +64,7 @@ def shell(
     relative: bool = False,
     factors: Floats | None = None,
     output: str = "outer",
-    surfaces: int = 1,
+    surfaces: int | None = None,  # 1 when neither it nor `layers` is given
     p: float = 3.0,
     progress: Progress = None,
     *,
@@ -94,7 +94,7 @@ class IncrementalShell:
         relative: bool = False,
         factors: Floats | None = None,
         output: str = "outer",
-        surfaces: int = 1,
+        surfaces: int | None = None,  # 1 when neither it nor `layers` is given
         p: float = 3.0,
         tolerance: float = 0.03,
         progress: Progress = None,

@@ -49,11 +49,11 @@ fn main() {
     let texture = Generator::new(Pattern::ChainMail).generate([64, 64, 32]).unwrap();
     let layers = [TextureLayer { texture: texture.clone(), offset: Vec2::ZERO }];
     // The fixed lattice, unsimplified: the polygonizer's throughput at a known sample count.
-    let params = BakeParams { resolution: 8, layers: 16, follow_texture: false, triangle_budget: 0, ..Default::default() };
+    let params = BakeParams { resolution: 8, depth_steps: 16, follow_texture: false, triangle_budget: 0, ..Default::default() };
     let faces = mesh.face_count();
     // Lattice samples: vertices, edge points, face points, times layers + 1.
     let edges = faces * 3 / 2;
-    let (n, m) = (params.resolution as usize, params.layers as usize);
+    let (n, m) = (params.resolution as usize, params.depth_steps as usize);
     let samples = (mesh.vertex_count() + edges * (n - 1) + faces * (n - 1) * (n - 2) / 2) * (m + 1);
     println!("mesh: {} faces; chain mail 64x64x32; lattice {n} per edge x {m} layers = {samples} samples; {} threads", faces, rayon::current_num_threads());
 

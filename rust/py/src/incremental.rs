@@ -13,7 +13,7 @@ use crate::offset::ShellRequest;
 use crate::shell::{params, shell_dict};
 
 /// IncrementalShell(vertices, face_sizes, corners, thickness, side="exterior",
-///                  relative=False, factors=None, output="outer", surfaces=1, p=3.0,
+///                  relative=False, factors=None, output="outer", surfaces=None, p=3.0,
 ///                  tolerance=0.03, progress=None)
 ///
 /// The shell of `shell()`, kept for updates: `update(vertices, factors=None)` moves
@@ -44,7 +44,7 @@ fn failed() -> PyErr {
 #[pymethods]
 impl IncrementalShell {
     #[new]
-    #[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", surfaces=1, p=3.0, tolerance=DEFAULT_TOLERANCE, progress=None, *, layers=None))]
+    #[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", surfaces=None, p=3.0, tolerance=DEFAULT_TOLERANCE, progress=None, *, layers=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -56,7 +56,7 @@ impl IncrementalShell {
         relative: bool,
         factors: Option<&Bound<'_, PyAny>>,
         output: &str,
-        surfaces: u32,
+        surfaces: Option<u32>,
         p: f64,
         tolerance: f64,
         progress: Option<Bound<'_, PyAny>>,

@@ -82,21 +82,21 @@ pub(crate) fn deprecated_keyword(py: Python<'_>, function: &str, old: &str, name
 }
 
 /// A count given under its current name or, for one release, its former name `old`
-/// (`old`: None when not given; `default`: the current name's default, which a caller
-/// passing both must leave as is): the shell functions' `surfaces`, formerly `layers`.
-pub(crate) fn renamed_argument<T: PartialEq>(
+/// (each None when not given; `default` when neither is): the shell functions'
+/// `surfaces`, formerly `layers`. Both given is a TypeError, whatever the values.
+pub(crate) fn renamed_argument<T>(
     py: Python<'_>,
     function: &str,
-    (name, value): (&str, T),
+    (name, value): (&str, Option<T>),
     (old, given): (&str, Option<T>),
     default: T,
 ) -> PyResult<T> {
-    let Some(given) = given else {
-        return Ok(value);
-    };
-    if value != default {
-        return Err(PyTypeError::new_err(format!("{function}() got '{name}' and its former name '{old}': pass '{name}' only")));
+    match (value, given) {
+        (Some(_), Some(_)) => Err(PyTypeError::new_err(format!("{function}() got '{name}' and its former name '{old}': pass '{name}' only"))),
+        (value, None) => Ok(value.unwrap_or(default)),
+        (None, Some(given)) => {
+            deprecated_keyword(py, function, old, name)?;
+            Ok(given)
+        }
     }
-    deprecated_keyword(py, function, old, name)?;
-    Ok(given)
 }

@@ -64,7 +64,7 @@ pub fn parse_output(output: &str, surfaces: u32) -> PyResult<ShellOutput> {
 /// from: UV maps and material indices carry over) and directors (n,3) float32 for the
 /// base vertices.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, thickness, relative=false, factors=None, output="outer", surfaces=1, *, layers=None))]
+#[pyo3(signature = (vertices, face_sizes, corners, thickness, relative=false, factors=None, output="outer", surfaces=None, *, layers=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn offset_shell<'py>(
     py: Python<'py>,
@@ -75,7 +75,7 @@ pub fn offset_shell<'py>(
     relative: bool,
     factors: Option<&Bound<'py, PyAny>>,
     output: &str,
-    surfaces: u32,
+    surfaces: Option<u32>,
     layers: Option<u32>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let surfaces = renamed_argument(py, "offset_shell", ("surfaces", surfaces), ("layers", layers), 1)?;

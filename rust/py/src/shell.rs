@@ -52,7 +52,7 @@ pub fn build_shell<'py>(
 }
 
 /// shell(vertices, face_sizes, corners, thickness, side="exterior", relative=False,
-///       factors=None, output="outer", surfaces=1, p=3.0, progress=None) -> dict
+///       factors=None, output="outer", surfaces=None, p=3.0, progress=None) -> dict
 ///
 /// The L_p-field shell of a polygon mesh with shell geometry, as `offset_shell` but
 /// with field-integrated directors. Returns the geometry arrays plus base_offset and
@@ -63,7 +63,7 @@ pub fn build_shell<'py>(
 /// and 1.0 at the end, while the work runs on another thread; returning False, raising
 /// or Ctrl-C cancels it (`Cancelled`, a `ThicketError`, or the exception raised).
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", surfaces=1, p=3.0, progress=None, *, layers=None))]
+#[pyo3(signature = (vertices, face_sizes, corners, thickness, side="exterior", relative=false, factors=None, output="outer", surfaces=None, p=3.0, progress=None, *, layers=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn shell<'py>(
     py: Python<'py>,
@@ -75,7 +75,7 @@ pub fn shell<'py>(
     relative: bool,
     factors: Option<&Bound<'py, PyAny>>,
     output: &str,
-    surfaces: u32,
+    surfaces: Option<u32>,
     p: f64,
     progress: Option<Bound<'py, PyAny>>,
     layers: Option<u32>,

@@ -161,8 +161,7 @@ impl BakeInputs {
         };
         let params = BakeParams {
             resolution: settings.resolution,
-            // The core still calls the steps across the shell `layers`.
-            layers: settings.depth_steps,
+            depth_steps: settings.depth_steps,
             follow_texture: settings.follow_texture,
             tiling: settings.tiling,
             region,

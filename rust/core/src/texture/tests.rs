@@ -41,7 +41,7 @@ fn chain_mail_on_the_bunny_bakes_closed_and_crack_free() {
     let mesh = tm::bunny();
     let s = shell(&mesh, 0.03);
     let tex = Generator::new(Pattern::ChainMail).generate([48, 48, 24]).unwrap();
-    let params = BakeParams { resolution: 8, layers: 12, ..Default::default() };
+    let params = BakeParams { resolution: 8, depth_steps: 12, ..Default::default() };
     let b = bake(&mesh, &s, &layer(tex), &params).unwrap();
     assert!(b.per_face_tiles, "the bunny has no UVs");
     assert!(b.triangles.len() > 10_000, "{}", b.triangles.len());
@@ -65,7 +65,7 @@ fn every_pattern_bakes_closed_on_an_open_sheet_with_uvs() {
     let s = shell(&mesh, 0.08);
     for p in Pattern::ALL {
         let tex = Generator::new(p).generate([32, 32, 16]).unwrap();
-        let b = bake(&mesh, &s, &layer(tex), &BakeParams { resolution: 6, layers: 12, tiling: 2.0, ..Default::default() }).unwrap();
+        let b = bake(&mesh, &s, &layer(tex), &BakeParams { resolution: 6, depth_steps: 12, tiling: 2.0, ..Default::default() }).unwrap();
         assert!(!b.per_face_tiles);
         assert!(!b.triangles.is_empty(), "{p:?}");
         let r = as_mesh(&b).report();
@@ -81,7 +81,7 @@ fn a_slab_texture_bakes_to_the_mid_layer_with_radial_normals() {
     let s = shell(&mesh, 0.1);
     let h = 0.1 * mesh.bbox_diagonal();
     let slab = VolumeTexture::from_fn([4, 4, 33], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap();
-    let b = bake(&mesh, &s, &layer(slab), &BakeParams { resolution: 3, layers: 16, ..Default::default() }).unwrap();
+    let b = bake(&mesh, &s, &layer(slab), &BakeParams { resolution: 3, depth_steps: 16, ..Default::default() }).unwrap();
     let mut outer = 0;
     for ((p, n), c) in b.positions.iter().zip(&b.normals).zip(&b.texcoords) {
         if c.z > 0.25 {
@@ -103,7 +103,7 @@ fn normals_agree_with_the_baked_geometry() {
     // A lattice that resolves the texture (12 steps per face, 16 texels per tile):
     // normals are the lattice's differences, so below that they alias like the surface.
     let tex = Generator::new(Pattern::Rivets).generate([16, 16, 16]).unwrap();
-    let b = bake(&mesh, &s, &layer(tex), &BakeParams { resolution: 12, layers: 16, ..Default::default() }).unwrap();
+    let b = bake(&mesh, &s, &layer(tex), &BakeParams { resolution: 12, depth_steps: 16, ..Default::default() }).unwrap();
     let geo = crate::mesh::vertex_normals(&as_mesh(&b));
     let mean: f32 = b.normals.iter().zip(&geo).map(|(a, g)| a.dot(*g)).sum::<f32>() / geo.len() as f32;
     assert!(mean > 0.9, "mean agreement {mean}");
@@ -116,7 +116,7 @@ fn regions_show_the_base_where_the_texture_is_absent() {
     let tex = VolumeTexture::from_fn([4, 4, 17], |c| if c.z < 0.7 { 1.0 } else { 0.0 }).unwrap();
     // Texture on the upper half only.
     let region: Vec<f32> = mesh.positions().iter().map(|p| if p.z > 0.0 { 1.0 } else { 0.0 }).collect();
-    let params = BakeParams { resolution: 4, layers: 12, region: Some(region), ..Default::default() };
+    let params = BakeParams { resolution: 4, depth_steps: 12, region: Some(region), ..Default::default() };
     let b = bake(&mesh, &s, &layer(tex), &params).unwrap();
     assert!(as_mesh(&b).report().is_closed_manifold());
     // Low on the sphere only the thin base slab remains; the texture rises high at the top.
@@ -131,7 +131,7 @@ fn combined_textures_are_a_union() {
     let s = shell(&mesh, 0.1);
     let a = Generator::new(Pattern::Rivets).generate([32, 32, 16]).unwrap();
     let g = VolumeTexture::from_fn([4, 4, 17], |c| if c.z < 0.8 && c.x < 0.5 { 1.0 } else { 0.0 }).unwrap();
-    let p = BakeParams { resolution: 4, layers: 12, ..Default::default() };
+    let p = BakeParams { resolution: 4, depth_steps: 12, ..Default::default() };
     let one = bake(&mesh, &s, &layer(a.clone()), &p).unwrap();
     let both = bake(&mesh, &s, &[TextureLayer { texture: a, offset: Vec2::ZERO }, TextureLayer { texture: g, offset: Vec2::new(0.3, 0.1) }], &p).unwrap();
     let top = |b: &BakedMesh| b.texcoords.iter().map(|c| c.z).fold(0.0f32, f32::max);
@@ -176,7 +176,7 @@ fn slab_top_near(b: &BakedMesh, x: f32, y: f32, radius: f32) -> usize {
 #[test]
 fn holes_from_a_vertex_group_and_a_cutter_leave_the_texture_out() {
     let (mesh, s, tex) = sheet_with_uvs();
-    let p = BakeParams { resolution: 4, layers: 12, ..Default::default() };
+    let p = BakeParams { resolution: 4, depth_steps: 12, ..Default::default() };
     let full = bake(&mesh, &s, &tex, &p).unwrap();
     assert!(slab_top_near(&full, 0.5, 0.5, 0.2) > 0 && slab_top_near(&full, -0.5, -0.5, 0.2) > 0);
     // Vertex group: weight 1 around (0.5, 0.5).
@@ -202,7 +202,7 @@ fn a_moved_region_lands_elsewhere_and_leaves_the_base_behind() {
     let (mesh, s, tex) = sheet_with_uvs();
     // Texture only inside a disc around (-0.5, 0); the rest of the sheet is base.
     let disc: Vec<f32> = mesh.positions().iter().map(|q| if (q.truncate() - Vec2::new(-0.5, 0.0)).length() < 0.3 { 1.0 } else { 0.0 }).collect();
-    let p = BakeParams { resolution: 4, layers: 12, region: Some(disc.clone()), ..Default::default() };
+    let p = BakeParams { resolution: 4, depth_steps: 12, region: Some(disc.clone()), ..Default::default() };
     let before = bake(&mesh, &s, &tex, &p).unwrap();
     assert!(slab_top_near(&before, -0.5, 0.0, 0.15) > 0 && slab_top_near(&before, 0.5, 0.0, 0.15) == 0);
     // Move the disc by +0.5 in u (UVs span the sheet's 2 units, so 1 unit in x).
@@ -226,7 +226,7 @@ fn a_full_region_bakes_the_same_surface_as_none() {
     let s = shell(&mesh, 0.1);
     let tex = layer(Generator::new(Pattern::Rivets).generate([32, 32, 16]).unwrap());
     // No simplification: the lattices' surfaces compared vertex for vertex.
-    let p = BakeParams { resolution: 4, layers: 12, triangle_budget: 0, ..Default::default() };
+    let p = BakeParams { resolution: 4, depth_steps: 12, triangle_budget: 0, ..Default::default() };
     let fast = bake(&mesh, &s, &tex, &p).unwrap();
     let general = bake(&mesh, &s, &tex, &BakeParams { region: Some(vec![1.0; mesh.vertex_count()]), ..p }).unwrap();
     assert_eq!(fast.triangles.len(), general.triangles.len());
@@ -242,7 +242,7 @@ fn more_than_sixty_four_layers_bake_the_same_surface() {
     let s = shell(&mesh, 0.1);
     let slab = VolumeTexture::from_fn([4, 4, 33], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap();
     for layers in [40, 80] {
-        let b = bake(&mesh, &s, &layer(slab.clone()), &BakeParams { resolution: 2, layers, ..Default::default() }).unwrap();
+        let b = bake(&mesh, &s, &layer(slab.clone()), &BakeParams { resolution: 2, depth_steps: layers, ..Default::default() }).unwrap();
         assert!(as_mesh(&b).report().is_closed_manifold(), "{layers}");
         let top: Vec<f32> = b.texcoords.iter().map(|c| c.z).filter(|r| *r > 0.25).collect();
         assert!(!top.is_empty() && top.iter().all(|r| (r - 0.5).abs() < 0.03), "{layers}: {top:?}");
@@ -260,7 +260,7 @@ fn the_triangle_estimate_is_within_one_and_a_half_times_the_bake() {
     let half = |m: &Mesh| m.positions().iter().map(|p| if p.x > 0.0 { 1.0 } else { 0.0 }).collect::<Vec<f32>>();
     let ball = tm::icosphere(1);
     let cutter = Cutter::new(&ball.positions().iter().map(|p| *p * 0.6 + Vec3::new(0.5, 0.0, 0.0)).collect::<Vec<_>>(), &ball.triangulate().triangles).unwrap();
-    let base = |tiling| BakeParams { resolution: 6, layers: 12, tiling, ..Default::default() };
+    let base = |tiling| BakeParams { resolution: 6, depth_steps: 12, tiling, ..Default::default() };
     let cases: Vec<(&str, &Mesh, &crate::shell::Shell, BakeParams)> = vec![
         ("sphere", &sphere, &sphere_shell, base(1.0)),
         ("sheet", &sheet, &sheet_shell, base(3.0)),
@@ -277,7 +277,9 @@ fn the_triangle_estimate_is_within_one_and_a_half_times_the_bake() {
     }
     // The estimate refuses what the bake refuses (no panic on a zero resolution).
     let tex = layer(Generator::new(Pattern::Weave).generate([8, 8, 4]).unwrap());
-    for bad in [BakeParams { resolution: 0, ..base(1.0) }, BakeParams { layers: 100_000, ..base(1.0) }, BakeParams { region: Some(vec![0.5]), ..base(1.0) }] {
+    for bad in
+        [BakeParams { resolution: 0, ..base(1.0) }, BakeParams { depth_steps: 100_000, ..base(1.0) }, BakeParams { region: Some(vec![0.5]), ..base(1.0) }]
+    {
         assert!(estimate_triangles(&sphere, &sphere_shell, &tex, &bad).is_err());
     }
 }
@@ -290,7 +292,7 @@ fn interior_shells_bake_closed_and_outward_facing() {
     let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
     let s = build_shell(&mesh, &t, Side::Interior, &ShellParams::default()).unwrap();
     let tex = Generator::new(Pattern::Rivets).generate([16, 16, 16]).unwrap();
-    let b = bake(&mesh, &s, &layer(tex), &BakeParams { resolution: 12, layers: 16, ..Default::default() }).unwrap();
+    let b = bake(&mesh, &s, &layer(tex), &BakeParams { resolution: 12, depth_steps: 16, ..Default::default() }).unwrap();
     let baked = as_mesh(&b);
     assert!(baked.report().is_closed_manifold(), "{:?}", baked.report());
     let geo = crate::mesh::vertex_normals(&baked);
@@ -313,7 +315,7 @@ fn textures_finer_than_the_lattice_still_bake_closed_manifolds() {
             ((h >> 8) & 0xffff) as f32 / 65535.0
         })
         .unwrap();
-        let b = bake(&mesh, &s, &layer(noise), &BakeParams { resolution: 4, layers: 8, follow_texture: false, ..Default::default() }).unwrap();
+        let b = bake(&mesh, &s, &layer(noise), &BakeParams { resolution: 4, depth_steps: 8, follow_texture: false, ..Default::default() }).unwrap();
         assert!(!b.triangles.is_empty());
         let r = as_mesh(&b).report();
         assert!(r.is_closed_manifold(), "seed {seed}: {r:?}");

@@ -5,7 +5,7 @@
 //!   sampled on a lattice numbered globally so neighbouring cells share samples. Its
 //!   steps follow the texture (chapter 3.2: the texture is the detail, so the bake
 //!   samples it at its own texel spacing), at least `resolution` per base edge and
-//!   `layers` along the directors.
+//!   `depth_steps` along the directors.
 //! - [`bounds`]: where the occupancy cannot reach the iso-level, whole blocks of the
 //!   lattice are skipped, so sampling that fine costs only where the surface is.
 //! - [`occupancy`]: the occupancy sampled there: textures united, then the stack's
@@ -51,10 +51,10 @@ pub struct BakeParams {
     /// Lattice steps along each base edge of a cell, at least (see `follow_texture`).
     pub resolution: u32,
     /// Lattice steps along the directors, at least.
-    pub layers: u32,
+    pub depth_steps: u32,
     /// Refine the lattice to the texture's own texel spacing (up to [`MAX_STEPS`] per
     /// cell edge and across the shell), so features as thin as a texel survive.
-    /// Off: exactly `resolution` and `layers` steps (a quick, coarse bake).
+    /// Off: exactly `resolution` and `depth_steps` steps (a quick, coarse bake).
     pub follow_texture: bool,
     /// UV tiling factor.
     pub tiling: f32,
@@ -94,7 +94,7 @@ impl Default for BakeParams {
     fn default() -> Self {
         Self {
             resolution: 8,
-            layers: 16,
+            depth_steps: 16,
             follow_texture: true,
             tiling: 1.0,
             region: None,
@@ -176,8 +176,8 @@ impl BakeParams {
         if shell.directors.len() != mesh.vertex_count() {
             return Err(Error::InvalidParameter("the shell does not belong to this mesh".into()));
         }
-        if !(1..=64).contains(&self.resolution) || !(2..=256).contains(&self.layers) {
-            return Err(Error::InvalidParameter("resolution must be in 1..=64 and layers in 2..=256".into()));
+        if !(1..=64).contains(&self.resolution) || !(2..=256).contains(&self.depth_steps) {
+            return Err(Error::InvalidParameter("resolution must be in 1..=64 and depth_steps in 2..=256".into()));
         }
         if !(self.tiling > 0.0 && self.tiling.is_finite()) {
             return Err(Error::InvalidParameter("tiling must be a positive number".into()));
@@ -239,7 +239,7 @@ struct Steps {
 /// ([`aligned_steps`]), the finest such instead; the layers lie on the texture's slices
 /// ([`texel_layers`]). A cell's lattice stays under [`MAX_CELL_SAMPLES`].
 fn lattice_steps(st: &[[Vec2; 3]], textures: &[TextureLayer], params: &BakeParams) -> Steps {
-    let (n0, m0) = (params.resolution, params.layers);
+    let (n0, m0) = (params.resolution, params.depth_steps);
     let uniform = |m: u32| (0..=m).map(|l| l as f32 / m as f32).collect::<Vec<f32>>();
     if !params.follow_texture || st.is_empty() {
         return Steps { n: n0, heights: uniform(m0), block: 1, finer: false, thin: false };
