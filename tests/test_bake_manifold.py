@@ -233,3 +233,31 @@ def test_the_defaults_that_made_opposite_faces_and_crossings_now_bake_clean(scen
         out = tn.bake_texture(*args, **settings)
         defects = {k: v for k, v in blender_defects(out).items() if v}
         assert len(out["corners"]) > 0 and not defects, f"{pattern} {settings.keys()}: {defects}"
+
+
+@pytest.mark.parametrize("pattern", ["fur", "grass"])
+def test_thin_textures_at_the_default_bake_settings(scene, pattern):
+    """Fur and grass take the texel-aligned lattice (two steps per texel) and the
+    simplifier only at the default bake settings, which the tests above (thick features,
+    coarse lattices) never reach. The cube: the default 64x64x32 texture, one tile per
+    face, a budget the simplifier must work for, and every check. Suzanne: its chin has
+    two quads folded onto each other (faces 142 and 143 share three vertices), whose
+    shared triangle once made a zero-volume cell that welded onto its neighbour; her
+    eyes cross her head, so there only the topology is checked (crossings follow the
+    base's own)."""
+    cube = primitive("cube")
+    shell = tn.shell(cube.vertices, cube.face_sizes, cube.corners, 0.05, relative=True)
+    args = (cube.vertices, cube.face_sizes, cube.corners, shell["base_offset"], shell["directors"], [tn.texture(pattern)])
+    out = tn.bake_texture(*args, triangle_budget=150_000)
+    estimate = tn.estimate_bake(*args, triangle_budget=150_000)
+    assert 150_000 <= len(out["corners"]) // 3 < 300_000, len(out["corners"]) // 3
+    assert 1 / 1.5 <= estimate / (len(out["corners"]) // 3) <= 1.5, estimate
+    defects = {k: v for k, v in blender_defects(out).items() if v}
+    assert not defects, f"cube: {defects}"
+
+    monkey = primitive("monkey")
+    shell = tn.shell(monkey.vertices, monkey.face_sizes, monkey.corners, 0.05, relative=True)
+    texture = tn.texture(pattern, size=(16, 16, 8))
+    out = tn.bake_texture(monkey.vertices, monkey.face_sizes, monkey.corners, shell["base_offset"], shell["directors"], [texture])
+    topology = {k: v for k, v in blender_defects(out).items() if v and "crossing" not in k}
+    assert len(out["corners"]) > 0 and not topology, f"Suzanne: {topology}"
