@@ -105,6 +105,24 @@ def test_no_setting_is_called_layers_any_more():
         assert "Layers" not in p.description, (p.identifier, p.description)
 
 
+def test_a_headless_script_enabling_the_add_on_after_opening_a_file_upgrades_it(scene, tmp_path):
+    """Background mode runs no timers: enabling the add-on after opening an old file
+    upgrades it at once (it was left with the former names)."""
+    import thicket
+
+    cube = add("cube")
+    saved_by_the_former_add_on(api.add_item(cube, "OFFSET_SHELL", output="LAYERS"), layers=6)
+    path = str(tmp_path / "former.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    thicket.unregister()
+    try:
+        bpy.ops.wm.open_mainfile(filepath=path)  # no handler of Thicket's runs
+    finally:
+        thicket.register()
+    item = bpy.data.objects["Cube"].thicket.items[0]
+    assert item.surfaces == 6 and "layers" not in item.keys()
+
+
 def test_values_left_under_the_former_names_are_read(scene):
     """Linked objects cannot be upgraded (read-only): what their file saved under the
     former names is still what the stack evaluates."""

@@ -5,7 +5,7 @@ A .blend stores each stack item's settings as ID properties under their property
 names, so a file saved before a rename holds its values under the former names,
 which the item no longer reads. `upgrade_file` moves them to the current names
 when a file is loaded (`load_post`) and once when the add-on is enabled with a file
-open; scripts passing a former name to `api.add_item` get a DeprecationWarning.
+open (at once where a script enables it, headless too; after startup in the interface); scripts passing a former name to `api.add_item` get a DeprecationWarning.
 """
 
 import warnings
@@ -77,8 +77,14 @@ def on_load(*_args):
 
 
 def _upgrade_open_file():
-    """Once after the add-on is enabled (bpy.data is not readable while it registers)."""
-    upgrade_file()
+    """Once after the add-on is enabled in the interface (bpy.data is not readable
+    while it registers at startup), as one undo step so Ctrl+Z does not undo the
+    user's last change together with it."""
+    if upgrade_file():
+        try:
+            bpy.ops.ed.undo_push(message="Thicket: upgrade settings saved under former names")
+        except RuntimeError:  # no window to push in (a script's context)
+            pass
     return None
 
 
@@ -86,7 +92,11 @@ def register():
     if on_load not in bpy.app.handlers.load_post:
         # First among Thicket's handlers: nothing reads a stack before it is upgraded.
         bpy.app.handlers.load_post.insert(0, on_load)
-    if not bpy.app.background:
+    if isinstance(bpy.data, bpy.types.BlendData):
+        # Enabled by a script (headless ones too, where no timer runs): the open file
+        # is readable now.
+        upgrade_file()
+    elif not bpy.app.background:
         bpy.app.timers.register(_upgrade_open_file, first_interval=0.0)
 
 
