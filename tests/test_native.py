@@ -189,6 +189,7 @@ def test_each_function_takes_exactly_the_keyword_settings_its_stub_names():
         "render_shell": lambda **kw: tn.render_shell(*args, *camera, **kw),
         "TexturedShell.__init__": lambda **kw: tn.TexturedShell(*args, **kw),
         "TexturedShell.render": lambda **kw: handle.render(*camera, **kw),
+        "Shell.textured": lambda **kw: tn.Mesh(*args[:3]).shell(0.3).textured(args[5], **kw),
     }
     functions, every_key = _stub_settings()
     assert set(functions) == set(calls)

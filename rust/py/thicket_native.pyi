@@ -112,11 +112,10 @@ class IncrementalShell:
 
 def texture(pattern: str, size: tuple[int, int, int] = (64, 64, 32), seed: int = 0, time: float = 1.0, thickness: float = 1.0) -> Floats: ...
 
-class _TextureSettings(TypedDict, total=False):
-    """The keyword settings of a textured shell that `bake_texture`, `estimate_bake`,
-    `render_shell` and `TexturedShell` share (defaults in the comments)."""
+class _MappedSettings(TypedDict, total=False):
+    """How textures map into a shell: every textured-shell entry point takes these
+    (defaults in the comments)."""
 
-    uvs: Floats | None  # None
     tiling: float  # 1.0
     resolution: int  # 8
     depth_steps: int  # 16 (formerly `layers`, still taken with a DeprecationWarning)
@@ -128,12 +127,24 @@ class _TextureSettings(TypedDict, total=False):
     move_offset: tuple[float, float]  # (0.0, 0.0)
     follow_texture: bool  # True
 
-class _BakeSettings(_TextureSettings, total=False):
-    """A bake's settings (`bake_texture`, `estimate_bake`, `TexturedShell`): a render
-    takes neither of these."""
+class _TextureSettings(_MappedSettings, total=False):
+    """The keyword settings of a textured shell that `bake_texture`, `estimate_bake`,
+    `render_shell` and `TexturedShell` share: the mesh's UVs come with them (a `Mesh`
+    handle carries its own)."""
+
+    uvs: Floats | None  # None
+
+class _BakeLimits(TypedDict, total=False):
+    """A bake's size: a render takes neither of these."""
 
     triangle_budget: int  # 1_000_000
     max_triangles: int  # 20_000_000
+
+class _BakeSettings(_TextureSettings, _BakeLimits, total=False):
+    """A bake's settings (`bake_texture`, `estimate_bake`, `TexturedShell`)."""
+
+class _HandleBakeSettings(_MappedSettings, _BakeLimits, total=False):
+    """`Shell.textured`'s settings: a bake's, the UVs being the `Mesh`'s."""
 
 class _FrameSettings(TypedDict, total=False):
     """How `render_shell` and `TexturedShell.render` draw a frame."""
@@ -183,6 +194,28 @@ class TexturedShell:
     ) -> dict[str, Any]: ...
     @property
     def vertex_count(self) -> int: ...
+
+class Mesh:
+    """A polygon mesh read and checked once (handles: passed on without numpy)."""
+
+    def __init__(self, vertices: Floats, face_sizes: Indices, corners: Indices, uvs: Floats | None = None) -> None: ...
+    @property
+    def vertex_count(self) -> int: ...
+    @property
+    def face_count(self) -> int: ...
+    def arrays(self) -> dict[str, Any]: ...
+    def shell(
+        self, thickness: float, side: str = "exterior", relative: bool = False, factors: Floats | None = None, p: float = 3.0, progress: Progress = None
+    ) -> Shell: ...
+
+class Shell:
+    """A shell of a `Mesh` kept in Rust: its surfaces on demand, textured without re-reading."""
+
+    def __init__(self, mesh: Mesh, base_offset: Floats, directors: Floats) -> None: ...
+    @property
+    def mesh(self) -> Mesh: ...
+    def geometry(self, output: str = "outer", surfaces: int = 1) -> dict[str, Any]: ...
+    def textured(self, textures: PlacedTextures, **settings: Unpack[_HandleBakeSettings]) -> TexturedShell: ...
 
 def load_texture(path: str) -> Floats: ...
 def save_texture(path: str, alpha: Floats) -> list[str]: ...

@@ -69,17 +69,17 @@ pub fn mesh_with_uvs(
     let positions = positions(vertices)?;
     let sizes = indices(face_sizes, "face_sizes")?;
     let corners = indices(corners, "corners")?;
-    let uvs = match uvs {
-        None => None,
-        Some(uv) => {
-            let uv = uv.as_array();
-            if uv.shape() != [corners.len(), 2] {
-                return Err(InvalidInput::new_err(format!("uvs must have shape ({}, 2)", corners.len())));
-            }
-            Some(uv.rows().into_iter().map(|r| Vec2::new(r[0], r[1])).collect())
-        }
-    };
+    let uvs = uvs.map(|uv| self::uvs(uv, corners.len())).transpose()?;
     Mesh::new(positions, &sizes, corners, uvs).map_err(crate::errors::to_py)
+}
+
+/// Per-corner UVs, float32 (corners, 2).
+pub fn uvs(uv: &PyReadonlyArray2<'_, f32>, corners: usize) -> PyResult<Vec<Vec2>> {
+    let uv = uv.as_array();
+    if uv.shape() != [corners, 2] {
+        return Err(InvalidInput::new_err(format!("uvs must have shape ({corners}, 2)")));
+    }
+    Ok(uv.rows().into_iter().map(|r| Vec2::new(r[0], r[1])).collect())
 }
 
 // The cast in `vec3_array` relies on this layout; a glam build that changed it
@@ -94,6 +94,12 @@ pub fn vec3_array<'py>(py: Python<'py>, v: Vec<Vec3>) -> PyResult<Bound<'py, PyA
     // buffer of `cap` Vec3 is exactly a buffer of `3 * cap` f32 with the same layout.
     let flat = unsafe { Vec::from_raw_parts(v.as_mut_ptr() as *mut f32, n * 3, v.capacity() * 3) };
     flat.into_pyarray(py).reshape([n, 3])
+}
+
+/// Float32 (n, 2) from 2-vectors.
+pub fn vec2_array<'py>(py: Python<'py>, v: Vec<Vec2>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    let n = v.len();
+    v.into_iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>().into_pyarray(py).reshape([n, 2])
 }
 
 pub fn u32_as_i32_array<'py>(py: Python<'py>, v: Vec<u32>) -> Bound<'py, PyArray1<i32>> {

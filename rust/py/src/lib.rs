@@ -10,6 +10,7 @@
 mod arrays;
 mod errors;
 mod field;
+mod handles;
 mod incremental;
 mod keywords;
 mod offset;
@@ -32,6 +33,8 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("Cancelled", m.py().get_type::<errors::Cancelled>())?;
     m.add("InternalError", m.py().get_type::<errors::InternalError>())?;
     m.add_function(wrap_pyfunction!(report::mesh_report, m)?)?;
+    m.add_class::<handles::Mesh>()?;
+    m.add_class::<handles::Shell>()?;
     m.add_function(wrap_pyfunction!(offset::offset_shell, m)?)?;
     m.add_function(wrap_pyfunction!(shell::build_shell, m)?)?;
     m.add_function(wrap_pyfunction!(shell::shell, m)?)?;

@@ -63,7 +63,7 @@ fn placed_textures(textures: &Bound<'_, PyAny>) -> PyResult<Vec<TextureLayer>> {
 
 /// A shell given by its base offsets and directors (depth r over vertex v at
 /// v + base_offset + r * director), one row per vertex of an `n`-vertex mesh.
-fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyReadonlyArray2<'_, f32>, n: usize) -> PyResult<Shell> {
+pub(crate) fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyReadonlyArray2<'_, f32>, n: usize) -> PyResult<Shell> {
     let base_offset = arrays::positions(base_offset)?;
     let directors = arrays::positions(directors)?;
     if base_offset.len() != n || directors.len() != n {
@@ -145,8 +145,17 @@ impl BakeInputs {
     pub(crate) fn read(arrays: ShellArrays<'_, '_>, settings: TextureSettings<'_>) -> PyResult<Self> {
         let ShellArrays { vertices, face_sizes, corners, base_offset, directors, textures } = arrays;
         let mesh = arrays::mesh_with_uvs(&vertices, face_sizes, corners, settings.uvs.as_ref())?;
+        let shell = shell_of(&base_offset, &directors, mesh.vertex_count())?;
+        Self::with(mesh, shell, textures, settings)
+    }
+
+    /// The inputs given the mesh and its shell already read (handles), the textures
+    /// and the settings (whose `uvs`, if any, are ignored: the mesh has its own).
+    pub(crate) fn with(mesh: Mesh, shell: Shell, textures: &Bound<'_, PyAny>, settings: TextureSettings<'_>) -> PyResult<Self> {
         let n = mesh.vertex_count();
-        let shell = shell_of(&base_offset, &directors, n)?;
+        if shell.directors.len() != n {
+            return Err(InvalidInput::new_err("base_offset and directors need one row per vertex"));
+        }
         let textures = placed_textures(textures)?;
         let region = settings.region.map(|r| arrays::per_vertex_or_scalar(&r, n, "region")).transpose()?;
         let holes = settings.holes.map(|r| arrays::per_vertex_or_scalar(&r, n, "holes")).transpose()?;

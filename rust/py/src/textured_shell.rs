@@ -28,6 +28,14 @@ pub struct TexturedShell {
     scene: Arc<Mutex<Option<Arc<ShellScene>>>>,
 }
 
+impl TexturedShell {
+    /// The textured shell of checked inputs (the cutter built with the GIL released).
+    pub(crate) fn of_inputs(py: Python<'_>, inputs: BakeInputs) -> PyResult<Self> {
+        let inner = run_detached(py, move || inputs.build())?;
+        Ok(Self { inner: Arc::new(inner), scene: Arc::new(Mutex::new(None)) })
+    }
+}
+
 #[pymethods]
 impl TexturedShell {
     #[new]
@@ -44,8 +52,7 @@ impl TexturedShell {
         settings: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Self> {
         let inputs = BakeInputs::of_call("TexturedShell", ShellArrays { vertices, face_sizes, corners, base_offset, directors, textures }, settings, true)?;
-        let inner = run_detached(py, move || inputs.build())?;
-        Ok(Self { inner: Arc::new(inner), scene: Arc::new(Mutex::new(None)) })
+        Self::of_inputs(py, inputs)
     }
 
     /// bake(progress=None) -> dict: `bake_texture`'s result for this shell.

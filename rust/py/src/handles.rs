@@ -1,0 +1,151 @@
+//! Opaque handles for a mesh and its shell (the pattern of polars' `PyDataFrame`):
+//! read from numpy and checked once, then passed on (shell, textured shell) without
+//! going back through numpy; numpy again only where a caller asks for arrays.
+
+use numpy::PyReadonlyArray2;
+use pyo3::exceptions::PyTypeError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::sync::Arc;
+use thicket_core::shell::{self as core, shell_geometry, Side};
+use thicket_core::Mesh as CoreMesh;
+
+use crate::arrays;
+use crate::errors::{run_detached, run_maybe_watched};
+use crate::keywords::Keywords;
+use crate::offset::parse_output;
+use crate::texture::{BakeInputs, TextureSettings};
+use crate::textured_shell::TexturedShell;
+
+/// Mesh(vertices, face_sizes, corners, uvs=None)
+///
+/// A polygon mesh checked once (indices in range, faces of at least 3 corners, finite
+/// coordinates, one UV per corner), the check with the GIL released: `vertices`
+/// float32 (n, 3), `face_sizes` and `corners` int32/uint32, `uvs` float32 (corners, 2).
+/// `shell(...)` builds its L_p shell as a `Shell` handle.
+#[pyclass(module = "thicket_native", frozen)]
+pub struct Mesh {
+    pub(crate) inner: Arc<CoreMesh>,
+}
+
+#[pymethods]
+impl Mesh {
+    #[new]
+    #[pyo3(signature = (vertices, face_sizes, corners, uvs=None))]
+    fn new<'py>(
+        py: Python<'py>,
+        vertices: PyReadonlyArray2<'py, f32>,
+        face_sizes: &Bound<'py, PyAny>,
+        corners: &Bound<'py, PyAny>,
+        uvs: Option<PyReadonlyArray2<'py, f32>>,
+    ) -> PyResult<Self> {
+        let (positions, sizes, corners) = (arrays::positions(&vertices)?, arrays::indices(face_sizes, "face_sizes")?, arrays::indices(corners, "corners")?);
+        let uvs = uvs.map(|uv| arrays::uvs(&uv, corners.len())).transpose()?;
+        let inner = run_detached(py, move || CoreMesh::new(positions, &sizes, corners, uvs))?;
+        Ok(Self { inner: Arc::new(inner) })
+    }
+
+    #[getter]
+    fn vertex_count(&self) -> usize {
+        self.inner.vertex_count()
+    }
+
+    #[getter]
+    fn face_count(&self) -> usize {
+        self.inner.face_count()
+    }
+
+    /// arrays() -> dict: vertices, face_sizes, corners (and uvs where it has them).
+    fn arrays<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = arrays::mesh_dict(py, (*self.inner).clone())?;
+        if let Some(uvs) = self.inner.uvs() {
+            d.set_item("uvs", arrays::vec2_array(py, uvs.to_vec())?)?;
+        }
+        Ok(d)
+    }
+
+    /// shell(thickness, side="exterior", relative=False, factors=None, p=3.0,
+    ///       progress=None) -> Shell
+    ///
+    /// The L_p-field shell of this mesh, as `thicket_native.shell` builds it (same
+    /// arguments, same directors), kept as a handle: `geometry(...)` gives its surfaces
+    /// and `textured(...)` a `TexturedShell`, neither reading the mesh again.
+    #[pyo3(signature = (thickness, side="exterior", relative=false, factors=None, p=3.0, progress=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn shell<'py>(
+        &self,
+        py: Python<'py>,
+        thickness: f32,
+        side: &str,
+        relative: bool,
+        factors: Option<&Bound<'py, PyAny>>,
+        p: f64,
+        progress: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Shell> {
+        let mesh = self.inner.clone();
+        let factors = factors.map(|f| arrays::per_vertex_or_scalar(f, mesh.vertex_count(), "factors")).transpose()?;
+        let side = Side::parse(side).map_err(crate::errors::to_py)?;
+        let thickness = if relative { core::Thickness::relative(thickness) } else { core::Thickness::absolute(thickness) };
+        let built = mesh.clone();
+        let inner = run_maybe_watched(py, progress.as_ref(), move |watch| {
+            let target = thickness.per_vertex(&built, factors.as_deref())?;
+            core::build_shell_watched(&built, &target, side, &crate::shell::params(p), watch)
+        })?;
+        Ok(Shell { mesh, inner: Arc::new(inner) })
+    }
+}
+
+/// Shell(mesh, base_offset, directors)
+///
+/// A shell of `mesh` (a `Mesh`) kept in Rust: built by `Mesh.shell`, or given by its
+/// base offsets and directors, float32 (n, 3) each (read back from Blender).
+#[pyclass(module = "thicket_native", frozen)]
+pub struct Shell {
+    mesh: Arc<CoreMesh>,
+    inner: Arc<core::Shell>,
+}
+
+#[pymethods]
+impl Shell {
+    #[new]
+    fn new<'py>(mesh: &Mesh, base_offset: PyReadonlyArray2<'py, f32>, directors: PyReadonlyArray2<'py, f32>) -> PyResult<Self> {
+        let inner = crate::texture::shell_of(&base_offset, &directors, mesh.inner.vertex_count())?;
+        Ok(Self { mesh: mesh.inner.clone(), inner: Arc::new(inner) })
+    }
+
+    /// The mesh this shell belongs to.
+    #[getter]
+    fn mesh(&self) -> Mesh {
+        Mesh { inner: self.mesh.clone() }
+    }
+
+    /// geometry(output="outer", surfaces=1) -> dict
+    ///
+    /// What `thicket_native.shell` returns for the same arguments: the surfaces
+    /// (`output` "outer", "solid" or "layers", the Stacked Surfaces) and the shell's
+    /// per-vertex arrays (base_offset, directors, achieved, target, check).
+    #[pyo3(signature = (output="outer", surfaces=1))]
+    fn geometry<'py>(&self, py: Python<'py>, output: &str, surfaces: u32) -> PyResult<Bound<'py, PyDict>> {
+        let output = parse_output(output, surfaces)?;
+        let (mesh, shell) = (self.mesh.clone(), self.inner.clone());
+        let geometry = run_detached(py, move || shell_geometry(&mesh, &shell, output))?;
+        crate::shell::shell_dict(py, geometry, (*self.inner).clone())
+    }
+
+    /// textured(textures, **settings) -> TexturedShell
+    ///
+    /// `TexturedShell(vertices, face_sizes, corners, base_offset, directors, textures,
+    /// **settings)` for this shell and its mesh, without passing them again. `uvs` is
+    /// the mesh's own (give it to `Mesh`), so it is not among the settings.
+    #[pyo3(signature = (textures, **settings))]
+    fn textured<'py>(&self, py: Python<'py>, textures: &Bound<'py, PyAny>, settings: Option<&Bound<'py, PyDict>>) -> PyResult<TexturedShell> {
+        if settings.is_some_and(|s| s.contains("uvs").unwrap_or(false)) {
+            return Err(PyTypeError::new_err("Shell.textured() got an unexpected keyword argument 'uvs': the mesh's own are used (pass uvs to Mesh(...))"));
+        }
+        let keywords = Keywords::new("Shell.textured", settings);
+        let settings = TextureSettings::read(&keywords, true)?;
+        keywords.finish()?;
+        let inputs = BakeInputs::with((*self.mesh).clone(), (*self.inner).clone(), textures, settings)?;
+        TexturedShell::of_inputs(py, inputs)
+    }
+}
