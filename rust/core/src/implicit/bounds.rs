@@ -64,7 +64,7 @@ impl Tape {
         for inst in &self.insts {
             let v = match inst {
                 Inst::Prim { .. } => 1.0,
-                Inst::Offset(_) | Inst::Negate | Inst::Paint(_) => stack.pop().expect("a child"),
+                Inst::Offset(_) | Inst::Negate | Inst::Paint(_) | Inst::Ramp(_) => stack.pop().expect("a child"),
                 Inst::H(k) => drain(&mut stack, *k).iter().map(|l| l * l).sum::<f64>().sqrt(),
                 Inst::Min(k) | Inst::Max(k) | Inst::Wp { n: k, .. } => drain(&mut stack, *k).iter().copied().fold(0.0, f64::max),
                 Inst::Displace { amplitude, omega, .. } => {
@@ -95,7 +95,7 @@ impl Tape {
                     let (l, u) = stack.pop().expect("a child");
                     (-u, -l)
                 }
-                Inst::Paint(_) => stack.pop().expect("a child"),
+                Inst::Paint(_) | Inst::Ramp(_) => stack.pop().expect("a child"),
                 Inst::H(k) => {
                     let c = drain(&mut stack, *k);
                     (kernel::h_value(c.iter().map(|v| v.0)), kernel::h_value(c.iter().map(|v| v.1)))
@@ -157,7 +157,7 @@ impl Tape {
                     stack.pop();
                     Extent { support: None, solid: None }
                 }
-                Inst::Paint(_) => stack.pop().expect("a child"),
+                Inst::Paint(_) | Inst::Ramp(_) => stack.pop().expect("a child"),
                 Inst::H(k) | Inst::Max(k) | Inst::Wp { n: k, kind: WpKind::Intersection, .. } => {
                     let c = drain(&mut stack, *k);
                     // Every child bounds the result from below: the tightest support,

@@ -8,7 +8,7 @@
 //! weights the gradient uses), the texture value and the dominant primitive's id.
 
 use super::kernel::{self, Prim, PrimKind};
-use super::tree::{Node, Op, DEFAULT_COLOR};
+use super::tree::{ramp_color, Node, Op, Ramp, DEFAULT_COLOR};
 use crate::Result;
 use glam::{DMat3, DQuat, DVec3, Vec3};
 use rayon::prelude::*;
@@ -82,6 +82,9 @@ pub(crate) enum Inst {
     },
     /// Sets the colour of the result below it (a `color` on an operation node).
     Paint([f64; 4]),
+    /// Sets the colour of the result below it to the ramp at its texture value (a
+    /// `ramp` on a `displace` or `fractal`).
+    Ramp(Ramp),
 }
 
 /// A validated tree compiled to its tape.
@@ -131,6 +134,9 @@ impl Tape {
         *live = *live + 1 - n;
         self.depth = self.depth.max(*live);
         self.insts.push(inst);
+        if let Op::Displace { ramp: Some(r), .. } | Op::Fractal { ramp: Some(r), .. } = &node.op {
+            self.insts.push(Inst::Ramp(r.clone()));
+        }
         if let (Some(c), false) = (node.color, primitive) {
             self.insts.push(Inst::Paint(c));
         }
@@ -292,6 +298,17 @@ impl Tape {
                     if need.attributes {
                         for (c, v) in s.stack[sp - 1].c.iter_mut().zip(color) {
                             c[..n].fill(*v);
+                        }
+                    }
+                }
+                Inst::Ramp(ramp) => {
+                    if need.attributes {
+                        let top = &mut s.stack[sp - 1];
+                        for j in 0..n {
+                            let c = ramp_color(ramp, top.t[j]);
+                            for (ch, v) in top.c.iter_mut().zip(c) {
+                                ch[j] = v;
+                            }
                         }
                     }
                 }

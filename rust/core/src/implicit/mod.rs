@@ -52,8 +52,14 @@
 //! | `intersection_wp` | `p` (1e-3 to 1e6), `children` (at least one) | `w_p(f1, ..., fn) = log(Σ e^(p fi)) / p` |
 //! | `union_wp` | `p` (1e-3 to 1e6), `children` (at least one) | `-w_p(-f1, ..., -fn)` |
 //! | `difference_wp` | `p` (1e-3 to 1e6), `children` (exactly two) | `w_p(f1, -f2)` |
-//! | `displace` | `shape`, `texture`, `amplitude`, `omega > 0`, `tau` (0) | `f0 + amplitude (cos(omega f1 + tau) + 1)` (equation 1 with section 7's phase `tau`) |
-//! | `fractal` | `shape`, `texture`, `terms: [[a_j, omega_j > 0], ...]` (at least one), `tau` (0) | `f0 + Σ a_j (cos(omega_j f1 + tau) + 1)` (equation 2) |
+//! | `displace` | `shape`, `texture`, `amplitude`, `omega > 0`, `tau` (0), `ramp` (none) | `f0 + amplitude (cos(omega f1 + tau) + 1)` (equation 1 with section 7's phase `tau`) |
+//! | `fractal` | `shape`, `texture`, `terms: [[a_j, omega_j > 0], ...]` (at least one), `tau` (0), `ramp` (none) | `f0 + Σ a_j (cos(omega_j f1 + tau) + 1)` (equation 2) |
+//!
+//! A `ramp` is a colour ramp `[[position, [r, g, b, a]], ...]`: at least one stop,
+//! positions in `[0, 1]` and increasing; linear between stops, the end stops' colours
+//! beyond them. With one, the node's colour is the ramp at its texture value (below),
+//! so colour follows the texture function (sections 2 and 6: the texture value mapped
+//! through a colour map).
 //!
 //! `w_p` is evaluated as a log-sum-exp around the largest `p fi`: finite for any finite
 //! values and `p` (`p = 200`, `|f| = 1e3` included).
@@ -64,8 +70,9 @@
 //!   take the largest (smallest for `min`) argument's; `h` elsewhere blends by its
 //!   gradient's weights `fi⁺ / h`, normalized to sum to one; the `w_p` operations by
 //!   their weights `e^(p s_i f_i) / Σ` (the softmax of section 4.1); `offset` and
-//!   `negate` pass it on; `displace` and `fractal` keep the shape's. A `color` on an
-//!   operation replaces it.
+//!   `negate` pass it on; `displace` and `fractal` keep the shape's, or with a `ramp`
+//!   take the ramp's colour at their texture value. A `color` on an operation
+//!   replaces it (a ramp included).
 //! - Texture: 0 at a primitive; `displace` sets `(1 + cos(omega f1 + tau)) / 2` of its
 //!   texture child (section 2's texture function; `amplitude: 0` carries it without
 //!   displacing), `fractal` the `|a_j|`-weighted mean of its terms'; the operations
@@ -84,7 +91,7 @@ mod kernel;
 pub mod tree;
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 pub use bounds::Aabb;
 pub use tree::{Node, Op, DEFAULT_COLOR};

@@ -45,6 +45,10 @@ fn catalogue() -> Vec<Value> {
         json!({"op": "displace", "shape": segment, "texture": plane, "amplitude": 0.1, "omega": 12, "tau": 0.5}),
         json!({"op": "fractal", "shape": sphere, "texture": {"op": "union_wp", "p": 3, "children": [point, rectangle]},
                "terms": [[0.1, 5], [0.05, 11], [0.02, 23]], "tau": 0.3}),
+        // Colour ramps (a single stop included), appended so the indices above stay.
+        json!({"op": "displace", "shape": torus, "texture": plane, "amplitude": 0.05, "omega": 9, "tau": 1,
+               "ramp": [[0, [0, 0, 0, 1]], [0.3, [1, 0, 0, 1]], [1, [1, 1, 1, 0.5]]]}),
+        json!({"op": "fractal", "shape": cuboid, "texture": sphere, "terms": [[0.03, 7], [-0.01, 19]], "ramp": [[0.5, [0.1, 0.2, 0.3, 1]]]}),
     ]
 }
 
@@ -510,6 +514,117 @@ fn colours_ids_and_textures_follow_the_weights() {
     assert_eq!(d.primitive_count(), 2);
 }
 
+/// A ramp evaluated by hand: linear between the stops around `t`, clamped at the ends.
+fn ramp_by_hand(stops: &[(f64, [f64; 4])], t: f64) -> [f64; 4] {
+    if t <= stops[0].0 {
+        return stops[0].1;
+    }
+    for w in stops.windows(2) {
+        let ((p0, c0), (p1, c1)) = (w[0], w[1]);
+        if t <= p1 {
+            let s = (t - p0) / (p1 - p0);
+            return [0, 1, 2, 3].map(|k| (1.0 - s) * c0[k] + s * c1[k]);
+        }
+    }
+    stops[stops.len() - 1].1
+}
+
+#[test]
+fn ramp_colours_follow_the_texture_function() {
+    let stops = [(0.1, [0.0, 0.0, 1.0, 1.0]), (0.4, [1.0, 0.0, 0.0, 1.0]), (0.9, [1.0, 1.0, 0.0, 0.5])];
+    let ramp: Vec<Value> = stops.iter().map(|(p, c)| json!([p, c])).collect();
+    let sphere = json!({"op": "sphere", "center": [0, 0, 0], "radius": 0.5, "color": [0, 1, 0, 1]});
+    let plane = json!({"op": "plane", "point": [0, 0, 0.1], "normal": [0, 0, 2]});
+    let (omega, tau) = (7.0, 0.3);
+    let d = tree(&json!({"op": "displace", "shape": sphere, "texture": plane, "amplitude": 0.02, "omega": omega, "tau": tau, "ramp": ramp}));
+    let mut rng = Rng(17);
+    let points: Vec<DVec3> = (0..400).map(|_| rng.vec(1.0)).collect();
+    let e = d.evaluate(&points.iter().map(|p| p.as_vec3()).collect::<Vec<_>>());
+    let (mut low, mut high) = (0, 0);
+    for (i, x) in points.iter().enumerate() {
+        // Section 2's texture function of the plane, computed here from the formula.
+        let t = 0.5 * (1.0 + (omega * (x.z - 0.1) + tau).cos());
+        low += usize::from(t < 0.1);
+        high += usize::from(t > 0.9);
+        let want = ramp_by_hand(&stops, t);
+        let s = d.sample(*x);
+        assert!((s.texture - t).abs() < 1e-12);
+        for k in 0..4 {
+            assert!((s.color[k] - want[k]).abs() < 1e-12, "{x}: {:?} vs {want:?} at t = {t}", s.color);
+            assert!((f64::from(e.colors[i][k]) - want[k]).abs() < 1e-6);
+        }
+    }
+    assert!(low > 5 && high > 5, "both clamped ends sampled: {low} {high}");
+    // The colour then blends through the parent like any colour: a union far from the
+    // displaced sphere takes the other child's, next to it the ramp's.
+    let blue_box = json!({"op": "box", "center": [3, 0, 0], "half_size": [0.5, 0.5, 0.5], "color": [0, 0, 1, 1]});
+    let displaced = d.node().to_value();
+    let u = tree(&json!({"op": "union_wp", "p": 40, "children": [displaced, blue_box]}));
+    let x = DVec3::new(-0.6, 0.0, 0.25);
+    let t = 0.5 * (1.0 + (omega * 0.15 + tau).cos());
+    let (got, want) = (u.sample(x).color, ramp_by_hand(&stops, t));
+    assert!(got.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-9), "{got:?} vs {want:?}");
+    let far = u.sample(DVec3::new(3.6, 0.0, 0.0)).color;
+    assert!(far.iter().zip([0.0, 0.0, 1.0, 1.0]).all(|(a, b)| (a - b).abs() < 1e-12), "{far:?}");
+    // A colour on the node itself still replaces what it carries.
+    let mut painted = displaced.clone();
+    painted["color"] = json!([0.2, 0.2, 0.2, 1]);
+    assert_eq!(tree(&painted).sample(x).color, [0.2, 0.2, 0.2, 1.0]);
+    // A fractal's ramp reads its weighted mean texture value.
+    let f = tree(&json!({"op": "fractal", "shape": sphere, "texture": plane, "terms": [[0.02, 3], [-0.01, 11]], "tau": tau, "ramp": ramp}));
+    for x in &points[..50] {
+        let tex = |w: f64| 0.5 * (1.0 + (w * (x.z - 0.1) + tau).cos());
+        let t = (0.02 * tex(3.0) + 0.01 * tex(11.0)) / 0.03;
+        let want = ramp_by_hand(&stops, t);
+        let s = f.sample(*x);
+        assert!((s.texture - t).abs() < 1e-12 && s.color.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-12));
+    }
+    // Round trip: the ramp is written and read back equal.
+    for t in [&d, &f] {
+        let text = t.to_json();
+        assert!(text.contains("\"ramp\":[[0.1,[0.0,0.0,1.0,1.0]]"), "{text}");
+        assert_eq!(FieldTree::from_json(&text).unwrap().node(), t.node());
+    }
+}
+
+#[test]
+fn bad_ramps_are_refused_naming_the_node_and_field() {
+    let s = json!({"op": "sphere", "center": [0, 0, 0], "radius": 1});
+    let displace =
+        |ramp: Value| json!({"op": "min", "children": [s, {"op": "displace", "shape": s, "texture": s, "amplitude": 0.1, "omega": 2, "ramp": ramp}]});
+    let cases = [
+        (json!([]), "root.children[1] (displace): ramp needs at least one stop"),
+        (json!([[0.5, [1, 0, 0]]]), "root.children[1] (displace): ramp[0] must be [position, [r, g, b, a]]"),
+        (json!([[0.5]]), "ramp[0] must be [position, [r, g, b, a]]"),
+        (json!({"a": 1}), "\"ramp\" must be a list of stops"),
+        (json!([[0, [1, 0, 0, 1]], [1.5, [1, 0, 0, 1]]]), "ramp[1]'s position must be in [0, 1], got 1.5"),
+        (json!([[-0.1, [1, 0, 0, 1]]]), "ramp[0]'s position must be in [0, 1]"),
+        (json!([[0.5, [1, 0, 0, 1]], [0.5, [0, 1, 0, 1]]]), "ramp positions must increase, ramp[1] is at 0.5 after 0.5"),
+        (json!([[0.6, [1, 0, 0, 1]], [0.2, [0, 1, 0, 1]]]), "ramp positions must increase"),
+    ];
+    for (ramp, want) in cases {
+        let text = displace(ramp).to_string();
+        match FieldTree::from_json(&text) {
+            Err(crate::Error::InvalidParameter(msg)) => assert!(msg.contains(want), "{text}: {msg:?} should say {want:?}"),
+            other => panic!("{text}: expected an error saying {want:?}, got {other:?}"),
+        }
+    }
+    // Non-finite colours, from a tree built in code.
+    let sphere = Node::new(Op::Sphere { center: DVec3::ZERO, radius: 1.0 });
+    let op = Op::Fractal {
+        shape: Box::new(sphere.clone()),
+        texture: Box::new(sphere),
+        terms: vec![[0.1, 2.0]],
+        tau: 0.0,
+        ramp: Some(vec![(0.0, [f64::NAN, 0.0, 0.0, 1.0])]),
+    };
+    let msg = FieldTree::new(Node::new(op)).unwrap_err().to_string();
+    assert!(msg.contains("root (fractal): ramp[0]'s colour must be four finite numbers"), "{msg}");
+    // A ramp where the op has none is an unknown field.
+    let text = json!({"op": "offset", "child": s, "amount": 0.1, "ramp": [[0, [1, 1, 1, 1]]]}).to_string();
+    assert!(FieldTree::from_json(&text).unwrap_err().to_string().contains("unknown field \"ramp\""));
+}
+
 #[test]
 fn batches_equal_single_samples_across_blocks_and_chunks() {
     let mut rng = Rng(8);
@@ -535,7 +650,7 @@ fn batches_equal_single_samples_across_blocks_and_chunks() {
 
 /// A random closed, bounded tree for meshing: soft unions of shapes, some cut,
 /// intersected, grown or displaced.
-fn random_mesh_tree(rng: &mut Rng) -> Value {
+pub(crate) fn random_mesh_tree(rng: &mut Rng) -> Value {
     let part = |rng: &mut Rng| -> Value {
         let a = random_leaf(rng);
         match rng.pick(6) {

@@ -30,6 +30,29 @@ fn nesting(path: &str) -> usize {
     path.matches('.').count()
 }
 
+/// A colour ramp: stops `(position, [r, g, b, a])`, positions in `[0, 1]` and
+/// increasing, at least one. It maps a texture value (section 2's `(1 + cos(omega f +
+/// tau)) / 2`, in `[0, 1]`) to a colour, as the "mapped through a colour ramp"
+/// asks; [`ramp_color`] evaluates it.
+pub type Ramp = Vec<(f64, [f64; 4])>;
+
+/// The colour of `ramp` at `t`: linear between the stops around `t`, the end stops'
+/// colours beyond them (and at NaN, the first).
+pub fn ramp_color(ramp: &[(f64, [f64; 4])], t: f64) -> [f64; 4] {
+    let Some(&(first, c0)) = ramp.first() else { return DEFAULT_COLOR };
+    if !(t > first) {
+        return c0;
+    }
+    // The first stop past `t`; `t` lies after the one before it.
+    let i = ramp.partition_point(|s| s.0 <= t);
+    if i == ramp.len() {
+        return ramp[i - 1].1;
+    }
+    let ((p0, a), (p1, b)) = (ramp[i - 1], ramp[i]);
+    let w = (t - p0) / (p1 - p0);
+    std::array::from_fn(|k| a[k] + w * (b[k] - a[k]))
+}
+
 /// One node of a field tree: what it computes and, optionally, its colour (for a
 /// primitive, its diffuse colour; for an operation, a colour painted over what its
 /// children blend).
@@ -79,11 +102,12 @@ pub enum Op {
     /// `w_p(f1, -f2)`, the approximate difference.
     DifferenceWp { p: f64, children: Vec<Node> },
     /// `f0 + amplitude (cos(omega f1 + tau) + 1)` (equation 1, with section 7's phase);
-    /// carries the texture value `(1 + cos(omega f1 + tau)) / 2`.
-    Displace { shape: Box<Node>, texture: Box<Node>, amplitude: f64, omega: f64, tau: f64 },
+    /// carries the texture value `(1 + cos(omega f1 + tau)) / 2`, and with a `ramp` the
+    /// colour the ramp gives it.
+    Displace { shape: Box<Node>, texture: Box<Node>, amplitude: f64, omega: f64, tau: f64, ramp: Option<Ramp> },
     /// `f0 + Σ a_j (cos(omega_j f1 + tau) + 1)` (equation 2); carries the `|a_j|`-weighted
-    /// mean of the terms' texture values.
-    Fractal { shape: Box<Node>, texture: Box<Node>, terms: Vec<[f64; 2]>, tau: f64 },
+    /// mean of the terms' texture values, and with a `ramp` the colour the ramp gives it.
+    Fractal { shape: Box<Node>, texture: Box<Node>, terms: Vec<[f64; 2]>, tau: f64, ramp: Option<Ramp> },
 }
 
 impl Op {
@@ -235,18 +259,24 @@ impl Node {
                 put("p", Value::from(*p));
                 put("children", nodes(children));
             }
-            Op::Displace { shape, texture, amplitude, omega, tau } => {
+            Op::Displace { shape, texture, amplitude, omega, tau, ramp } => {
                 put("shape", node(shape));
                 put("texture", node(texture));
                 put("amplitude", Value::from(*amplitude));
                 put("omega", Value::from(*omega));
                 put("tau", Value::from(*tau));
+                if let Some(r) = ramp {
+                    put("ramp", ramp_value(r));
+                }
             }
-            Op::Fractal { shape, texture, terms, tau } => {
+            Op::Fractal { shape, texture, terms, tau, ramp } => {
                 put("shape", node(shape));
                 put("texture", node(texture));
                 put("terms", Value::Array(terms.iter().map(|t| Value::from(t.to_vec())).collect()));
                 put("tau", Value::from(*tau));
+                if let Some(r) = ramp {
+                    put("ramp", ramp_value(r));
+                }
             }
         }
         if let Some(c) = self.color {
@@ -257,8 +287,9 @@ impl Node {
 
     /// Checks every parameter of the tree: finite numbers, `p > 0`, `omega > 0`,
     /// lengths and radii `>= 0`, non-zero normals, axes and rotations, distinct
-    /// segment ends, and the child counts (at least one child; exactly two for
-    /// `difference_wp`; at least one fractal term).
+    /// segment ends, the child counts (at least one child; exactly two for
+    /// `difference_wp`; at least one fractal term) and ramps (at least one stop,
+    /// positions in `[0, 1]` and increasing, finite colours).
     pub fn validate(&self) -> Result<()> {
         self.validate_at("root")
     }
@@ -303,6 +334,24 @@ impl Node {
                 return fail(format!("color must be four finite numbers [r, g, b, a], got {c:?}"));
             }
         }
+        let check_ramp = |ramp: &Option<Ramp>| {
+            let Some(ramp) = ramp else { return Ok(()) };
+            if ramp.is_empty() {
+                return fail("ramp needs at least one stop [position, [r, g, b, a]]".into());
+            }
+            for (j, (position, color)) in ramp.iter().enumerate() {
+                if !(0.0..=1.0).contains(position) {
+                    return fail(format!("ramp[{j}]'s position must be in [0, 1], got {position}"));
+                }
+                if j > 0 && !(*position > ramp[j - 1].0) {
+                    return fail(format!("ramp positions must increase, ramp[{j}] is at {position} after {}", ramp[j - 1].0));
+                }
+                if !color.iter().all(|c| c.is_finite()) {
+                    return fail(format!("ramp[{j}]'s colour must be four finite numbers [r, g, b, a], got {color:?}"));
+                }
+            }
+            Ok(())
+        };
         match &self.op {
             Op::Plane { point, normal } => {
                 finite3("point", *point)?;
@@ -357,12 +406,14 @@ impl Node {
                     return fail(format!("needs exactly two children (the shape and what is cut from it), got {}", children.len()));
                 }
             }
-            Op::Displace { amplitude, omega, tau, .. } => {
+            Op::Displace { amplitude, omega, tau, ramp, .. } => {
                 finite("amplitude", *amplitude)?;
                 positive("omega", *omega)?;
                 finite("tau", *tau)?;
+                check_ramp(ramp)?;
             }
-            Op::Fractal { terms, tau, .. } => {
+            Op::Fractal { terms, tau, ramp, .. } => {
+                check_ramp(ramp)?;
                 if terms.is_empty() {
                     return fail("needs at least one term [a, omega]".into());
                 }
@@ -461,17 +512,18 @@ fn read_node(value: &Value, path: &str) -> Result<Node> {
             }
         }
         "displace" => {
-            r.only(&["shape", "texture", "amplitude", "omega", "tau"])?;
+            r.only(&["shape", "texture", "amplitude", "omega", "tau", "ramp"])?;
             Op::Displace {
                 shape: Box::new(r.node("shape")?),
                 texture: Box::new(r.node("texture")?),
                 amplitude: r.number("amplitude")?,
                 omega: r.number("omega")?,
                 tau: r.number_or("tau", 0.0)?,
+                ramp: r.ramp()?,
             }
         }
         "fractal" => {
-            r.only(&["shape", "texture", "terms", "tau"])?;
+            r.only(&["shape", "texture", "terms", "tau", "ramp"])?;
             let terms = match r.get("terms")? {
                 Value::Array(items) => items
                     .iter()
@@ -480,7 +532,7 @@ fn read_node(value: &Value, path: &str) -> Result<Node> {
                     .collect::<Result<Vec<_>>>()?,
                 v => return Err(r.err(&format!("\"terms\" must be a list of [a, omega], got {}", kind_of(v)))),
             };
-            Op::Fractal { shape: Box::new(r.node("shape")?), texture: Box::new(r.node("texture")?), terms, tau: r.number_or("tau", 0.0)? }
+            Op::Fractal { shape: Box::new(r.node("shape")?), texture: Box::new(r.node("texture")?), terms, tau: r.number_or("tau", 0.0)?, ramp: r.ramp()? }
         }
         other => return Err(err(format!("unknown op {other:?}; one of {}", Op::NAMES.join(", ")))),
     };
@@ -537,6 +589,22 @@ impl Reader<'_> {
             Ok(default)
         }
     }
+    /// The optional `"ramp"`: `[[position, [r, g, b, a]], ...]` (values are checked by
+    /// validate).
+    fn ramp(&self) -> Result<Option<Ramp>> {
+        let Some(v) = self.map.get("ramp") else { return Ok(None) };
+        let shape = "[[position, [r, g, b, a]], ...]";
+        let Value::Array(items) = v else {
+            return Err(self.err(&format!("\"ramp\" must be a list of stops {shape}, got {}", kind_of(v))));
+        };
+        let stop = |item: &Value| match item.as_array().map(Vec::as_slice) {
+            Some([p, c]) => Some((p.as_f64()?, numbers_of::<4>(c)?)),
+            _ => None,
+        };
+        let stops =
+            items.iter().enumerate().map(|(j, item)| stop(item).ok_or_else(|| self.err(&format!("ramp[{j}] must be [position, [r, g, b, a]], got {item}"))));
+        stops.collect::<Result<Vec<_>>>().map(Some)
+    }
     fn vec3(&self, name: &str) -> Result<DVec3> {
         self.numbers::<3>(name).map(DVec3::from_array)
     }
@@ -549,6 +617,10 @@ impl Reader<'_> {
             v => Err(self.err(&format!("{name:?} must be a list of nodes, got {}", kind_of(v)))),
         }
     }
+}
+
+fn ramp_value(ramp: &[(f64, [f64; 4])]) -> Value {
+    Value::Array(ramp.iter().map(|(p, c)| Value::Array(vec![Value::from(*p), Value::from(c.to_vec())])).collect())
 }
 
 fn numbers_of<const N: usize>(v: &Value) -> Option<[f64; N]> {
