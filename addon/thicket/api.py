@@ -10,6 +10,9 @@
     th.bake_frames(obj, 1, 48, "//frames")    # animated textures: one .glb per frame
     th.export_texture(obj, "//chain_mail.exr")  # the texture as an OpenEXR volume
     th.render_preview(obj, "//preview.exr")     # render the thick surface without baking
+    field = th.build_field_mesh(tree_json, resolution=128)   # an implicit field tree's mesh
+    th.regenerate_field_mesh(field)             # after editing its stored tree or Text
+    th.add_solid_texture(obj, tree_json, mode="COLOR")        # the tree's colours on a mesh
 
 Every function raises `ThicketError` (from thicket_native, a ValueError) for bad
 geometry or settings, `TypeError` for non-mesh objects and `KeyError` for missing
@@ -51,6 +54,9 @@ __all__ = [
     "process_file",
     "export_glb",
     "result_of",
+    "build_field_mesh",
+    "regenerate_field_mesh",
+    "add_solid_texture",
     "ThicketError",  # noqa: F822 (module __getattr__)
     "BakeNeedsConfirmation",
 ]
@@ -152,6 +158,65 @@ def add_volumetric_texture(obj, pattern="chain_mail", shell_thickness=0.05, side
     if not any(i.kind in ("SHELL", "OFFSET_SHELL") for i in obj.thicket.items):
         add_item(obj, "SHELL", thickness=shell_thickness, side=side)
     add_item(obj, "VOLUMETRIC_TEXTURE", pattern=pattern, **texture_settings)
+    return _regenerate(obj, progress=progress)
+
+
+def build_field_mesh(tree_json, name="Field Mesh", resolution=128, bounds=None, adaptive=True, collection=None, progress=None):
+    """A new mesh object of an implicit field tree's zero set (issue 17; the tree's
+    JSON schema is in the README's Implicit shapes), returned. `tree_json`: JSON text,
+    a dict, or a Blender Text holding the JSON (kept on the object: regenerating reads
+    its current content). `resolution`: cells along the longest side of `bounds`
+    ((min x, y, z), (max x, y, z); default the tree's own bound), 2 to 2048.
+    `adaptive`: interval culling (the same mesh, faster). `collection`: where the
+    object is linked (default the active collection).
+
+    The mesh carries the tree's colour per vertex as the colour attribute
+    `thicket_color` (FLOAT_COLOR, active and rendered; the object gets a material
+    reading it), the texture value as `thicket_texture` and the primitive id as
+    `thicket_primitive_id`. The tree and settings are stored on the object (saved in
+    the .blend) for `regenerate_field_mesh`. Bad JSON, p <= 0, NaN and the like, or a
+    resolution out of range raise a ThicketError before anything is made.
+    `progress`: see the module docs (at the start and the end only)."""
+    from .fields import build_field_mesh as build
+
+    source_text = tree_json if isinstance(tree_json, bpy.types.Text) else None
+    tree = source_text.as_string() if source_text is not None else tree_json
+    return build(tree, name, resolution, bounds, adaptive, collection, progress, source_text)
+
+
+def regenerate_field_mesh(obj, progress=None):
+    """Rebuilds a Field Mesh object (`build_field_mesh`) in place from its stored tree
+    (its Text's current content when built from one) and settings; returns it. A
+    bad tree raises a ThicketError and leaves the mesh as it was."""
+    from .fields import regenerate_field_mesh as rebuild
+
+    return rebuild(obj, progress)
+
+
+def add_solid_texture(obj, tree_json, mode="COLOR", domain="POINT", amplitude=0.1, progress=None, **settings):
+    """Appends a Solid Texture item to `obj`'s stack and regenerates; returns the
+    result object. The field tree (`tree_json`: JSON text, a dict, or a Blender Text,
+    read in `obj`'s object space) is evaluated at the current mesh's vertices:
+    `mode` "COLOR" writes its colour per vertex (`domain` "POINT") or face corner
+    ("CORNER") into the colour attribute `color_attribute` (default `thicket_color`),
+    "DISPLACE" moves each vertex along its normal by `amplitude` times the tree's
+    texture value; both write the texture value as `thicket_texture`. Other
+    `settings`: names of `ThicketItem`. Chains after a Shell or Volumetric Texture
+    item; the source mesh is never modified. A bad tree raises a ThicketError before
+    the item is added."""
+    from .pure.field_tree import check_tree
+
+    _require_mesh(obj)
+    if isinstance(tree_json, bpy.types.Text):
+        check_tree(tree_json.as_string())
+        settings["tree_text"] = tree_json
+    else:
+        settings["tree"] = check_tree(tree_json)
+    if mode not in ("COLOR", "DISPLACE"):
+        raise ValueError(f"mode must be 'COLOR' or 'DISPLACE', got {mode!r}")
+    if domain not in ("POINT", "CORNER"):
+        raise ValueError(f"domain must be 'POINT' or 'CORNER', got {domain!r}")
+    add_item(obj, "SOLID_TEXTURE", mode=mode, domain=domain, amplitude=amplitude, **settings)
     return _regenerate(obj, progress=progress)
 
 

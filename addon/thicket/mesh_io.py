@@ -87,6 +87,33 @@ def write_mesh(mesh: bpy.types.Mesh, arrays: MeshArrays) -> None:
         vector = values.ndim == 2
         attr = mesh.attributes.new(name, "FLOAT_VECTOR" if vector else "FLOAT", "POINT")
         attr.data.foreach_set("vector" if vector else "value", values.ravel())
+    write_attributes(mesh, arrays.attributes, arrays.active_color)
+
+
+#: foreach_set key and numpy type of each attribute data type `write_attributes` takes.
+_ATTRIBUTE_KEYS = {
+    "FLOAT": ("value", np.float32),
+    "INT": ("value", np.int32),
+    "FLOAT_VECTOR": ("vector", np.float32),
+    "FLOAT_COLOR": ("color", np.float32),
+    "BOOLEAN": ("value", bool),
+}
+
+
+def write_attributes(mesh: bpy.types.Mesh, attributes: dict, active_color: str = "") -> None:
+    """Writes `attributes` (name -> (domain, data type, values)) into `mesh`, replacing
+    attributes of the same name; `active_color` (a FLOAT_COLOR among them) becomes the
+    active and the rendered colour attribute (what a Color Attribute node reads by default)."""
+    for name, (domain, data_type, values) in attributes.items():
+        key, dtype = _ATTRIBUTE_KEYS[data_type]
+        old = mesh.attributes.get(name)
+        if old is not None:
+            mesh.attributes.remove(old)
+        attr = mesh.attributes.new(name, data_type, domain)
+        attr.data.foreach_set(key, np.ascontiguousarray(values, dtype=dtype).ravel())
+    if active_color:
+        mesh.color_attributes.active_color_name = active_color
+        mesh.color_attributes.default_color_name = active_color
 
 
 def _weight_capture_group(group_names) -> bpy.types.NodeTree:

@@ -25,6 +25,8 @@ class MeshArrays:
     uv_maps: dict = field(default_factory=dict)  # UV map name -> (c, 2) float32, every map
     material_index: np.ndarray | None = None  # (f,) int32 per face, or None
     uv_name: str = "UVMap"  # the active UV map's name (what `uvs` holds)
+    attributes: dict = field(default_factory=dict)  # name -> (domain, data type, values): colours, ints, corner data
+    active_color: str = ""  # the colour attribute (in `attributes`) to make active and rendered, or ""
 
     def carried_to(self, result: "MeshArrays", source_corner, source_face) -> "MeshArrays":
         """`result` given this mesh's UV maps and material indices through provenance

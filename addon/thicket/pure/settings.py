@@ -100,7 +100,32 @@ class VolumetricTexture(_Item):
     label = "Volumetric Texture"
 
 
-KINDS = {cls.kind: cls for cls in (OffsetShell, FieldShell, VolumetricTexture)}
+@dataclass(frozen=True)
+class SolidTexture(_Item):
+    """Solid Texture: a field tree's texture function evaluated on the mesh.
+
+    tree: the field tree's JSON (README, Implicit shapes), in the source's object
+    space. mode: "color" writes the tree's colour at each vertex ("point") or face
+    corner ("corner") into the colour attribute `attribute` (and the texture value
+    into `thicket_texture`); "displace" moves each vertex along its normal by
+    `amplitude` times the texture value (Akleman-Chen section 7). Follows any item
+    (a shell, a baked texture) and keeps its vertices' provenance.
+    """
+
+    tree: str = ""
+    mode: str = "color"
+    domain: str = "point"
+    amplitude: float = 0.1
+    attribute: str = "thicket_color"
+
+    def vertex_groups(self):
+        return []
+
+    kind = "SOLID_TEXTURE"
+    label = "Solid Texture"
+
+
+KINDS = {cls.kind: cls for cls in (OffsetShell, FieldShell, VolumetricTexture, SolidTexture)}
 
 
 def shell_settings(kind, thickness, thickness_mode="RELATIVE", vertex_group="", output="OUTER", surfaces=OffsetShell.surfaces, side="EXTERIOR"):

@@ -188,6 +188,35 @@ class ThicketItem(bpy.types.PropertyGroup):
         update=_changed,
     )
 
+    # Solid Texture
+    tree: StringProperty(
+        name="Field Tree", description="The field tree's JSON (see the README's Implicit shapes); a Text, when set, is used instead", update=_changed
+    )
+    tree_text: PointerProperty(name="Tree Text", description="A Text datablock holding the field tree's JSON", type=bpy.types.Text, update=_changed)
+    mode: EnumProperty(
+        name="Mode",
+        items=[
+            ("COLOR", "Color", "Write the tree's colour into a colour attribute"),
+            ("DISPLACE", "Displace", "Move vertices along their normals by Amplitude times the tree's texture value"),
+        ],
+        default="COLOR",
+        update=_changed,
+    )
+    domain: EnumProperty(
+        name="Domain",
+        items=[("POINT", "Vertex", "One colour per vertex"), ("CORNER", "Face Corner", "One colour per face corner")],
+        default="POINT",
+        update=_changed,
+    )
+    amplitude: FloatProperty(
+        name="Amplitude", description="Displacement at texture value 1", default=0.1, soft_min=-1.0, soft_max=1.0, step=1, precision=4, update=_changed
+    )
+    color_attribute: StringProperty(name="Attribute", description="The colour attribute written", default="thicket_color", update=_changed)
+
+    def tree_json(self):
+        """The Solid Texture's tree: its Text's content when set, else its JSON text."""
+        return self.tree_text.as_string() if self.tree_text is not None else self.tree
+
     def texture_time(self, scene=None):
         """The time the pattern is baked at: the scene's (seconds x speed) when following frames."""
         scene = scene or bpy.context.scene
@@ -220,6 +249,10 @@ class ThicketItem(bpy.types.PropertyGroup):
                 move_group=SELECTED_FACES if self.face_selection == "MOVE" else self.move_group,
                 move_offset=tuple(self.move_offset),
                 cutter=self._cutter_arrays(depsgraph),
+            )
+        if self.kind == S.SolidTexture.kind:
+            return S.SolidTexture(
+                tree=self.tree_json(), mode=self.mode.lower(), domain=self.domain.lower(), amplitude=self.amplitude, attribute=self.color_attribute
             )
         return S.shell_settings(self.kind, self.thickness, self.thickness_mode, self.vertex_group, self.output, saved_value(self, "surfaces"), self.side)
 

@@ -8,6 +8,9 @@ def draw_item_settings(layout, obj, item):
     if item.kind == "VOLUMETRIC_TEXTURE":
         _draw_texture_settings(col, obj, item)
         return
+    if item.kind == "SOLID_TEXTURE":
+        _draw_solid_texture_settings(col, item)
+        return
     if item.kind == "SHELL":
         col.prop(item, "side")
     col.prop(item, "thickness_mode")
@@ -16,6 +19,19 @@ def draw_item_settings(layout, obj, item):
     col.prop(item, "output")
     if item.output == "LAYERS":
         col.prop(item, "surfaces")
+
+
+def _draw_solid_texture_settings(col, item):
+    col.prop(item, "tree_text")
+    row = col.row()
+    row.active = item.tree_text is None
+    row.prop(item, "tree")
+    col.prop(item, "mode")
+    if item.mode == "DISPLACE":
+        col.prop(item, "amplitude")
+    else:
+        col.prop(item, "domain")
+        col.prop(item, "color_attribute")
 
 
 def _draw_texture_settings(col, obj, item):

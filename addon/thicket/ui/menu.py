@@ -14,6 +14,13 @@ class THICKET_MT_object(bpy.types.Menu):
         layout.operator("thicket.render_preview", icon="RENDER_STILL")
         layout.operator("thicket.apply", icon="CHECKMARK")
         layout.operator("thicket.remove", icon="X")
+        layout.separator()
+        layout.operator("thicket.field_mesh_add", icon="META_BALL")
+
+
+def mesh_add_entry(self, context):
+    """Add > Mesh > Field Mesh (Thicket)."""
+    self.layout.operator("thicket.field_mesh_add", text="Field Mesh (Thicket)", icon="META_BALL")
 
 
 def menu_entry(self, context):

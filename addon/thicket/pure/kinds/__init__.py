@@ -8,13 +8,14 @@ from typing import NamedTuple
 
 from .. import settings as S
 from .shell import field_shell, offset_shell, shell_step
+from .solid_texture import solid_texture_step
 from .volumetric_texture import texture_draw_setup, texture_step
 
 
 class Kind(NamedTuple):
     """How a stack item kind evaluates. `consumes`: "mesh" (the current mesh, whose
-    vertices must come from the source's, so vertex groups follow them) or "shell"
-    (the latest shell); `produces`: "shell" (a shell and its mesh), "mesh" (a mesh whose vertices are
+    vertices must come from the source's, so vertex groups follow them), "shell"
+    (the latest shell) or "any" (the current mesh, wherever it came from); `produces`: "shell" (a shell and its mesh), "mesh" (a mesh whose vertices are
     traced to the source's) or "geometry" (new geometry, from no single source
     vertex: vertex groups end there). `weight`: its share of the progress bar relative to the others
     (not from the papers: a bake usually takes longest, an offset shell is
@@ -45,4 +46,5 @@ KINDS = {
     S.OffsetShell: Kind("mesh", "shell", 0.1, shell_step(offset_shell)),
     S.FieldShell: Kind("mesh", "shell", 1.0, shell_step(field_shell)),
     S.VolumetricTexture: Kind("shell", "geometry", 3.0, texture_step, texture_draw_setup),
+    S.SolidTexture: Kind("any", "mesh", 0.2, solid_texture_step),
 }

@@ -1,0 +1,115 @@
+"""Field Mesh objects: a field tree's zero set meshed by the core and written with
+`mesh_io`, the tree and its settings stored on the object (an ID property, saved in
+the .blend) so it regenerates in place."""
+
+import bpy
+
+from .. import mesh_io
+from ..pure import native
+from ..pure.field_tree import COLOR_ATTRIBUTE, check_mesh_settings, check_tree, field_mesh_arrays
+
+#: The object's ID property holding the tree's JSON and the mesh settings.
+SETTINGS_PROPERTY = "thicket_field"
+#: The object's ID property pointing at the Text the tree was read from (optional).
+TEXT_PROPERTY = "thicket_field_text"
+#: The material showing the colour attribute (made once, shared by field meshes).
+MATERIAL_NAME = "Thicket Field Color"
+
+
+def _progress(progress, fraction):
+    if progress is not None and progress(fraction) is False:
+        raise native.get().Cancelled("cancelled")
+
+
+def _arrays(tree, resolution, bounds, adaptive, progress):
+    _progress(progress, 0.0)
+    arrays = field_mesh_arrays(tree, resolution, bounds, adaptive)
+    _progress(progress, 0.9)
+    return arrays
+
+
+def field_settings(obj):
+    """The stored settings of a Field Mesh object (dict: tree, resolution, bounds,
+    adaptive), or None when `obj` is not one."""
+    stored = obj.get(SETTINGS_PROPERTY) if obj is not None else None
+    if stored is None:
+        return None
+    settings = stored.to_dict() if hasattr(stored, "to_dict") else dict(stored)
+    bounds = settings.get("bounds")
+    settings["bounds"] = None if bounds is None or len(bounds) == 0 else [float(v) for v in bounds]
+    return settings
+
+
+def _store(obj, text, resolution, bounds, adaptive, source_text=None):
+    obj[SETTINGS_PROPERTY] = {
+        "tree": text,
+        "resolution": int(resolution),
+        "adaptive": bool(adaptive),
+        "bounds": [] if bounds is None else [float(v) for corner in bounds for v in corner],
+    }
+    if source_text is not None:
+        obj[TEXT_PROPERTY] = source_text
+    elif TEXT_PROPERTY in obj:
+        del obj[TEXT_PROPERTY]
+
+
+def _color_material():
+    """A material whose base colour is the rendered colour attribute (a Color
+    Attribute node with no name reads the mesh's default colour attribute)."""
+    material = bpy.data.materials.get(MATERIAL_NAME)
+    if material is not None:
+        return material
+    material = bpy.data.materials.new(MATERIAL_NAME)
+    if bpy.app.version < (5, 0, 0):  # always on in Blender 5 (the property is deprecated there)
+        material.use_nodes = True
+    nodes = material.node_tree.nodes
+    shader = next((n for n in nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if shader is not None:
+        color = nodes.new("ShaderNodeVertexColor")
+        color.layer_name = COLOR_ATTRIBUTE
+        color.location = (shader.location.x - 300, shader.location.y)
+        material.node_tree.links.new(color.outputs["Color"], shader.inputs["Base Color"])
+    return material
+
+
+def build_field_mesh(tree_json, name="Field Mesh", resolution=128, bounds=None, adaptive=True, collection=None, progress=None, source_text=None):
+    """A new mesh object of the tree's zero set (see `thicket.api.build_field_mesh`).
+    Everything is checked and meshed before any datablock is made, so a bad tree or
+    setting (a ThicketError) leaves the file as it was."""
+    text = check_tree(tree_json)
+    resolution, checked_bounds = check_mesh_settings(resolution, bounds)
+    if collection is None:
+        collection = bpy.context.collection or bpy.context.scene.collection
+    elif not isinstance(collection, bpy.types.Collection):
+        raise TypeError(f"collection must be a Blender collection, got {type(collection).__name__}")
+    arrays = _arrays(text, resolution, checked_bounds, adaptive, progress)
+    mesh = bpy.data.meshes.new(name)
+    try:
+        mesh_io.write_mesh(mesh, arrays)
+        mesh.materials.append(_color_material())
+        obj = bpy.data.objects.new(name, mesh)
+    except BaseException:
+        bpy.data.meshes.remove(mesh)
+        raise
+    collection.objects.link(obj)
+    _store(obj, text, resolution, checked_bounds, adaptive, source_text)
+    _progress(progress, 1.0)
+    return obj
+
+
+def regenerate_field_mesh(obj, progress=None):
+    """Rebuilds a Field Mesh object's mesh in place from its stored tree and settings
+    (from its Text's current content when it was built from one that still exists).
+    On error the mesh stays as it was."""
+    settings = field_settings(obj)
+    if settings is None:
+        raise TypeError(f"'{getattr(obj, 'name', obj)}' is not a Thicket Field Mesh (it has no stored field tree)")
+    source_text = obj.get(TEXT_PROPERTY)
+    tree = source_text.as_string() if isinstance(source_text, bpy.types.Text) else settings["tree"]
+    text = check_tree(tree)
+    resolution, bounds = check_mesh_settings(settings["resolution"], settings["bounds"])
+    arrays = _arrays(text, resolution, bounds, settings["adaptive"], progress)
+    mesh_io.write_mesh(obj.data, arrays)
+    _store(obj, text, resolution, bounds, settings["adaptive"], source_text if isinstance(source_text, bpy.types.Text) else None)
+    _progress(progress, 1.0)
+    return obj

@@ -1,0 +1,120 @@
+"""Implicit field trees (issue 17, Akleman-Chen) as the add-on uses them: a tree's
+JSON checked once, its mesh as `MeshArrays` with the carried colour, texture and
+primitive id as attributes, and the vertex normals a displacement moves along."""
+
+import json
+import math
+
+import numpy as np
+
+from . import native
+from .arrays import MeshArrays
+
+#: Attributes a field mesh or a Solid Texture writes (names of Blender attributes).
+COLOR_ATTRIBUTE = "thicket_color"
+TEXTURE_ATTRIBUTE = "thicket_texture"
+PRIMITIVE_ATTRIBUTE = "thicket_primitive_id"
+
+#: The most cells along the longest side `field_mesh` takes (the core refuses more).
+MAX_RESOLUTION = 2048
+
+
+def invalid(message):
+    """The core's InvalidInput (a ThicketError) with `message`."""
+    return native.get().InvalidInput(message)
+
+
+def tree_text(tree) -> str:
+    """A tree given as JSON text or as the parsed object (dict), as JSON text; the
+    core reads and checks it (`check_tree`)."""
+    if isinstance(tree, (dict, list)):
+        try:
+            return json.dumps(tree, allow_nan=False)
+        except (TypeError, ValueError) as exc:
+            raise invalid(f"field tree: {exc}") from None
+    if isinstance(tree, bytes):
+        tree = tree.decode("utf-8")
+    if not isinstance(tree, str):
+        raise invalid(f"field tree: expected JSON text or a dict, got {type(tree).__name__}")
+    if not tree.strip():
+        raise invalid('field tree: empty (a tree is a JSON object with an "op")')
+    return tree
+
+
+def check_tree(tree) -> str:
+    """The tree's JSON text, read and checked by the core (bad JSON, unknown ops or
+    fields, p <= 0, NaN or infinite numbers... raise InvalidInput naming the fault)."""
+    text = tree_text(tree)
+    native.get().field_eval(text, np.zeros((0, 3), np.float32))
+    return text
+
+
+def check_mesh_settings(resolution, bounds):
+    """`resolution` as an int and `bounds` as a float tuple (min xyz, max xyz) or None,
+    refused with InvalidInput before anything is built."""
+    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
+        raise invalid(f"resolution must be a whole number of cells, got {resolution!r}")
+    resolution = int(resolution)
+    if not 2 <= resolution <= MAX_RESOLUTION:
+        raise invalid(f"resolution must be between 2 and {MAX_RESOLUTION} cells along the longest side, got {resolution}")
+    if bounds is None:
+        return resolution, None
+    try:
+        flat = [float(v) for v in np.asarray(bounds, dtype=np.float64).ravel()]
+    except (TypeError, ValueError):
+        raise invalid(f"bounds must be six numbers (min x, y, z, max x, y, z), got {bounds!r}") from None
+    if len(flat) != 6 or not all(math.isfinite(v) for v in flat):
+        raise invalid(f"bounds must be six finite numbers (min x, y, z, max x, y, z), got {bounds!r}")
+    if any(flat[i] >= flat[i + 3] for i in range(3)):
+        raise invalid(f"bounds must have min < max on every axis, got {flat}")
+    return resolution, (tuple(flat[:3]), tuple(flat[3:]))
+
+
+def field_mesh_arrays(tree, resolution=128, bounds=None, adaptive=True) -> MeshArrays:
+    """The tree's zero set meshed by the core (`thicket_native.field_mesh`): faces as
+    returned, vertex normals from the field, and per-vertex colour (RGBA), texture
+    value and primitive id as attributes (`attributes`, name -> (domain, type, values))."""
+    text = check_tree(tree)
+    resolution, bounds = check_mesh_settings(resolution, bounds)
+    out = native.get().field_mesh(text, bounds=bounds, resolution=resolution, adaptive=bool(adaptive))
+    arrays = MeshArrays.from_native(out)
+    arrays.normals = out["normals"]
+    arrays.attributes = {
+        COLOR_ATTRIBUTE: ("POINT", "FLOAT_COLOR", out["colors"]),
+        TEXTURE_ATTRIBUTE: ("POINT", "FLOAT", out["texture"]),
+        PRIMITIVE_ATTRIBUTE: ("POINT", "INT", out["primitive_id"]),
+    }
+    arrays.active_color = COLOR_ATTRIBUTE
+    return arrays
+
+
+def vertex_normals(mesh: MeshArrays):
+    """Unit vertex normals of `mesh` as Blender computes them: each face's (Newell)
+    normal weighted by the corner angle at the vertex (float32 (n, 3); zero for
+    vertices on no face or only on degenerate faces)."""
+    p = np.asarray(mesh.vertices, dtype=np.float64)
+    sizes = np.asarray(mesh.face_sizes, dtype=np.int64)
+    corners = np.asarray(mesh.corners, dtype=np.int64)
+    normals = np.zeros_like(p)
+    if len(corners) == 0:
+        return normals.astype(np.float32)
+    starts = np.zeros(len(sizes), dtype=np.int64)
+    np.cumsum(sizes[:-1], out=starts[1:])
+    face = np.repeat(np.arange(len(sizes)), sizes)
+    k = np.arange(len(corners)) - starts[face]
+    nxt = corners[starts[face] + (k + 1) % sizes[face]]
+    prv = corners[starts[face] + (k - 1) % sizes[face]]
+    here = p[corners]
+    # Newell's face normal: the sum of cross products of consecutive corners.
+    face_normals = np.zeros((len(sizes), 3))
+    np.add.at(face_normals, face, np.cross(here, p[nxt]))
+    length = np.linalg.norm(face_normals, axis=1, keepdims=True)
+    face_normals = np.divide(face_normals, length, out=np.zeros_like(face_normals), where=length > 0)
+    a, b = p[nxt] - here, p[prv] - here
+    la, lb = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
+    cos = np.einsum("ij,ij->i", a, b) / np.maximum(la * lb, 1e-300)
+    angle = np.where((la > 0) & (lb > 0), np.arccos(np.clip(cos, -1.0, 1.0)), 0.0)
+    np.add.at(normals, corners, face_normals[face] * angle[:, None])
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+    return normals.astype(np.float32)
