@@ -328,3 +328,36 @@ def test_vertex_normals_match_blenders():
     theirs = np.empty(len(mesh.vertices) * 3, np.float32)
     mesh.vertices.foreach_get("normal", theirs)
     np.testing.assert_allclose(ours, theirs.reshape(-1, 3), atol=1e-4)
+
+
+class Layout:
+    """Records what a draw function shows; every property drawn must exist."""
+
+    def __init__(self, drawn):
+        self.drawn = drawn
+
+    def __getattr__(self, name):
+        if name in ("column", "row", "box"):
+            return lambda **kw: self
+        if name in ("separator", "label", "operator", "prop_search"):
+            return lambda *a, **kw: type("Any", (), {"__setattr__": lambda *a: None})()
+        raise AttributeError(name)
+
+    def prop(self, data, name, **kw):
+        assert name in data.bl_rna.properties, name
+        self.drawn.append(name)
+
+
+def test_the_panel_draws_the_solid_texture_settings(scene):
+    from thicket.ui.item_settings import draw_item_settings
+
+    cube = subdivided_cube(1)
+    api.add_item(cube, "SOLID_TEXTURE", tree=striped())
+    item = cube.thicket.items[0]
+    drawn = []
+    draw_item_settings(Layout(drawn), cube, item)
+    assert drawn == ["tree_text", "tree", "mode", "domain", "color_attribute"]
+    item.mode = "DISPLACE"
+    drawn.clear()
+    draw_item_settings(Layout(drawn), cube, item)
+    assert drawn == ["tree_text", "tree", "mode", "amplitude"]
