@@ -158,6 +158,16 @@ def test_bad_settings_raise_thicket_errors_and_make_nothing(scene, resolution, b
     assert (len(bpy.data.meshes), len(bpy.data.objects)) == before
 
 
+def test_progress_is_reported_and_a_cancel_makes_nothing(scene):
+    seen = []
+    api.build_field_mesh(json.dumps(sphere()), resolution=16, progress=seen.append)
+    assert seen[0] == 0.0 and seen[-1] == 1.0 and seen == sorted(seen)
+    before = (len(bpy.data.meshes), len(bpy.data.objects))
+    with pytest.raises(tn.Cancelled):
+        api.build_field_mesh(json.dumps(sphere()), resolution=16, progress=lambda f: f < 0.5)
+    assert (len(bpy.data.meshes), len(bpy.data.objects)) == before
+
+
 def test_bounds_cut_an_open_tree(scene):
     plane = json.dumps({"op": "plane", "point": [0, 0, 0], "normal": [0, 0, 1]})
     with pytest.raises(api.ThicketError, match="bound"):
