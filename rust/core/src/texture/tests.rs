@@ -420,3 +420,23 @@ fn baked_vertices_lie_on_the_iso_level_of_the_trilinear_texture() {
     let median = sorted[sorted.len() / 2];
     assert!(near > 0.9 && median < 0.002, "{:.1}% of corners within 0.01 of the level, median {median}", near * 100.0);
 }
+
+#[test]
+fn where_the_shell_collapses_the_texture_is_cut_away_instead_of_stacked() {
+    // Two boxes 0.3% of the diagonal apart: the exterior shell must collapse between
+    // them (directors of length 0 on the facing faces). A cell without height stacked
+    // every lattice layer on the base, and the bake there was sheets crossing each
+    // other; cut away as by holes, it ends inside the cells that still have height.
+    let mesh = crate::hard_meshes::touching_cubes();
+    let s = shell(&mesh, 0.05);
+    let lengths: Vec<f32> = s.directors.iter().map(|d| d.length()).collect();
+    assert!(lengths.iter().filter(|&&l| l == 0.0).count() >= 8, "the shell collapses between the boxes");
+    let collapsed = bake::effects::collapsed(&s).expect("collapsed vertices are found");
+    assert!(lengths.iter().zip(&collapsed).all(|(&l, &w)| (l == 0.0) <= (w == 1.0)));
+    let tex = Generator::new(Pattern::Rivets).generate([8, 8, 6]).unwrap();
+    let b = bake(&mesh, &s, &layer(tex), &BakeParams { resolution: 6, ..Default::default() }).unwrap();
+    let m = as_mesh(&b);
+    let check = crate::polygonize::SurfaceCheck::of(&b.positions, &b.triangles);
+    assert!(check.is_closed_manifold(), "{check:?}");
+    assert_eq!(crate::hard_meshes::self_intersections(&m), 0);
+}

@@ -12,7 +12,43 @@ use super::cutter::Cutter;
 pub use super::uv_mask::Raster;
 use super::uv_mask::UvMask;
 use super::BakeParams;
+use crate::shell::Shell;
 use glam::{Vec2, Vec3};
+
+/// A vertex whose director is shorter than this share of the shell's median counts as
+/// collapsed (hole weight 1), up to twice that (weight 0). Not from the paper: chosen
+/// on the hard meshes (touching_cubes, cards, Suzanne's head), whose collapsed
+/// vertices have directors of exactly 0 or below 0.1% of the median, the next ones up
+/// at 1% and more; see [`collapsed`].
+const COLLAPSED: f32 = 0.005;
+
+/// Hole weights where the shell has collapsed (where it must, between touching parts
+/// or in a gap narrower than the thickness, thick surfaces 4.3). A cell without height
+/// has no room for the texture: its lattice layers coincide and the iso-surface there
+/// is sheets on top of each other, crossing (thousands of triangle pairs on the hard
+/// meshes). Cut away as a painted hole is, the texture ends inside the cells that still
+/// have height, where the shell is at least half as thick as at their other corners.
+/// None where no vertex collapsed.
+pub fn collapsed(shell: &Shell) -> Option<Vec<f32>> {
+    let lengths: Vec<f32> = shell.directors.iter().map(|d| d.length()).collect();
+    let mut sorted: Vec<f32> = lengths.iter().copied().filter(|l| *l > 0.0).collect();
+    if sorted.is_empty() {
+        return None;
+    }
+    let mid = sorted.len() / 2;
+    let median = *sorted.select_nth_unstable_by(mid, f32::total_cmp).1;
+    let low = COLLAPSED * median;
+    let weights: Vec<f32> = lengths.iter().map(|&l| (2.0 - l / low).clamp(0.0, 1.0)).collect();
+    weights.iter().any(|&w| w > 0.0).then_some(weights)
+}
+
+/// The hole weights of `params` and of the shell's collapse together (the larger).
+fn holes(params: &BakeParams, shell: &Shell) -> Option<Vec<f32>> {
+    match (params.holes.as_ref(), collapsed(shell)) {
+        (Some(painted), Some(c)) => Some(painted.iter().zip(c).map(|(p, c)| p.clamp(0.0, 1.0).max(c)).collect()),
+        (painted, c) => c.or_else(|| painted.cloned()),
+    }
+}
 
 /// The effects of one stack over the cells (triangles of the triangulated base).
 #[derive(Default)]
@@ -45,13 +81,14 @@ pub struct Site {
 impl Effects {
     /// The effects of `params` over cells `tris` with corner texture coordinates `st`,
     /// sampled with `layers` layers across the shell; a moved region's mask has
-    /// `mask_resolution` texels along the longer side of the `(s, t)` box.
-    pub fn new(tris: &[[u32; 3]], st: &[[Vec2; 3]], params: &BakeParams, layers: usize, mask_resolution: usize) -> Self {
+    /// `mask_resolution` texels along the longer side of the `(s, t)` box. Where
+    /// `shell` has collapsed, the texture is cut away as by holes ([`collapsed`]).
+    pub fn new(tris: &[[u32; 3]], st: &[[Vec2; 3]], params: &BakeParams, shell: &Shell, layers: usize, mask_resolution: usize) -> Self {
         let layers = layers.max(1) as f32;
         Self {
             tris: tris.to_vec(),
             region: params.region.clone(),
-            holes: params.holes.clone(),
+            holes: holes(params, shell),
             cutter: params.cutter.clone(),
             moved: params.moved.as_ref().map(|mv| (UvMask::new(tris, st, &mv.weights, mask_resolution), mv.offset * params.tiling)),
             base_layer: params.base_layer.max(1.5 / layers),

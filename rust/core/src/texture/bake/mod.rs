@@ -313,11 +313,8 @@ fn mask_resolution(cells: usize, n: u32) -> usize {
 /// and moved-region mask as a bake of `params`.
 pub fn effects(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Effects> {
     let (_, cells) = checked_cells(mesh, shell, textures, params)?;
-    if params.region.is_none() && params.holes.is_none() && params.cutter.is_none() && params.moved.is_none() {
-        return Ok(Effects::default());
-    }
     let steps = lattice_steps(&cells.st, textures, params);
-    Ok(Effects::new(&cells.triangles, &cells.st, params, steps.heights.len() - 1, mask_resolution(cells.triangles.len(), steps.n)))
+    Ok(Effects::new(&cells.triangles, &cells.st, params, shell, steps.heights.len() - 1, mask_resolution(cells.triangles.len(), steps.n)))
 }
 
 /// The bake's cells and their texture coordinates, once `params` are checked.
@@ -356,7 +353,7 @@ impl Setup {
         let (coords, cells) = checked_cells(mesh, shell, textures, params)?;
         let Steps { n, heights, block, finer, thin } = lattice_steps(&cells.st, textures, params);
         let lattice = Lattice::new(mesh, cells, n);
-        let effects = Effects::new(&lattice.tris, &lattice.st, params, heights.len() - 1, mask_resolution(lattice.tris.len(), n));
+        let effects = Effects::new(&lattice.tris, &lattice.st, params, shell, heights.len() - 1, mask_resolution(lattice.tris.len(), n));
         let bounds = textures.iter().map(|l| MaxPyramid::new(&l.texture)).collect();
         let simplify_error = if thin { THIN_SIMPLIFY_ERROR } else { SIMPLIFY_ERROR };
         Ok(Self { coords, lattice, effects, bounds, heights, block, texture_finer_than_lattice: finer, resolution: params.resolution, simplify_error })
