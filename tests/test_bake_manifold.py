@@ -168,6 +168,8 @@ MESHES = {
     "coil": lambda: obj_file("coil"),
     "blade": lambda: obj_file("blade"),
     "bunny": lambda: obj_file("bunny"),
+    # Two boxes 0.3% apart: the exterior shell collapses between them.
+    "touching_cubes": lambda: obj_file("touching_cubes"),
 }
 
 
