@@ -104,6 +104,7 @@ bench: vulkan setup
 	cargo run --release -q -p thicket-core --features test-support --example bake_bench
 	cargo run --release -q -p thicket-core --example field_mesh_bench
 	cargo run --release -q -p thicket-core --example implicit_mesh_bench -- --runs 3
+	cargo run --release -q -p thicket-core --example field_trace_bench
 	cargo run --release -q -p thicket-render --example bake_fidelity
 	cargo run --release -q -p thicket-render --example render_bench
 	cargo run --release -q -p thicket-render --example shell_texturing_bench

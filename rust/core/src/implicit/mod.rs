@@ -10,7 +10,8 @@
 //! primitive's id ([`FieldTree::evaluate`]). It reports bounds for culling
 //! ([`FieldTree::lipschitz`], [`FieldTree::interval`], [`FieldTree::bounds`]; the
 //! rules per node are in [`bounds`]) and implements [`ScalarField`], so
-//! [`crate::polygonize::mesh_field`] meshes it.
+//! [`crate::polygonize::mesh_field`] meshes it; [`trace::render`] sphere-traces it to
+//! an image (Hart 1996, safe by the Lipschitz bound).
 //!
 //! Negative inside: `V(f) = {f <= 0}`, as in the paper.
 //!
@@ -88,6 +89,8 @@
 pub mod bounds;
 mod eval;
 mod kernel;
+pub mod samples;
+pub mod trace;
 pub mod tree;
 
 #[cfg(test)]

@@ -18,7 +18,7 @@ fn tree(v: &Value) -> FieldTree {
 }
 
 /// One tree per op (and a few combinations), as JSON.
-fn catalogue() -> Vec<Value> {
+pub(super) fn catalogue() -> Vec<Value> {
     let plane = json!({"op": "plane", "point": [0.1, 0.2, 0.3], "normal": [1, 2, -0.5]});
     let sphere = json!({"op": "sphere", "center": [0.2, -0.1, 0.3], "radius": 0.7, "color": [1, 0, 0, 1]});
     let point = json!({"op": "point", "center": [0.1, 0, 0], "radius": 0.4, "color": [0, 1, 0, 1]});
@@ -374,7 +374,7 @@ fn bad_input_gives_clear_errors() {
 }
 
 /// A random tree of every kind of node (planes and complements included).
-fn random_any_tree(rng: &mut Rng, depth: u32) -> Value {
+pub(super) fn random_any_tree(rng: &mut Rng, depth: u32) -> Value {
     if depth == 0 || rng.uniform() < 0.2 {
         return if rng.uniform() < 0.15 { json!({"op": "plane", "point": v3(rng.vec(0.5)), "normal": v3(rng.unit())}) } else { random_leaf(rng) };
     }
