@@ -8,10 +8,12 @@
 //! - [`grid`]: a regular grid of cubes split into prisms, meshing any
 //!   [`ScalarField`](crate::field::ScalarField) by writing only its sampler.
 //! - [`validate`]: the closed 2-manifold contract, counted.
+//! - [`dual`]: manifold dual contouring with sharp features on an interval-culled octree, in quads.
 //!
 //! The volumetric bake ([`crate::texture::bake`]) marches its own lattice, the shell's
 //! cells with the texture's slices, through the same prism, crossing and weld.
 
+pub mod dual;
 pub mod grid;
 pub mod marching;
 pub mod prism_table;

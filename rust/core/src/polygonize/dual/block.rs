@@ -1,0 +1,193 @@
+//! One block of cells at the finest level: its lattice points sampled as one batch,
+//! each sign-changing edge's crossing found once on the field (Illinois regula falsi)
+//! with the analytic gradient there, and one vertex per piece of every cell
+//! ([`super::cases`]) placed by its [`Qef`] (Ju et al. 2002, section 2.3).
+
+use super::cases::{cases, ends, NONE};
+use super::lattice::{Lattice, BLOCK};
+use super::project::project;
+use super::qef::Qef;
+use crate::field::ScalarField;
+use crate::polygonize::marching::Crossing;
+use crate::{Error, Result};
+use glam::{UVec3, Vec3};
+
+/// Most evaluations refining one crossing, and how near the level (in cells) ends it.
+/// Not from a paper: the grid mesher's numbers.
+const REFINE_STEPS: usize = 8;
+const REFINE_TOLERANCE: f32 = 1e-4;
+
+/// Cells of a block, [`BLOCK`]³ (the ones past the lattice unused).
+pub(super) const CELLS: usize = (BLOCK * BLOCK * BLOCK) as usize;
+
+/// A sign-changing lattice edge that this block owns: the one along `axis` from the
+/// lowest corner of one of its cells. Its quad joins the four cells around it.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct OwnedEdge {
+    pub from: UVec3,
+    pub axis: u8,
+    /// Whether `from` is inside (the quad faces `+axis`).
+    pub from_inside: bool,
+    /// The cut field's unit gradient at the crossing.
+    pub normal: Vec3,
+}
+
+/// What a block gives the contouring.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Block {
+    /// Lowest cell.
+    pub origin: UVec3,
+    /// Per cell (`x` fastest, [`BLOCK`] per side): the index of its first vertex among
+    /// the block's, `u32::MAX` without a surface.
+    pub first: Vec<u32>,
+    /// Per cell: its corners' signs (bit `c` set: corner `c` inside).
+    pub config: Vec<u8>,
+    /// Per vertex: the QEF minimizer and the crossings' mass point.
+    pub qef: Vec<Vec3>,
+    pub mass: Vec<Vec3>,
+    /// Per vertex: its cell.
+    pub cell: Vec<UVec3>,
+    pub edges: Vec<OwnedEdge>,
+    /// Field evaluations made (values and gradients, per point).
+    pub evaluations: usize,
+}
+
+pub(super) fn cell_index(local: UVec3) -> usize {
+    (local.x + BLOCK * (local.y + BLOCK * local.z)) as usize
+}
+
+/// Samples and contours the block at `origin` (in cells).
+pub(super) fn process<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, origin: UVec3) -> Result<Block> {
+    let size = (lattice.cells - origin).min(UVec3::splat(BLOCK));
+    let n = size + 1;
+    let point_index = |p: UVec3| (p.x + n.x * (p.y + n.y * p.z)) as usize;
+    let count = (n.x * n.y * n.z) as usize;
+    let mut points = Vec::with_capacity(count);
+    let mut at = Vec::with_capacity(count);
+    for z in 0..n.z {
+        for y in 0..n.y {
+            for x in 0..n.x {
+                let g = origin + UVec3::new(x, y, z);
+                at.push(g);
+                points.push(lattice.point(g));
+            }
+        }
+    }
+    let mut values = vec![0.0; count];
+    field.values(&points, &mut values);
+    let mut evaluations = count;
+    if let Some(i) = values.iter().position(|v| v.is_nan()) {
+        return Err(Error::InvalidParameter(format!("the field is not a number at {}", points[i])));
+    }
+    for (v, g) in values.iter_mut().zip(&at) {
+        *v = lattice.sample(*v, *g);
+    }
+    let table = cases();
+    let mut block = Block { origin, first: vec![u32::MAX; CELLS], config: vec![0; CELLS], ..Default::default() };
+    // Crossings, one per sign-changing edge of the block's lattice (slot: point * 3 + axis).
+    let mut slot = vec![u32::MAX; count * 3];
+    let mut crossings: Vec<(usize, usize, Crossing)> = Vec::new();
+    let mut active: Vec<UVec3> = Vec::new();
+    for z in 0..size.z {
+        for y in 0..size.y {
+            for x in 0..size.x {
+                let cell = UVec3::new(x, y, z);
+                let corner = |c: usize| cell + UVec3::new(c as u32 & 1, c as u32 >> 1 & 1, c as u32 >> 2 & 1);
+                let config = (0..8).fold(0u8, |m, c| m | (u8::from(values[point_index(corner(c))] <= 0.0) << c));
+                block.config[cell_index(cell)] = config;
+                if config == 0 || config == 255 {
+                    continue;
+                }
+                active.push(cell);
+                for e in (0..12).filter(|&e| table[config as usize].piece[e] != NONE) {
+                    let (a, b) = ends(e);
+                    let (pa, pb) = (point_index(corner(a)), point_index(corner(b)));
+                    let s = pa * 3 + e / 4;
+                    if slot[s] == u32::MAX {
+                        slot[s] = crossings.len() as u32;
+                        crossings.push((pa, pb, Crossing::new(values[pa], values[pb], 0.0)));
+                    }
+                }
+            }
+        }
+    }
+    if active.is_empty() {
+        return Ok(block);
+    }
+    // Refine every crossing on the cut field, one batch per step.
+    let tolerance = REFINE_TOLERANCE * lattice.step.min_element();
+    let mut pending: Vec<usize> = (0..crossings.len()).collect();
+    let mut batch = Vec::with_capacity(pending.len());
+    let mut out = Vec::with_capacity(pending.len());
+    for _ in 0..REFINE_STEPS {
+        if pending.is_empty() {
+            break;
+        }
+        batch.clear();
+        batch.extend(pending.iter().map(|&c| points[crossings[c].0].lerp(points[crossings[c].1], crossings[c].2.at())));
+        out.resize(batch.len(), 0.0);
+        field.values(&batch, &mut out);
+        evaluations += batch.len();
+        let mut kept = 0;
+        for k in 0..pending.len() {
+            let c = pending[k];
+            if crossings[c].2.step(lattice.cut(out[k], batch[k]), tolerance) {
+                pending[kept] = c;
+                kept += 1;
+            }
+        }
+        pending.truncate(kept);
+    }
+    let mut places: Vec<Vec3> = crossings.iter().map(|(a, b, c)| points[*a].lerp(points[*b], c.result())).collect();
+    let mut normals = vec![Vec3::ZERO; places.len()];
+    field.gradients(&places, &mut normals);
+    evaluations += places.len();
+    // Where an edge reaches the box's faces, the box may have made the crossing.
+    let near: Vec<usize> = (0..crossings.len()).filter(|&c| lattice.on_face(at[crossings[c].0]) || lattice.on_face(at[crossings[c].1])).collect();
+    if !near.is_empty() {
+        let near_points: Vec<Vec3> = near.iter().map(|&c| places[c]).collect();
+        let mut f = vec![0.0; near.len()];
+        field.values(&near_points, &mut f);
+        for (&c, f) in near.iter().zip(f) {
+            let (d, face) = lattice.to_box(places[c]);
+            if d >= f {
+                // The box made it: on the face itself, at the edge's end there.
+                normals[c] = face;
+                let (a, b) = (crossings[c].0, crossings[c].1);
+                places[c] = if lattice.on_face(at[b]) { points[b] } else { points[a] };
+            }
+        }
+    }
+    for g in &mut normals {
+        *g = if g.is_finite() { g.normalize_or_zero() } else { Vec3::ZERO };
+    }
+    // One vertex per piece.
+    for cell in active {
+        let config = block.config[cell_index(cell)];
+        let case = &table[config as usize];
+        block.first[cell_index(cell)] = block.qef.len() as u32;
+        let mut qefs = [Qef::default(); 4];
+        let corner = |c: usize| cell + UVec3::new(c as u32 & 1, c as u32 >> 1 & 1, c as u32 >> 2 & 1);
+        for e in (0..12).filter(|&e| case.piece[e] != NONE) {
+            let c = slot[point_index(corner(ends(e).0)) * 3 + e / 4] as usize;
+            qefs[case.piece[e] as usize].add(places[c], normals[c]);
+        }
+        let (lo, hi) = (lattice.point(origin + cell), lattice.point(origin + cell + 1));
+        for q in &qefs[..case.pieces as usize] {
+            block.qef.push(q.solve(lo, hi));
+            block.mass.push(q.mass_point());
+            block.cell.push(origin + cell);
+        }
+        // The edges from the cell's lowest corner are the block's to contour.
+        for axis in 0..3 {
+            let e = axis * 4;
+            if case.piece[e] != NONE {
+                let c = slot[point_index(cell) * 3 + axis] as usize;
+                block.edges.push(OwnedEdge { from: origin + cell, axis: axis as u8, from_inside: config & 1 == 1, normal: normals[c] });
+            }
+        }
+    }
+    evaluations += project(field, lattice, &mut block.qef, &block.cell, Some(&block.mass));
+    block.evaluations = evaluations;
+    Ok(block)
+}

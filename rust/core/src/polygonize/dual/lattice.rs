@@ -1,0 +1,88 @@
+//! The lattice of cells over the box, and the field as the polygonizer samples it: the
+//! solid cut by the box (`max(f, box)`, as [`crate::polygonize::grid`] cuts it), the
+//! lattice points on the box's faces outside, so the output is closed.
+
+use crate::polygonize::grid::MAX_RESOLUTION;
+use crate::polygonize::marching::OFF_ISO;
+use crate::{Error, Result};
+use glam::{UVec3, Vec3};
+
+/// Cells per side of a block: the leaves of the octree descent, sampled as one batch.
+/// Not from a paper: 4 keeps a bound's cost (a few dozen samples) below the samples
+/// it saves, as in the grid mesher's culling.
+pub(super) const BLOCK: u32 = 4;
+
+pub(super) struct Lattice {
+    pub lo: Vec3,
+    pub hi: Vec3,
+    pub step: Vec3,
+    pub cells: UVec3,
+    /// How far samples on the box's faces are kept outside: [`OFF_ISO`] of a cell.
+    pub eps: f32,
+}
+
+impl Lattice {
+    pub fn new(bounds: (Vec3, Vec3), resolution: u32) -> Result<Self> {
+        let (lo, hi) = bounds;
+        if !(lo.is_finite() && hi.is_finite() && hi.cmpgt(lo).all()) {
+            return Err(Error::InvalidParameter(format!("the box to mesh must be finite and not empty, got {lo} to {hi}")));
+        }
+        if !(2..=MAX_RESOLUTION).contains(&resolution) {
+            return Err(Error::InvalidParameter(format!("resolution must be 2 to {MAX_RESOLUTION} cells, got {resolution}")));
+        }
+        let extent = hi - lo;
+        let h = extent.max_element() / resolution as f32;
+        let cells = (extent / h).ceil().as_uvec3().clamp(UVec3::splat(2), UVec3::splat(resolution));
+        let step = extent / cells.as_vec3();
+        let far = lo.abs().max(hi.abs()).max_element();
+        if step.min_element() < 2e-5 * far {
+            return Err(Error::InvalidParameter(format!(
+                "cells of {} are too small for single precision at coordinates near {far}: mesh a box nearer the origin or use fewer cells",
+                step.min_element()
+            )));
+        }
+        Ok(Self { lo, hi, step, cells, eps: OFF_ISO * step.min_element() })
+    }
+
+    pub fn point(&self, at: UVec3) -> Vec3 {
+        self.lo + self.step * at.as_vec3()
+    }
+
+    /// Whether a lattice point lies on the box's faces.
+    pub fn on_face(&self, at: UVec3) -> bool {
+        at.cmpeq(UVec3::ZERO).any() || at.cmpeq(self.cells).any()
+    }
+
+    /// Signed distance to the box (negative inside) and the outward normal of the
+    /// nearest face.
+    pub fn to_box(&self, p: Vec3) -> (f32, Vec3) {
+        let (below, above) = (self.lo - p, p - self.hi);
+        let d = below.max(above);
+        let axis = if d.x >= d.y && d.x >= d.z {
+            0
+        } else if d.y >= d.z {
+            1
+        } else {
+            2
+        };
+        let mut normal = Vec3::ZERO;
+        normal[axis] = if below[axis] >= above[axis] { -1.0 } else { 1.0 };
+        (d[axis], normal)
+    }
+
+    /// The cut field `max(f, box)` at `p`.
+    pub fn cut(&self, f: f32, p: Vec3) -> f32 {
+        f.max(self.to_box(p).0)
+    }
+
+    /// The cut field at lattice point `at`, kept [`Lattice::eps`] outside on the box's
+    /// faces. Inside where `<= 0`.
+    pub fn sample(&self, f: f32, at: UVec3) -> f32 {
+        let v = self.cut(f, self.point(at));
+        if self.on_face(at) {
+            v.max(self.eps)
+        } else {
+            v
+        }
+    }
+}
