@@ -10,6 +10,7 @@
 mod arrays;
 mod errors;
 mod field;
+mod field_render;
 mod handles;
 mod incremental;
 mod keywords;
@@ -51,5 +52,6 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render::save_render, m)?)?;
     m.add_function(wrap_pyfunction!(field::field_eval, m)?)?;
     m.add_function(wrap_pyfunction!(field::field_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(field_render::field_render, m)?)?;
     Ok(())
 }
