@@ -3,12 +3,19 @@
 //! `polygonize::mesh_field` at 128 and 256 cells along the longest side, with interval
 //! culling (the tree's `ScalarField::interval`) and without (the same tree behind
 //! `Unculled`, which hides its interval): the minimum and median of several runs,
-//! triangles, and whether both meshes are the same bit for bit.
+//! triangles, and whether both meshes are the same bit for bit; then
+//! `polygonize::dual::mesh_dual` (manifold dual contouring, quads) on the same tree and
+//! box: its time, triangles (two per quad) and peak memory beside the culled grid
+//! mesher's, as ratios, and where its time goes (descent, cells with their
+//! evaluations, contouring, attributes).
 //!
 //! `cargo run --release -p thicket-core --example implicit_mesh_bench [-- --runs N --resolutions 128,256 --culled-only]`
 
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 use thicket_core::implicit::FieldTree;
+use thicket_core::polygonize::dual::{mesh_dual, DualMesh, DualParams};
 use thicket_core::polygonize::grid::Unculled;
 use thicket_core::polygonize::{mesh_field, FieldMesh, GridParams, SurfaceCheck};
 
@@ -36,12 +43,51 @@ pub const TREE: &str = r#"{"op": "union_wp", "p": 8, "children": [
     {"op": "sphere", "center": [0.4, -0.5, -0.3], "radius": 0.26}]}
 ]}"#;
 
+/// The system allocator, counting the bytes live and their peak.
+struct Counting;
+static LIVE: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        let live = LIVE.fetch_add(layout.size(), Ordering::Relaxed) + layout.size();
+        PEAK.fetch_max(live, Ordering::Relaxed);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        LIVE.fetch_sub(layout.size(), Ordering::Relaxed);
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Counting = Counting;
+
+/// The peak of live heap bytes above what was live at the start, while `f` runs, in MB.
+fn peak_mb<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let base = LIVE.load(Ordering::Relaxed);
+    PEAK.store(base, Ordering::Relaxed);
+    let out = f();
+    (out, (PEAK.load(Ordering::Relaxed) - base) as f64 / 1e6)
+}
+
 fn stats(mut t: Vec<f64>) -> (f64, f64) {
     t.sort_by(f64::total_cmp);
     (t[0], t[t.len() / 2])
 }
 
 fn time(runs: usize, mut f: impl FnMut() -> FieldMesh) -> ((f64, f64), FieldMesh) {
+    let mut times = Vec::new();
+    let mut mesh = None;
+    for _ in 0..runs {
+        let start = Instant::now();
+        mesh = Some(f());
+        times.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    (stats(times), mesh.unwrap())
+}
+
+fn time_dual(runs: usize, mut f: impl FnMut() -> DualMesh) -> ((f64, f64), DualMesh) {
     let mut times = Vec::new();
     let mut mesh = None;
     for _ in 0..runs {
@@ -76,5 +122,25 @@ fn main() {
         println!("  every point sampled: min {dense_min:7.1} ms, median {dense_median:7.1} ms");
         println!("  interval culling:    min {culled_min:7.1} ms, median {culled_median:7.1} ms ({:.2}x faster by the minimum)", dense_min / culled_min);
         println!("  same mesh bit for bit: {same}");
+        let dual_params = DualParams { bounds: params.bounds, resolution };
+        let ((dual_min, dual_median), dual) = time_dual(runs, || mesh_dual(&tree, &dual_params).unwrap());
+        let (_, grid_mb) = peak_mb(|| mesh_field(&tree, &params).unwrap());
+        let (_, dual_mb) = peak_mb(|| mesh_dual(&tree, &dual_params).unwrap());
+        let tris = dual.triangles();
+        let check = SurfaceCheck::of(&dual.positions, &tris);
+        let p = dual.profile;
+        println!(
+            "  dual contouring:     min {dual_min:7.1} ms, median {dual_median:7.1} ms ({:.2}x the culled grid's time by the minimum); {} quads = {} triangles ({:.2}x the grid's); closed manifold {}",
+            dual_min / culled_min,
+            dual.quads.len(),
+            tris.len(),
+            tris.len() as f64 / culled.triangles.len() as f64,
+            check.is_closed_manifold()
+        );
+        println!("  peak memory:         grid {grid_mb:.1} MB, dual {dual_mb:.1} MB ({:.2}x)", dual_mb / grid_mb);
+        println!(
+            "  dual profile (last run): descent {:.1} ms, cells (sampling, crossings, QEF) {:.1} ms over {} blocks and {} evaluations, contouring {:.1} ms, normals and attributes {:.1} ms",
+            p.descent_ms, p.cells_ms, p.live_blocks, p.evaluations, p.contour_ms, p.attributes_ms
+        );
     }
 }

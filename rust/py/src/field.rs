@@ -6,6 +6,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use thicket_core::glam::Vec3;
 use thicket_core::implicit::{FieldTree, ATTRIBUTE_COUNT, ATTRIBUTE_ID, ATTRIBUTE_TEXTURE};
+use thicket_core::polygonize::dual::{mesh_dual, DualMesh, DualParams};
 use thicket_core::polygonize::grid::{Unculled, MAX_RESOLUTION};
 use thicket_core::polygonize::{mesh_field, FieldMesh, GridParams};
 use thicket_core::Error;
@@ -98,21 +99,24 @@ fn checked_resolution(resolution: i64) -> PyResult<u32> {
 /// field_mesh(tree_json, bounds=None, resolution=128, adaptive=True) -> dict
 ///
 /// The zero set of the field tree `tree_json` (a JSON string; schema:
-/// thicket_core::implicit) as a closed, consistently oriented triangle mesh (marching prisms on a
-/// grid, iso-vertices on the field's own crossing; the solid is cut by the box, so
-/// the mesh closes where it leaves it). `bounds`: ((x0, y0, z0), (x1, y1, z1)), the
-/// box meshed; None: the tree's own bound grown by two cells each side (an unbounded
-/// tree, such as a plane or a complement, needs bounds). `resolution`: cells along
-/// the longest side of the box (2 to 2048; finer grids would not fit in memory).
-/// `adaptive`: skip the space that the tree's interval bounds show to be empty or
-/// solid (for now interval culling on the regular grid: the same mesh as
-/// adaptive=False, faster; an octree comes later).
+/// thicket_core::implicit) as a closed, consistently oriented mesh; the solid is cut
+/// by the box, so the mesh closes where it leaves it. `bounds`: ((x0, y0, z0), (x1,
+/// y1, z1)), the box meshed; None: the tree's own bound grown by two cells each side
+/// (an unbounded tree, such as a plane or a complement, needs bounds). `resolution`:
+/// cells along the longest side of the box (2 to 2048; finer grids would not fit in
+/// memory). `adaptive=True`: manifold dual contouring (thicket_core::polygonize::dual)
+/// on the cells that the tree's interval bounds cannot rule out: quads, one vertex per
+/// piece of the surface in a cell, placed on the tree's creases and corners from its
+/// analytic gradients. `adaptive=False`: marching prisms on the whole grid
+/// (triangles, iso-vertices on the lattice edges).
 ///
-/// Returns vertices (n, 3) float32, face_sizes and corners int32 (triangles), normals
+/// Returns vertices (n, 3) float32, face_sizes and corners int32 (quads with
+/// adaptive=True, their better split along corners 0-2; triangles otherwise), normals
 /// (n, 3) (the field's unit gradient; the box face's normal where the box cut it),
 /// colors (n, 4) float32, texture (n,) float32 and primitive_id (n,) int32 per vertex
 /// (as field_eval gives them there), and cells (nx, ny, nz). Bad trees, bounds and
-/// resolutions raise InvalidInput (a ThicketError) with a message saying what is wrong.
+/// resolutions, and trees that are not a number where sampled, raise InvalidInput (a
+/// ThicketError) with a message saying what is wrong.
 #[pyfunction]
 #[pyo3(signature = (tree_json, bounds=None, resolution=128, adaptive=true))]
 pub fn field_mesh<'py>(py: Python<'py>, tree_json: &str, bounds: Option<&Bound<'py, PyAny>>, resolution: i64, adaptive: bool) -> PyResult<Bound<'py, PyDict>> {
@@ -123,32 +127,62 @@ pub fn field_mesh<'py>(py: Python<'py>, tree_json: &str, bounds: Option<&Bound<'
     let text = tree_json.to_owned();
     let mesh = run_detached(py, move || {
         let tree = FieldTree::from_json(&text)?;
-        let params = GridParams { bounds: mesh_box(&tree, bounds, resolution)?, resolution, refine: true };
-        if adaptive {
-            mesh_field(&tree, &params)
+        let bounds = mesh_box(&tree, bounds, resolution)?;
+        Ok(if adaptive {
+            Meshed::Dual(mesh_dual(&tree, &DualParams { bounds, resolution })?)
         } else {
-            mesh_field(&Unculled(&tree), &params)
-        }
+            Meshed::Grid(mesh_field(&Unculled(&tree), &GridParams { bounds, resolution, refine: true })?)
+        })
     })?;
-    mesh_dict(py, mesh)
+    match mesh {
+        Meshed::Dual(m) => {
+            let count = m.quads.len();
+            let faces = Faces { sizes: vec![4; count], corners: m.quads.into_iter().flatten().collect() };
+            mesh_dict(py, faces, m.positions, m.normals, m.attributes, m.attribute_count, m.cells.to_array())
+        }
+        Meshed::Grid(m) => {
+            let count = m.triangles.len();
+            let faces = Faces { sizes: vec![3; count], corners: m.triangles.into_iter().flatten().collect() };
+            mesh_dict(py, faces, m.positions, m.normals, m.attributes, m.attribute_count, m.cells.to_array())
+        }
+    }
+}
+
+/// What either mesher made.
+enum Meshed {
+    Dual(DualMesh),
+    Grid(FieldMesh),
+}
+
+/// Faces as Blender takes them: a size per face, then every face's corners.
+struct Faces {
+    sizes: Vec<u32>,
+    corners: Vec<u32>,
 }
 
 /// A meshed tree as `field_mesh` returns it.
-fn mesh_dict(py: Python<'_>, m: FieldMesh) -> PyResult<Bound<'_, PyDict>> {
-    debug_assert_eq!(m.attribute_count, ATTRIBUTE_COUNT);
-    let rows = m.attributes.chunks_exact(ATTRIBUTE_COUNT);
+fn mesh_dict(
+    py: Python<'_>,
+    faces: Faces,
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    attributes: Vec<f32>,
+    attribute_count: usize,
+    cells: [u32; 3],
+) -> PyResult<Bound<'_, PyDict>> {
+    debug_assert_eq!(attribute_count, ATTRIBUTE_COUNT);
+    let rows = attributes.chunks_exact(ATTRIBUTE_COUNT);
     let colors: Vec<[f32; 4]> = rows.clone().map(|a| [a[0], a[1], a[2], a[3]]).collect();
     let texture: Vec<f32> = rows.clone().map(|a| a[ATTRIBUTE_TEXTURE]).collect();
     let ids: Vec<u32> = rows.map(|a| a[ATTRIBUTE_ID] as u32).collect();
     let d = PyDict::new(py);
-    let count = m.triangles.len();
-    d.set_item("vertices", arrays::vec3_array(py, m.positions)?)?;
-    d.set_item("face_sizes", arrays::u32_as_i32_array(py, vec![3; count]))?;
-    d.set_item("corners", arrays::u32_as_i32_array(py, m.triangles.into_iter().flatten().collect()))?;
-    d.set_item("normals", arrays::vec3_array(py, m.normals)?)?;
+    d.set_item("vertices", arrays::vec3_array(py, positions)?)?;
+    d.set_item("face_sizes", arrays::u32_as_i32_array(py, faces.sizes))?;
+    d.set_item("corners", arrays::u32_as_i32_array(py, faces.corners))?;
+    d.set_item("normals", arrays::vec3_array(py, normals)?)?;
     d.set_item("colors", rows4(py, colors)?)?;
     d.set_item("texture", texture.into_pyarray(py))?;
     d.set_item("primitive_id", arrays::u32_as_i32_array(py, ids))?;
-    d.set_item("cells", m.cells.to_array())?;
+    d.set_item("cells", cells)?;
     Ok(d)
 }
