@@ -13,6 +13,7 @@
     field = th.build_field_mesh(tree_json, resolution=128)   # an implicit field tree's mesh
     th.regenerate_field_mesh(field)             # after editing its stored tree or Text
     th.add_solid_texture(obj, tree_json, mode="COLOR")        # the tree's colours on a mesh
+    th.render_field(tree_json, camera=cam)      # the tree sphere-traced into an image
 
 Every function raises `ThicketError` (from thicket_native, a ValueError) for bad
 geometry or settings, `TypeError` for non-mesh objects and `KeyError` for missing
@@ -57,6 +58,7 @@ __all__ = [
     "build_field_mesh",
     "regenerate_field_mesh",
     "add_solid_texture",
+    "render_field",
     "ThicketError",  # noqa: F822 (module __getattr__)
     "BakeNeedsConfirmation",
 ]
@@ -191,6 +193,19 @@ def regenerate_field_mesh(obj, progress=None):
     from .fields import regenerate_field_mesh as rebuild
 
     return rebuild(obj, progress)
+
+
+def render_field(tree_json, camera=None, width=512, height=512, image="Thicket Field"):
+    """Renders an implicit field tree (JSON text, a dict, or a Blender Text) with its
+    colours and texture functions by the core's sphere tracer
+    (`thicket_native.field_render`) into the float image `image` (created, or resized
+    and overwritten), which is returned. `camera`: a camera object (its view and
+    `calc_matrix_camera` for width x height); None frames the tree's surface from the
+    front right, above (a bounded tree only). Bad trees or sizes raise a ThicketError
+    before any image is made."""
+    from .fields.render import render_field as render
+
+    return render(tree_json, camera, width, height, image)
 
 
 def add_solid_texture(obj, tree_json, mode="COLOR", domain="POINT", amplitude=0.1, progress=None, **settings):
