@@ -14,34 +14,11 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
+use thicket_core::implicit::samples::SOFT_CSG_20 as TREE;
 use thicket_core::implicit::FieldTree;
-use thicket_core::polygonize::dual::{mesh_dual, DualMesh, DualParams};
+use thicket_core::polygonize::dual::{mesh_dual, DualParams};
 use thicket_core::polygonize::grid::Unculled;
-use thicket_core::polygonize::{mesh_field, FieldMesh, GridParams, SurfaceCheck};
-
-/// The 20-node tree: a soft union (p = 8) of five spheres, four boxes, four
-/// segments, a box with a sphere cut away and a box rounded by a sphere.
-pub const TREE: &str = r#"{"op": "union_wp", "p": 8, "children": [
-  {"op": "sphere", "center": [0, 0, 0], "radius": 0.45, "color": [0.9, 0.2, 0.2, 1]},
-  {"op": "sphere", "center": [0.6, 0.1, 0.2], "radius": 0.25, "color": [0.2, 0.9, 0.2, 1]},
-  {"op": "sphere", "center": [-0.55, 0.3, -0.1], "radius": 0.3, "color": [0.2, 0.2, 0.9, 1]},
-  {"op": "sphere", "center": [0.1, -0.6, 0.35], "radius": 0.2, "color": [0.9, 0.9, 0.2, 1]},
-  {"op": "sphere", "center": [-0.2, 0.1, 0.7], "radius": 0.18, "color": [0.9, 0.2, 0.9, 1]},
-  {"op": "box", "center": [0.5, 0.5, -0.4], "half_size": [0.2, 0.15, 0.1], "rotation": [0.92, 0.2, 0.3, 0.1], "radius": 0.02, "color": [0.2, 0.9, 0.9, 1]},
-  {"op": "box", "center": [-0.5, -0.5, 0.3], "half_size": [0.15, 0.25, 0.12], "color": [0.6, 0.3, 0.1, 1]},
-  {"op": "box", "center": [0.0, 0.0, -0.7], "half_size": [0.6, 0.6, 0.05], "color": [0.3, 0.3, 0.3, 1]},
-  {"op": "box", "center": [0.7, -0.3, 0.0], "half_size": [0.1, 0.3, 0.2], "rotation": [0.7, 0.0, 0.7, 0.1], "color": [0.1, 0.5, 0.3, 1]},
-  {"op": "segment", "a": [-0.8, -0.2, -0.6], "b": [0.8, 0.2, 0.6], "radius": 0.06, "color": [1, 0.5, 0, 1]},
-  {"op": "segment", "a": [-0.7, 0.7, 0.0], "b": [0.7, -0.7, 0.1], "radius": 0.05, "color": [0, 0.5, 1, 1]},
-  {"op": "segment", "a": [0.0, -0.8, -0.5], "b": [0.0, 0.8, 0.5], "radius": 0.07, "color": [0.5, 1, 0, 1]},
-  {"op": "segment", "a": [-0.3, 0.0, -0.8], "b": [0.3, 0.1, 0.8], "radius": 0.04, "color": [1, 0, 0.5, 1]},
-  {"op": "difference_wp", "p": 8, "children": [
-    {"op": "box", "center": [-0.4, 0.5, 0.5], "half_size": [0.25, 0.2, 0.2], "color": [0.8, 0.8, 0.5, 1]},
-    {"op": "sphere", "center": [-0.4, 0.5, 0.7], "radius": 0.2}]},
-  {"op": "intersection_wp", "p": 8, "children": [
-    {"op": "box", "center": [0.4, -0.5, -0.3], "half_size": [0.2, 0.2, 0.2], "color": [0.5, 0.8, 0.8, 1]},
-    {"op": "sphere", "center": [0.4, -0.5, -0.3], "radius": 0.26}]}
-]}"#;
+use thicket_core::polygonize::{mesh_field, GridParams, SurfaceCheck};
 
 /// The system allocator, counting the bytes live and their peak.
 struct Counting;
@@ -76,26 +53,15 @@ fn stats(mut t: Vec<f64>) -> (f64, f64) {
     (t[0], t[t.len() / 2])
 }
 
-fn time(runs: usize, mut f: impl FnMut() -> FieldMesh) -> ((f64, f64), FieldMesh) {
+fn time<T>(runs: usize, mut f: impl FnMut() -> T) -> ((f64, f64), T) {
     let mut times = Vec::new();
-    let mut mesh = None;
+    let mut out = None;
     for _ in 0..runs {
         let start = Instant::now();
-        mesh = Some(f());
+        out = Some(f());
         times.push(start.elapsed().as_secs_f64() * 1e3);
     }
-    (stats(times), mesh.unwrap())
-}
-
-fn time_dual(runs: usize, mut f: impl FnMut() -> DualMesh) -> ((f64, f64), DualMesh) {
-    let mut times = Vec::new();
-    let mut mesh = None;
-    for _ in 0..runs {
-        let start = Instant::now();
-        mesh = Some(f());
-        times.push(start.elapsed().as_secs_f64() * 1e3);
-    }
-    (stats(times), mesh.unwrap())
+    (stats(times), out.expect("at least one run"))
 }
 
 fn main() {
@@ -123,7 +89,7 @@ fn main() {
         println!("  interval culling:    min {culled_min:7.1} ms, median {culled_median:7.1} ms ({:.2}x faster by the minimum)", dense_min / culled_min);
         println!("  same mesh bit for bit: {same}");
         let dual_params = DualParams { bounds: params.bounds, resolution };
-        let ((dual_min, dual_median), dual) = time_dual(runs, || mesh_dual(&tree, &dual_params).unwrap());
+        let ((dual_min, dual_median), dual) = time(runs, || mesh_dual(&tree, &dual_params).unwrap());
         let (_, grid_mb) = peak_mb(|| mesh_field(&tree, &params).unwrap());
         let (_, dual_mb) = peak_mb(|| mesh_dual(&tree, &dual_params).unwrap());
         let tris = dual.triangles();

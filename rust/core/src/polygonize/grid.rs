@@ -123,21 +123,8 @@ impl Grid {
         let (nx, ny) = (u64::from(self.cells.x) + 1, u64::from(self.cells.y) + 1);
         u64::from(i) + nx * (u64::from(j) + ny * u64::from(k))
     }
-    /// Signed distance to the box (negative inside), and the outward normal of the
-    /// nearest face.
     fn to_box(&self, p: Vec3) -> (f32, Vec3) {
-        let (below, above) = (self.lo - p, p - self.hi);
-        let d = below.max(above);
-        let axis = if d.x >= d.y && d.x >= d.z {
-            0
-        } else if d.y >= d.z {
-            1
-        } else {
-            2
-        };
-        let mut normal = Vec3::ZERO;
-        normal[axis] = if below[axis] >= above[axis] { -1.0 } else { 1.0 };
-        (d[axis], normal)
+        to_box(self.lo, self.hi, p)
     }
     /// `-max(f, box)` at `p`: the solid cut by the box, inside `>= 0` as marching
     /// prisms count it. Not a number where `f` is not.
@@ -468,4 +455,22 @@ fn normals<F: ScalarField + ?Sized>(field: &F, grid: &Grid, piece: &mut Piece) {
         }
     }
     piece.grad.iter_mut().filter(|g| !g.is_finite()).for_each(|g| *g = Vec3::ZERO);
+}
+
+/// Signed distance from `p` to the box `lo..hi` (negative inside, the largest of the
+/// per-axis distances: the box as a field whose max with another cuts it), and the
+/// outward normal of the nearest face. Both meshers cut their solid by it.
+pub(crate) fn to_box(lo: Vec3, hi: Vec3, p: Vec3) -> (f32, Vec3) {
+    let (below, above) = (lo - p, p - hi);
+    let d = below.max(above);
+    let axis = if d.x >= d.y && d.x >= d.z {
+        0
+    } else if d.y >= d.z {
+        1
+    } else {
+        2
+    };
+    let mut normal = Vec3::ZERO;
+    normal[axis] = if below[axis] >= above[axis] { -1.0 } else { 1.0 };
+    (d[axis], normal)
 }

@@ -56,18 +56,7 @@ impl Lattice {
     /// Signed distance to the box (negative inside) and the outward normal of the
     /// nearest face.
     pub fn to_box(&self, p: Vec3) -> (f32, Vec3) {
-        let (below, above) = (self.lo - p, p - self.hi);
-        let d = below.max(above);
-        let axis = if d.x >= d.y && d.x >= d.z {
-            0
-        } else if d.y >= d.z {
-            1
-        } else {
-            2
-        };
-        let mut normal = Vec3::ZERO;
-        normal[axis] = if below[axis] >= above[axis] { -1.0 } else { 1.0 };
-        (d[axis], normal)
+        crate::polygonize::grid::to_box(self.lo, self.hi, p)
     }
 
     /// The cut field `max(f, box)` at `p`.
