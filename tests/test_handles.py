@@ -49,9 +49,13 @@ def test_a_shell_handle_is_the_shell_function(sphere):
     assert again.mesh.vertex_count == mesh.vertex_count
     with pytest.raises(tn.InvalidInput, match="one row per vertex"):
         tn.Shell(mesh, np.zeros((3, 3), np.float32), np.zeros((3, 3), np.float32))
+    bad = shell.geometry()["directors"].copy()
+    bad[7, 1] = np.nan
+    with pytest.raises(tn.InvalidInput, match="directors of vertex 7 is not finite"):
+        tn.Shell(mesh, shell.geometry()["base_offset"], bad)
 
 
-def test_building_a_shell_releases_the_gil_and_can_be_cancelled(sphere):
+def test_building_a_shell_reports_progress_and_can_be_cancelled(sphere):
     mesh = tn.Mesh(sphere.vertices, sphere.face_sizes, sphere.corners)
     seen = []
     mesh.shell(0.1, relative=True, progress=seen.append)

@@ -69,6 +69,11 @@ pub(crate) fn shell_of(base_offset: &PyReadonlyArray2<'_, f32>, directors: &PyRe
     if base_offset.len() != n || directors.len() != n {
         return Err(InvalidInput::new_err("base_offset and directors need one row per vertex"));
     }
+    for (name, rows) in [("base_offset", &base_offset), ("directors", &directors)] {
+        if let Some(v) = rows.iter().position(|p| !p.is_finite()) {
+            return Err(InvalidInput::new_err(format!("{name} of vertex {v} is not finite ({:?})", rows[v].to_array())));
+        }
+    }
     Ok(Shell::from_directors(base_offset, directors))
 }
 

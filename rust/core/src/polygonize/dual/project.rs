@@ -9,7 +9,7 @@ use crate::field::ScalarField;
 use glam::{UVec3, Vec3};
 
 /// How far from the zero set, in cells, a vertex may stay. Not from a paper: a
-/// quarter cell keeps sharp vertices (on the zero set already) where the QEF put them.
+/// tenth of a cell keeps sharp vertices (on the zero set already) where the QEF put them.
 pub(super) const FAR: f32 = 0.1;
 
 /// Newton steps at most.

@@ -28,12 +28,13 @@ const COLLAPSED: f32 = 0.005;
 /// is sheets on top of each other, crossing (thousands of triangle pairs on the hard
 /// meshes). Cut away as a painted hole is, the texture ends inside the cells that still
 /// have height, where the shell is at least half as thick as at their other corners.
-/// None where no vertex collapsed.
+/// None where no vertex collapsed; all ones where every director is 0.
 pub fn collapsed(shell: &Shell) -> Option<Vec<f32>> {
     let lengths: Vec<f32> = shell.directors.iter().map(|d| d.length()).collect();
     let mut sorted: Vec<f32> = lengths.iter().copied().filter(|l| *l > 0.0).collect();
     if sorted.is_empty() {
-        return None;
+        // No height anywhere: nothing has room.
+        return (!lengths.is_empty()).then(|| vec![1.0; lengths.len()]);
     }
     let mid = sorted.len() / 2;
     let median = *sorted.select_nth_unstable_by(mid, f32::total_cmp).1;
@@ -195,5 +196,28 @@ impl Site {
     pub fn blend(&self, effects: &Effects, r: f32, here: f32, there: f32) -> f32 {
         let (here, there) = (if self.presence > 0.0 { here } else { 0.0 }, if self.arrived > 0.0 { there } else { 0.0 });
         self.kept * (self.arrived * there + (1.0 - self.arrived) * (self.presence * here + (1.0 - self.presence) * effects.base(r)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shell(lengths: &[f32]) -> Shell {
+        Shell::from_directors(vec![Vec3::ZERO; lengths.len()], lengths.iter().map(|&l| Vec3::Z * l).collect())
+    }
+
+    #[test]
+    fn collapse_is_measured_against_the_median_director() {
+        assert_eq!(collapsed(&shell(&[1.0; 5])), None, "an even shell has no collapse");
+        assert_eq!(collapsed(&shell(&[0.0; 4])), Some(vec![1.0; 4]), "a shell without height has room nowhere");
+        // Under 0.5% of the median: weight 1; fading to 0 at 1%.
+        let w = collapsed(&shell(&[1.0, 1.0, 1.0, 0.0, 0.004, 0.0075, 0.02])).unwrap();
+        assert_eq!(&w[..5], &[0.0, 0.0, 0.0, 1.0, 1.0]);
+        assert!((w[5] - 0.5).abs() < 1e-5 && w[6] == 0.0, "{w:?}");
+        // Painted holes and the collapse together: the larger weight.
+        let params = BakeParams { holes: Some(vec![0.3, 0.0, 1.0, 0.0, 0.0, 0.2, 0.0]), ..Default::default() };
+        let merged = holes(&params, &shell(&[1.0, 1.0, 1.0, 0.0, 0.004, 0.0075, 0.02])).unwrap();
+        assert_eq!(merged.iter().map(|w| (w * 100.0).round() / 100.0).collect::<Vec<_>>(), vec![0.3, 0.0, 1.0, 1.0, 1.0, 0.5, 0.0]);
     }
 }
