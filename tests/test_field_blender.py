@@ -167,6 +167,10 @@ def test_progress_is_reported_and_a_cancel_makes_nothing(scene):
     with pytest.raises(tn.Cancelled):
         api.build_field_mesh(json.dumps(sphere()), resolution=16, progress=lambda f: f < 0.5)
     assert (len(bpy.data.meshes), len(bpy.data.objects)) == before
+    # A cancel asked at the end, once the object is made, is too late: the object is
+    # returned, not left behind by an exception.
+    obj = api.build_field_mesh(json.dumps(sphere()), resolution=16, progress=lambda f: f < 1.0)
+    assert obj.name in bpy.data.objects and len(bpy.data.objects) == before[1] + 1
 
 
 def test_bounds_cut_an_open_tree(scene):
@@ -316,6 +320,16 @@ def test_solid_texture_errors_add_nothing_and_reach_the_stack(scene):
     assert "no field tree" in cube.thicket.last_error
 
 
+def test_solid_texture_refuses_a_colour_attribute_named_like_a_uv_map_or_a_reserved_one(scene):
+    cube = subdivided_cube(1)
+    uv = cube.data.uv_layers[0].name
+    for name in (uv, "position", "thicket_texture", ".hidden"):
+        with pytest.raises(api.ThicketError, match="cannot be called"):
+            api.add_solid_texture(cube, json.dumps(sphere()), domain="CORNER", color_attribute=name)
+        cube.thicket.items.clear()
+    assert [layer.name for layer in cube.data.uv_layers] == [uv]
+
+
 def test_the_item_add_operator_adds_a_solid_texture(scene):
     cube = subdivided_cube(1)
     select_only(cube)
@@ -374,9 +388,6 @@ def test_the_panel_draws_the_solid_texture_settings(scene):
     assert drawn == ["tree_text", "tree", "mode", "amplitude"]
 
 
-needs_render = pytest.mark.skipif(not hasattr(tn, "field_render"), reason="thicket_native.field_render not built")
-
-
 def image_rgba(image):
     width, height = image.size
     pixels = np.empty(width * height * 4, np.float32)
@@ -384,7 +395,6 @@ def image_rgba(image):
     return pixels.reshape(height, width, 4)[::-1]  # row 0 at the top, as rendered
 
 
-@needs_render
 def test_render_field_frames_the_tree_without_a_camera(scene):
     tree = json.dumps(sphere())
     image = api.render_field(tree, width=64, height=48, image="Ball")
@@ -401,7 +411,6 @@ def test_render_field_frames_the_tree_without_a_camera(scene):
     assert len(bpy.data.images) == images and tuple(bpy.data.images["Ball"].size) == (32, 32)
 
 
-@needs_render
 def test_render_field_from_a_camera_is_field_render_with_its_matrices(scene):
     tree = two_colours()
     bpy.ops.object.camera_add(location=(0, -6, 0), rotation=(math.pi / 2, 0, 0))
@@ -419,7 +428,6 @@ def test_render_field_from_a_camera_is_field_render_with_its_matrices(scene):
     assert rgba[15, 2, 3] == 0 and rgba[2, 20, 3] == 0
 
 
-@needs_render
 def test_render_field_refuses_bad_input_and_makes_no_image(scene):
     images = len(bpy.data.images)
     with pytest.raises(api.ThicketError, match="p must be"):
@@ -431,3 +439,18 @@ def test_render_field_refuses_bad_input_and_makes_no_image(scene):
     with pytest.raises(TypeError, match="camera"):
         api.render_field(json.dumps(sphere()), camera=add("cube"))
     assert len(bpy.data.images) == images
+
+
+def test_render_field_never_overwrites_a_users_image(scene):
+    """An image of the requested name that Thicket did not make (here a texture a
+    material uses) is left as it was; the render goes to a new image."""
+    albedo = bpy.data.images.new("Albedo", 4, 4)
+    material = bpy.data.materials.new("M")
+    material.use_nodes = True
+    node = material.node_tree.nodes.new("ShaderNodeTexImage")
+    node.image = albedo
+    tree = json.dumps(sphere())
+    image = api.render_field(tree, width=16, height=16, image="Albedo")
+    assert image != albedo and node.image == albedo and tuple(albedo.size) == (4, 4)
+    # Its own image it reuses.
+    assert api.render_field(tree, width=16, height=16, image=image.name) == image

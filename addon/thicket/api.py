@@ -169,7 +169,9 @@ def build_field_mesh(tree_json, name="Field Mesh", resolution=128, bounds=None, 
     a dict, or a Blender Text holding the JSON (kept on the object: regenerating reads
     its current content). `resolution`: cells along the longest side of `bounds`
     ((min x, y, z), (max x, y, z); default the tree's own bound), 2 to 2048.
-    `adaptive`: interval culling (the same mesh, faster). `collection`: where the
+    `adaptive`: manifold dual contouring on the cells the tree's bounds cannot rule
+    out (quads, creases and corners kept sharp); False: marching prisms on the whole grid
+    (triangles). `collection`: where the
     object is linked (default the active collection).
 
     The mesh carries the tree's colour per vertex as the colour attribute

@@ -17,7 +17,9 @@ MATERIAL_NAME = "Thicket Field Color"
 
 
 def _progress(progress, fraction):
-    if progress is not None and progress(fraction) is False:
+    """Reports `fraction` done; a callback returning False cancels, except at 1.0,
+    reported once the result is made (too late to undo it)."""
+    if progress is not None and progress(fraction) is False and fraction < 1.0:
         raise native.get().Cancelled("cancelled")
 
 

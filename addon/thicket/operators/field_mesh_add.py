@@ -28,7 +28,11 @@ class THICKET_OT_field_mesh_add(bpy.types.Operator):
     resolution: IntProperty(
         name="Resolution", description="Cells along the longest side of the tree's bounds", min=2, max=MAX_RESOLUTION, soft_max=512, default=128
     )
-    adaptive: BoolProperty(name="Adaptive", description="Skip cells the field's bounds show empty (the same mesh, faster)", default=True)
+    adaptive: BoolProperty(
+        name="Adaptive",
+        description="Dual contouring on the cells that may hold the surface: quads, sharp creases and corners (off: marching prisms on the whole grid, triangles)",
+        default=True,
+    )
 
     @classmethod
     def poll(cls, context):

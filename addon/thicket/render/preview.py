@@ -67,15 +67,21 @@ def render_native(source, items, light, view, projection, width, height, method=
     return out
 
 
+#: Marks the images Thicket renders into (ID property), the only ones it overwrites.
+RENDER_TAG = "thicket_render"
+
+
 def to_image(rgba, name=PREVIEW_IMAGE):
     """Writes a rendered (h, w, 4) linear RGBA array (row 0 at the top) into the float
-    image `name`, created or resized as needed; returns the image."""
+    image `name` that Thicket made, created or resized as needed (never a user's image
+    of that name); returns the image."""
     height, width = rgba.shape[:2]
     image = bpy.data.images.get(name)
-    if image is None or not image.is_float:
-        if image is not None:
-            bpy.data.images.remove(image)
+    # Only an image Thicket made is reused: a user's image of that name (a texture, a
+    # file) is left alone and the render goes to a new one (Blender numbers its name).
+    if image is None or not image.get(RENDER_TAG) or not image.is_float or image.source != "GENERATED":
         image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True)
+        image[RENDER_TAG] = True
     elif tuple(image.size) != (width, height):
         image.scale(width, height)
     # Blender's pixel rows run bottom-up.

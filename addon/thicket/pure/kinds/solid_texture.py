@@ -2,7 +2,8 @@
 colour and texture function evaluated at the current mesh's vertices, written as a
 colour attribute (per vertex or per face corner) or used to displace the vertices
 along their normals. Topology, UVs, materials and provenance are kept, so it chains
-before or after the shells and after a baked Volumetric Texture."""
+after the shells and after a baked Volumetric Texture; a displacement before a shell
+shapes its base, but a colour written before a shell is not carried into it."""
 
 import dataclasses
 
@@ -45,6 +46,9 @@ def solid_texture(mesh: MeshArrays, item: S.SolidTexture) -> MeshArrays:
         return dataclasses.replace(mesh, vertices=moved, normals=None, attributes=attributes, point_attributes=dict(mesh.point_attributes), notes=[])
     if not item.attribute:
         raise invalid(f"'{item.label}' needs an attribute name to write its colour into")
+    taken = set(mesh.uv_maps) | set(mesh.point_attributes) | {TEXTURE_ATTRIBUTE, "position", "material_index"}
+    if item.attribute.startswith(".") or item.attribute in taken:
+        raise invalid(f"'{item.label}': the colour attribute cannot be called {item.attribute!r} (a UV map, Thicket's or Blender's own attribute)")
     colors = np.asarray(field["colors"], dtype=np.float32)
     if item.domain == "corner":
         colors = colors[np.asarray(mesh.corners, dtype=np.int64)]
