@@ -123,6 +123,21 @@ def test_a_headless_script_enabling_the_add_on_after_opening_a_file_upgrades_it(
     assert item.surfaces == 6 and "layers" not in item.keys()
 
 
+def test_enabled_while_blender_restricts_its_data_the_next_regeneration_upgrades(scene, monkeypatch):
+    """Blender's add-on enabling (Preferences, --addons) runs register() with bpy.data
+    restricted; headless, no timer runs then, so the next regeneration upgrades."""
+    cube = add("cube")
+    item = api.add_item(cube, "OFFSET_SHELL", output="LAYERS")
+    saved_by_the_former_add_on(item, layers=3)
+    data = bpy.data
+    monkeypatch.setattr(bpy, "data", object())  # what RestrictBlend puts in its place
+    versioning.register()
+    monkeypatch.setattr(bpy, "data", data)
+    assert item.surfaces != 3 and "layers" in item.keys()
+    api.regenerate(cube)
+    assert item.surfaces == 3 and "layers" not in item.keys()
+
+
 def test_values_left_under_the_former_names_are_read(scene):
     """Linked objects cannot be upgraded (read-only): what their file saved under the
     former names is still what the stack evaluates."""

@@ -6,6 +6,7 @@ from .. import mesh_io
 from ..pure.evaluate import evaluate_stack
 from ..pure.kinds.shell import summary_text
 from .guard import suspended
+from .versioning import ensure_upgraded
 
 
 def result_name(source: bpy.types.Object) -> str:
@@ -48,6 +49,7 @@ def regenerate(source: bpy.types.Object, depsgraph=None, progress=None, ask=Fals
     `ask`: stop with `BakeNeedsConfirmation` before a bake over its item's
     `confirm_above`.
     """
+    ensure_upgraded()
     with suspended():
         arrays, items = read_source(source, depsgraph)
         return write_result(source, evaluate_stack(arrays, items, progress, ask))

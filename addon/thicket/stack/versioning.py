@@ -73,6 +73,8 @@ def upgrade_file() -> int:
 
 @persistent
 def on_load(*_args):
+    global _pending
+    _pending = False
     upgrade_file()
 
 
@@ -88,7 +90,22 @@ def _upgrade_open_file():
     return None
 
 
+#: Whether the open file still awaits its upgrade: the add-on was enabled while
+#: bpy.data could not be read (Blender's add-on enabling restricts it), in background
+#: mode where no timer runs; the next stack regeneration upgrades it.
+_pending = False
+
+
+def ensure_upgraded():
+    """Upgrades the open file if enabling the add-on could not (see `_pending`)."""
+    global _pending
+    if _pending and isinstance(bpy.data, bpy.types.BlendData):
+        _pending = False
+        upgrade_file()
+
+
 def register():
+    global _pending
     if on_load not in bpy.app.handlers.load_post:
         # First among Thicket's handlers: nothing reads a stack before it is upgraded.
         bpy.app.handlers.load_post.insert(0, on_load)
@@ -96,7 +113,9 @@ def register():
         # Enabled by a script (headless ones too, where no timer runs): the open file
         # is readable now.
         upgrade_file()
-    elif not bpy.app.background:
+    elif bpy.app.background:
+        _pending = True
+    else:
         bpy.app.timers.register(_upgrade_open_file, first_interval=0.0)
 
 
