@@ -92,26 +92,8 @@ struct Grid {
 
 impl Grid {
     fn new(params: &GridParams) -> Result<Self> {
-        let (lo, hi) = params.bounds;
-        if !(lo.is_finite() && hi.is_finite() && hi.cmpgt(lo).all()) {
-            return Err(Error::InvalidParameter(format!("the box to mesh must be finite and not empty, got {lo} to {hi}")));
-        }
-        if !(2..=MAX_RESOLUTION).contains(&params.resolution) {
-            return Err(Error::InvalidParameter(format!("resolution must be 2 to {MAX_RESOLUTION} cells, got {}", params.resolution)));
-        }
-        let extent = hi - lo;
-        let h = extent.max_element() / params.resolution as f32;
-        let cells = (extent / h).ceil().as_uvec3().clamp(UVec3::splat(2), UVec3::splat(params.resolution));
-        let step = extent / cells.as_vec3();
-        // Vertices 1% of a cell apart must stay apart in single precision.
-        let far = lo.abs().max(hi.abs()).max_element();
-        if step.min_element() < 2e-5 * far {
-            return Err(Error::InvalidParameter(format!(
-                "cells of {} are too small for single precision at coordinates near {far}: mesh a box nearer the origin or use fewer cells",
-                step.min_element()
-            )));
-        }
-        Ok(Self { lo, hi, step, cells, eps: OFF_ISO * step.min_element() })
+        let (step, cells, eps) = cells_for(params.bounds, params.resolution)?;
+        Ok(Self { lo: params.bounds.0, hi: params.bounds.1, step, cells, eps })
     }
     fn point(&self, i: u32, j: u32, k: u32) -> Vec3 {
         self.lo + self.step * Vec3::new(i as f32, j as f32, k as f32)
@@ -473,4 +455,32 @@ pub(crate) fn to_box(lo: Vec3, hi: Vec3, p: Vec3) -> (f32, Vec3) {
     let mut normal = Vec3::ZERO;
     normal[axis] = if below[axis] >= above[axis] { -1.0 } else { 1.0 };
     (d[axis], normal)
+}
+
+/// The cells of a box `bounds` meshed at `resolution` cells along its longest side
+/// (both meshers' lattice): each cell's size, the cells along each axis and the
+/// iso-level offset of samples ([`OFF_ISO`] of the smallest cell side). Boxes that are
+/// not finite, empty, whose extent overflows, or whose cells single precision cannot
+/// tell apart are refused, as are resolutions outside 2..=[`MAX_RESOLUTION`].
+pub(crate) fn cells_for(bounds: (Vec3, Vec3), resolution: u32) -> Result<(Vec3, UVec3, f32)> {
+    let (lo, hi) = bounds;
+    let extent = hi - lo;
+    if !(lo.is_finite() && hi.is_finite() && hi.cmpgt(lo).all() && extent.is_finite()) {
+        return Err(Error::InvalidParameter(format!("the box to mesh must be finite and not empty, got {lo} to {hi}")));
+    }
+    if !(2..=MAX_RESOLUTION).contains(&resolution) {
+        return Err(Error::InvalidParameter(format!("resolution must be 2 to {MAX_RESOLUTION} cells, got {resolution}")));
+    }
+    let h = extent.max_element() / resolution as f32;
+    let cells = (extent / h).ceil().as_uvec3().clamp(UVec3::splat(2), UVec3::splat(resolution));
+    let step = extent / cells.as_vec3();
+    // Vertices 1% of a cell apart must stay apart in single precision.
+    let far = lo.abs().max(hi.abs()).max_element();
+    if step.min_element() < 2e-5 * far {
+        return Err(Error::InvalidParameter(format!(
+            "cells of {} are too small for single precision at coordinates near {far}: mesh a box nearer the origin or use fewer cells",
+            step.min_element()
+        )));
+    }
+    Ok((step, cells, OFF_ISO * step.min_element()))
 }

@@ -412,3 +412,15 @@ fn interval_culling_samples_less_and_meshes_the_same_bit_for_bit() {
     assert!(asked * 5 < 97usize.pow(3), "{asked} samples of {}", 97usize.pow(3));
     check(&culled);
 }
+
+#[test]
+fn a_box_whose_extent_overflows_is_refused_by_both_meshers() {
+    // Finite corners, infinite extent: refused with the box's message, not meshed into NaN.
+    let huge = (Vec3::splat(-3e38), Vec3::splat(3e38));
+    let e = super::grid::cells_for(huge, 8).unwrap_err();
+    assert!(e.to_string().contains("finite and not empty"), "{e}");
+    let field = Sphere { center: Vec3::ZERO, radius: 1.0 };
+    assert!(mesh_field(&field, &GridParams { bounds: huge, resolution: 8, refine: true }).unwrap_err().to_string().contains("finite and not empty"));
+    let dual = super::dual::mesh_dual(&field, &super::dual::DualParams { bounds: huge, resolution: 8 });
+    assert!(dual.is_err());
+}

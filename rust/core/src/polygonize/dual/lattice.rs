@@ -2,9 +2,7 @@
 //! solid cut by the box (`max(f, box)`, as [`crate::polygonize::grid`] cuts it), the
 //! lattice points on the box's faces outside, so the output is closed.
 
-use crate::polygonize::grid::MAX_RESOLUTION;
-use crate::polygonize::marching::OFF_ISO;
-use crate::{Error, Result};
+use crate::Result;
 use glam::{UVec3, Vec3};
 
 /// Cells per side of a block: the leaves of the octree descent, sampled as one batch.
@@ -17,31 +15,14 @@ pub(super) struct Lattice {
     pub hi: Vec3,
     pub step: Vec3,
     pub cells: UVec3,
-    /// How far samples on the box's faces are kept outside: [`OFF_ISO`] of a cell.
+    /// How far samples on the box's faces are kept outside: [`OFF_ISO`](crate::polygonize::marching::OFF_ISO) of a cell.
     pub eps: f32,
 }
 
 impl Lattice {
     pub fn new(bounds: (Vec3, Vec3), resolution: u32) -> Result<Self> {
-        let (lo, hi) = bounds;
-        if !(lo.is_finite() && hi.is_finite() && hi.cmpgt(lo).all()) {
-            return Err(Error::InvalidParameter(format!("the box to mesh must be finite and not empty, got {lo} to {hi}")));
-        }
-        if !(2..=MAX_RESOLUTION).contains(&resolution) {
-            return Err(Error::InvalidParameter(format!("resolution must be 2 to {MAX_RESOLUTION} cells, got {resolution}")));
-        }
-        let extent = hi - lo;
-        let h = extent.max_element() / resolution as f32;
-        let cells = (extent / h).ceil().as_uvec3().clamp(UVec3::splat(2), UVec3::splat(resolution));
-        let step = extent / cells.as_vec3();
-        let far = lo.abs().max(hi.abs()).max_element();
-        if step.min_element() < 2e-5 * far {
-            return Err(Error::InvalidParameter(format!(
-                "cells of {} are too small for single precision at coordinates near {far}: mesh a box nearer the origin or use fewer cells",
-                step.min_element()
-            )));
-        }
-        Ok(Self { lo, hi, step, cells, eps: OFF_ISO * step.min_element() })
+        let (step, cells, eps) = crate::polygonize::grid::cells_for(bounds, resolution)?;
+        Ok(Self { lo: bounds.0, hi: bounds.1, step, cells, eps })
     }
 
     pub fn point(&self, at: UVec3) -> Vec3 {
