@@ -48,7 +48,7 @@ const CULL_LEAF: u32 = 4;
 /// Not from a paper: with these the analytic torus's vertices lie within 0.013 cells
 /// of its zero set (`field_mesh_bench`); the tolerance ends most refinements earlier.
 const REFINE_STEPS: usize = 8;
-const REFINE_TOLERANCE: f32 = 1e-4;
+pub(crate) const REFINE_TOLERANCE: f32 = 1e-4;
 
 /// What [`mesh_field`] meshes, and how finely.
 #[derive(Debug, Clone, PartialEq)]
@@ -384,34 +384,50 @@ fn march_slab<F: ScalarField + ?Sized>(field: &F, grid: &Grid, k0: u32, k1: u32,
     piece
 }
 
-/// Moves each vertex onto the cut field's crossing of its edge: every step evaluates
-/// the unfinished vertices' next points as one batch.
+/// Moves each vertex onto the cut field's crossing of its edge.
 fn refine_vertices<F: ScalarField + ?Sized>(field: &F, grid: &Grid, pos: &mut [Vec3], ends: &[(Vec3, Vec3)], guesses: &mut [Crossing]) {
-    let tolerance = REFINE_TOLERANCE * grid.step.min_element();
-    let mut pending: Vec<usize> = (0..pos.len()).collect();
+    let along = |v: usize, t: f32| ends[v].0.lerp(ends[v].1, t);
+    refine_crossings(field, guesses, along, |f, p| grid.cut(f, p), REFINE_TOLERANCE * grid.step.min_element());
+    for (v, (p, guess)) in pos.iter_mut().zip(guesses.iter()).enumerate() {
+        *p = along(v, guess.result());
+    }
+}
+
+/// Steps every crossing `guesses[i]` on the edge `along(i, t)` (both meshers' lattice
+/// edges) toward the zero of `cut` (the field's value `f` at `p` as the mesher cuts
+/// it), [`REFINE_STEPS`] at most, until within `tolerance`: each step evaluates the
+/// unfinished ones' next points as one batch. The evaluations made.
+pub(crate) fn refine_crossings<F: ScalarField + ?Sized>(
+    field: &F,
+    guesses: &mut [Crossing],
+    along: impl Fn(usize, f32) -> Vec3,
+    cut: impl Fn(f32, Vec3) -> f32,
+    tolerance: f32,
+) -> usize {
+    let mut pending: Vec<usize> = (0..guesses.len()).collect();
     let mut points = Vec::with_capacity(pending.len());
     let mut values = Vec::with_capacity(pending.len());
+    let mut evaluations = 0;
     for _ in 0..REFINE_STEPS {
         if pending.is_empty() {
             break;
         }
         points.clear();
-        points.extend(pending.iter().map(|&v| ends[v].0.lerp(ends[v].1, guesses[v].at())));
+        points.extend(pending.iter().map(|&i| along(i, guesses[i].at())));
         values.resize(points.len(), 0.0);
         field.values(&points, &mut values);
+        evaluations += points.len();
         let mut kept = 0;
         for n in 0..pending.len() {
-            let v = pending[n];
-            if guesses[v].step(grid.cut(values[n], points[n]), tolerance) {
-                pending[kept] = v;
+            let i = pending[n];
+            if guesses[i].step(cut(values[n], points[n]), tolerance) {
+                pending[kept] = i;
                 kept += 1;
             }
         }
         pending.truncate(kept);
     }
-    for ((p, (a, b)), guess) in pos.iter_mut().zip(ends).zip(guesses.iter()) {
-        *p = a.lerp(*b, guess.result());
-    }
+    evaluations
 }
 
 /// Each vertex's gradient of the cut field: the field's where it is inside the box,

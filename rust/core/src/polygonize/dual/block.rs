@@ -8,14 +8,10 @@ use super::lattice::{Lattice, BLOCK};
 use super::project::project;
 use super::qef::Qef;
 use crate::field::ScalarField;
+use crate::polygonize::grid::{refine_crossings, REFINE_TOLERANCE};
 use crate::polygonize::marching::Crossing;
 use crate::{Error, Result};
 use glam::{UVec3, Vec3};
-
-/// Most evaluations refining one crossing, and how near the level (in cells) ends it.
-/// Not from a paper: the grid mesher's numbers.
-const REFINE_STEPS: usize = 8;
-const REFINE_TOLERANCE: f32 = 1e-4;
 
 /// Cells of a block, [`BLOCK`]³ (the ones past the lattice unused).
 pub(super) const CELLS: usize = (BLOCK * BLOCK * BLOCK) as usize;
@@ -115,30 +111,10 @@ pub(super) fn process<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, ori
         return Ok(block);
     }
     // Refine every crossing on the cut field, one batch per step.
-    let tolerance = REFINE_TOLERANCE * lattice.step.min_element();
-    let mut pending: Vec<usize> = (0..crossings.len()).collect();
-    let mut batch = Vec::with_capacity(pending.len());
-    let mut out = Vec::with_capacity(pending.len());
-    for _ in 0..REFINE_STEPS {
-        if pending.is_empty() {
-            break;
-        }
-        batch.clear();
-        batch.extend(pending.iter().map(|&c| points[crossings[c].0].lerp(points[crossings[c].1], crossings[c].2.at())));
-        out.resize(batch.len(), 0.0);
-        field.values(&batch, &mut out);
-        evaluations += batch.len();
-        let mut kept = 0;
-        for k in 0..pending.len() {
-            let c = pending[k];
-            if crossings[c].2.step(lattice.cut(out[k], batch[k]), tolerance) {
-                pending[kept] = c;
-                kept += 1;
-            }
-        }
-        pending.truncate(kept);
-    }
-    let mut places: Vec<Vec3> = crossings.iter().map(|(a, b, c)| points[*a].lerp(points[*b], c.result())).collect();
+    let mut guesses: Vec<Crossing> = crossings.iter().map(|c| c.2).collect();
+    let along = |c: usize, t: f32| points[crossings[c].0].lerp(points[crossings[c].1], t);
+    evaluations += refine_crossings(field, &mut guesses, along, |f, p| lattice.cut(f, p), REFINE_TOLERANCE * lattice.step.min_element());
+    let mut places: Vec<Vec3> = guesses.iter().enumerate().map(|(c, g)| along(c, g.result())).collect();
     let mut normals = vec![Vec3::ZERO; places.len()];
     field.gradients(&places, &mut normals);
     evaluations += places.len();
