@@ -1,20 +1,23 @@
-//! Opaque handles for a mesh and its shell (the pattern of polars' `PyDataFrame`):
-//! read from numpy and checked once, then passed on (shell, textured shell) without
-//! going back through numpy; numpy again only where a caller asks for arrays.
+//! Opaque handles for a mesh, its shell and volumetric textures (the pattern of
+//! polars' `PyDataFrame`): read from numpy (or made in Rust) and checked once, then
+//! passed on (shell, textured shell, bake, estimate, render) without going back
+//! through numpy; numpy again only where a caller asks for arrays.
 
-use numpy::PyReadonlyArray2;
+use numpy::{PyArray3, PyReadonlyArray2};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::path::PathBuf;
 use std::sync::Arc;
 use thicket_core::shell::{self as core, shell_geometry, Side};
+use thicket_core::texture::{io, VolumeTexture};
 use thicket_core::Mesh as CoreMesh;
 
 use crate::arrays;
 use crate::errors::{run_detached, run_maybe_watched};
 use crate::keywords::Keywords;
 use crate::offset::parse_output;
-use crate::texture::{BakeInputs, TextureSettings};
+use crate::texture::{generate, volume_array, volume_samples, BakeInputs, TextureSettings};
 use crate::textured_shell::TexturedShell;
 
 /// Mesh(vertices, face_sizes, corners, uvs=None)
@@ -62,6 +65,17 @@ impl Mesh {
             d.set_item("uvs", arrays::vec2_array(py, uvs.to_vec())?)?;
         }
         Ok(d)
+    }
+
+    /// vertex_normals() -> float32 (n, 3)
+    ///
+    /// Unit vertex normals as Blender computes them (the core's `mesh::vertex_normals`):
+    /// each face's Newell normal weighted by the corner angle at the vertex; zero for a
+    /// vertex on no face or only on degenerate faces.
+    fn vertex_normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, numpy::PyArray2<f32>>> {
+        let mesh = self.inner.clone();
+        let normals = run_detached(py, move || Ok(thicket_core::mesh::vertex_normals(&mesh)))?;
+        arrays::vec3_array(py, normals)
     }
 
     /// shell(thickness, side="exterior", relative=False, factors=None, p=3.0,
@@ -147,5 +161,55 @@ impl Shell {
         keywords.finish()?;
         let inputs = BakeInputs::with((*self.mesh).clone(), (*self.inner).clone(), textures, settings)?;
         TexturedShell::of_inputs(py, inputs)
+    }
+}
+
+/// Texture(alpha)
+///
+/// A volumetric texture kept in Rust: a float32 (nz, ny, nx) alpha array (indexed
+/// [r, t, s], as `texture()` returns) checked once with the GIL released (NaN
+/// refused, values clamped to [0, 1]), or made without numpy by `Texture.pattern`
+/// (`texture()`'s arguments) or `Texture.load` (`load_texture`'s). Wherever a list of
+/// textures is taken (`bake_texture`, `estimate_bake`, `render_shell`,
+/// `TexturedShell`, `Shell.textured`), a handle stands for its array, alone or in a
+/// (texture, (ds, dt)) pair; so does `save_texture`'s `alpha`.
+#[pyclass(module = "thicket_native", frozen)]
+pub struct Texture {
+    pub(crate) inner: Arc<VolumeTexture>,
+}
+
+#[pymethods]
+impl Texture {
+    #[new]
+    fn new(py: Python<'_>, alpha: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let (dims, data) = volume_samples(alpha)?;
+        let inner = run_detached(py, move || VolumeTexture::new(dims, data))?;
+        Ok(Self { inner: Arc::new(inner) })
+    }
+
+    /// pattern(pattern, size=(64, 64, 32), seed=0, time=1.0, thickness=1.0) -> Texture:
+    /// `texture(...)`'s texture for the same arguments, kept in Rust.
+    #[staticmethod]
+    #[pyo3(signature = (pattern, size=(64, 64, 32), seed=0, time=1.0, thickness=1.0))]
+    fn pattern(py: Python<'_>, pattern: &str, size: (usize, usize, usize), seed: u32, time: f32, thickness: f32) -> PyResult<Self> {
+        Ok(Self { inner: Arc::new(generate(py, pattern, size, seed, time, thickness)?) })
+    }
+
+    /// load(path) -> Texture: `load_texture(path)`'s texture, kept in Rust.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        Ok(Self { inner: Arc::new(run_detached(py, move || io::load(&path))?) })
+    }
+
+    /// (nx, ny, nz): texels along s and t, and slices across the shell.
+    #[getter]
+    fn size(&self) -> (usize, usize, usize) {
+        let [nx, ny, nz] = self.inner.dims();
+        (nx, ny, nz)
+    }
+
+    /// array() -> float32 (nz, ny, nx): the samples (a copy), as `texture()` returns them.
+    fn array<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f32>>> {
+        volume_array(py, (*self.inner).clone())
     }
 }

@@ -36,6 +36,7 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(report::mesh_report, m)?)?;
     m.add_class::<handles::Mesh>()?;
     m.add_class::<handles::Shell>()?;
+    m.add_class::<handles::Texture>()?;
     m.add_function(wrap_pyfunction!(offset::offset_shell, m)?)?;
     m.add_function(wrap_pyfunction!(shell::build_shell, m)?)?;
     m.add_function(wrap_pyfunction!(shell::shell, m)?)?;

@@ -19,22 +19,35 @@ use thicket_core::progress::Progress;
 ///
 /// A procedural volumetric texture: "chain_mail", "weave", "rivets", "grass", "fur"
 /// or "bubbles". `size` is (nx, ny, nz); the result is indexed [r, t, s], alpha in [0, 1].
+/// `Texture.pattern(...)` makes the same texture as a handle, kept in Rust.
 #[pyfunction]
 #[pyo3(signature = (pattern, size=(64, 64, 32), seed=0, time=1.0, thickness=1.0))]
 pub fn texture<'py>(py: Python<'py>, pattern: &str, size: (usize, usize, usize), seed: u32, time: f32, thickness: f32) -> PyResult<Bound<'py, PyArray3<f32>>> {
+    volume_array(py, generate(py, pattern, size, seed, time, thickness)?)
+}
+
+/// The procedural texture `texture(...)` and `Texture.pattern(...)` make, generated
+/// with the GIL released.
+pub(crate) fn generate(py: Python<'_>, pattern: &str, size: (usize, usize, usize), seed: u32, time: f32, thickness: f32) -> PyResult<VolumeTexture> {
     let pattern = Pattern::parse(pattern).map_err(to_py)?;
     if size.0 * size.1 * size.2 > 512 * 512 * 256 {
         return Err(InvalidInput::new_err(format!("texture size {size:?} is too large")));
     }
     let g = Generator { pattern, seed, time, thickness };
-    let t = run_detached(py, move || g.generate([size.0, size.1, size.2]))?;
+    run_detached(py, move || g.generate([size.0, size.1, size.2]))
+}
+
+/// A texture as numpy float32 (nz, ny, nx), indexed [r, t, s].
+pub(crate) fn volume_array(py: Python<'_>, t: VolumeTexture) -> PyResult<Bound<'_, PyArray3<f32>>> {
     let [nx, ny, nz] = t.dims();
     let flat = numpy::ndarray::Array1::from_vec(t.into_samples());
     let arr = flat.into_shape_with_order((nz, ny, nx)).map_err(|e| InvalidInput::new_err(e.to_string()))?;
     Ok(arr.into_pyarray(py))
 }
 
-fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
+/// The samples of a float32 (nz, ny, nx) array and its dims (nx, ny, nz), copied
+/// as they are: [`VolumeTexture::new`] checks them (without the GIL).
+pub(crate) fn volume_samples(alpha: &Bound<'_, PyAny>) -> PyResult<([usize; 3], Vec<f32>)> {
     let a: PyReadonlyArray3<'_, f32> = alpha.extract().map_err(|_| InvalidInput::new_err("a texture must be a float32 array of shape (nz, ny, nx)"))?;
     let shape = a.shape().to_vec();
     // One copy either way: the texture owns its samples.
@@ -43,12 +56,37 @@ fn volume(alpha: &Bound<'_, PyAny>) -> PyResult<VolumeTexture> {
         Ok(s) if a.is_c_contiguous() => s.to_vec(),
         _ => a.as_array().iter().copied().collect(),
     };
-    VolumeTexture::new([shape[2], shape[1], shape[0]], data).map_err(to_py)
+    Ok(([shape[2], shape[1], shape[0]], data))
 }
 
-/// The placed textures of a `textures` argument: float32 (nz, ny, nx) arrays or
-/// (array, (ds, dt)) pairs (the core's [`TextureLayer`]s).
-fn placed_textures(textures: &Bound<'_, PyAny>) -> PyResult<Vec<TextureLayer>> {
+/// One texture of a `textures` argument: a `Texture` handle (checked already) or an
+/// array's samples (checked when the textured shell is built, without the GIL).
+enum Placed {
+    Handle(Arc<VolumeTexture>),
+    Samples([usize; 3], Vec<f32>),
+}
+
+impl Placed {
+    fn of(alpha: &Bound<'_, PyAny>) -> PyResult<Self> {
+        match alpha.cast::<crate::handles::Texture>() {
+            Ok(handle) => Ok(Self::Handle(handle.get().inner.clone())),
+            Err(_) => volume_samples(alpha).map(|(dims, data)| Self::Samples(dims, data)),
+        }
+    }
+
+    /// The texture; a handle's samples are copied (the core's layers own theirs).
+    fn texture(self) -> thicket_core::Result<VolumeTexture> {
+        match self {
+            Self::Handle(texture) => Ok(Arc::unwrap_or_clone(texture)),
+            Self::Samples(dims, data) => VolumeTexture::new(dims, data),
+        }
+    }
+}
+
+/// The placed textures of a `textures` argument: `Texture` handles or float32
+/// (nz, ny, nx) arrays, each alone or in a (texture, (ds, dt)) pair (the core's
+/// [`TextureLayer`]s once built).
+fn placed_textures(textures: &Bound<'_, PyAny>) -> PyResult<Vec<(Placed, Vec2)>> {
     let mut out = Vec::new();
     for item in textures.try_iter()? {
         let item = item?;
@@ -56,7 +94,7 @@ fn placed_textures(textures: &Bound<'_, PyAny>) -> PyResult<Vec<TextureLayer>> {
             Ok((a, o)) => (a, Vec2::new(o.0, o.1)),
             Err(_) => (item, Vec2::ZERO),
         };
-        out.push(TextureLayer { texture: volume(&alpha)?, offset });
+        out.push((Placed::of(&alpha)?, offset));
     }
     Ok(out)
 }
@@ -139,7 +177,7 @@ impl<'py> TextureSettings<'py> {
 pub(crate) struct BakeInputs {
     mesh: Mesh,
     shell: Shell,
-    textures: Vec<TextureLayer>,
+    textures: Vec<(Placed, Vec2)>,
     cutter: Option<(Vec<thicket_core::glam::Vec3>, Vec<u32>)>,
     params: BakeParams,
 }
@@ -214,7 +252,9 @@ impl BakeInputs {
             }
             self.params.cutter = Some(Cutter::new(&v, &t.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect::<Vec<_>>())?);
         }
-        TexturedShell::new(self.mesh, self.shell, self.textures, self.params)
+        let textures =
+            self.textures.into_iter().map(|(placed, offset)| Ok(TextureLayer { texture: placed.texture()?, offset })).collect::<thicket_core::Result<_>>()?;
+        TexturedShell::new(self.mesh, self.shell, textures, self.params)
     }
 }
 
@@ -223,8 +263,8 @@ impl BakeInputs {
 ///
 /// Bakes the alpha = 0.5 iso-surface of volumetric textures mapped into a shell (depth
 /// r over vertex v at v + base_offset + r * director) into one closed, crack-free mesh.
-/// `textures`: a list of float32 (nz, ny, nx) arrays or (array, (ds, dt)) pairs,
-/// united. `settings` (keywords, the same for `estimate_bake`, `TexturedShell` and,
+/// `textures`: a list of `Texture` handles or float32 (nz, ny, nx) arrays, each
+/// alone or in a (texture, (ds, dt)) pair, united. `settings` (keywords, the same for `estimate_bake`, `TexturedShell` and,
 /// but for the last two, `render_shell`): uvs=None, tiling=1.0, resolution=8,
 /// depth_steps=16, region=None, base_layer=0.1, holes=None, cutter=None,
 /// move_region=None, move_offset=(0.0, 0.0), follow_texture=True,
