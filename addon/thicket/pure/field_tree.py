@@ -91,30 +91,8 @@ def field_mesh_arrays(tree, resolution=128, bounds=None, adaptive=True) -> MeshA
 def vertex_normals(mesh: MeshArrays):
     """Unit vertex normals of `mesh` as Blender computes them: each face's (Newell)
     normal weighted by the corner angle at the vertex (float32 (n, 3); zero for
-    vertices on no face or only on degenerate faces)."""
-    p = np.asarray(mesh.vertices, dtype=np.float64)
-    sizes = np.asarray(mesh.face_sizes, dtype=np.int64)
-    corners = np.asarray(mesh.corners, dtype=np.int64)
-    normals = np.zeros_like(p)
-    if len(corners) == 0:
-        return normals.astype(np.float32)
-    starts = np.zeros(len(sizes), dtype=np.int64)
-    np.cumsum(sizes[:-1], out=starts[1:])
-    face = np.repeat(np.arange(len(sizes)), sizes)
-    k = np.arange(len(corners)) - starts[face]
-    nxt = corners[starts[face] + (k + 1) % sizes[face]]
-    prv = corners[starts[face] + (k - 1) % sizes[face]]
-    here = p[corners]
-    # Newell's face normal: the sum of cross products of consecutive corners.
-    face_normals = np.zeros((len(sizes), 3))
-    np.add.at(face_normals, face, np.cross(here, p[nxt]))
-    length = np.linalg.norm(face_normals, axis=1, keepdims=True)
-    face_normals = np.divide(face_normals, length, out=np.zeros_like(face_normals), where=length > 0)
-    a, b = p[nxt] - here, p[prv] - here
-    la, lb = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
-    cos = np.einsum("ij,ij->i", a, b) / np.maximum(la * lb, 1e-300)
-    angle = np.where((la > 0) & (lb > 0), np.arccos(np.clip(cos, -1.0, 1.0)), 0.0)
-    np.add.at(normals, corners, face_normals[face] * angle[:, None])
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
-    return normals.astype(np.float32)
+    vertices on no face or only on degenerate faces). The core's
+    (`thicket_native.Mesh.vertex_normals`, the normals its shells start from)."""
+    vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
+    sizes, corners = (np.ascontiguousarray(a, dtype=np.int32) for a in (mesh.face_sizes, mesh.corners))
+    return native.get().Mesh(vertices, sizes, corners).vertex_normals()
