@@ -196,3 +196,45 @@ def test_mesh_vertex_normals_are_the_former_numpy_ones(scene, shape):
     np.testing.assert_allclose(got, want, atol=2e-6)
     np.testing.assert_array_equal(got[n:], 0.0)
     np.testing.assert_allclose(np.linalg.norm(got[:n], axis=1), 1.0, atol=1e-6)
+
+
+@pytest.mark.parametrize("shell_kind", ["offset", "field"])
+def test_the_stack_passes_handles_from_the_shell_to_the_texture(sphere, shell_kind):
+    """The Shell kinds hand the Volumetric Texture a `Shell` handle (its mesh the base
+    with its UVs) and the texture places `Texture` handles; the bake, the estimate and
+    the preview made from them are what the array functions make from the shell's
+    arrays and the patterns' arrays, as the stack made them before the handles."""
+    from thicket.pure import evaluate as E
+    from thicket.pure import settings as S
+
+    shell_item = S.OffsetShell(thickness=0.1, relative=True) if shell_kind == "offset" else S.FieldShell(thickness=0.1, relative=True)
+    texture = S.VolumetricTexture(pattern="rivets", combine="grass", offset=(0.25, 0.5), texture_size=8, tiling=2.0, resolution=3, depth_steps=6)
+    setup = E.render_setup(sphere, [shell_item, texture])
+    shell = setup.shell
+    assert isinstance(shell.handle, tn.Shell) and shell.handle.mesh.vertex_count == sphere.vertex_count
+    np.testing.assert_array_equal(shell.handle.geometry()["directors"], shell.directors)
+    np.testing.assert_array_equal(shell.handle.geometry()["base_offset"], shell.base_offset)
+    np.testing.assert_array_equal(shell.handle.mesh.arrays()["uvs"], sphere.uvs)
+    first, (second, offset) = setup.textures
+    assert isinstance(first, tn.Texture) and isinstance(second, tn.Texture) and offset == (0.25, 0.5)
+    arrays = [tn.texture("rivets", size=(8, 8, 4)), (tn.texture("grass", size=(8, 8, 4)), (0.25, 0.5))]
+    np.testing.assert_array_equal(first.array(), arrays[0])
+    np.testing.assert_array_equal(second.array(), arrays[1][0])
+    shell_args = (sphere.vertices, sphere.face_sizes, sphere.corners, shell.base_offset, shell.directors, arrays)
+    settings = dict(uvs=sphere.uvs, tiling=2.0, resolution=3, depth_steps=6)
+    assert setup.settings["uvs"] is sphere.uvs  # what render_shell takes; the handle's mesh has them
+    view = np.array(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, -5), (0, 0, 0, 1)), np.float32)
+    projection = np.array(((2, 0, 0, 0), (0, 2, 0, 0), (0, 0, -1.02, -0.2), (0, 0, -1, 0)), np.float32)
+    frame = (view, projection, 32, 24)
+    drawn = setup.handle().render(*frame, method="reference")["rgba"]
+    assert (drawn[:, :, 3] > 0.5).any()
+    np.testing.assert_array_equal(drawn, tn.render_shell(*shell_args[:5], arrays, *frame, method="reference", **settings)["rgba"])
+    # Baked through the stack: the bake of the same arrays, and its estimate the same.
+    baked = E.evaluate_stack(sphere, [shell_item, texture])
+    want = tn.bake_texture(*shell_args, **settings)
+    assert len(want["corners"]) > 0
+    np.testing.assert_array_equal(baked.vertices, want["vertices"])
+    np.testing.assert_array_equal(baked.corners, want["corners"])
+    estimate = tn.estimate_bake(*shell_args, **settings)
+    with pytest.raises(Exception, match=f"about {estimate:,} triangles"):
+        E.evaluate_stack(sphere, [shell_item, S.VolumetricTexture(**{**texture.__dict__, "confirm_above": 0})], ask=True)

@@ -4,12 +4,15 @@ step reads and updates it (`pure.kinds`); the walk itself is `pure.evaluate`."""
 
 import numpy as np
 
+from . import native
 from .arrays import MeshArrays, weight_attribute
 
 
 class ShellContext:
-    """The shell a later Volumetric Texture maps into: the mesh it was built on and
-    its base offsets and directors (depth r over vertex v at v + base_offset + r * director)."""
+    """The shell a later Volumetric Texture maps into: the mesh it was built on, its
+    base offsets and directors (depth r over vertex v at v + base_offset + r * director)
+    and `handle`, the same shell as a `thicket_native.Shell` (its `mesh` the base with
+    its UVs), read and checked once by the shell's kind and passed on without numpy."""
 
     def __init__(self, base: MeshArrays, out, origin):
         self.base = base
@@ -17,6 +20,10 @@ class ShellContext:
         offset = out.get("base_offset")
         self.base_offset = np.zeros_like(self.directors) if offset is None else np.ascontiguousarray(offset, dtype=np.float32)
         self.origin = origin  # source vertex of each base vertex
+        tn = native.get()
+        uvs = None if base.uvs is None else np.ascontiguousarray(base.uvs, dtype=np.float32)
+        mesh = tn.Mesh(np.ascontiguousarray(base.vertices, dtype=np.float32), base.face_sizes, base.corners, uvs)
+        self.handle = tn.Shell(mesh, self.base_offset, self.directors)
 
 
 class StackError(ValueError):

@@ -2,6 +2,7 @@
 in the latest shell, with its region, holes, cutter and moved region, baked to
 geometry; renderers draw it from the shell instead."""
 
+import functools
 import os
 from typing import NamedTuple
 
@@ -15,7 +16,7 @@ from ..state import ShellContext, State, group_weights
 TEXCOORD_ATTRIBUTE = "thicket_texcoord"
 
 
-_loaded = {}  # (path, modification time) -> texture array: files are read once
+_loaded = {}  # (path, modification time) -> Texture handle: files are read once
 _LOADED_KEEP = 8
 
 
@@ -28,25 +29,33 @@ def _modified(path):
 
 
 def _texture_file(tn, path):
-    """A texture file's alpha, cached while the file is unchanged."""
+    """A texture file as a `thicket_native.Texture`, cached while the file is unchanged."""
     try:
         key = (path, _modified(path))
     except OSError:
-        return tn.load_texture(path)  # the loader names what is missing
+        return tn.Texture.load(path)  # the loader names what is missing
     if key not in _loaded:
         if len(_loaded) >= _LOADED_KEEP:
             _loaded.pop(next(iter(_loaded)))
-        _loaded[key] = tn.load_texture(path)
+        _loaded[key] = tn.Texture.load(path)
     return _loaded[key]
+
+
+@functools.lru_cache(maxsize=4)
+def _pattern(tn, pattern, size, seed, time, thickness):
+    """A procedural texture as a `thicket_native.Texture`: generated once per
+    arguments (handles are immutable, so evaluations and previews share one)."""
+    return tn.Texture.pattern(pattern, size=size, seed=seed, time=time, thickness=thickness)
 
 
 def _texture(tn, pattern, item: S.VolumetricTexture):
     size = int(item.texture_size)
-    return tn.texture(pattern, size=(size, size, max(2, size // 2)), seed=int(item.seed), time=float(item.time), thickness=float(item.feature_thickness))
+    return _pattern(tn, pattern, (size, size, max(2, size // 2)), int(item.seed), float(item.time), float(item.feature_thickness))
 
 
 def item_texture(item: S.VolumetricTexture):
-    """The item's texture as a float32 (nz, ny, nx) alpha array: its file or its pattern."""
+    """The item's texture as a `thicket_native.Texture` handle (its `array()` is the
+    float32 (nz, ny, nx) alpha): its file or its pattern."""
     tn = native.get()
     return _texture_file(tn, item.filepath) if item.filepath else _texture(tn, item.pattern, item)
 
@@ -60,7 +69,8 @@ class BakeNeedsConfirmation(Exception):
 
 
 def placed_textures(item: S.VolumetricTexture):
-    """The item's texture, and the texture it combines with at its offset (united)."""
+    """The item's texture, and the texture it combines with at its offset (united), as
+    `thicket_native.Texture` handles."""
     textures = [item_texture(item)]
     if item.combine:
         textures.append((_texture(native.get(), item.combine, item), tuple(float(v) for v in item.offset)))
@@ -88,11 +98,11 @@ def texture_settings(shell: ShellContext, item: S.VolumetricTexture, weights):
 
 def native_shell(shell: ShellContext, textures, settings):
     """The native handle (`thicket_native.TexturedShell`) of `shell` with the placed
-    `textures` and `settings` (`texture_settings`, plus a bake's budget): read and
-    checked once, then estimated, baked or rendered as often as wanted (the renderers'
+    `textures` and `settings` (`texture_settings`, plus a bake's budget): made from the
+    shell's kind's `Shell` handle and the `Texture` handles (the base's UVs are its
+    mesh's own), then estimated, baked or rendered as often as wanted (the renderers'
     scene is made on its first frame and kept)."""
-    base = shell.base
-    return native.get().TexturedShell(base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, textures, **settings)
+    return shell.handle.textured(textures, **{key: value for key, value in settings.items() if key != "uvs"})
 
 
 def bake(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, progress=None):
