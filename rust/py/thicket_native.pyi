@@ -255,8 +255,16 @@ def save_render(path: str, rgba: Floats, depth: Floats | None = None, normal: Fl
 Bounds = tuple[tuple[float, float, float], tuple[float, float, float]] | Sequence[Sequence[float]]
 
 def field_eval(tree_json: str, points: Floats) -> dict[str, Any]: ...
-def field_mesh(tree_json: str, bounds: Bounds | None = None, resolution: int = 128, adaptive: bool = True) -> dict[str, Any]:
-    """The tree's zero set, closed and manifold: adaptive=True quads by manifold dual contouring (sharp creases and corners), adaptive=False triangles by marching prisms on the grid."""
+def field_mesh(
+    tree_json: str, bounds: Bounds | None = None, resolution: int = 128, adaptive: bool = True, progress: Progress = None, max_bytes: float | None = None
+) -> dict[str, Any]:
+    """The tree's zero set, closed and manifold: adaptive=True quads by manifold dual contouring (sharp creases and corners), adaptive=False triangles by marching prisms on the grid.
+    Refused (InvalidInput) where its estimate passes max_bytes (None: 4 GB), stopped where it would pass it while meshing; progress as for the shell."""
+
+def field_mesh_estimate(
+    tree_json: str, bounds: Bounds | None = None, resolution: int = 128, adaptive: bool = True, max_bytes: float | None = None
+) -> dict[str, Any]:
+    """field_mesh's vertices, faces, triangles and peak_bytes, estimated in milliseconds without meshing; with max_bytes, fits, resolution_within and cells."""
 
 #: A 4x4 matrix as rows (a mathutils.Matrix, nested sequences or a numpy array).
 Matrix4 = Sequence[Sequence[float]] | NDArray[np.floating[Any]]

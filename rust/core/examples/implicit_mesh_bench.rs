@@ -7,7 +7,8 @@
 //! `polygonize::dual::mesh_dual` (manifold dual contouring, quads) on the same tree and
 //! box: its time, triangles (two per quad) and peak memory beside the culled grid
 //! mesher's, as ratios, and where its time goes (descent, cells with their
-//! evaluations, contouring, attributes).
+//! evaluations, contouring, attributes); and `polygonize::estimate`'s quads and peak
+//! memory beside the real ones, with its time.
 //!
 //! `cargo run --release -p thicket-core --example implicit_mesh_bench [-- --runs N --resolutions 128,256 --culled-only]`
 
@@ -18,7 +19,7 @@ use thicket_core::implicit::samples::SOFT_CSG_20 as TREE;
 use thicket_core::implicit::FieldTree;
 use thicket_core::polygonize::dual::{mesh_dual, DualParams};
 use thicket_core::polygonize::grid::Unculled;
-use thicket_core::polygonize::{mesh_field, GridParams, SurfaceCheck};
+use thicket_core::polygonize::{estimate, mesh_field, GridParams, Mesher, SurfaceCheck};
 
 /// The system allocator, counting the bytes live and their peak.
 struct Counting;
@@ -104,6 +105,14 @@ fn main() {
             check.is_closed_manifold()
         );
         println!("  peak memory:         grid {grid_mb:.1} MB, dual {dual_mb:.1} MB ({:.2}x)", dual_mb / grid_mb);
+        let ((estimate_ms, _), e) = time(runs, || estimate(&tree, params.bounds, resolution, Mesher::Dual).unwrap());
+        println!(
+            "  estimate:            {estimate_ms:7.1} ms: {} quads ({:.3}x the real), peak {:.1} MB ({:.2}x the measured)",
+            e.faces,
+            e.faces as f64 / dual.quads.len() as f64,
+            e.peak_bytes as f64 / 1e6,
+            e.peak_bytes as f64 / 1e6 / dual_mb
+        );
         println!(
             "  dual profile (last run): descent {:.1} ms, cells (sampling, crossings, QEF) {:.1} ms over {} blocks and {} evaluations, contouring {:.1} ms, normals and attributes {:.1} ms",
             p.descent_ms, p.cells_ms, p.live_blocks, p.evaluations, p.contour_ms, p.attributes_ms

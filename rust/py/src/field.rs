@@ -6,13 +6,13 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use thicket_core::glam::Vec3;
 use thicket_core::implicit::{FieldTree, ATTRIBUTE_COUNT, ATTRIBUTE_ID, ATTRIBUTE_TEXTURE};
-use thicket_core::polygonize::dual::{mesh_dual, DualMesh, DualParams};
+use thicket_core::polygonize::dual::{mesh_dual_watched, DualMesh, DualParams};
 use thicket_core::polygonize::grid::{Unculled, MAX_RESOLUTION};
-use thicket_core::polygonize::{mesh_field, FieldMesh, GridParams};
+use thicket_core::polygonize::{check_fits, estimate, mesh_field_watched, FieldMesh, GridParams, Mesher, Watch, DEFAULT_MAX_BYTES};
 use thicket_core::Error;
 
 use crate::arrays;
-use crate::errors::{run_detached, InvalidInput};
+use crate::errors::{run_detached, run_maybe_watched, InvalidInput};
 
 /// Float32 (n, 4) from rows of four.
 fn rows4(py: Python<'_>, rows: Vec<[f32; 4]>) -> PyResult<Bound<'_, PyArray2<f32>>> {
@@ -96,19 +96,51 @@ fn checked_resolution(resolution: i64) -> PyResult<u32> {
     )))
 }
 
-/// field_mesh(tree_json, bounds=None, resolution=128, adaptive=True) -> dict
+/// The bounds argument as the core takes it.
+fn bounds_arg(bounds: Option<&Bound<'_, PyAny>>) -> PyResult<Option<[[f32; 3]; 2]>> {
+    bounds
+        .map(|b| b.extract::<[[f32; 3]; 2]>().map_err(|_| InvalidInput::new_err("bounds must be ((x0, y0, z0), (x1, y1, z1)), the lowest and highest corner")))
+        .transpose()
+}
+
+/// The memory limit argument: bytes, positive; None: the core's default.
+fn max_bytes_arg(max_bytes: Option<f64>) -> PyResult<u64> {
+    match max_bytes {
+        None => Ok(DEFAULT_MAX_BYTES),
+        Some(b) if b.is_finite() && b >= 1.0 => Ok(b as u64),
+        Some(b) => Err(InvalidInput::new_err(format!("max_bytes must be a positive number of bytes, got {b}"))),
+    }
+}
+
+fn mesher(adaptive: bool) -> Mesher {
+    if adaptive {
+        Mesher::Dual
+    } else {
+        Mesher::Grid
+    }
+}
+
+/// field_mesh(tree_json, bounds=None, resolution=128, adaptive=True, progress=None,
+///            max_bytes=None) -> dict
 ///
 /// The zero set of the field tree `tree_json` (a JSON string; schema:
 /// thicket_core::implicit) as a closed, consistently oriented mesh; the solid is cut
 /// by the box, so the mesh closes where it leaves it. `bounds`: ((x0, y0, z0), (x1,
 /// y1, z1)), the box meshed; None: the tree's own bound grown by two cells each side
 /// (an unbounded tree, such as a plane or a complement, needs bounds). `resolution`:
-/// cells along the longest side of the box (2 to 2048; finer grids would not fit in
-/// memory). `adaptive=True`: manifold dual contouring (thicket_core::polygonize::dual)
-/// on the cells that the tree's interval bounds cannot rule out: quads, one vertex per
-/// piece of the surface in a cell, placed on the tree's creases and corners from its
-/// analytic gradients. `adaptive=False`: marching prisms on the whole grid
-/// (triangles, iso-vertices on the lattice edges).
+/// cells along the longest side of the box (2 to 2048). `adaptive=True`: manifold
+/// dual contouring (thicket_core::polygonize::dual) on the cells that the tree's
+/// interval bounds cannot rule out: quads, one vertex per piece of the surface in a
+/// cell, placed on the tree's creases and corners from its analytic gradients.
+/// `adaptive=False`: marching prisms on the whole grid (triangles, iso-vertices on
+/// the lattice edges).
+///
+/// `progress`: a callable given the share done (0 to 1) about ten times a second;
+/// returning False (or raising, or Ctrl-C) cancels and raises Cancelled. `max_bytes`:
+/// the memory the build may take (None: 4 GB). A build whose estimate
+/// (`field_mesh_estimate`) passes it is refused before anything big is made, and one
+/// whose surface turns out finer than the estimate saw stops once it would pass it;
+/// both raise InvalidInput naming the estimate and the limit.
 ///
 /// Returns vertices (n, 3) float32, face_sizes and corners int32 (quads with
 /// adaptive=True, their better split along corners 0-2; triangles otherwise), normals
@@ -116,22 +148,32 @@ fn checked_resolution(resolution: i64) -> PyResult<u32> {
 /// colors (n, 4) float32, texture (n,) float32 and primitive_id (n,) int32 per vertex
 /// (as field_eval gives them there), and cells (nx, ny, nz). Bad trees, bounds and
 /// resolutions, and trees that are not a number where sampled, raise InvalidInput (a
-/// ThicketError) with a message saying what is wrong.
+/// ThicketError) with a message saying what is wrong. The GIL is released while it
+/// meshes.
 #[pyfunction]
-#[pyo3(signature = (tree_json, bounds=None, resolution=128, adaptive=true))]
-pub fn field_mesh<'py>(py: Python<'py>, tree_json: &str, bounds: Option<&Bound<'py, PyAny>>, resolution: i64, adaptive: bool) -> PyResult<Bound<'py, PyDict>> {
-    let bounds = bounds
-        .map(|b| b.extract::<[[f32; 3]; 2]>().map_err(|_| InvalidInput::new_err("bounds must be ((x0, y0, z0), (x1, y1, z1)), the lowest and highest corner")))
-        .transpose()?;
+#[pyo3(signature = (tree_json, bounds=None, resolution=128, adaptive=true, progress=None, max_bytes=None))]
+pub fn field_mesh<'py>(
+    py: Python<'py>,
+    tree_json: &str,
+    bounds: Option<&Bound<'py, PyAny>>,
+    resolution: i64,
+    adaptive: bool,
+    progress: Option<Bound<'py, PyAny>>,
+    max_bytes: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let bounds = bounds_arg(bounds)?;
     let resolution = checked_resolution(resolution)?;
+    let max_bytes = max_bytes_arg(max_bytes)?;
     let text = tree_json.to_owned();
-    let mesh = run_detached(py, move || {
+    let mesh = run_maybe_watched(py, progress.as_ref(), move |progress| {
         let tree = FieldTree::from_json(&text)?;
         let bounds = mesh_box(&tree, bounds, resolution)?;
+        check_fits(&tree, bounds, resolution, mesher(adaptive), max_bytes)?;
+        let watch = Watch { progress, max_bytes: Some(max_bytes) };
         Ok(if adaptive {
-            Meshed::Dual(mesh_dual(&tree, &DualParams { bounds, resolution })?)
+            Meshed::Dual(mesh_dual_watched(&tree, &DualParams { bounds, resolution }, &watch)?)
         } else {
-            Meshed::Grid(mesh_field(&Unculled(&tree), &GridParams { bounds, resolution, refine: true })?)
+            Meshed::Grid(mesh_field_watched(&Unculled(&tree), &GridParams { bounds, resolution, refine: true }, &watch)?)
         })
     })?;
     match mesh {
@@ -146,6 +188,49 @@ pub fn field_mesh<'py>(py: Python<'py>, tree_json: &str, bounds: Option<&Bound<'
             mesh_dict(py, faces, m.positions, m.normals, m.attributes, m.attribute_count, m.cells.to_array())
         }
     }
+}
+
+/// field_mesh_estimate(tree_json, bounds=None, resolution=128, adaptive=True,
+///                     max_bytes=None) -> dict
+///
+/// What `field_mesh` with the same arguments would make, estimated in milliseconds
+/// without meshing (the crossings of the same tree counted on a lattice of at most 64
+/// cells along the longest side, scaled to `resolution`; exact up to 64): vertices,
+/// faces (quads with adaptive=True, triangles otherwise), triangles, peak_bytes (the
+/// most memory the build would hold), max_bytes (the limit: the argument, or 4 GB),
+/// fits (peak_bytes <= max_bytes: `field_mesh` would not refuse it), resolution_within
+/// (about the most cells that fit the limit) and cells (nx, ny, nz). Detail finer than
+/// the counted lattice is not seen (`field_mesh` then stops at the limit while
+/// meshing). Bad trees, bounds and resolutions raise InvalidInput as for `field_mesh`.
+#[pyfunction]
+#[pyo3(signature = (tree_json, bounds=None, resolution=128, adaptive=true, max_bytes=None))]
+pub fn field_mesh_estimate<'py>(
+    py: Python<'py>,
+    tree_json: &str,
+    bounds: Option<&Bound<'py, PyAny>>,
+    resolution: i64,
+    adaptive: bool,
+    max_bytes: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let bounds = bounds_arg(bounds)?;
+    let resolution = checked_resolution(resolution)?;
+    let max_bytes = max_bytes_arg(max_bytes)?;
+    let text = tree_json.to_owned();
+    let e = run_detached(py, move || {
+        let tree = FieldTree::from_json(&text)?;
+        let bounds = mesh_box(&tree, bounds, resolution)?;
+        estimate(&tree, bounds, resolution, mesher(adaptive))
+    })?;
+    let d = PyDict::new(py);
+    d.set_item("vertices", e.vertices)?;
+    d.set_item("faces", e.faces)?;
+    d.set_item("triangles", e.triangles)?;
+    d.set_item("peak_bytes", e.peak_bytes)?;
+    d.set_item("max_bytes", max_bytes)?;
+    d.set_item("fits", e.peak_bytes <= max_bytes)?;
+    d.set_item("resolution_within", e.resolution_within(max_bytes))?;
+    d.set_item("cells", e.cells.to_array())?;
+    Ok(d)
 }
 
 /// What either mesher made.

@@ -53,6 +53,7 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render::save_render, m)?)?;
     m.add_function(wrap_pyfunction!(field::field_eval, m)?)?;
     m.add_function(wrap_pyfunction!(field::field_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(field::field_mesh_estimate, m)?)?;
     m.add_function(wrap_pyfunction!(field_render::field_render, m)?)?;
     Ok(())
 }

@@ -24,19 +24,21 @@
 //! Values are taken as distance-like (unit-gradient fields, or near them): samples
 //! within 1% of a cell of the level are moved off it by that much ([`OFF_ISO`]).
 
+use super::estimate::{over_limit, peak_bytes, Mesher, Watch};
 use super::marching::{march_prism, Crossing, OFF_ISO};
 use super::weld::{edge_key, weld, Piece, UNSHARED};
 use crate::field::ScalarField;
 use crate::{Error, Result};
 use glam::{UVec3, Vec3};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The most cells along the box's longest side.
 pub const MAX_RESOLUTION: u32 = 2048;
 
 /// Cube layers per slab: a fixed number, so the output does not depend on the number
 /// of threads; each slab samples one plane more than it owns.
-const SLAB: u32 = 8;
+pub(crate) const SLAB: u32 = 8;
 
 /// The smallest blocks of cells that culling asks the field to bound (cells per side):
 /// each split halves a box along every side longer than this. Not from a paper: of
@@ -167,12 +169,39 @@ const DIRECTIONS: usize = 4;
 
 /// Meshes the zero set of `field` inside `params.bounds`. Inside is `f <= 0`.
 pub fn mesh_field<F: ScalarField + ?Sized>(field: &F, params: &GridParams) -> Result<FieldMesh> {
+    mesh_field_watched(field, params, &Watch::default())
+}
+
+/// [`mesh_field`] under a [`Watch`]: progress counted in slabs, a cancel obeyed
+/// between cube layers, and the memory limit checked as slabs finish against what
+/// they made so far ([`peak_bytes`]): past it the build stops with an error naming
+/// the limit.
+pub fn mesh_field_watched<F: ScalarField + ?Sized>(field: &F, params: &GridParams, watch: &Watch<'_>) -> Result<FieldMesh> {
     let grid = Grid::new(params)?;
+    watch.check()?;
     let nz = grid.cells.z;
     let slabs: Vec<(u32, u32)> = (0..nz).step_by(SLAB as usize).map(|k0| (k0, (k0 + SLAB).min(nz))).collect();
+    // One step per slab, one for the weld and attributes.
+    watch.start(slabs.len() + 1);
     // A field answers for every box or for none: asked once.
     let cull = field.interval(grid.lo, grid.hi).is_some();
-    let pieces: Vec<Piece> = slabs.par_iter().map(|&(k0, k1)| march_slab(field, &grid, k0, k1, params.refine, cull)).collect();
+    let made = [AtomicU64::new(0), AtomicU64::new(0)];
+    let pieces: Vec<Piece> = slabs
+        .par_iter()
+        .map(|&(k0, k1)| {
+            let piece = march_slab(field, &grid, k0, k1, params.refine, cull, watch)?;
+            let vertices = made[0].fetch_add(piece.pos.len() as u64, Ordering::Relaxed) + piece.pos.len() as u64;
+            let triangles = made[1].fetch_add(piece.tris.len() as u64, Ordering::Relaxed) + piece.tris.len() as u64;
+            if let Some(limit) = watch.max_bytes {
+                if peak_bytes(Mesher::Grid, grid.cells, 0, vertices, triangles) > limit {
+                    return Err(over_limit(limit, &format!("slabs of cells marched already make {vertices} vertices")));
+                }
+            }
+            watch.advance(1);
+            Ok(piece)
+        })
+        .collect::<Result<_>>()?;
+    watch.check()?;
     let tags: Vec<u32> = (0..pieces.len() as u32).collect();
     let welded = weld(pieces, &tags);
     let count = field.attribute_count();
@@ -181,6 +210,7 @@ pub fn mesh_field<F: ScalarField + ?Sized>(field: &F, params: &GridParams) -> Re
         const CHUNK: usize = 4096;
         attributes.par_chunks_mut(CHUNK * count).zip(welded.positions.par_chunks(CHUNK)).for_each(|(out, points)| field.attributes(points, out));
     }
+    watch.advance(1);
     Ok(FieldMesh { positions: welded.positions, normals: welded.normals, triangles: welded.triangles, attributes, attribute_count: count, cells: grid.cells })
 }
 
@@ -298,8 +328,9 @@ fn needed_points<'a>(grid: &Grid, live: Option<&[bool]>, k0: u32, k1: u32, k: u3
 }
 
 /// The piece of cube layers `k0..k1`; `cull`: only the [`live_cells`] are sampled and
-/// marched.
-fn march_slab<F: ScalarField + ?Sized>(field: &F, grid: &Grid, k0: u32, k1: u32, refine: bool, cull: bool) -> Piece {
+/// marched. Stops at the watch's cancel between layers.
+fn march_slab<F: ScalarField + ?Sized>(field: &F, grid: &Grid, k0: u32, k1: u32, refine: bool, cull: bool, watch: &Watch<'_>) -> Result<Piece> {
+    watch.check()?;
     let (nx, ny) = (grid.cells.x, grid.cells.y);
     let plane = ((nx + 1) * (ny + 1)) as usize;
     let at = |i: u32, j: u32| i as usize + (nx as usize + 1) * j as usize;
@@ -316,6 +347,7 @@ fn march_slab<F: ScalarField + ?Sized>(field: &F, grid: &Grid, k0: u32, k1: u32,
     let mut guesses: Vec<Crossing> = Vec::new();
     let mut tris = Vec::new();
     for k in k0..k1 {
+        watch.check()?;
         sample_plane(field, grid, k + 1, needed_points(grid, live.as_deref(), k0, k1, k + 1, &mut needed), &mut points, &mut above);
         let layer = live.as_deref().map(|live| &live[((k - k0) * nx * ny) as usize..][..(nx * ny) as usize]);
         for j in 0..ny {
@@ -381,7 +413,7 @@ fn march_slab<F: ScalarField + ?Sized>(field: &F, grid: &Grid, k0: u32, k1: u32,
         refine_vertices(field, grid, &mut piece.pos, &ends, &mut guesses);
     }
     normals(field, grid, &mut piece);
-    piece
+    Ok(piece)
 }
 
 /// Moves each vertex onto the cut field's crossing of its edge.

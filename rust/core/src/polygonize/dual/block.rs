@@ -52,32 +52,59 @@ pub(super) fn cell_index(local: UVec3) -> usize {
     (local.x + BLOCK * (local.y + BLOCK * local.z)) as usize
 }
 
+/// The lattice points of the block at `origin` (in cells), `x` fastest: where they are,
+/// their lattice coordinates, and the cut field's samples there ([`Lattice::sample`]).
+pub(super) struct Samples {
+    /// Cells of the block (fewer than [`BLOCK`] where it reaches the lattice's end).
+    pub size: UVec3,
+    pub points: Vec<Vec3>,
+    pub at: Vec<UVec3>,
+    pub values: Vec<f32>,
+}
+
+impl Samples {
+    /// The block's lattice points sampled as one batch; a field that is not a number
+    /// at one is an error.
+    pub fn of<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, origin: UVec3) -> Result<Self> {
+        let size = (lattice.cells - origin).min(UVec3::splat(BLOCK));
+        let n = size + 1;
+        let count = (n.x * n.y * n.z) as usize;
+        let mut points = Vec::with_capacity(count);
+        let mut at = Vec::with_capacity(count);
+        for z in 0..n.z {
+            for y in 0..n.y {
+                for x in 0..n.x {
+                    let g = origin + UVec3::new(x, y, z);
+                    at.push(g);
+                    points.push(lattice.point(g));
+                }
+            }
+        }
+        let mut values = vec![0.0; count];
+        field.values(&points, &mut values);
+        if let Some(i) = values.iter().position(|v| v.is_nan()) {
+            return Err(Error::InvalidParameter(format!("the field is not a number at {}", points[i])));
+        }
+        for (v, g) in values.iter_mut().zip(&at) {
+            *v = lattice.sample(*v, *g);
+        }
+        Ok(Self { size, points, at, values })
+    }
+
+    /// The index of local lattice point `p`.
+    pub fn index(&self, p: UVec3) -> usize {
+        let n = self.size + 1;
+        (p.x + n.x * (p.y + n.y * p.z)) as usize
+    }
+}
+
 /// Samples and contours the block at `origin` (in cells).
 pub(super) fn process<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, origin: UVec3) -> Result<Block> {
-    let size = (lattice.cells - origin).min(UVec3::splat(BLOCK));
+    let Samples { size, points, at, values } = Samples::of(field, lattice, origin)?;
     let n = size + 1;
     let point_index = |p: UVec3| (p.x + n.x * (p.y + n.y * p.z)) as usize;
     let count = (n.x * n.y * n.z) as usize;
-    let mut points = Vec::with_capacity(count);
-    let mut at = Vec::with_capacity(count);
-    for z in 0..n.z {
-        for y in 0..n.y {
-            for x in 0..n.x {
-                let g = origin + UVec3::new(x, y, z);
-                at.push(g);
-                points.push(lattice.point(g));
-            }
-        }
-    }
-    let mut values = vec![0.0; count];
-    field.values(&points, &mut values);
     let mut evaluations = count;
-    if let Some(i) = values.iter().position(|v| v.is_nan()) {
-        return Err(Error::InvalidParameter(format!("the field is not a number at {}", points[i])));
-    }
-    for (v, g) in values.iter_mut().zip(&at) {
-        *v = lattice.sample(*v, *g);
-    }
     let table = cases();
     let mut block = Block { origin, first: vec![u32::MAX; CELLS], config: vec![0; CELLS], ..Default::default() };
     // Crossings, one per sign-changing edge of the block's lattice (slot: point * 3 + axis).

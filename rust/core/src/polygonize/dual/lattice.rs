@@ -8,7 +8,7 @@ use glam::{UVec3, Vec3};
 /// Cells per side of a block: the leaves of the octree descent, sampled as one batch.
 /// Not from a paper: 4 keeps a bound's cost (a few dozen samples) below the samples
 /// it saves, as in the grid mesher's culling.
-pub(super) const BLOCK: u32 = 4;
+pub const BLOCK: u32 = 4;
 
 pub(super) struct Lattice {
     pub lo: Vec3,

@@ -13,6 +13,8 @@
 //! - [`project`]: vertices far off the zero set pulled onto it.
 //! - [`block`]: one block sampled, its crossings and vertices.
 //! - [`contour`]: quads around crossing edges, fold fallback, quad splits.
+//! - [`count`]: the crossings of a lattice counted without meshing, for
+//!   [`crate::polygonize::estimate`].
 //!
 //! The output does not depend on the number of threads: blocks come in a fixed order
 //! and each is computed alone.
@@ -20,6 +22,7 @@
 mod block;
 mod cases;
 mod contour;
+mod count;
 mod lattice;
 mod octree;
 mod project;
@@ -28,7 +31,11 @@ mod qef;
 #[cfg(test)]
 mod tests;
 
+pub use count::{count_crossings, Crossings};
+pub use lattice::BLOCK;
+
 use crate::field::ScalarField;
+use crate::polygonize::estimate::{over_limit, peak_bytes, Mesher, Watch};
 use crate::Result;
 use glam::{UVec3, Vec3};
 use rayon::prelude::*;
@@ -88,16 +95,49 @@ impl DualMesh {
 /// manifold dual contouring at the finest level of an interval-culled octree.
 /// A field that is not a number at a sample is an error.
 pub fn mesh_dual<F: ScalarField + ?Sized>(field: &F, params: &DualParams) -> Result<DualMesh> {
+    mesh_dual_watched(field, params, &Watch::default())
+}
+
+/// Live blocks sampled between two looks at the watch. Not from a paper: a few
+/// milliseconds of work on two cores, and few enough joins not to be seen in the time.
+const BLOCKS_PER_LOOK: usize = 256;
+
+/// [`mesh_dual`] under a [`Watch`]: progress counted over the live blocks (then the
+/// contouring and attributes), a cancel obeyed between batches of blocks, and the
+/// memory limit checked against what the blocks sampled so far will take
+/// ([`peak_bytes`]): past it the build stops with an error naming the limit.
+pub fn mesh_dual_watched<F: ScalarField + ?Sized>(field: &F, params: &DualParams, watch: &Watch<'_>) -> Result<DualMesh> {
     let lattice = lattice::Lattice::new(params.bounds, params.resolution)?;
+    watch.check()?;
     let mut profile = Profile::default();
     let start = Instant::now();
-    let live = octree::live_blocks(field, &lattice);
+    let live = octree::live_blocks(field, &lattice, watch)?;
     profile.descent_ms = ms(start);
     profile.live_blocks = live.len();
     let start = Instant::now();
-    let blocks: Vec<block::Block> = live.par_iter().map(|&b| block::process(field, &lattice, b * lattice::BLOCK)).collect::<Result<_>>()?;
+    // The blocks are most of the work; contouring and attributes the last fifth.
+    let tail = live.len() / 4 + 1;
+    watch.start(live.len() + tail);
+    let mut blocks: Vec<block::Block> = Vec::with_capacity(live.len());
+    let (mut vertices, mut quads) = (0u64, 0u64);
+    for batch in live.chunks(BLOCKS_PER_LOOK) {
+        watch.check()?;
+        let done: Vec<block::Block> = batch.par_iter().map(|&b| block::process(field, &lattice, b * lattice::BLOCK)).collect::<Result<_>>()?;
+        vertices += done.iter().map(|b| b.qef.len() as u64).sum::<u64>();
+        quads += done.iter().map(|b| b.edges.len() as u64).sum::<u64>();
+        blocks.extend(done);
+        watch.advance(batch.len());
+        if let Some(limit) = watch.max_bytes {
+            let held = peak_bytes(Mesher::Dual, lattice.cells, live.len() as u64, vertices, quads);
+            if held > limit {
+                return Err(over_limit(limit, &format!("{} of {} blocks sampled already make {vertices} vertices", blocks.len(), live.len())));
+            }
+        }
+    }
+    drop(live);
     profile.cells_ms = ms(start);
     profile.evaluations = blocks.iter().map(|b| b.evaluations).sum();
+    watch.check()?;
     let start = Instant::now();
     let mut offsets = Vec::with_capacity(blocks.len());
     let mut total = 0u32;
@@ -123,6 +163,8 @@ pub fn mesh_dual<F: ScalarField + ?Sized>(field: &F, params: &DualParams) -> Res
         positions[v as usize] = p;
     }
     profile.contour_ms = ms(start);
+    watch.check()?;
+    watch.advance(tail / 2);
     let start = Instant::now();
     let normals = vertex_normals(field, &lattice, &positions);
     let count = field.attribute_count();
@@ -132,6 +174,7 @@ pub fn mesh_dual<F: ScalarField + ?Sized>(field: &F, params: &DualParams) -> Res
         attributes.par_chunks_mut(CHUNK * count).zip(positions.par_chunks(CHUNK)).for_each(|(out, points)| field.attributes(points, out));
     }
     profile.attributes_ms = ms(start);
+    watch.advance(tail - tail / 2);
     Ok(DualMesh { positions, normals, quads: quads.into_iter().map(|(q, _)| q).collect(), attributes, attribute_count: count, cells: lattice.cells, profile })
 }
 

@@ -6,8 +6,25 @@
 
 use super::lattice::{Lattice, BLOCK};
 use crate::field::ScalarField;
+use crate::polygonize::estimate::{over_limit, Watch, BYTES_PER_BLOCK};
+use crate::Result;
 use glam::UVec3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// What the descent checks as it goes: the watch's cancel, and the blocks kept so far
+/// against the most the memory limit lets the mesher hold.
+struct Guard<'a> {
+    watch: &'a Watch<'a>,
+    kept: AtomicUsize,
+    most: usize,
+}
+
+impl Guard<'_> {
+    fn stopped(&self) -> bool {
+        self.watch.is_cancelled() || self.kept.load(Ordering::Relaxed) > self.most
+    }
+}
 
 /// The blocks (their lowest cell, in [`BLOCK`] steps) that may hold a surface, in a
 /// fixed order (depth first, lower halves first) whatever the number of threads.
@@ -17,13 +34,28 @@ use rayon::prelude::*;
 /// than `eps` without touching the box's faces (where the box cuts the solid). A block
 /// dropped has no sign change on any of its edges, so every cell around a crossing
 /// edge is in a block kept.
-pub(super) fn live_blocks<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice) -> Vec<UVec3> {
+///
+/// Stops with [`crate::Error::Cancelled`] when the watch is cancelled, and with an
+/// error naming the limit when the blocks kept would pass the watch's memory limit
+/// (each costs at least [`BYTES_PER_BLOCK`] once sampled).
+pub(super) fn live_blocks<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, watch: &Watch<'_>) -> Result<Vec<UVec3>> {
     let blocks = (lattice.cells + BLOCK - 1) / BLOCK;
     let cull = field.interval(lattice.lo, lattice.hi).is_some();
-    descend(field, lattice, cull, UVec3::ZERO, blocks)
+    let most = watch.max_bytes.map_or(usize::MAX, |m| usize::try_from(m / BYTES_PER_BLOCK).unwrap_or(usize::MAX));
+    let guard = Guard { watch, kept: AtomicUsize::new(0), most };
+    let live = descend(field, lattice, cull, &guard, UVec3::ZERO, blocks);
+    watch.check()?;
+    let kept = guard.kept.load(Ordering::Relaxed);
+    if kept > most {
+        return Err(over_limit(watch.max_bytes.unwrap_or(u64::MAX), &format!("{kept} blocks of cells may hold the surface")));
+    }
+    Ok(live)
 }
 
-fn descend<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, cull: bool, lo: UVec3, hi: UVec3) -> Vec<UVec3> {
+fn descend<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, cull: bool, guard: &Guard<'_>, lo: UVec3, hi: UVec3) -> Vec<UVec3> {
+    if guard.stopped() {
+        return Vec::new();
+    }
     let (a, b) = (lo * BLOCK, (hi * BLOCK).min(lattice.cells));
     if cull {
         if let Some((l, u)) = field.interval(lattice.point(a), lattice.point(b)) {
@@ -38,6 +70,7 @@ fn descend<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, cull: bool, lo
     }
     let size = hi - lo;
     if size == UVec3::ONE {
+        guard.kept.fetch_add(1, Ordering::Relaxed);
         return vec![lo];
     }
     let mid = lo + size / 2;
@@ -52,8 +85,8 @@ fn descend<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, cull: bool, lo
     }
     // Large boxes in parallel; `collect` keeps the children's order.
     if size.max_element() > 4 {
-        children.into_par_iter().flat_map_iter(|(l, h)| descend(field, lattice, cull, l, h)).collect()
+        children.into_par_iter().flat_map_iter(|(l, h)| descend(field, lattice, cull, guard, l, h)).collect()
     } else {
-        children.into_iter().flat_map(|(l, h)| descend(field, lattice, cull, l, h)).collect()
+        children.into_iter().flat_map(|(l, h)| descend(field, lattice, cull, guard, l, h)).collect()
     }
 }
