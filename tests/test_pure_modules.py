@@ -120,6 +120,8 @@ def claims_to_be_pure(path):
 #: runs without Blender, here if it only works on what Blender hands it.
 BLENDER_SIDE_WITHOUT_BPY_IMPORT = {
     "thicket": "registration: imports the Blender side when register() is called",
+    "thicket.nodes": "package docstring only",
+    "thicket.nodes.graph": "reads the Blender node trees and handle objects handed to it",
     "thicket.cli": "Blender's command-line command: imports bpy and the api when run",
     "thicket.render": "package docstring only",
     "thicket.render.camera": "reads Blender cameras, scenes and 3D views handed to it",

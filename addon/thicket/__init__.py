@@ -18,11 +18,12 @@ _registered = ((), ())
 
 def classes():
     """Every class to register, in order: PropertyGroups, operators, panels."""
+    from .nodes.tree import CLASSES as NODE_CLASSES
     from .operators import CLASSES as OPERATOR_CLASSES
     from .stack.properties import CLASSES as PROPERTY_CLASSES
     from .ui import CLASSES as UI_CLASSES
 
-    return PROPERTY_CLASSES + OPERATOR_CLASSES + UI_CLASSES
+    return PROPERTY_CLASSES + NODE_CLASSES + OPERATOR_CLASSES + UI_CLASSES
 
 
 def register():
@@ -30,11 +31,13 @@ def register():
     import bpy
 
     from . import cli
+    from .nodes import live
+    from .nodes.tree import MENU_ENTRIES as NODE_MENU_ENTRIES
     from .stack import auto_update, versioning
     from .stack.properties import register_properties
     from .ui import MENU_ENTRIES
 
-    _registered = (classes(), tuple(MENU_ENTRIES))
+    _registered = (classes(), tuple(MENU_ENTRIES) + NODE_MENU_ENTRIES)
     for cls in _registered[0]:
         bpy.utils.register_class(cls)
     register_properties()
@@ -42,6 +45,7 @@ def register():
         getattr(bpy.types, menu).append(entry)
     versioning.register()
     auto_update.register_handlers()
+    live.register_handlers()
     _cli_handle = cli.register()
 
 
@@ -50,6 +54,7 @@ def unregister():
     import bpy
 
     from . import cli
+    from .nodes import live
     from .render import overlay
     from .stack import auto_update, versioning
     from .stack.properties import unregister_properties
@@ -58,6 +63,7 @@ def unregister():
     cli.unregister(_cli_handle)
     _cli_handle = None
     auto_update.unregister_handlers()
+    live.unregister_handlers()
     versioning.unregister()
     classes_done, menu_entries = _registered
     _registered = ((), ())

@@ -197,6 +197,34 @@ def regenerate_field_mesh(obj, progress=None):
     return rebuild(obj, progress)
 
 
+def field_nodes_json(node_tree):
+    """The field tree JSON of a Thicket field node tree (the node editor's
+    `ThicketFieldTree`), handle objects read from their world matrices. A cycle, an
+    unlinked input, a missing handle, p <= 0 or a NaN raise a ValueError naming the
+    node."""
+    from .nodes.graph import tree_json
+
+    return tree_json(node_tree)
+
+
+def build_field_nodes_mesh(node_tree, name=None, collection=None):
+    """A new Field Mesh object of a Thicket field node tree (its resolution and
+    adaptive settings), linked to it: it regenerates when a node, a link or a handle
+    object changes (`regenerate_field_nodes` does it at once). Errors raise before
+    anything is made."""
+    from .nodes.live import build
+
+    return build(node_tree, name=name, collection=collection)
+
+
+def regenerate_field_nodes(obj):
+    """Rebuilds a Field Mesh linked to a node tree from the tree's current state;
+    errors raise and leave the mesh as it was."""
+    from .nodes.live import regenerate
+
+    return regenerate(obj)
+
+
 def render_field(tree_json, camera=None, width=512, height=512, image="Thicket Field"):
     """Renders an implicit field tree (JSON text, a dict, or a Blender Text) with its
     colours and texture functions by the core's sphere tracer

@@ -99,19 +99,22 @@ def build_field_mesh(tree_json, name="Field Mesh", resolution=128, bounds=None, 
     return obj
 
 
-def regenerate_field_mesh(obj, progress=None):
+def regenerate_field_mesh(obj, progress=None, tree=None, resolution=None, adaptive=None):
     """Rebuilds a Field Mesh object's mesh in place from its stored tree and settings
     (from its Text's current content when it was built from one that still exists).
-    On error the mesh stays as it was."""
+    `tree`, `resolution` and `adaptive`, when given, replace the stored ones (a node
+    tree's regeneration passes its own). On error the mesh stays as it was."""
     settings = field_settings(obj)
     if settings is None:
         raise TypeError(f"'{getattr(obj, 'name', obj)}' is not a Thicket Field Mesh (it has no stored field tree)")
     source_text = obj.get(TEXT_PROPERTY)
-    tree = source_text.as_string() if isinstance(source_text, bpy.types.Text) else settings["tree"]
+    if tree is None:
+        tree = source_text.as_string() if isinstance(source_text, bpy.types.Text) else settings["tree"]
     text = check_tree(tree)
-    resolution, bounds = check_mesh_settings(settings["resolution"], settings["bounds"])
-    arrays = _arrays(text, resolution, bounds, settings["adaptive"], progress)
+    resolution, bounds = check_mesh_settings(settings["resolution"] if resolution is None else resolution, settings["bounds"])
+    adaptive = settings["adaptive"] if adaptive is None else bool(adaptive)
+    arrays = _arrays(text, resolution, bounds, adaptive, progress)
     mesh_io.write_mesh(obj.data, arrays)
-    _store(obj, text, resolution, bounds, settings["adaptive"], source_text if isinstance(source_text, bpy.types.Text) else None)
+    _store(obj, text, resolution, bounds, adaptive, source_text if isinstance(source_text, bpy.types.Text) else None)
     _progress(progress, 1.0)
     return obj

@@ -1,0 +1,144 @@
+"""Field Mesh objects linked to a node tree, regenerated live (debounced with the
+stack's delay and re-entrancy guard: `stack.auto_update.DEBOUNCE_SECONDS`,
+`stack.guard`) when a node value or a link changes (`schedule_tree`) or a handle
+object moves (`on_depsgraph_update`). A failed regeneration leaves the mesh as it
+was and keeps the message on the tree (`status`, shown in the editor's sidebar)."""
+
+import bpy
+from bpy.app.handlers import persistent
+
+from ..fields.field_mesh import build_field_mesh, field_settings, regenerate_field_mesh
+from ..pure import native
+from ..pure.field_nodes import TREE_IDNAME
+from ..stack.auto_update import DEBOUNCE_SECONDS
+from ..stack.guard import busy, suspended
+from .graph import tree_json
+
+#: The Field Mesh object's ID property pointing at its node tree.
+NODES_PROPERTY = "thicket_field_nodes"
+
+_pending: set[str] = set()
+
+
+def node_tree_of(obj):
+    tree = obj.get(NODES_PROPERTY) if obj is not None else None
+    return tree if isinstance(tree, bpy.types.NodeTree) and tree.bl_idname == TREE_IDNAME else None
+
+
+def linked_objects(tree):
+    """The Field Mesh objects showing `tree`."""
+    return [obj for obj in bpy.data.objects if node_tree_of(obj) == tree]
+
+
+def errors():
+    return (TypeError, KeyError, ValueError, RuntimeError, *native.error_types())
+
+
+def build(tree, name=None, collection=None):
+    """A new Field Mesh object of the node tree `tree`, linked to it. Errors (a
+    GraphError or ThicketError, both ValueErrors) leave the file as it was."""
+    text = tree_json(tree)
+    obj = build_field_mesh(text, name=name or tree.name, resolution=tree.resolution, adaptive=tree.adaptive, collection=collection)
+    with suspended():
+        obj[NODES_PROPERTY] = tree
+        tree.status = ""
+    return obj
+
+
+def regenerate(obj):
+    """Rebuilds `obj` from its node tree's current nodes, handles and settings. On
+    error the mesh and its stored tree stay as they were; the error is raised."""
+    tree = node_tree_of(obj)
+    if tree is None:
+        raise TypeError(f"'{obj.name}' is not linked to a Thicket field node tree")
+    text = tree_json(tree)
+    with suspended():
+        regenerate_field_mesh(obj, tree=text, resolution=tree.resolution, adaptive=tree.adaptive)
+    return obj
+
+
+def regenerate_tree(tree):
+    """Regenerates every Field Mesh of `tree`; the first error goes to
+    `tree.status` (empty on success), never raised."""
+    message = ""
+    for obj in linked_objects(tree):
+        try:
+            regenerate(obj)
+        except errors() as exc:
+            message = message or f"{obj.name}: {exc}"
+    with suspended():
+        if tree.status != message:
+            tree.status = message
+    return message
+
+
+def schedule_tree(tree) -> None:
+    """Asks for `tree`'s Field Meshes to regenerate soon (at once in background mode,
+    where timers never run)."""
+    if busy() or getattr(tree, "bl_idname", None) != TREE_IDNAME or not tree.auto_update:
+        return
+    _pending.add(tree.name)
+    if bpy.app.background:
+        flush()
+    elif not bpy.app.timers.is_registered(_timer):
+        bpy.app.timers.register(_timer, first_interval=DEBOUNCE_SECONDS)
+
+
+def _timer():
+    flush()
+    return None
+
+
+def flush() -> None:
+    if busy():
+        return
+    while _pending:
+        tree = bpy.data.node_groups.get(_pending.pop())
+        if tree is not None and tree.bl_idname == TREE_IDNAME and linked_objects(tree):
+            regenerate_tree(tree)
+
+
+def _handles(tree):
+    found = set()
+    for node in tree.nodes:
+        for name in ("handle", "handle_b"):
+            obj = getattr(node, name, None)
+            if obj is not None:
+                found.add(obj.as_pointer())
+                if obj.data is not None:
+                    found.add(obj.data.as_pointer())
+    return found
+
+
+def changed_trees(depsgraph):
+    """The linked trees one of whose handle objects (or their curves) this update moved or changed."""
+    trees = {node_tree_of(obj) for obj in bpy.data.objects} - {None}
+    if not trees:
+        return []
+    moved = set()
+    for update in depsgraph.updates:
+        if update.is_updated_transform or update.is_updated_geometry:
+            moved.add(update.id.original.as_pointer())
+    return [tree for tree in trees if moved & _handles(tree)]
+
+
+@persistent
+def on_depsgraph_update(scene, depsgraph):
+    if busy():
+        return
+    for tree in changed_trees(depsgraph):
+        schedule_tree(tree)
+
+
+def register_handlers():
+    if on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
+
+
+def unregister_handlers():
+    if on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
+    _pending.clear()
+
+
+__all__ = ["NODES_PROPERTY", "build", "regenerate", "regenerate_tree", "schedule_tree", "field_settings", "linked_objects", "node_tree_of"]
