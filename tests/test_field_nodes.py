@@ -219,3 +219,77 @@ def test_save_reload_keeps_tree_and_mesh_and_regenerates_identically(scene, tmp_
     assert np.array_equal(positions(obj), before)
     api.regenerate_field_nodes(obj)
     assert np.array_equal(positions(obj), before)
+
+
+def test_every_node_kind_reads_into_the_schema_and_meshes(scene):
+    """Each primitive with numbers and with handles (two empties and a curve for the
+    segment), the unary, textured and n-ary nodes: the JSON is what the node shows and
+    the core meshes it."""
+    a, b = bpy.data.objects.new("A", None), bpy.data.objects.new("B", None)
+    for obj, loc in ((a, (-0.5, 0, 0.25)), (b, (0.5, 0, 0.25))):
+        scene.collection.objects.link(obj)
+        obj.location = loc
+    curve_data = bpy.data.curves.new("Path", "CURVE")
+    spline = curve_data.splines.new("POLY")
+    spline.points.add(2)
+    for point, co in zip(spline.points, ((0, -0.5, 0, 1), (0, 0, 0, 1), (0, 0.5, 0, 1)), strict=True):
+        point.co = co
+    curve = bpy.data.objects.new("Path", curve_data)
+    scene.collection.objects.link(curve)
+    curve.location = (0, 0, -0.25)
+    tilted = bpy.data.objects.new("Tilted", None)
+    scene.collection.objects.link(tilted)
+    tilted.rotation_euler = (0.5, 0, 0)
+    bpy.context.view_layer.update()
+
+    tree = new_tree()
+    n = tree.nodes
+    seg_empties, seg_curve = n.new("ThicketNodeSegment"), n.new("ThicketNodeSegment")
+    seg_empties.handle, seg_empties.handle_b, seg_empties.radius = a, b, 0.125
+    seg_curve.handle, seg_curve.radius = curve, 0.125
+    torus = n.new("ThicketNodeTorus")
+    torus.handle, torus.major, torus.minor = tilted, 0.75, 0.125
+    point, rect, plane = n.new("ThicketNodePoint"), n.new("ThicketNodeRectangle"), n.new("ThicketNodePlane")
+    point.center, point.radius = (0, 0, 0.5), 0.25
+    rect.center, rect.half_size, rect.radius = (0, 0, -0.5), (0.5, 0.25), 0.125
+    plane.normal = (0, 0, 1)
+    union = n.new("ThicketNodeOperation")
+    union.operation, union.inputs_count = "min", 5
+    assert len(union.inputs) == 5
+    for i, node in enumerate((seg_empties, seg_curve, torus, point, rect)):
+        link(tree, node, union, i)
+    offset, negate, h = n.new("ThicketNodeOffset"), n.new("ThicketNodeNegate"), n.new("ThicketNodeOperation")
+    offset.amount = 0.0625
+    link(tree, union, offset)
+    h.operation = "h"
+    link(tree, plane, negate)
+    link(tree, negate, h, 0)
+    link(tree, plane, h, 1)  # h[-f, f] = |f|: a slab around the plane
+    fractal = n.new("ThicketNodeFractal")
+    fractal.octaves, fractal.amplitude, fractal.omega = 2, 0.015625, 16.0
+    fractal.use_ramp, fractal.ramp_low, fractal.ramp_high = True, RED, BLUE
+    link(tree, offset, fractal, 0)
+    link(tree, h, fractal, 1)
+    out = n.new("ThicketNodeOutput")
+    link(tree, fractal, out)
+
+    got = json.loads(api.field_nodes_json(tree))
+    assert got["op"] == "fractal" and got["terms"] == [[0.015625, 16.0], [0.0078125, 32.0]]
+    assert got["ramp"] == [[0.0, RED], [1.0, BLUE]]
+    assert got["texture"] == {"op": "h", "children": [{"op": "negate", "child": got["texture"]["children"][1]}, got["texture"]["children"][1]]}
+    assert got["texture"]["children"][1] == {"op": "plane", "point": [0.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0]}
+    children = got["shape"]["child"]["children"]
+    assert [c["op"] for c in children] == ["segment", "segment", "torus", "point", "rectangle"]
+    assert children[0]["a"] == pytest.approx([-0.5, 0, 0.25]) and children[0]["b"] == pytest.approx([0.5, 0, 0.25])
+    assert children[1]["a"] == pytest.approx([0, -0.5, -0.25]) and children[1]["b"] == pytest.approx([0, 0.5, -0.25])
+    assert children[2]["axis"] == pytest.approx(list(tilted.matrix_world.col[2].xyz))
+    obj = api.build_field_nodes_mesh(tree)
+    ref = tn.field_mesh(json.dumps(got), resolution=24)
+    assert len(obj.data.vertices) > 100
+    assert volume(obj) == pytest.approx(volume(ref), rel=1e-4)
+    # a curve handle that moves regenerates the mesh too
+    tree.auto_update = True
+    before = volume(obj)
+    curve.location = (0, 0, -1.0)
+    bpy.context.view_layer.update()
+    assert volume(obj) != pytest.approx(before, rel=1e-3)
