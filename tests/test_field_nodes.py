@@ -293,3 +293,29 @@ def test_every_node_kind_reads_into_the_schema_and_meshes(scene):
     curve.location = (0, 0, -1.0)
     bpy.context.view_layer.update()
     assert volume(obj) != pytest.approx(before, rel=1e-3)
+
+
+def test_deleting_a_handle_or_a_nan_value_reports_and_keeps_the_mesh(scene):
+    empty = bpy.data.objects.new("BoxHandle", None)
+    scene.collection.objects.link(empty)
+    empty.location, empty.scale = (0.5, 0, 0), (0.25, 0.375, 0.5)
+    bpy.context.view_layer.update()
+    tree = new_tree()
+    sphere, box, _op, _out = soft_union(tree, handle=empty)
+    obj = api.build_field_nodes_mesh(tree)
+    tree.auto_update = True
+    good = positions(obj).copy()
+    for other in bpy.context.view_layer.objects:
+        other.select_set(other == empty)
+    bpy.context.view_layer.objects.active = empty
+    assert bpy.ops.object.delete() == {"FINISHED"}  # the node still points at it: it is out of every scene
+    assert box.handle is not None
+    assert "handle object 'BoxHandle' is missing" in live.regenerate_tree(tree)
+    assert "BoxHandle" in tree.status
+    assert np.array_equal(positions(obj), good)
+    box.handle = None
+    assert tree.status == ""
+    good = positions(obj).copy()
+    sphere.radius = float("nan")  # Blender keeps a NaN in a float property: the graph check refuses it
+    assert "node 'Sphere': radius is not a finite number" in tree.status
+    assert np.array_equal(positions(obj), good)
