@@ -95,7 +95,17 @@ fixtures: setup $(STAMP_LTS)
 demo: setup
 	$(PY) blend_fixtures/demo.py blend_fixtures/demo.blend out
 
-bench: vulkan setup
+# The benchmarks' own venv for peers that Blender's does not need (scikit-image: the
+# marching-cubes peer of issue 17's field mesh), so bpy's numpy is never upgraded.
+VENV_BENCH := .venv-bench
+STAMP_BENCH := $(VENV_BENCH)/.thicket-bench
+$(STAMP_BENCH):
+	$(PYTHON) -m venv $(VENV_BENCH)
+	$(VENV_BENCH)/bin/pip install -q --upgrade pip
+	$(VENV_BENCH)/bin/pip install -q "scikit-image>=0.22,<1" numpy
+	touch $@
+
+bench: vulkan setup $(STAMP_BENCH)
 	$(PY) tests/bench/bench_offset.py
 	$(PY) tests/bench/bench_shell.py
 	$(PY) tests/bench/bench_render.py
@@ -104,10 +114,11 @@ bench: vulkan setup
 	cargo run --release -q -p thicket-core --features test-support --example bake_bench
 	cargo run --release -q -p thicket-core --example field_mesh_bench
 	cargo run --release -q -p thicket-core --example implicit_mesh_bench -- --runs 3
+	$(VENV_BENCH)/bin/python tests/bench/bench_field_peers.py
 	cargo run --release -q -p thicket-core --example field_trace_bench
 	cargo run --release -q -p thicket-render --example bake_fidelity
 	cargo run --release -q -p thicket-render --example render_bench
 	cargo run --release -q -p thicket-render --example shell_texturing_bench
 
 clean:
-	rm -rf build dist out target $(VENV) $(VENV_LTS)
+	rm -rf build dist out target $(VENV) $(VENV_LTS) $(VENV_BENCH)
