@@ -138,7 +138,9 @@ pub fn self_intersections<'py>(
 ///
 /// Quality figures of any shell given by its directors (e.g. from Solidify: outer
 /// position minus base): outer_self_intersections, outer_base_intersections (skins:
-/// the outer layer, and an envelope's inner layer too), inverted_cells,
+/// the outer layer, an envelope's inner layer too, and the side walls over an open
+/// mesh's boundary), inverted_cells, enclosing_cells (cells holding another
+/// connected part of the mesh wholly inside),
 /// inherited_intersections (crossings involving faces where the base crosses
 /// itself, not counted in the first two), base_self_intersections,
 /// compressed_vertices (below 95% of the target), min_ratio, mean_ratio,
@@ -176,6 +178,7 @@ pub fn shell_report<'py>(
     d.set_item("outer_self_intersections", r.outer_self_intersections)?;
     d.set_item("outer_base_intersections", r.outer_base_intersections)?;
     d.set_item("inverted_cells", r.inverted_cells)?;
+    d.set_item("enclosing_cells", r.enclosing_cells)?;
     d.set_item("inherited_intersections", r.inherited_intersections)?;
     d.set_item("base_self_intersections", r.base_self_intersections)?;
     d.set_item("compressed_vertices", r.compressed_vertices)?;

@@ -36,6 +36,47 @@ pub fn boundary_edges(mesh: &Mesh) -> Vec<(u32, u32)> {
     edges
 }
 
+/// The connected parts of a mesh (vertices joined by faces; a loose vertex is a part
+/// of its own): the part of each vertex, numbered in order of first vertex, and that
+/// first vertex of each part.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Parts {
+    pub of: Vec<u32>,
+    pub first: Vec<u32>,
+    pub count: usize,
+}
+
+/// [`Parts`] of `mesh`, by union-find over its faces' vertices.
+pub fn vertex_parts(mesh: &Mesh) -> Parts {
+    let mut up: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
+    fn root(up: &mut [u32], mut v: u32) -> u32 {
+        while up[v as usize] != v {
+            up[v as usize] = up[up[v as usize] as usize]; // path halving
+            v = up[v as usize];
+        }
+        v
+    }
+    for face in mesh.faces() {
+        for w in face.windows(2) {
+            let (a, b) = (root(&mut up, w[0]), root(&mut up, w[1]));
+            if a != b {
+                up[a.max(b) as usize] = a.min(b);
+            }
+        }
+    }
+    let (mut of, mut first) = (vec![0u32; up.len()], Vec::new());
+    for v in 0..up.len() as u32 {
+        let r = root(&mut up, v);
+        of[v as usize] = if r == v {
+            first.push(v);
+            first.len() as u32 - 1
+        } else {
+            of[r as usize]
+        };
+    }
+    Parts { count: first.len(), of, first }
+}
+
 /// Which items (faces, triangles, cells) use each vertex, in compressed rows.
 #[derive(Debug, Clone, Default)]
 pub struct Incidence {

@@ -1,6 +1,13 @@
-//! Finding a shell's defects: skin triangles (the outer layer, and an envelope's
-//! inner layer) crossing each other or the base, and inverted cells; exact
-//! orientation tests in double precision. One search serves the report (every
+//! Finding a shell's defects: skin triangles (the outer layer, an envelope's inner
+//! layer, and the side walls over an open mesh's boundary) crossing each other or the
+//! base, inverted cells, and cells enclosing another part of the base; exact
+//! orientation tests in double precision.
+//!
+//! Together these bound the shell's volume: where two shells overlap, or a shell
+//! swallows another part of the mesh, a boundary of one crosses a boundary of the
+//! other, or one part lies wholly inside the other's cells (a card floating in
+//! another card's shell, a pebble inside a wall's) — the enclosure test, one point
+//! per connected part. One search serves the report (every
 //! element, once) and the repair pass (only the elements around directors it just
 //! shortened, round after round, on a refitted BVH). Crossings that involve a base
 //! triangle which already crosses the base (self-intersecting input) are counted
@@ -27,6 +34,8 @@ pub(crate) struct Findings {
     pub base_pairs: Vec<(u32, u32)>,
     /// Inverted cells.
     pub inverted: Vec<u32>,
+    /// Cells enclosing a point of another connected part of the base.
+    pub enclosing: Vec<u32>,
     /// Intersecting pairs of either kind that involve a base triangle which intersects
     /// the base itself: inherited from the input, not counted as defects.
     pub inherited: usize,
@@ -34,15 +43,17 @@ pub(crate) struct Findings {
 
 impl Findings {
     pub fn is_clean(&self) -> bool {
-        self.self_pairs.is_empty() && self.base_pairs.is_empty() && self.inverted.is_empty()
+        self.self_pairs.is_empty() && self.base_pairs.is_empty() && self.inverted.is_empty() && self.enclosing.is_empty()
     }
 }
 
 /// What the search needs of a mesh, built once and used for any number of shells.
 ///
-/// A shell's *skins* are the layers that bound it away from the base: the outer layer
-/// (r = 1), and for envelopes also the inner layer (r = 0). Skin triangle `t` of skin
-/// `s` is item `s * tris.len() + t` of the skin tree.
+/// A shell's *skins* are what bounds it away from the base: the outer layer (r = 1),
+/// for envelopes also the inner layer (r = 0), and over an open mesh's boundary the
+/// side walls. The skin tree's items are the outer triangles (item `t` over base
+/// triangle `t`), then four triangles per wall (its quad split both ways), then for
+/// envelopes the inner triangles (see [`Checker::item`]).
 pub(crate) struct Checker {
     /// The mesh's triangulation ([`Mesh::triangulate`]), then, for each quad, the two
     /// triangles of its other diagonal: a skin quad is not planar, and whoever shows
@@ -64,6 +75,39 @@ pub(crate) struct Checker {
     /// Triangles and cells around each vertex (CSR).
     tris_around: Incidence,
     cells_around: Incidence,
+    /// Side walls over the boundary edges, sorted by the triangle owning them, and
+    /// where each triangle's walls begin (`tris.len() + 1` entries).
+    walls: Vec<Wall>,
+    wall_start: Vec<u32>,
+    /// The enclosure test: the connected part of each cell, and one vertex of each
+    /// part with a tree over their points (empty for a mesh of one part). A part that
+    /// crosses the base is partly in and partly out of whatever it crosses, so it is
+    /// not probed (`crossing_part`): its crossings are inherited, as the base's own.
+    part_of_cell: Vec<u32>,
+    probes: Vec<u32>,
+    probe_tree: TriBvh,
+    crossing_part: Vec<bool>,
+}
+
+/// A side wall of a shell over an open mesh: the quad between layers 0 and 1 over
+/// boundary edge `ends`, owned by a base triangle holding that edge (it is checked
+/// and refitted with that triangle's skin items).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Wall {
+    pub ends: [u32; 2],
+    pub tri: u32,
+}
+
+/// Triangles per wall: its quad `a0 b0 b1 a1` split along both diagonals.
+const WALL_TRIS: u32 = 4;
+
+/// What a skin-tree item is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Item {
+    /// The triangle of layer `r` over base triangle `tri`.
+    Layer { tri: u32, r: f32 },
+    /// Triangle `half` of wall `wall`.
+    Wall { wall: u32, half: u32 },
 }
 
 /// Which elements to check: those flagged (mask and list); a flagged triangle is
@@ -111,11 +155,46 @@ impl Checker {
         let tris_around = Incidence::new(p.len(), tris.iter().copied());
         let cells_around = Incidence::new(p.len(), cells.iter().map(|c| c.base().to_vec()));
         let base_bvh = TriBvh::build(&base);
-        let mut me = Self { base_bvh, diag: mesh.bbox_diagonal() as f64, own: Vec::new(), face_of, first_other, base, tris, cells, tris_around, cells_around };
+        let (walls, wall_start) = side_walls(mesh, &tris, mesh_tris, &tris_around);
+        let parts = crate::mesh::vertex_parts(mesh);
+        let part_of_cell: Vec<u32> = cells.iter().map(|c| parts.of[c.vertices[0] as usize]).collect();
+        let probes = if parts.count > 1 { parts.first.clone() } else { Vec::new() };
+        let probe_tree = TriBvh::from_boxes(probes.iter().map(|&v| (p[v as usize].as_dvec3(), p[v as usize].as_dvec3())).collect());
+        let mut me = Self {
+            base_bvh,
+            diag: mesh.bbox_diagonal() as f64,
+            own: Vec::new(),
+            face_of,
+            first_other,
+            base,
+            tris,
+            cells,
+            tris_around,
+            cells_around,
+            walls,
+            wall_start,
+            part_of_cell,
+            probes,
+            probe_tree,
+            crossing_part: Vec::new(),
+        };
         let pairs = me.base_bvh.overlapping_pairs(&|i, j| me.bases_cross(i, j));
         me.own = vec![false; me.tris.len()];
         pairs.iter().for_each(|&(i, j)| (me.own[i as usize], me.own[j as usize]) = (true, true));
+        me.crossing_part = me.crossing_parts(mesh);
         me
+    }
+
+    /// Which parts have a triangle crossing the base (none probed for a mesh of one
+    /// part).
+    fn crossing_parts(&self, mesh: &Mesh) -> Vec<bool> {
+        if self.probes.is_empty() {
+            return Vec::new();
+        }
+        let parts = crate::mesh::vertex_parts(mesh);
+        let mut crossing = vec![false; self.probes.len()];
+        (0..self.tris.len()).filter(|&t| self.own[t]).for_each(|t| crossing[parts.of[self.tris[t][0] as usize] as usize] = true);
+        crossing
     }
 
     /// Whether base triangles `t` and `j` cross, sharing no vertex.
@@ -168,6 +247,8 @@ impl Checker {
             self.base[t as usize] = self.tris[t as usize].map(|i| p[i as usize].as_dvec3());
         }
         self.base_bvh.refit_items(touched.iter().map(|&t| (t, tri_box(&self.base[t as usize]))));
+        let probe_box = |v: u32| (p[v as usize].as_dvec3(), p[v as usize].as_dvec3());
+        self.probe_tree.refit_items(self.probes.iter().enumerate().filter(|(_, v)| moved.binary_search(v).is_ok()).map(|(k, &v)| (k as u32, probe_box(v))));
         let mut around = |b: (DVec3, DVec3)| self.base_bvh.query(b.0, b.1, |j| near.push(j));
         touched.iter().for_each(|&t| around(tri_box(&self.base[t as usize])));
         near.sort_unstable();
@@ -175,6 +256,9 @@ impl Checker {
         let flags: Vec<bool> = near.par_iter().map(|&t| self.crosses_base(t)).collect();
         let flipped: Vec<u32> = near.iter().zip(flags).filter(|(&t, f)| self.own[t as usize] != *f).map(|(&t, _)| t).collect();
         flipped.iter().for_each(|&t| self.own[t as usize] ^= true);
+        if !flipped.is_empty() {
+            self.crossing_part = self.crossing_parts(mesh);
+        }
         self.diag = mesh.bbox_diagonal() as f64;
         flipped
     }
@@ -205,22 +289,59 @@ impl Checker {
         }
     }
 
-    /// The base triangle and layer parameter of skin item `i`.
-    pub fn skin_item(&self, i: u32) -> (u32, f32) {
-        let n = self.tris.len() as u32;
-        (i % n, if i >= n { 0.0 } else { 1.0 })
+    /// What skin item `i` is (the numbering is [`Checker`]'s).
+    pub fn item(&self, i: u32) -> Item {
+        let (n, w) = (self.tris.len() as u32, WALL_TRIS * self.walls.len() as u32);
+        if i < n {
+            Item::Layer { tri: i, r: 1.0 }
+        } else if i < n + w {
+            Item::Wall { wall: (i - n) / WALL_TRIS, half: (i - n) % WALL_TRIS }
+        } else {
+            Item::Layer { tri: i - n - w, r: 0.0 }
+        }
+    }
+
+    /// The base triangle skin item `i` lies over (a wall's: the one owning it).
+    pub fn item_tri(&self, i: u32) -> u32 {
+        match self.item(i) {
+            Item::Layer { tri, .. } => tri,
+            Item::Wall { wall, .. } => self.walls[wall as usize].tri,
+        }
+    }
+
+    /// The base vertices whose directors move skin item `i`.
+    pub fn item_vertices(&self, i: u32) -> &[u32] {
+        match self.item(i) {
+            Item::Layer { tri, .. } => &self.tris[tri as usize],
+            Item::Wall { wall, .. } => &self.walls[wall as usize].ends,
+        }
+    }
+
+    /// How many skin items a shell of `side` has.
+    pub fn items(&self, side: Side) -> usize {
+        self.tris.len() * skins(side).len() + WALL_TRIS as usize * self.walls.len()
     }
 
     /// The corners of skin item `i` of `shell`.
     pub fn skin_tri(&self, mesh: &Mesh, shell: &Shell, i: u32) -> [DVec3; 3] {
-        let (t, r) = self.skin_item(i);
-        self.tris[t as usize].map(|v| shell.point(mesh.positions(), v as usize, r).as_dvec3())
+        let at = |v: u32, r: f32| shell.point(mesh.positions(), v as usize, r).as_dvec3();
+        match self.item(i) {
+            Item::Layer { tri, r } => self.tris[tri as usize].map(|v| at(v, r)),
+            Item::Wall { wall, half } => {
+                let [a, b] = self.walls[wall as usize].ends;
+                let (a0, b0, b1, a1) = (at(a, 0.0), at(b, 0.0), at(b, 1.0), at(a, 1.0));
+                [[a0, b0, b1], [a0, b1, a1], [a0, b0, a1], [b0, b1, a1]][half as usize]
+            }
+        }
     }
 
-    /// The skin items of base triangle `t` in a shell of `side`.
+    /// The skin items of base triangle `t` in a shell of `side`: its layers' and the
+    /// walls it owns.
     fn items_of(&self, t: u32, side: Side) -> impl Iterator<Item = u32> {
-        let n = self.tris.len() as u32;
-        (0..skins(side).len() as u32).map(move |s| s * n + t)
+        let (n, w) = (self.tris.len() as u32, WALL_TRIS * self.walls.len() as u32);
+        let walls = self.wall_start[t as usize] * WALL_TRIS + n..self.wall_start[t as usize + 1] * WALL_TRIS + n;
+        let inner = (side == Side::Envelope).then_some(n + w + t);
+        std::iter::once(t).chain(walls).chain(inner)
     }
 
     /// Whether a skin triangle of base triangle `t` crosses another skin triangle
@@ -230,7 +351,7 @@ impl Checker {
         self.items_of(t, shell.side).any(|i| {
             let mine = self.skin_tri(mesh, shell, i);
             let (lo, hi) = tri_box(&mine);
-            tree.any(lo, hi, |j| !(self.own[t as usize] || self.own[self.skin_item(j).0 as usize]) && self.skins_cross(mesh, shell, i, || mine, j))
+            tree.any(lo, hi, |j| !(self.own[t as usize] || self.own[self.item_tri(j) as usize]) && self.skins_cross(mesh, shell, i, || mine, j))
         })
     }
 
@@ -244,10 +365,9 @@ impl Checker {
     pub fn segment_crosses(&self, mesh: &Mesh, v: u32, a: DVec3, b: DVec3, outer: Option<(&Shell, &TriBvh)>) -> bool {
         match outer {
             None => self.base_bvh.any_on_segment(a, b, |j| !self.tris[j as usize].contains(&v) && segment_crosses_triangle(a, b, &self.base[j as usize])),
-            Some((shell, tree)) => tree.any_on_segment(a, b, |j| {
-                let t = self.skin_item(j).0 as usize;
-                !self.tris[t].contains(&v) && segment_crosses_triangle(a, b, &self.skin_tri(mesh, shell, j))
-            }),
+            Some((shell, tree)) => {
+                tree.any_on_segment(a, b, |j| !self.item_vertices(j).contains(&v) && segment_crosses_triangle(a, b, &self.skin_tri(mesh, shell, j)))
+            }
         }
     }
 
@@ -264,7 +384,7 @@ impl Checker {
     /// A tree over the skin triangles' boxes, refitting `reuse` when given (the
     /// shell's topology never changes).
     pub fn outer_tree(&self, mesh: &Mesh, shell: &Shell, reuse: Option<TriBvh>) -> TriBvh {
-        let items = (self.tris.len() * skins(shell.side).len()) as u32;
+        let items = self.items(shell.side) as u32;
         let boxes = (0..items).into_par_iter().map(|i| tri_box(&self.skin_tri(mesh, shell, i)));
         match reuse {
             Some(mut tree) if tree.len() == items as usize => {
@@ -293,12 +413,12 @@ impl Checker {
             // Everything: each tree traversed against itself and against the base's,
             // which visits each pair of overlapping nodes once.
             (None, Some(tree)) => {
-                debug_assert_eq!(tree.len(), self.tris.len() * skins(shell.side).len(), "the skin tree must hold every skin triangle");
+                debug_assert_eq!(tree.len(), self.items(shell.side), "the skin tree must hold every skin triangle");
                 let skin = tree.overlapping_pairs(&|i, j| self.skins_cross(mesh, shell, i, || self.skin_tri(mesh, shell, i), j));
                 let base = tree.overlapping_pairs_with(&self.base_bvh, &|i, j| self.skin_crosses_base(mesh, shell, i, || self.skin_tri(mesh, shell, i), j));
                 let kind = |t: u32, u: u32, k: u8| if self.own[t as usize] || self.own[u as usize] { 2 } else { k };
-                let skin = skin.into_iter().map(|(i, j)| (kind(self.skin_item(i).0, self.skin_item(j).0, 0), i, j));
-                skin.chain(base.into_iter().map(|(i, j)| (kind(self.skin_item(i).0, j, 1), i, j))).collect()
+                let skin = skin.into_iter().map(|(i, j)| (kind(self.item_tri(i), self.item_tri(j), 0), i, j));
+                skin.chain(base.into_iter().map(|(i, j)| (kind(self.item_tri(i), j, 1), i, j))).collect()
             }
             _ => self.find_around(mesh, shell, dirty, outer_tree),
         };
@@ -308,15 +428,66 @@ impl Checker {
             None => Cow::Owned((0..self.cells.len() as u32).collect()),
         };
         let inverted = cell_list.par_iter().copied().filter(|&c| self.cells[c as usize].is_inverted(p, shell)).collect();
-        Findings { self_pairs: pairs(0), base_pairs: pairs(1), inverted, inherited: hits.iter().filter(|h| h.0 == 2).count() }
+        let enclosing = self.enclosing(mesh, shell, &cell_list);
+        Findings { self_pairs: pairs(0), base_pairs: pairs(1), inverted, enclosing, inherited: hits.iter().filter(|h| h.0 == 2).count() }
+    }
+
+    /// Those of `cells` that enclose the probe point of another connected part. A
+    /// part wholly inside another's shell crosses none of its skins; with the
+    /// crossings, this bounds the shell's volume (module docs). Only the flagged cells
+    /// are asked: a part moving into a cell that did not change is found by the
+    /// caller flagging the cells around its probe ([`Checker::cells_near_probes`]).
+    fn enclosing(&self, mesh: &Mesh, shell: &Shell, cells: &[u32]) -> Vec<u32> {
+        if self.probes.is_empty() {
+            return Vec::new();
+        }
+        let p = mesh.positions();
+        cells
+            .par_iter()
+            .copied()
+            .filter(|&c| {
+                let cell = &self.cells[c as usize];
+                let corners = cell.corners(p, shell);
+                let (lo, hi) = corners.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| (lo.min(q.as_dvec3()), hi.max(q.as_dvec3())));
+                let part = self.part_of_cell[c as usize];
+                self.probe_tree.any(lo, hi, |k| {
+                    let v = self.probes[k as usize];
+                    k != part && !self.crossing_part[k as usize] && cell.encloses(p, shell, p[v as usize].as_dvec3())
+                })
+            })
+            .collect()
+    }
+
+    /// The base vertices of the cells whose boxes, grown by `reach`, hold a probe of
+    /// a part that has a vertex in `moved` (sorted): the cells a moved part may have
+    /// entered, for the caller to flag.
+    pub fn cells_near_probes(&self, mesh: &Mesh, moved: &[u32], reach: f64) -> Vec<u32> {
+        if self.probes.is_empty() || moved.is_empty() {
+            return Vec::new();
+        }
+        let p = mesh.positions();
+        let parts = crate::mesh::vertex_parts(mesh);
+        let mut hit = vec![false; self.probes.len()];
+        moved.iter().for_each(|&v| hit[parts.of[v as usize] as usize] = true);
+        let mut out = Vec::new();
+        for (k, &v) in self.probes.iter().enumerate().filter(|(k, _)| hit[*k]) {
+            let x = p[v as usize].as_dvec3();
+            self.base_bvh.query(x - DVec3::splat(reach), x + DVec3::splat(reach), |t| {
+                if parts.of[self.tris[t as usize][0] as usize] != k as u32 {
+                    out.extend(self.tris[t as usize]);
+                }
+            });
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
     }
 
     /// Whether skin items `i` (at `mine()`, computed only once the pair is not ruled
     /// out by topology: most candidate pairs are neighbours) and `j` cross, their base
     /// triangles sharing no vertex.
     fn skins_cross(&self, mesh: &Mesh, shell: &Shell, i: u32, mine: impl FnOnce() -> [DVec3; 3], j: u32) -> bool {
-        let (t, u) = (self.skin_item(i).0 as usize, self.skin_item(j).0 as usize);
-        !shares(&self.tris[t], &self.tris[u]) && triangles_intersect(&mine(), &self.skin_tri(mesh, shell, j))
+        !shares(self.item_vertices(i), self.item_vertices(j)) && triangles_intersect(&mine(), &self.skin_tri(mesh, shell, j))
     }
 
     /// Whether skin item `i` (at `mine`) crosses base triangle `j`. The two splits of
@@ -326,7 +497,11 @@ impl Checker {
     /// point.
     fn skin_crosses_base(&self, mesh: &Mesh, shell: &Shell, i: u32, mine: impl FnOnce() -> [DVec3; 3], j: u32) -> bool {
         let (p, tris) = (mesh.positions(), &self.tris);
-        let (t, r) = self.skin_item(i);
+        let (t, r) = match self.item(i) {
+            Item::Layer { tri, r } => (tri, r),
+            // A wall stands on its edge: base triangles at either end touch it.
+            Item::Wall { .. } => return !shares(self.item_vertices(i), &tris[j as usize]) && triangles_intersect(&mine(), &self.base[j as usize]),
+        };
         let (t, j) = (t as usize, j as usize);
         let coincide = |v: u32| (shell.point(p, v as usize, r).as_dvec3() - p[v as usize].as_dvec3()).length() <= 1e-6 * self.diag;
         let other_split = self.face_of[j] == self.face_of[t] && (t < self.first_other) != (j < self.first_other);
@@ -351,7 +526,7 @@ impl Checker {
                 let mut hits = Vec::new();
                 if let Some(tree) = outer_tree {
                     tree.query(lo, hi, |j| {
-                        let u = self.skin_item(j).0 as usize;
+                        let u = self.item_tri(j) as usize;
                         // Each pair once: by the lower item, unless only the higher is flagged.
                         let first = j > i || !tri_flagged(u);
                         if first && self.skins_cross(mesh, shell, i, || mine, j) {
@@ -373,13 +548,13 @@ impl Checker {
     pub fn defect_vertex_list(&self, f: &Findings) -> Vec<u32> {
         let mut bad = Vec::new();
         for &(i, j) in &f.self_pairs {
-            bad.extend(self.tris[self.skin_item(i).0 as usize]);
-            bad.extend(self.tris[self.skin_item(j).0 as usize]);
+            bad.extend(self.item_vertices(i));
+            bad.extend(self.item_vertices(j));
         }
         for &(i, _) in &f.base_pairs {
-            bad.extend(self.tris[self.skin_item(i).0 as usize]);
+            bad.extend(self.item_vertices(i));
         }
-        for &c in &f.inverted {
+        for &c in f.inverted.iter().chain(&f.enclosing) {
             bad.extend(self.cells[c as usize].base());
         }
         bad.sort_unstable();
@@ -388,8 +563,26 @@ impl Checker {
     }
 }
 
-fn shares(a: &[u32; 3], b: &[u32; 3]) -> bool {
+fn shares(a: &[u32], b: &[u32]) -> bool {
     a.iter().any(|v| b.contains(v))
+}
+
+/// The side walls over `mesh`'s boundary edges, each owned by the triangle of the
+/// mesh's triangulation (the first `mesh_tris` of `tris`) holding its edge, sorted by
+/// owner, and where each of `tris` has its walls begin.
+fn side_walls(mesh: &Mesh, tris: &[[u32; 3]], mesh_tris: usize, tris_around: &Incidence) -> (Vec<Wall>, Vec<u32>) {
+    let mut walls: Vec<Wall> = crate::mesh::boundary_edges(mesh)
+        .into_iter()
+        .filter_map(|(a, b)| {
+            let tri = tris_around.of(a as usize).iter().copied().find(|&t| (t as usize) < mesh_tris && tris[t as usize].contains(&b))?;
+            Some(Wall { ends: [a, b], tri })
+        })
+        .collect();
+    walls.sort_by_key(|w| (w.tri, w.ends));
+    let mut start = vec![0u32; tris.len() + 1];
+    walls.iter().for_each(|w| start[w.tri as usize + 1] += 1);
+    (0..tris.len()).for_each(|t| start[t + 1] += start[t]);
+    (walls, start)
 }
 
 #[cfg(test)]

@@ -191,6 +191,15 @@ impl Cell {
     /// tetrahedron with two coincident corners (a zero director: the cell is pressed
     /// flat there) is reported as `None`.
     pub fn tet_volumes(&self, positions: &[Vec3], shell: &Shell) -> Vec<Option<f64>> {
+        let vol = |t: [DVec3; 4]| {
+            let flat = (0..4).any(|i| (i + 1..4).any(|j| t[i] == t[j]));
+            (!flat).then(|| tet_volume(t))
+        };
+        self.tets(positions, shell).into_iter().map(vol).collect()
+    }
+
+    /// The tetrahedra of [`tet_volumes`](Self::tet_volumes)' decomposition.
+    fn tets(&self, positions: &[Vec3], shell: &Shell) -> Vec<[DVec3; 4]> {
         let c: Vec<DVec3> = self.corners(positions, shell).into_iter().map(|p| p.as_dvec3()).collect();
         let k = self.count as usize;
         let prisms: &[[usize; 3]] = if k == 4 { &[[0, 1, 2], [0, 2, 3], [1, 2, 3], [1, 3, 0]] } else { &[[0, 1, 2]] };
@@ -198,10 +207,6 @@ impl Cell {
         let facing = match k {
             4 => crate::mesh::newell_normal(&[0, 1, 2, 3].map(|q| positions[self.vertices[q] as usize])).as_dvec3(),
             _ => (base_at(1) - base_at(0)).cross(base_at(2) - base_at(0)),
-        };
-        let vol = |t: [DVec3; 4]| {
-            let flat = (0..4).any(|i| (i + 1..4).any(|j| t[i] == t[j]));
-            (!flat).then(|| (t[1] - t[0]).cross(t[2] - t[0]).dot(t[3] - t[0]) / 6.0)
         };
         let mut out = Vec::with_capacity(3 * prisms.len());
         for &[i, j, l] in prisms {
@@ -212,9 +217,25 @@ impl Cell {
                 continue;
             }
             let (a, b, cc, a2, b2, c2) = (c[i], c[j], c[l], c[i + k], c[j + k], c[l + k]);
-            out.extend([vol([a, b, cc, a2]), vol([b, cc, a2, b2]), vol([cc, a2, b2, c2])]);
+            out.extend([[a, b, cc, a2], [b, cc, a2, b2], [cc, a2, b2, c2]]);
         }
         out
+    }
+
+    /// Whether `x` lies strictly inside the cell: inside a tetrahedron of its
+    /// decomposition (of either split of a hexahedron's base, as
+    /// [`tet_volumes`](Self::tet_volumes) checks both), in double precision. A cell
+    /// pressed flat has no inside.
+    pub fn encloses(&self, positions: &[Vec3], shell: &Shell, x: DVec3) -> bool {
+        self.tets(positions, shell).into_iter().any(|t| {
+            let whole = tet_volume(t);
+            whole != 0.0
+                && (0..4).all(|i| {
+                    let mut part = t;
+                    part[i] = x;
+                    tet_volume(part) * whole > 0.0
+                })
+        })
     }
     /// A cell is inverted when a tetrahedron of the fixed decomposition has a
     /// non-positive volume once oriented by the shell side (interior shells grow
@@ -225,6 +246,12 @@ impl Cell {
         let s = shell.side.orientation() as f64;
         self.tet_volumes(positions, shell).iter().any(|v| v.is_some_and(|v| s * v <= 0.0))
     }
+}
+
+/// The signed volume of tetrahedron `t` (positive when `t[3]` lies on
+/// the side of `t[0] t[1] t[2]` its counter-clockwise normal points to).
+fn tet_volume(t: [DVec3; 4]) -> f64 {
+    (t[1] - t[0]).cross(t[2] - t[0]).dot(t[3] - t[0]) / 6.0
 }
 
 /// The cells of a shell: triangle prisms over triangles, hexahedra over quads, and

@@ -203,6 +203,10 @@ impl IncrementalShell {
             let flipped = self.checker.refit_base(&self.mesh, &moved);
             self.seed_pierced_outer(&changes, &flipped, &mut seeds);
         }
+        // A part that moved may now lie inside another part's cells, which did not
+        // change: those cells are checked again.
+        let reach = self.shell.base_offset.iter().zip(&self.shell.directors).map(|(b, d)| (b.length() + d.length()) as f64).fold(0.0, f64::max);
+        seeds.extend(self.checker.cells_near_probes(&self.mesh, &moved, reach));
         let repair = Repair {
             checker: &self.checker,
             mesh: &self.mesh,
@@ -383,7 +387,7 @@ impl IncrementalShell {
         }
         for tri in moved.chain(flipped.iter().map(|&t| self.checker.base[t as usize])) {
             let (lo, hi) = tri_box(&tri);
-            outer.query(lo, hi, |i| seed(self.checker.skin_item(i).0, seeds));
+            outer.query(lo, hi, |i| seed(self.checker.item_tri(i), seeds));
         }
     }
 

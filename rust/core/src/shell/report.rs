@@ -35,6 +35,9 @@ pub struct ShellReport {
     pub compressed_vertices: usize,
     /// Cells with a non-positive tetrahedron (see [`Cell::is_inverted`]).
     pub inverted_cells: usize,
+    /// Cells enclosing another connected part of the base (a part wholly inside
+    /// another part's shell, which crosses none of its skins).
+    pub enclosing_cells: usize,
     /// achieved / target over vertices with a positive target and a normal.
     pub min_ratio: f32,
     pub mean_ratio: f32,
@@ -159,6 +162,7 @@ pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
         outer_self_intersections: f.self_pairs.len(),
         outer_base_intersections: f.base_pairs.len(),
         inverted_cells: f.inverted.len(),
+        enclosing_cells: f.enclosing.len(),
         inherited_intersections: f.inherited,
         base_self_intersections: checker.base_self_pairs(),
         compressed_vertices: compressed,

@@ -471,7 +471,7 @@ pub(crate) fn assert_never_folds(name: &str, mesh: &Mesh) {
             let s = build_shell(mesh, &t, side, &ShellParams::default()).unwrap();
             let r = shell_report(mesh, &s);
             let what = format!("{name} {side:?} {frac} factors={}: {r:?} {:?}", factors.is_some(), s.check);
-            assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{what}");
+            assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells, r.enclosing_cells), (0, 0, 0, 0), "{what}");
             assert!(s.check.clean, "{what}");
             let room = mean_room(mesh, &s);
             assert!(r.mean_ratio as f64 > 0.5 * room, "{what}: mean room {room}");
@@ -523,10 +523,98 @@ fn many_separate_open_cards_never_fold() {
         let s = build_shell(&mesh, &t, side, &ShellParams::default()).unwrap();
         let r = shell_report(&mesh, &s);
         let what = format!("{side:?} {thickness}: {r:?} {:?}", s.check);
-        assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{what}");
+        assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells, r.enclosing_cells), (0, 0, 0, 0), "{what}");
         assert!(s.check.clean && r.base_self_intersections == 0, "{what}");
         assert!(r.mean_ratio > 0.5, "{what}");
     }
+}
+
+/// A square card of half-size `half` at height `z`, facing +z, shifted by `(dx, dy)`.
+fn card(half: f32, dx: f32, dy: f32, z: f32) -> [Vec3; 4] {
+    [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(x, y)| Vec3::new(dx + half * x, dy + half * y, z))
+}
+
+/// Whether `x` is inside the closed triangle mesh `solid`: the parity of the
+/// crossings of a long segment in a direction no face of these tests lies along.
+fn inside_solid(solid: &Mesh, x: Vec3) -> bool {
+    let tri = solid.triangulate();
+    let p = solid.positions();
+    let (a, b) = (x.as_dvec3(), (x + Vec3::new(0.31, 0.57, 0.76).normalize() * 100.0).as_dvec3());
+    let hits = tri.triangles.iter().filter(|t| intersect::segment_crosses_triangle(a, b, &t.map(|v| p[v as usize].as_dvec3()))).count();
+    hits % 2 == 1
+}
+
+/// A card floating wholly inside another card's shell crosses none of its skins, and
+/// one across its edge crosses only its side wall: both used to be swallowed (and a
+/// bake of the first card's texture grew through the second). Checked independently
+/// of the shell's own tests: no point of the second card lies inside the first
+/// card's closed shell solid (ray parity).
+#[test]
+fn a_card_inside_or_across_another_cards_shell_is_not_swallowed() {
+    // Inside: the second card's own shell is thin enough to stay inside the first's
+    // too, so only the enclosure test sees it. Across: the second card's first vertex
+    // (the part's probe) is outside the first card's shell, so only the walls see it.
+    for (name, second, thin) in [("inside", card(0.3, 0.0, 0.05, 0.03), 0.02), ("across the edge", card(0.3, -0.75, 0.1, 0.03), 0.1)] {
+        let positions: Vec<Vec3> = card(0.5, 0.0, 0.0, 0.0).into_iter().chain(second).collect();
+        let mesh = Mesh::new(positions.clone(), &[4, 4], (0..8).collect(), None).unwrap();
+        let thickness = [0.1, 0.1, 0.1, 0.1, thin, thin, thin, thin];
+        for side in [Side::Exterior, Side::Envelope] {
+            let s = build_shell(&mesh, &thickness, side, &ShellParams::default()).unwrap();
+            let r = shell_report(&mesh, &s);
+            let what = format!("{name} {side:?}: {r:?} {:?} achieved {:?}", s.check, s.achieved);
+            assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells, r.enclosing_cells), (0, 0, 0, 0), "{what}");
+            let first = Mesh::new(positions[..4].to_vec(), &[4], (0..4).collect(), None).unwrap();
+            let first_shell =
+                Shell { side, base_offset: s.base_offset[..4].to_vec(), directors: s.directors[..4].to_vec(), ..Shell::from_directors(vec![], vec![]) };
+            let solid = geometry::shell_geometry(&first, &first_shell, geometry::ShellOutput::Solid).unwrap().mesh;
+            for i in 0..=6 {
+                for j in 0..=6 {
+                    let (u, v) = (i as f32 / 6.0, j as f32 / 6.0);
+                    let x = second[0].lerp(second[1], u).lerp(second[3].lerp(second[2], u), v);
+                    assert!(!inside_solid(&solid, x), "{what}: point {x} of the second card is inside the first's shell");
+                }
+            }
+            // The room is above the second card: it keeps most of its thickness.
+            let kept = s.achieved[4..].iter().sum::<f32>() / 4.0 / thin;
+            assert!(side != Side::Exterior || kept > 0.5, "{what}");
+        }
+    }
+}
+
+/// An edit that moves a card into another card's shell, where it crosses nothing
+/// and the cells holding it did not change: the incremental update finds it as a
+/// rebuild does.
+#[test]
+fn an_edit_moving_a_card_into_another_cards_shell_is_repaired() {
+    // The first card is a 6 x 6 grid (an edit of four vertices is then incremental).
+    let sheet = crate::mesh::fixtures::grid(6);
+    let n = sheet.vertex_count();
+    let mut positions: Vec<Vec3> = sheet.positions().iter().map(|p| *p / 6.0 - Vec3::new(0.5, 0.5, 0.0)).collect();
+    positions.extend(card(0.2, 0.0, 0.05, 0.6));
+    let mut sizes = sheet.face_sizes();
+    sizes.push(4);
+    let corners: Vec<u32> = sheet.corners().iter().copied().chain(n as u32..n as u32 + 4).collect();
+    let mesh = Mesh::new(positions.clone(), &sizes, corners, None).unwrap();
+    let mut thickness = vec![0.1; n + 4];
+    thickness[n..].fill(0.02);
+    let mut live = incremental::IncrementalShell::new(mesh, thickness.clone(), Side::Exterior, ShellParams::default()).unwrap();
+    // Even when the sheet's directors are all kept (the tolerance lets every one be),
+    // so that none of its cells is checked again for its own sake.
+    live.tolerance = 1e9;
+    // Under the card's new place, the sheet's full thickness.
+    let under: Vec<usize> = (0..n).filter(|&v| positions[v].x.abs() < 0.2 && (positions[v].y - 0.05).abs() < 0.2).collect();
+    assert!(!under.is_empty() && under.iter().all(|&v| live.shell().achieved[v] > 0.09), "{:?}", live.shell().achieved);
+    let mut moved = positions.clone();
+    moved[n..].iter_mut().for_each(|p| p.z = 0.03);
+    let stats = live.update(&moved, &thickness).unwrap();
+    let r = shell_report(live.mesh(), live.shell());
+    assert!(!stats.rebuilt && r.enclosing_cells == 0 && live.shell().check.clean, "{stats:?} {r:?}");
+    assert!(under.iter().all(|&v| live.shell().achieved[v] < 0.035), "{:?}", under.iter().map(|&v| live.shell().achieved[v]).collect::<Vec<_>>());
+    // What the update flags for a moved part: the sheet's cells around the card's
+    // probe (its first vertex), none of the card's own.
+    let probe = moved[n];
+    let near = defects::Checker::new(live.mesh()).cells_near_probes(live.mesh(), &[n as u32 + 2], 0.05);
+    assert!(!near.is_empty() && near.iter().all(|&v| (v as usize) < n && (positions[v as usize] - probe).length() < 0.05 + 0.25), "{near:?}");
 }
 
 #[test]
