@@ -57,6 +57,7 @@ __all__ = [
     "result_of",
     "build_field_mesh",
     "regenerate_field_mesh",
+    "estimate_field_mesh",
     "add_solid_texture",
     "render_field",
     "ThicketError",  # noqa: F822 (module __getattr__)
@@ -163,7 +164,7 @@ def add_volumetric_texture(obj, pattern="chain_mail", shell_thickness=0.05, side
     return _regenerate(obj, progress=progress)
 
 
-def build_field_mesh(tree_json, name="Field Mesh", resolution=128, bounds=None, adaptive=True, collection=None, progress=None):
+def build_field_mesh(tree_json, name="Field Mesh", resolution=128, bounds=None, adaptive=True, collection=None, progress=None, max_bytes=None):
     """A new mesh object of an implicit field tree's zero set (issue 17; the tree's
     JSON schema is in the README's Implicit shapes), returned. `tree_json`: JSON text,
     a dict, or a Blender Text holding the JSON (kept on the object: regenerating reads
@@ -179,22 +180,36 @@ def build_field_mesh(tree_json, name="Field Mesh", resolution=128, bounds=None, 
     reading it), the texture value as `thicket_texture` and the primitive id as
     `thicket_primitive_id`. The tree and settings are stored on the object (saved in
     the .blend) for `regenerate_field_mesh`. Bad JSON, p <= 0, NaN and the like, or a
-    resolution out of range raise a ThicketError before anything is made.
-    `progress`: see the module docs (at the start and the end only)."""
+    resolution out of range raise a ThicketError before anything is made, and so
+    does a resolution whose estimate (`estimate_field_mesh`) passes `max_bytes`
+    (default 4 GB): an InvalidInput naming the estimate and the limit.
+    `progress`: see the module docs (a cancel makes nothing)."""
     from .fields import build_field_mesh as build
 
     source_text = tree_json if isinstance(tree_json, bpy.types.Text) else None
     tree = source_text.as_string() if source_text is not None else tree_json
-    return build(tree, name, resolution, bounds, adaptive, collection, progress, source_text)
+    return build(tree, name, resolution, bounds, adaptive, collection, progress, source_text, max_bytes)
 
 
-def regenerate_field_mesh(obj, progress=None):
+def estimate_field_mesh(tree_json, resolution=128, bounds=None, adaptive=True, max_bytes=None):
+    """The core's estimate of `build_field_mesh` with these settings, without
+    building (tens of milliseconds; cached): a dict with `triangles`, `vertices`,
+    `faces`, `peak_bytes`, `max_bytes`, `fits` (the build would run) and
+    `resolution_within` (the finest resolution that fits)."""
+    from .pure.field_tree import field_mesh_estimate
+
+    tree = tree_json.as_string() if isinstance(tree_json, bpy.types.Text) else tree_json
+    return field_mesh_estimate(tree, resolution, bounds, adaptive, max_bytes)
+
+
+def regenerate_field_mesh(obj, progress=None, max_bytes=None):
     """Rebuilds a Field Mesh object (`build_field_mesh`) in place from its stored tree
     (its Text's current content when built from one) and settings; returns it. A
-    bad tree raises a ThicketError and leaves the mesh as it was."""
+    bad tree, a build over `max_bytes` or a cancel (`progress`, see the module docs)
+    raises and leaves the mesh as it was."""
     from .fields import regenerate_field_mesh as rebuild
 
-    return rebuild(obj, progress)
+    return rebuild(obj, progress, max_bytes=max_bytes)
 
 
 def field_nodes_json(node_tree):
@@ -207,22 +222,23 @@ def field_nodes_json(node_tree):
     return tree_json(node_tree)
 
 
-def build_field_nodes_mesh(node_tree, name=None, collection=None):
+def build_field_nodes_mesh(node_tree, name=None, collection=None, progress=None, max_bytes=None):
     """A new Field Mesh object of a Thicket field node tree (its resolution and
     adaptive settings), linked to it: it regenerates when a node, a link or a handle
     object changes (`regenerate_field_nodes` does it at once). Errors raise before
-    anything is made."""
+    anything is made; `progress` and `max_bytes` as in `build_field_mesh`."""
     from .nodes.live import build
 
-    return build(node_tree, name=name, collection=collection)
+    return build(node_tree, name=name, collection=collection, progress=progress, max_bytes=max_bytes)
 
 
-def regenerate_field_nodes(obj):
+def regenerate_field_nodes(obj, progress=None, max_bytes=None):
     """Rebuilds a Field Mesh linked to a node tree from the tree's current state;
-    errors raise and leave the mesh as it was."""
+    errors, a build over `max_bytes` and a cancel (`progress`) raise and leave the
+    mesh as it was."""
     from .nodes.live import regenerate
 
-    return regenerate(obj)
+    return regenerate(obj, progress=progress, max_bytes=max_bytes)
 
 
 def render_field(tree_json, camera=None, width=512, height=512, image="Thicket Field"):

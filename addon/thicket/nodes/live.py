@@ -34,26 +34,35 @@ def errors():
     return (TypeError, KeyError, ValueError, RuntimeError, *native.error_types())
 
 
-def build(tree, name=None, collection=None):
+def build(tree, name=None, collection=None, progress=None, max_bytes=None):
     """A new Field Mesh object of the node tree `tree`, linked to it. Errors (a
-    GraphError or ThicketError, both ValueErrors) leave the file as it was."""
+    GraphError or ThicketError, both ValueErrors), a build over `max_bytes` and a
+    cancel (`progress` returning False) leave the file as it was."""
     text = tree_json(tree)
-    obj = build_field_mesh(text, name=name or tree.name, resolution=tree.resolution, adaptive=tree.adaptive, collection=collection)
-    with suspended():
-        obj[NODES_PROPERTY] = tree
-        tree.status = ""
+    obj = build_field_mesh(
+        text, name=name or tree.name, resolution=tree.resolution, adaptive=tree.adaptive, collection=collection, progress=progress, max_bytes=max_bytes
+    )
+    link(obj, tree)
     return obj
 
 
-def regenerate(obj):
+def link(obj, tree):
+    """Makes `obj` the Field Mesh of `tree` (its regenerations follow the tree)."""
+    with suspended():
+        obj[NODES_PROPERTY] = tree
+        tree.status = ""
+
+
+def regenerate(obj, progress=None, max_bytes=None):
     """Rebuilds `obj` from its node tree's current nodes, handles and settings. On
-    error the mesh and its stored tree stay as they were; the error is raised."""
+    error, over `max_bytes` (the estimate refuses it before meshing) or on a cancel
+    the mesh and its stored tree stay as they were; the error is raised."""
     tree = node_tree_of(obj)
     if tree is None:
         raise TypeError(f"'{obj.name}' is not linked to a Thicket field node tree")
     text = tree_json(tree)
     with suspended():
-        regenerate_field_mesh(obj, tree=text, resolution=tree.resolution, adaptive=tree.adaptive)
+        regenerate_field_mesh(obj, tree=text, resolution=tree.resolution, adaptive=tree.adaptive, progress=progress, max_bytes=max_bytes)
     return obj
 
 

@@ -7,7 +7,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty, StringProperty
 
 from ..pure.field_nodes import TREE_IDNAME
-from ..pure.field_tree import MAX_RESOLUTION
+from ..pure.field_tree import MAX_RESOLUTION, estimate_text
 
 SOCKET_IDNAME = "ThicketFieldSocket"
 
@@ -384,6 +384,20 @@ def draw_add_menu(self, context):
         self.layout.menu(THICKET_MT_field_nodes_add.bl_idname)
 
 
+def tree_estimate(tree):
+    """The core's estimate of meshing `tree` at its settings (cached by tree and
+    resolution: `pure.field_tree.field_mesh_estimate`), None when the graph is not a
+    valid tree (its status says why)."""
+    from ..pure import native
+    from ..pure.field_tree import field_mesh_estimate
+    from .graph import tree_json
+
+    try:
+        return field_mesh_estimate(tree_json(tree), tree.resolution, None, tree.adaptive)
+    except (TypeError, KeyError, ValueError, RuntimeError, *native.error_types()):
+        return None
+
+
 class THICKET_PT_field_nodes(bpy.types.Panel):
     bl_space_type = "NODE_EDITOR"
     bl_region_type = "UI"
@@ -401,7 +415,11 @@ class THICKET_PT_field_nodes(bpy.types.Panel):
         layout.prop(tree, "resolution")
         layout.prop(tree, "adaptive")
         layout.prop(tree, "auto_update")
+        estimate = tree_estimate(tree)
+        if estimate is not None:
+            layout.label(text=estimate_text(estimate).capitalize(), icon="INFO" if estimate["fits"] else "ERROR")
         layout.operator("thicket.field_nodes_add", text="Add Field Mesh", icon="META_BALL")
+        layout.operator("thicket.field_mesh_regenerate", text="Regenerate", icon="FILE_REFRESH")
         if tree.status:
             layout.label(text=tree.status, icon="ERROR")
 

@@ -4,6 +4,7 @@ from .add_thick_surface import THICKET_OT_add_thick_surface
 from .apply_result import THICKET_OT_apply
 from .export_texture import THICKET_OT_export_texture
 from .field_mesh_add import THICKET_OT_field_mesh_add
+from .field_mesh_regenerate import THICKET_OT_field_mesh_regenerate
 from .field_nodes_add import THICKET_OT_field_nodes_add
 from .item_add import THICKET_OT_item_add
 from .item_move import THICKET_OT_item_move
@@ -28,4 +29,5 @@ CLASSES = (
     THICKET_OT_select_crossings,
     THICKET_OT_field_mesh_add,
     THICKET_OT_field_nodes_add,
+    THICKET_OT_field_mesh_regenerate,
 )

@@ -70,13 +70,46 @@ def check_mesh_settings(resolution, bounds):
     return resolution, (tuple(flat[:3]), tuple(flat[3:]))
 
 
-def field_mesh_arrays(tree, resolution=128, bounds=None, adaptive=True) -> MeshArrays:
-    """The tree's zero set meshed by the core (`thicket_native.field_mesh`): faces as
-    returned, vertex normals from the field, and per-vertex colour (RGBA), texture
-    value and primitive id as attributes (`attributes`, name -> (domain, type, values))."""
+#: Interactive builds estimated above this many triangles ask first (the default of
+#: the Volumetric Texture's "Ask Above").
+CONFIRM_ABOVE = 3_000_000
+
+_estimates: dict = {}
+
+
+def field_mesh_estimate(tree, resolution=128, bounds=None, adaptive=True, max_bytes=None) -> dict:
+    """`thicket_native.field_mesh_estimate` of the build (triangles, peak_bytes,
+    max_bytes, fits, ...), cached by tree, resolution, bounds, adaptivity and limit
+    (the interface asks on every redraw; one estimate costs tens of milliseconds)."""
     text = check_tree(tree)
     resolution, bounds = check_mesh_settings(resolution, bounds)
-    out = native.get().field_mesh(text, bounds=bounds, resolution=resolution, adaptive=bool(adaptive))
+    key = (text, resolution, bounds, bool(adaptive), max_bytes)
+    found = _estimates.get(key)
+    if found is None:
+        found = dict(native.get().field_mesh_estimate(text, bounds=bounds, resolution=resolution, adaptive=bool(adaptive), max_bytes=max_bytes))
+        if len(_estimates) > 64:
+            _estimates.clear()
+        _estimates[key] = found
+    return found
+
+
+def estimate_text(estimate) -> str:
+    """'about 1,234,567 triangles, 310 MB' (and the limit when it does not fit)."""
+    text = f"about {int(estimate['triangles']):,} triangles, {estimate['peak_bytes'] / 1e6:,.0f} MB"
+    if not estimate["fits"]:
+        text += f": over the {estimate['max_bytes'] / 1e6:,.0f} MB limit (resolution {int(estimate['resolution_within'])} fits)"
+    return text
+
+
+def field_mesh_arrays(tree, resolution=128, bounds=None, adaptive=True, progress=None, max_bytes=None) -> MeshArrays:
+    """The tree's zero set meshed by the core (`thicket_native.field_mesh`): faces as
+    returned, vertex normals from the field, and per-vertex colour (RGBA), texture
+    value and primitive id as attributes (`attributes`, name -> (domain, type, values)).
+    `progress` and `max_bytes`: as the core's (a cancel raises `Cancelled`, a build
+    estimated over the limit raises `InvalidInput` before anything big is made)."""
+    text = check_tree(tree)
+    resolution, bounds = check_mesh_settings(resolution, bounds)
+    out = native.get().field_mesh(text, bounds=bounds, resolution=resolution, adaptive=bool(adaptive), progress=progress, max_bytes=max_bytes)
     arrays = MeshArrays.from_native(out)
     arrays.normals = out["normals"]
     arrays.attributes = {

@@ -1,0 +1,260 @@
+"""Field Mesh builds before and while they run (issue 17): the core's estimate
+(shown in the node editor's sidebar, asked about above "Ask Above") against the
+real triangle count; builds over a memory limit refused with the message and nothing
+changed, the node tree's live regeneration included; progress through `thicket.api`
+and cancels from the callback leaving the previous mesh; the operators' watched
+(modal) builds completing and cancelled by Esc. Background mode has no window, so
+the modal's events are fed here to the watch `invoke` starts, as the Add Thick
+Surface tests do."""
+
+import json
+import time
+
+import bpy
+import numpy as np
+import pytest
+
+import thicket_native as tn
+from thicket import api, mesh_io
+from thicket.fields import field_mesh
+from thicket.nodes import live
+from thicket.nodes.tree import tree_estimate
+from thicket.operators.field_mesh_add import THICKET_OT_field_mesh_add, watched_field_build
+from thicket.operators.field_mesh_regenerate import THICKET_OT_field_mesh_regenerate, regeneration_build
+from thicket.pure.field_tree import CONFIRM_ABOVE, estimate_text
+
+SPHERE = {"op": "sphere", "center": [0, 0, 0], "radius": 1.0}
+SOFT = {
+    "op": "union_wp",
+    "p": 6.0,
+    "children": [
+        {"op": "sphere", "center": [-0.375, 0, 0], "radius": 0.625, "color": [1, 0, 0, 1]},
+        {"op": "box", "center": [0.5, 0, 0], "half_size": [0.25, 0.375, 0.5], "radius": 0.0625, "color": [0, 0, 1, 1]},
+        {"op": "torus", "center": [0, 0, 0.6], "axis": [0, 0, 1], "major": 0.5, "minor": 0.15},
+    ],
+}
+
+
+def triangles(obj):
+    mesh = obj.data
+    mesh.calc_loop_triangles()
+    return len(mesh.loop_triangles)
+
+
+def snapshot(obj):
+    arrays = mesh_io.read_mesh(obj.data)
+    return arrays.vertices.copy(), arrays.face_sizes.copy(), arrays.corners.copy(), dict(obj["thicket_field"].to_dict())
+
+
+def assert_unchanged(before, obj):
+    after = snapshot(obj)
+    for a, b in zip(before[:3], after[:3]):
+        np.testing.assert_array_equal(a, b)
+    assert before[3] == after[3]
+
+
+def node_tree(resolution=24):
+    tree = bpy.data.node_groups.new("Field", "ThicketFieldTree")
+    tree.auto_update = False
+    tree.resolution = resolution
+    sphere = tree.nodes.new("ThicketNodeSphere")
+    out = tree.nodes.new("ThicketNodeOutput")
+    tree.links.new(sphere.outputs[0], out.inputs[0])
+    return tree
+
+
+def run_modal(watch, limit=60.0, before_each_timer=None):
+    """Starts the job and feeds timer events until the modal ends; its status."""
+    watch.job.start()
+    status, end = {"RUNNING_MODAL"}, time.monotonic() + limit
+    while status == {"RUNNING_MODAL"}:
+        assert time.monotonic() < end, "the modal never ended"
+        watch.job._thread.join(0.02)
+        if before_each_timer is not None:
+            before_each_timer()
+        status = watch.event(bpy.context, "TIMER")
+    return status
+
+
+@pytest.mark.parametrize("tree", [SPHERE, SOFT], ids=["sphere", "soft_union"])
+@pytest.mark.parametrize("resolution,adaptive", [(32, True), (96, True), (48, False)])
+def test_the_estimate_is_within_1_5x_of_the_real_triangles(scene, tree, resolution, adaptive):
+    text = json.dumps(tree)
+    guess = api.estimate_field_mesh(text, resolution=resolution, adaptive=adaptive)
+    assert guess["fits"] and guess["max_bytes"] == 4_000_000_000
+    real = triangles(api.build_field_mesh(text, resolution=resolution, adaptive=adaptive))
+    assert real > 0
+    assert real / 1.5 <= guess["triangles"] <= real * 1.5, (guess["triangles"], real)
+    assert f"about {int(guess['triangles']):,} triangles" in estimate_text(guess)
+
+
+def test_the_node_editor_shows_the_estimate_of_its_tree(scene):
+    tree = node_tree(resolution=64)
+    guess = tree_estimate(tree)
+    obj = api.build_field_nodes_mesh(tree)
+    real = triangles(obj)
+    assert real / 1.5 <= guess["triangles"] <= real * 1.5, (guess["triangles"], real)
+    tree.resolution = 128  # a finer tree: a larger estimate (cached per tree and resolution)
+    finer = tree_estimate(tree)
+    assert finer["triangles"] > 2 * guess["triangles"] and tree_estimate(tree) is finer
+    tree.nodes.remove(tree.nodes["Field Output"] if "Field Output" in tree.nodes else tree.nodes[1])
+    assert tree_estimate(tree) is None  # no output: no tree to estimate (the status says why)
+
+
+def test_a_build_over_the_memory_limit_is_refused_and_changes_nothing(scene):
+    text = json.dumps(SOFT)
+    small = api.estimate_field_mesh(text, resolution=24)["peak_bytes"] * 2
+    assert api.estimate_field_mesh(text, resolution=96, max_bytes=small)["fits"] is False
+    objects, meshes = len(bpy.data.objects), len(bpy.data.meshes)
+    with pytest.raises(tn.InvalidInput, match="memory limit"):
+        api.build_field_mesh(text, resolution=96, max_bytes=small)
+    assert (len(bpy.data.objects), len(bpy.data.meshes)) == (objects, meshes)
+    obj = api.build_field_mesh(text, resolution=24, max_bytes=small)  # under it: built
+    before = snapshot(obj)
+    obj["thicket_field"]["resolution"] = 96
+    with pytest.raises(tn.InvalidInput, match="memory limit"):
+        api.regenerate_field_mesh(obj, max_bytes=small)
+    obj["thicket_field"]["resolution"] = 24
+    assert_unchanged(before, obj)
+    # The operator reports it (a RuntimeError in scripts) and makes nothing.
+    bpy.data.texts.new("big").write(json.dumps(SPHERE))
+    with pytest.raises(RuntimeError, match="memory limit"):
+        bpy.ops.thicket.field_mesh_add(text="big", resolution=2048)
+    assert (len(bpy.data.objects), len(bpy.data.meshes)) == (objects + 1, meshes + 1)
+
+
+def test_live_regeneration_refused_by_the_estimate_keeps_the_mesh_and_says_why(scene):
+    tree = node_tree(resolution=24)
+    obj = api.build_field_nodes_mesh(tree)
+    before = snapshot(obj)
+    assert tree_estimate(tree)["fits"]
+    tree.resolution = 2048  # a sphere at 2048 cells: about 4.6 GB at its peak, over 4 GB
+    assert not tree_estimate(tree)["fits"]
+    start = time.monotonic()
+    message = live.regenerate_tree(tree)
+    assert time.monotonic() - start < 5.0, "refused before meshing"
+    assert "memory limit" in message and tree.status == message
+    assert_unchanged(before, obj)
+    tree.resolution = 32
+    assert live.regenerate_tree(tree) == "" and tree.status == ""
+    assert snapshot(obj)[3]["resolution"] == 32
+
+
+def increasing_to_one(seen):
+    assert seen and seen[0] == 0.0 and seen[-1] == 1.0, seen
+    assert all(b >= a for a, b in zip(seen, seen[1:])), seen
+
+
+def test_progress_through_the_api_increases_to_one(scene):
+    text = json.dumps(SPHERE)
+    seen = []
+    obj = api.build_field_mesh(text, resolution=320, progress=seen.append)  # long enough to report midway
+    increasing_to_one(seen)
+    assert any(0.0 < f < field_mesh.MESHING_SHARE for f in seen), "the core reports while it meshes"
+    seen.clear()
+    api.regenerate_field_mesh(obj, progress=seen.append)
+    increasing_to_one(seen)
+    tree = node_tree(resolution=24)
+    seen.clear()
+    linked = api.build_field_nodes_mesh(tree, progress=seen.append)
+    increasing_to_one(seen)
+    seen.clear()
+    api.regenerate_field_nodes(linked, progress=seen.append)
+    increasing_to_one(seen)
+
+
+@pytest.mark.parametrize("stop_at", [0.0, 0.3])
+def test_cancelling_from_the_callback_raises_and_keeps_the_previous_mesh(scene, stop_at):
+    text = json.dumps(SPHERE)
+    obj = api.build_field_mesh(text, resolution=24)
+    before = snapshot(obj)
+    obj["thicket_field"]["resolution"] = 320  # long enough for the core to report midway
+    seen = []
+    with pytest.raises(tn.Cancelled):
+        api.regenerate_field_mesh(obj, progress=lambda f: seen.append(f) or f <= stop_at)
+    assert seen[0] == 0.0 and stop_at < seen[-1] < 1.0, seen
+    obj["thicket_field"]["resolution"] = 24
+    assert_unchanged(before, obj)
+    objects, meshes = len(bpy.data.objects), len(bpy.data.meshes)
+    with pytest.raises(tn.Cancelled):
+        api.build_field_mesh(text, resolution=320, progress=lambda f: f <= stop_at)
+    assert (len(bpy.data.objects), len(bpy.data.meshes)) == (objects, meshes)
+    tree = node_tree(resolution=24)
+    linked = api.build_field_nodes_mesh(tree)
+    before = snapshot(linked)
+    tree.resolution = 320
+    with pytest.raises(tn.Cancelled):
+        api.regenerate_field_nodes(linked, progress=lambda f: f <= stop_at)
+    assert_unchanged(before, linked)
+
+
+def prepared_add(text, resolution=64):
+    prepared = field_mesh.prepare(text, resolution)
+
+    def write(arrays):
+        return field_mesh.write_new(prepared, arrays, "Watched", bpy.context.collection)
+
+    return prepared, write
+
+
+def test_the_watched_build_completes_like_the_api(scene):
+    text = json.dumps(SOFT)
+    reports = []
+    prepared, write = prepared_add(text)
+    watch = watched_field_build(prepared, "Add Field Mesh", lambda kind, message: reports.append((kind, message)), write)
+    fractions = []
+    assert run_modal(watch, before_each_timer=lambda: fractions.append(watch.job.fraction)) == {"FINISHED"}
+    assert watch.job.fraction == 1.0 or watch.job.fraction >= field_mesh.MESHING_SHARE
+    assert all(b >= a for a, b in zip(fractions, fractions[1:]))
+    assert not reports, reports
+    obj = bpy.data.objects["Watched"]
+    assert bpy.context.view_layer.objects.active == obj
+    reference = api.build_field_mesh(text, resolution=64)
+    np.testing.assert_array_equal(mesh_io.read_mesh(obj.data).corners, mesh_io.read_mesh(reference.data).corners)
+    np.testing.assert_allclose(mesh_io.read_mesh(obj.data).vertices, mesh_io.read_mesh(reference.data).vertices)
+    # The operators: `invoke` without a window runs the same watch blocking.
+    bpy.data.texts.new("soft").write(text)
+    assert {"REGISTER", "UNDO"} <= THICKET_OT_field_mesh_add.bl_options and bpy.ops.thicket.field_mesh_add.get_rna_type().properties[
+        "confirm_above"
+    ].default == CONFIRM_ABOVE
+    assert bpy.ops.thicket.field_mesh_add("INVOKE_DEFAULT", text="soft", resolution=64) == {"FINISHED"}
+    made = bpy.context.active_object
+    assert made.name == "soft" and triangles(made) == triangles(reference)
+    made["thicket_field"]["resolution"] = 32
+    assert {"REGISTER", "UNDO"} <= THICKET_OT_field_mesh_regenerate.bl_options
+    assert bpy.ops.thicket.field_mesh_regenerate("INVOKE_DEFAULT") == {"FINISHED"}
+    assert triangles(made) < triangles(reference) and made["thicket_field"]["resolution"] == 32
+
+
+def test_esc_cancels_the_watched_build_and_changes_nothing(scene):
+    text = json.dumps(SOFT)
+    objects, meshes = len(bpy.data.objects), len(bpy.data.meshes)
+    reports = []
+    prepared, write = prepared_add(text, resolution=200)
+    watch = watched_field_build(prepared, "Add Field Mesh", lambda kind, message: reports.append((kind, message)), write)
+    watch.job.start()
+    assert watch.event(bpy.context, "MIDDLEMOUSE", "PRESS") == {"PASS_THROUGH"}  # navigation goes on
+    assert watch.event(bpy.context, "ESC", "PRESS") == {"RUNNING_MODAL"} and watch.job.cancelled
+    status, end = {"RUNNING_MODAL"}, time.monotonic() + 60
+    while status == {"RUNNING_MODAL"}:
+        assert time.monotonic() < end
+        watch.job._thread.join(0.02)
+        status = watch.event(bpy.context, "TIMER")
+    assert status == {"CANCELLED"}
+    assert reports == [({"WARNING"}, "Add Field Mesh: Cancelled; nothing was changed")]
+    assert (len(bpy.data.objects), len(bpy.data.meshes)) == (objects, meshes)
+    # Regenerating a node tree's mesh: Esc keeps the previous mesh and the tree's state.
+    tree = node_tree(resolution=24)
+    obj = api.build_field_nodes_mesh(tree)
+    before = snapshot(obj)
+    tree.resolution = 200
+    prepared, label, write = regeneration_build(obj, "Regenerate Field Mesh")
+    reports.clear()
+    watch = watched_field_build(prepared, label, lambda kind, message: reports.append((kind, message)), write)
+    status = run_modal(watch, before_each_timer=lambda: watch.event(bpy.context, "ESC", "PRESS"))
+    assert status == {"CANCELLED"} and reports == [({"WARNING"}, "Regenerate Field Mesh 'Field': Cancelled; nothing was changed")]
+    assert_unchanged(before, obj)
+    # Not cancelled, the same watch rebuilds it from the tree.
+    prepared, label, write = regeneration_build(obj, "Regenerate Field Mesh")
+    watch = watched_field_build(prepared, label, lambda kind, message: reports.append((kind, message)), write)
+    assert run_modal(watch) == {"FINISHED"} and obj["thicket_field"]["resolution"] == 200
