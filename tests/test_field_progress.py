@@ -21,7 +21,7 @@ from thicket.nodes import live
 from thicket.nodes.tree import tree_estimate
 from thicket.operators.field_mesh_add import THICKET_OT_field_mesh_add, watched_field_build
 from thicket.operators.field_mesh_regenerate import THICKET_OT_field_mesh_regenerate, regeneration_build
-from thicket.pure.field_tree import CONFIRM_ABOVE, estimate_text
+from thicket.pure.field_tree import CONFIRM_ABOVE, estimate_text, needs_confirmation
 
 SPHERE = {"op": "sphere", "center": [0, 0, 0], "radius": 1.0}
 SOFT = {
@@ -99,6 +99,16 @@ def test_the_node_editor_shows_the_estimate_of_its_tree(scene):
     assert finer["triangles"] > 2 * guess["triangles"] and tree_estimate(tree) is finer
     tree.nodes.remove(tree.nodes["Field Output"] if "Field Output" in tree.nodes else tree.nodes[1])
     assert tree_estimate(tree) is None  # no output: no tree to estimate (the status says why)
+
+
+def test_large_builds_ask_and_builds_over_the_limit_are_refused_by_the_core():
+    text = json.dumps(SPHERE)
+    small, large, over = (api.estimate_field_mesh(text, resolution=r) for r in (64, 1024, 2048))
+    assert small["triangles"] < CONFIRM_ABOVE < large["triangles"] and large["fits"] and not over["fits"]
+    assert not needs_confirmation(small, CONFIRM_ABOVE) and needs_confirmation(large, CONFIRM_ABOVE)
+    assert needs_confirmation(small, 1000) and not needs_confirmation(large, large["triangles"])
+    assert not needs_confirmation(over, CONFIRM_ABOVE), "the core refuses it: nothing to ask"
+    assert "over the 4,000 MB limit (resolution" in estimate_text(over) and "limit" not in estimate_text(large)
 
 
 def test_a_build_over_the_memory_limit_is_refused_and_changes_nothing(scene):

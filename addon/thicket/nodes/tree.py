@@ -417,7 +417,8 @@ class THICKET_PT_field_nodes(bpy.types.Panel):
         layout.prop(tree, "auto_update")
         estimate = tree_estimate(tree)
         if estimate is not None:
-            layout.label(text=estimate_text(estimate).capitalize(), icon="INFO" if estimate["fits"] else "ERROR")
+            text = estimate_text(estimate)
+            layout.label(text=text[:1].upper() + text[1:], icon="INFO" if estimate["fits"] else "ERROR")
         layout.operator("thicket.field_nodes_add", text="Add Field Mesh", icon="META_BALL")
         layout.operator("thicket.field_mesh_regenerate", text="Regenerate", icon="FILE_REFRESH")
         if tree.status:

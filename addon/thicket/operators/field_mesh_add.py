@@ -2,7 +2,7 @@ import bpy
 from bpy.props import BoolProperty, IntProperty, StringProperty
 
 from ..fields import field_mesh
-from ..pure.field_tree import CONFIRM_ABOVE, MAX_RESOLUTION
+from ..pure.field_tree import CONFIRM_ABOVE, MAX_RESOLUTION, needs_confirmation
 from .common import Job, JobWatch, WatchedOperator, error_text, user_errors
 
 
@@ -74,7 +74,7 @@ class FieldBuildOperator(WatchedOperator):
                 guess = field_mesh.estimate(prepared)
             except user_errors() as exc:
                 return self._error(build, exc)
-            if guess["fits"] and guess["triangles"] > self.confirm_above and context.window is not None:
+            if needs_confirmation(guess, self.confirm_above) and context.window is not None:
                 self.estimate = min(int(guess["triangles"]), 2**31 - 1)
                 self.estimate_bytes = min(int(guess["peak_bytes"] // 1_000_000), 2**31 - 1)
                 return context.window_manager.invoke_props_dialog(self, title="Large field mesh", confirm_text="Build")

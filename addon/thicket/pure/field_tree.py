@@ -101,6 +101,13 @@ def estimate_text(estimate) -> str:
     return text
 
 
+def needs_confirmation(estimate, confirm_above) -> bool:
+    """Whether an interactive build of this estimate asks first: it fits the memory
+    limit (else the core refuses it, nothing to ask) and passes `confirm_above`
+    triangles."""
+    return bool(estimate["fits"]) and int(estimate["triangles"]) > int(confirm_above)
+
+
 def field_mesh_arrays(tree, resolution=128, bounds=None, adaptive=True, progress=None, max_bytes=None) -> MeshArrays:
     """The tree's zero set meshed by the core (`thicket_native.field_mesh`): faces as
     returned, vertex normals from the field, and per-vertex colour (RGBA), texture
