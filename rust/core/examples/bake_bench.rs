@@ -6,8 +6,6 @@
 //!
 //! `cargo run -p thicket-core --release --features test-support --example bake_bench`
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -20,22 +18,8 @@ use thicket_core::testmeshes;
 use thicket_core::texture::bake::bake;
 use thicket_core::texture::{BakeParams, Generator, Pattern, TextureLayer};
 
-struct Counting;
-static NOW: AtomicUsize = AtomicUsize::new(0);
-static PEAK: AtomicUsize = AtomicUsize::new(0);
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        let now = NOW.fetch_add(l.size(), Relaxed) + l.size();
-        PEAK.fetch_max(now, Relaxed);
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        NOW.fetch_sub(l.size(), Relaxed);
-        unsafe { System.dealloc(p, l) }
-    }
-}
-#[global_allocator]
-static A: Counting = Counting;
+#[path = "common/counting_alloc.rs"]
+mod counting_alloc;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -57,17 +41,16 @@ fn main() {
     let samples = (mesh.vertex_count() + edges * (n - 1) + faces * (n - 1) * (n - 2) / 2) * (m + 1);
     println!("mesh: {} faces; chain mail 64x64x32; lattice {n} per edge x {m} layers = {samples} samples; {} threads", faces, rayon::current_num_threads());
 
-    let base = NOW.load(Relaxed);
-    PEAK.store(base, Relaxed);
-    let mut ours = Vec::new();
-    let mut tris = 0;
-    for _ in 0..5 {
-        let start = Instant::now();
-        let b = bake(&mesh, &shell, &layers, &params).unwrap();
-        ours.push(start.elapsed().as_secs_f64());
-        tris = b.triangles.len();
-    }
-    let peak = PEAK.load(Relaxed) - base;
+    let ((ours, tris), peak) = counting_alloc::peak_bytes(|| {
+        let (mut ours, mut tris) = (Vec::new(), 0);
+        for _ in 0..5 {
+            let start = Instant::now();
+            let b = bake(&mesh, &shell, &layers, &params).unwrap();
+            ours.push(start.elapsed().as_secs_f64());
+            tris = b.triangles.len();
+        }
+        (ours, tris)
+    });
     let ours = median(ours);
 
     // The same number of samples on a cube grid of the tiled texture.

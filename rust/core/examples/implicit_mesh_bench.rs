@@ -12,8 +12,6 @@
 //!
 //! `cargo run --release -p thicket-core --example implicit_mesh_bench [-- --runs N --resolutions 128,256 --culled-only]`
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 use thicket_core::implicit::samples::SOFT_CSG_20 as TREE;
 use thicket_core::implicit::FieldTree;
@@ -21,32 +19,13 @@ use thicket_core::polygonize::dual::{mesh_dual, DualParams};
 use thicket_core::polygonize::grid::Unculled;
 use thicket_core::polygonize::{estimate, mesh_field, GridParams, Mesher, SurfaceCheck};
 
-/// The system allocator, counting the bytes live and their peak.
-struct Counting;
-static LIVE: AtomicUsize = AtomicUsize::new(0);
-static PEAK: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let live = LIVE.fetch_add(layout.size(), Ordering::Relaxed) + layout.size();
-        PEAK.fetch_max(live, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        LIVE.fetch_sub(layout.size(), Ordering::Relaxed);
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
-#[global_allocator]
-static ALLOCATOR: Counting = Counting;
+#[path = "common/counting_alloc.rs"]
+mod counting_alloc;
 
 /// The peak of live heap bytes above what was live at the start, while `f` runs, in MB.
 fn peak_mb<T>(f: impl FnOnce() -> T) -> (T, f64) {
-    let base = LIVE.load(Ordering::Relaxed);
-    PEAK.store(base, Ordering::Relaxed);
-    let out = f();
-    (out, (PEAK.load(Ordering::Relaxed) - base) as f64 / 1e6)
+    let (out, bytes) = counting_alloc::peak_bytes(f);
+    (out, bytes as f64 / 1e6)
 }
 
 fn stats(mut t: Vec<f64>) -> (f64, f64) {

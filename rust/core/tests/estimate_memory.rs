@@ -1,37 +1,17 @@
 //! The field mesh estimate's peak bytes against the peak a counting allocator measures
 //! while each mesher runs (its own test binary: the allocator is the whole process's).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use thicket_core::implicit::FieldTree;
 use thicket_core::polygonize::dual::{mesh_dual, DualParams};
 use thicket_core::polygonize::{estimate, mesh_field, GridParams, Mesher};
 
-struct Counting;
-static LIVE: AtomicUsize = AtomicUsize::new(0);
-static PEAK: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let live = LIVE.fetch_add(layout.size(), Ordering::Relaxed) + layout.size();
-        PEAK.fetch_max(live, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        LIVE.fetch_sub(layout.size(), Ordering::Relaxed);
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
-#[global_allocator]
-static ALLOCATOR: Counting = Counting;
+#[path = "../examples/common/counting_alloc.rs"]
+mod counting_alloc;
 
 /// Peak live heap bytes above the start while `f` runs.
 fn peak<T>(f: impl FnOnce() -> T) -> (T, f64) {
-    let base = LIVE.load(Ordering::Relaxed);
-    PEAK.store(base, Ordering::Relaxed);
-    let out = f();
-    (out, (PEAK.load(Ordering::Relaxed) - base) as f64)
+    let (out, bytes) = counting_alloc::peak_bytes(f);
+    (out, bytes as f64)
 }
 
 #[test]
