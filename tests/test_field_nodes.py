@@ -319,3 +319,22 @@ def test_deleting_a_handle_or_a_nan_value_reports_and_keeps_the_mesh(scene):
     sphere.radius = float("nan")  # Blender keeps a NaN in a float property: the graph check refuses it
     assert "node 'Sphere': radius is not a finite number" in tree.status
     assert np.array_equal(positions(obj), good)
+
+
+def test_enabling_the_add_on_again_with_trees_in_the_file_keeps_blender_running(scene):
+    """Blender calls a tree's `update` while the tree's class registers: with Thicket
+    Field trees in the open file, enabling the add-on again crashed Blender (the
+    update read the tree's properties then). Now it waits for the handlers."""
+    import thicket
+
+    tree = new_tree()
+    soft_union(tree)
+    tree.auto_update = True
+    obj = api.build_field_nodes_mesh(tree)
+    name, before = tree.name, len(obj.data.vertices)
+    thicket.unregister()
+    thicket.register()
+    tree = bpy.data.node_groups[name]
+    assert tree.bl_idname == "ThicketFieldTree" and tree.auto_update
+    api.regenerate_field_nodes(obj)
+    assert len(obj.data.vertices) == before

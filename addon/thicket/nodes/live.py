@@ -1,5 +1,5 @@
 """Field Mesh objects linked to a node tree, regenerated live (debounced with the
-stack's delay and re-entrancy guard: `stack.auto_update.DEBOUNCE_SECONDS`,
+stack's debounce and re-entrancy guard: `stack.debounce.Debounced`,
 `stack.guard`) when a node value or a link changes (`schedule_tree`) or a handle
 object moves (`on_depsgraph_update`). A failed regeneration leaves the mesh as it
 was and keeps the message on the tree (`status`, shown in the editor's sidebar)."""
@@ -10,14 +10,12 @@ from bpy.app.handlers import persistent
 from ..fields.field_mesh import build_field_mesh, field_settings, regenerate_field_mesh
 from ..pure import native
 from ..pure.field_nodes import TREE_IDNAME
-from ..stack.auto_update import DEBOUNCE_SECONDS
+from ..stack.debounce import Debounced
 from ..stack.guard import busy, suspended
 from .graph import tree_json
 
 #: The Field Mesh object's ID property pointing at its node tree.
 NODES_PROPERTY = "thicket_field_nodes"
-
-_pending: set[str] = set()
 
 
 def node_tree_of(obj):
@@ -83,28 +81,23 @@ def regenerate_tree(tree):
 
 def schedule_tree(tree) -> None:
     """Asks for `tree`'s Field Meshes to regenerate soon (at once in background mode,
-    where timers never run)."""
-    if busy() or getattr(tree, "bl_idname", None) != TREE_IDNAME or not tree.auto_update:
+    where timers never run). Ignored until the add-on's handlers are registered:
+    Blender calls a tree's `update` while its class is being registered, when
+    reading the tree's properties crashes Blender (trees saved in the open file, on
+    enabling the add-on again)."""
+    if not _live or busy() or getattr(tree, "bl_idname", None) != TREE_IDNAME or not tree.auto_update:
         return
-    _pending.add(tree.name)
-    if bpy.app.background:
-        flush()
-    elif not bpy.app.timers.is_registered(_timer):
-        bpy.app.timers.register(_timer, first_interval=DEBOUNCE_SECONDS)
+    _trees.add(tree.name)
 
 
-def _timer():
-    flush()
-    return None
+def _regenerate_tree(name: str) -> None:
+    tree = bpy.data.node_groups.get(name)
+    if tree is not None and tree.bl_idname == TREE_IDNAME and linked_objects(tree):
+        regenerate_tree(tree)
 
 
-def flush() -> None:
-    if busy():
-        return
-    while _pending:
-        tree = bpy.data.node_groups.get(_pending.pop())
-        if tree is not None and tree.bl_idname == TREE_IDNAME and linked_objects(tree):
-            regenerate_tree(tree)
+_trees = Debounced(_regenerate_tree)
+flush = _trees.flush
 
 
 def _handles(tree):
@@ -139,15 +132,22 @@ def on_depsgraph_update(scene, depsgraph):
         schedule_tree(tree)
 
 
+_live = False
+
+
 def register_handlers():
+    global _live
     if on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
+    _live = True
 
 
 def unregister_handlers():
+    global _live
+    _live = False
     if on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
-    _pending.clear()
+    _trees.pending.clear()
 
 
 __all__ = ["NODES_PROPERTY", "build", "regenerate", "regenerate_tree", "schedule_tree", "field_settings", "linked_objects", "node_tree_of"]

@@ -9,11 +9,8 @@ import bpy
 from bpy.app.handlers import persistent
 
 from ..pure import live_shells, native
+from .debounce import Debounced
 from .guard import busy, suspended
-
-DEBOUNCE_SECONDS = 0.15
-
-_pending: set[str] = set()
 
 
 def _is_source(obj) -> bool:
@@ -24,36 +21,28 @@ def schedule(obj) -> None:
     """Asks for `obj`'s result to be regenerated soon."""
     if busy() or not isinstance(obj, bpy.types.Object) or not _is_source(obj):
         return
-    _pending.add(obj.name)
-    if bpy.app.background:
-        flush()
-    elif not bpy.app.timers.is_registered(_timer):
-        bpy.app.timers.register(_timer, first_interval=DEBOUNCE_SECONDS)
+    _sources.add(obj.name)
 
 
-def _timer():
-    flush()
-    return None
-
-
-def flush() -> None:
-    """Regenerates every pending source. Failures are kept on the stack
-    (`last_error`, shown in the panel), never raised into Blender's event loop."""
-    if busy():
-        return
+def _regenerate(name: str) -> None:
+    """Regenerates a pending source. Failures are kept on the stack (`last_error`,
+    shown in the panel), never raised into Blender's event loop."""
     from ..pure.kinds.volumetric_texture import BakeNeedsConfirmation
     from .regenerate import regenerate
 
-    while _pending:
-        obj = bpy.data.objects.get(_pending.pop())
-        if not _is_source(obj):
-            continue
-        try:
-            # In the interface, very large bakes wait for the user (Regenerate asks).
-            regenerate(obj, ask=not bpy.app.background)
-        except (KeyError, TypeError, ValueError, BakeNeedsConfirmation, *native.error_types()) as exc:
-            with suspended():
-                obj.thicket.last_error = str(exc)
+    obj = bpy.data.objects.get(name)
+    if not _is_source(obj):
+        return
+    try:
+        # In the interface, very large bakes wait for the user (Regenerate asks).
+        regenerate(obj, ask=not bpy.app.background)
+    except (KeyError, TypeError, ValueError, BakeNeedsConfirmation, *native.error_types()) as exc:
+        with suspended():
+            obj.thicket.last_error = str(exc)
+
+
+_sources = Debounced(_regenerate)
+flush = _sources.flush
 
 
 def changed_sources(scene, depsgraph, is_source=_is_source):
@@ -129,5 +118,5 @@ def unregister_handlers():
     for handler_list, fn in reversed(HANDLERS):
         if fn in handler_list:
             handler_list.remove(fn)
-    _pending.clear()
+    _sources.pending.clear()
     live_shells.clear()
