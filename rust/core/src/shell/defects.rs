@@ -22,11 +22,12 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::borrow::Cow;
 
-/// The defects found: skin items (see [`Checker::skin_item`]) and indices into
+/// The defects found: skin items (see [`Checker::item`]) and indices into
 /// [`Checker::tris`] and [`Checker::cells`].
 #[derive(Debug, Default)]
 pub(crate) struct Findings {
-    /// Intersecting skin triangles whose base triangles share no vertex.
+    /// Intersecting skin items that share no base vertex (their triangles', a wall's
+    /// two ends).
     pub self_pairs: Vec<(u32, u32)>,
     /// (skin triangle, base triangle) pairs that intersect, ignoring pairs of one quad
     /// split differently and pairs that share a vertex whose skin point coincides with
@@ -80,13 +81,15 @@ pub(crate) struct Checker {
     walls: Vec<Wall>,
     wall_start: Vec<u32>,
     /// The enclosure test: the connected part of each cell, and one vertex of each
-    /// part with a tree over their points (empty for a mesh of one part). A part that
-    /// crosses the base is partly in and partly out of whatever it crosses, so it is
-    /// not probed (`crossing_part`): its crossings are inherited, as the base's own.
+    /// part with a tree over their points (empty for a mesh of one part). Not probed
+    /// (`unprobed`): a part that crosses the base, partly in and partly out of
+    /// whatever it crosses (its crossings are inherited, as the base's own), and a
+    /// loose vertex (no surface to keep out of a shell).
+    part_of: Vec<u32>,
     part_of_cell: Vec<u32>,
     probes: Vec<u32>,
     probe_tree: TriBvh,
-    crossing_part: Vec<bool>,
+    unprobed: Vec<bool>,
 }
 
 /// A side wall of a shell over an open mesh: the quad between layers 0 and 1 over
@@ -159,6 +162,7 @@ impl Checker {
         let parts = crate::mesh::vertex_parts(mesh);
         let part_of_cell: Vec<u32> = cells.iter().map(|c| parts.of[c.vertices[0] as usize]).collect();
         let probes = if parts.count > 1 { parts.first.clone() } else { Vec::new() };
+        let part_of = if parts.count > 1 { parts.of } else { Vec::new() };
         let probe_tree = TriBvh::from_boxes(probes.iter().map(|&v| (p[v as usize].as_dvec3(), p[v as usize].as_dvec3())).collect());
         let mut me = Self {
             base_bvh,
@@ -176,25 +180,26 @@ impl Checker {
             part_of_cell,
             probes,
             probe_tree,
-            crossing_part: Vec::new(),
+            unprobed: Vec::new(),
+            part_of,
         };
         let pairs = me.base_bvh.overlapping_pairs(&|i, j| me.bases_cross(i, j));
         me.own = vec![false; me.tris.len()];
         pairs.iter().for_each(|&(i, j)| (me.own[i as usize], me.own[j as usize]) = (true, true));
-        me.crossing_part = me.crossing_parts(mesh);
+        me.unprobed = me.unprobed_parts();
         me
     }
 
-    /// Which parts have a triangle crossing the base (none probed for a mesh of one
-    /// part).
-    fn crossing_parts(&self, mesh: &Mesh) -> Vec<bool> {
+    /// The parts not probed: those with a triangle crossing the base, and loose
+    /// vertices (none probed for a mesh of one part).
+    fn unprobed_parts(&self) -> Vec<bool> {
         if self.probes.is_empty() {
             return Vec::new();
         }
-        let parts = crate::mesh::vertex_parts(mesh);
-        let mut crossing = vec![false; self.probes.len()];
-        (0..self.tris.len()).filter(|&t| self.own[t]).for_each(|t| crossing[parts.of[self.tris[t][0] as usize] as usize] = true);
-        crossing
+        let mut unprobed = vec![true; self.probes.len()];
+        self.tris.iter().for_each(|t| unprobed[self.part_of[t[0] as usize] as usize] = false);
+        (0..self.tris.len()).filter(|&t| self.own[t]).for_each(|t| unprobed[self.part_of[self.tris[t][0] as usize] as usize] = true);
+        unprobed
     }
 
     /// Whether base triangles `t` and `j` cross, sharing no vertex.
@@ -257,7 +262,7 @@ impl Checker {
         let flipped: Vec<u32> = near.iter().zip(flags).filter(|(&t, f)| self.own[t as usize] != *f).map(|(&t, _)| t).collect();
         flipped.iter().for_each(|&t| self.own[t as usize] ^= true);
         if !flipped.is_empty() {
-            self.crossing_part = self.crossing_parts(mesh);
+            self.unprobed = self.unprobed_parts();
         }
         self.diag = mesh.bbox_diagonal() as f64;
         flipped
@@ -452,7 +457,7 @@ impl Checker {
                 let part = self.part_of_cell[c as usize];
                 self.probe_tree.any(lo, hi, |k| {
                     let v = self.probes[k as usize];
-                    k != part && !self.crossing_part[k as usize] && cell.encloses(p, shell, p[v as usize].as_dvec3())
+                    k != part && !self.unprobed[k as usize] && cell.encloses(p, shell, p[v as usize].as_dvec3())
                 })
             })
             .collect()
@@ -466,14 +471,13 @@ impl Checker {
             return Vec::new();
         }
         let p = mesh.positions();
-        let parts = crate::mesh::vertex_parts(mesh);
         let mut hit = vec![false; self.probes.len()];
-        moved.iter().for_each(|&v| hit[parts.of[v as usize] as usize] = true);
+        moved.iter().for_each(|&v| hit[self.part_of[v as usize] as usize] = true);
         let mut out = Vec::new();
         for (k, &v) in self.probes.iter().enumerate().filter(|(k, _)| hit[*k]) {
             let x = p[v as usize].as_dvec3();
             self.base_bvh.query(x - DVec3::splat(reach), x + DVec3::splat(reach), |t| {
-                if parts.of[self.tris[t as usize][0] as usize] != k as u32 {
+                if self.part_of[self.tris[t as usize][0] as usize] != k as u32 {
                     out.extend(self.tris[t as usize]);
                 }
             });
@@ -484,10 +488,21 @@ impl Checker {
     }
 
     /// Whether skin items `i` (at `mine()`, computed only once the pair is not ruled
-    /// out by topology: most candidate pairs are neighbours) and `j` cross, their base
-    /// triangles sharing no vertex.
+    /// out by topology: most candidate pairs are neighbours) and `j` cross, sharing no
+    /// base vertex. A flat wall counts for nothing ([`flat_wall`](Self::flat_wall)).
     fn skins_cross(&self, mesh: &Mesh, shell: &Shell, i: u32, mine: impl FnOnce() -> [DVec3; 3], j: u32) -> bool {
-        !shares(self.item_vertices(i), self.item_vertices(j)) && triangles_intersect(&mine(), &self.skin_tri(mesh, shell, j))
+        !shares(self.item_vertices(i), self.item_vertices(j))
+            && !self.flat_wall(shell, i)
+            && !self.flat_wall(shell, j)
+            && triangles_intersect(&mine(), &self.skin_tri(mesh, shell, j))
+    }
+
+    /// Whether item `i` is a wall of no height (both ends' directors zero): it is
+    /// then only the edge of the layer it stands on, whose crossings are the layer's
+    /// (or, pressed onto the base, the base's own). So zero thickness stays valid.
+    fn flat_wall(&self, shell: &Shell, i: u32) -> bool {
+        let flat = |v: u32| shell.directors[v as usize].length() as f64 <= 1e-6 * self.diag;
+        matches!(self.item(i), Item::Wall { wall, .. } if self.walls[wall as usize].ends.iter().all(|&v| flat(v)))
     }
 
     /// Whether skin item `i` (at `mine`) crosses base triangle `j`. The two splits of
@@ -500,7 +515,9 @@ impl Checker {
         let (t, r) = match self.item(i) {
             Item::Layer { tri, r } => (tri, r),
             // A wall stands on its edge: base triangles at either end touch it.
-            Item::Wall { .. } => return !shares(self.item_vertices(i), &tris[j as usize]) && triangles_intersect(&mine(), &self.base[j as usize]),
+            Item::Wall { .. } => {
+                return !shares(self.item_vertices(i), &tris[j as usize]) && !self.flat_wall(shell, i) && triangles_intersect(&mine(), &self.base[j as usize])
+            }
         };
         let (t, j) = (t as usize, j as usize);
         let coincide = |v: u32| (shell.point(p, v as usize, r).as_dvec3() - p[v as usize].as_dvec3()).length() <= 1e-6 * self.diag;

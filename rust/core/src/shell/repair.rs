@@ -118,7 +118,7 @@ impl Repair<'_> {
         });
         // A kept tree is refitted where the seeds' directors changed; otherwise in full.
         let mut outer = match (outer_bvh.take(), &dirty) {
-            (Some(mut tree), Some(d)) if tree.len() == checker.tris.len() * super::defects::skins(shell.side).len() => {
+            (Some(mut tree), Some(d)) if tree.len() == checker.items(shell.side) => {
                 checker.refit_outer(mesh, shell, &mut tree, &d.tri_list);
                 tree
             }

@@ -617,6 +617,40 @@ fn an_edit_moving_a_card_into_another_cards_shell_is_repaired() {
     assert!(!near.is_empty() && near.iter().all(|&v| (v as usize) < n && (positions[v as usize] - probe).length() < 0.05 + 0.25), "{near:?}");
 }
 
+/// Two open triangles meeting at one vertex, the first's boundary edge through the
+/// second (the base crosses itself only between faces that share a vertex, which
+/// is not counted as its own crossing): the side wall pressed flat is that edge, and
+/// must not count, or no thickness at all would be clean.
+#[test]
+fn a_flat_wall_is_no_defect_so_zero_thickness_stays_valid() {
+    let positions = vec![Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::ZERO, Vec3::new(2.0, -1.0, 0.0), Vec3::new(2.0, 1.0, 0.0)];
+    let mesh = Mesh::new(positions, &[3, 3], vec![0, 1, 2, 2, 3, 4], None).unwrap();
+    for side in [Side::Exterior, Side::Interior, Side::Envelope] {
+        let flat = Shell { side, ..Shell::from_directors(vec![Vec3::ZERO; 5], vec![Vec3::ZERO; 5]) };
+        let r = shell_report(&mesh, &flat);
+        assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{side:?}: {r:?}");
+        let s = build_shell(&mesh, &[0.2; 5], side, &ShellParams::default()).unwrap();
+        assert!(s.check.clean, "{side:?}: {:?}", s.check);
+    }
+}
+
+/// A loose vertex is no part to keep out of a shell: a sheet keeps its thickness
+/// under one.
+#[test]
+fn a_loose_vertex_inside_a_shell_changes_nothing() {
+    let sheet = crate::mesh::fixtures::grid(8);
+    let n = sheet.vertex_count();
+    let mut positions: Vec<Vec3> = sheet.positions().iter().map(|p| *p / 8.0).collect();
+    positions.push(Vec3::new(0.55, 0.45, 0.05));
+    let mesh = Mesh::new(positions, &sheet.face_sizes(), sheet.corners().to_vec(), None).unwrap();
+    let alone =
+        build_shell(&with_positions(&sheet, sheet.positions().iter().map(|p| *p / 8.0).collect()), &vec![0.1; n], Side::Exterior, &ShellParams::default())
+            .unwrap();
+    let s = build_shell(&mesh, &vec![0.1; n + 1], Side::Exterior, &ShellParams::default()).unwrap();
+    assert_eq!(s.directors[..n], alone.directors[..], "the loose vertex moved the sheet's shell");
+    assert_eq!(shell_report(&mesh, &s).enclosing_cells, 0);
+}
+
 #[test]
 fn bunny_never_folds_at_any_side_or_thickness() {
     assert_never_folds("bunny", &tm::bunny());
