@@ -338,3 +338,18 @@ def test_enabling_the_add_on_again_with_trees_in_the_file_keeps_blender_running(
     assert tree.bl_idname == "ThicketFieldTree" and tree.auto_update
     api.regenerate_field_nodes(obj)
     assert len(obj.data.vertices) == before
+
+
+def test_links_through_reroutes_and_partly_linked_operations(scene):
+    """A reroute between nodes is followed; an operation uses its linked inputs."""
+    tree = new_tree()
+    sphere, box, op, out = soft_union(tree)
+    tree.links.remove(op.outputs[0].links[0])
+    reroute = tree.nodes.new("NodeReroute")
+    tree.links.new(op.outputs[0], reroute.inputs[0])
+    tree.links.new(reroute.outputs[0], out.inputs[0])
+    assert json.loads(api.field_nodes_json(tree)) == hand_written()
+    tree.links.remove(box.outputs[0].links[0])  # the union's second input unlinked
+    only_sphere = hand_written()
+    only_sphere["children"] = only_sphere["children"][:1]
+    assert json.loads(api.field_nodes_json(tree)) == only_sphere

@@ -264,7 +264,7 @@ def field_mesh(
 def field_mesh_estimate(
     tree_json: str, bounds: Bounds | None = None, resolution: int = 128, adaptive: bool = True, max_bytes: float | None = None
 ) -> dict[str, Any]:
-    """field_mesh's vertices, faces, triangles and peak_bytes, estimated in milliseconds without meshing; with max_bytes, fits, resolution_within and cells."""
+    """field_mesh's vertices, faces, triangles and peak_bytes, estimated in milliseconds without meshing, with the limit used (max_bytes: the given one or 4 GB), whether it fits, the finest resolution within it and the coarse lattice's cells."""
 
 #: A 4x4 matrix as rows (a mathutils.Matrix, nested sequences or a numpy array).
 Matrix4 = Sequence[Sequence[float]] | NDArray[np.floating[Any]]

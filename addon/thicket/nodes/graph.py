@@ -7,12 +7,17 @@ import json
 from ..pure.field_nodes import TREE_IDNAME, GraphError, fractal_terms, tree_from_graph
 
 
-def _linked(socket):
-    """The node name feeding `socket` (None if unlinked or muted). Links Blender marks
-    invalid (a cycle) are kept, so the graph's check names the cycle."""
+def _linked(socket, depth=0):
+    """The node name feeding `socket` (None if unlinked or muted), through reroute
+    nodes. Links Blender marks invalid (a cycle) are kept, so the graph's check names
+    the cycle."""
     for link in socket.links:
         if not link.is_muted and not link.from_node.mute:
-            return link.from_node.name
+            node = link.from_node
+            if node.bl_idname == "NodeReroute":
+                # A loop of reroutes alone feeds nothing.
+                return _linked(node.inputs[0], depth + 1) if depth < 64 and node.inputs else None
+            return node.name
     return None
 
 

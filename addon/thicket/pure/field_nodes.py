@@ -3,9 +3,11 @@
 A graph is a plain description: `{name: {"op": op, "fields": {...}, "inputs":
 {...}, "color": [r, g, b, a] or None}}` and the name of the node linked to the
 Output. `inputs` maps the op's child fields to node names: `"children"` a list (h,
-min, max, the w_p operations; difference_wp exactly two), `"child"` one name (offset,
+min, max, the w_p operations: the linked ones are used, at least one; difference_wp
+exactly two), `"child"` one name (offset,
 negate), `"shape"` and `"texture"` (displace, fractal). `tree_from_graph` turns it
-into the JSON tree the core reads (README's schema); cycles, unlinked inputs,
+into the JSON tree the core reads (README's schema); cycles, unlinked inputs (an
+operation with none, a difference short of two, a unary node's or a displacement's),
 p <= 0 and non-finite numbers are refused with `GraphError` (a ValueError) naming
 the node, before the core sees anything.
 """
