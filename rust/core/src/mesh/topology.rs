@@ -48,7 +48,12 @@ pub struct Parts {
 
 /// [`Parts`] of `mesh`, by union-find over its faces' vertices.
 pub fn vertex_parts(mesh: &Mesh) -> Parts {
-    let mut up: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
+    parts_of(mesh.vertex_count(), mesh.faces())
+}
+
+/// [`Parts`] of `vertices` vertices joined by `faces` (lists of vertex indices).
+pub fn parts_of<'a>(vertices: usize, faces: impl Iterator<Item = &'a [u32]>) -> Parts {
+    let mut up: Vec<u32> = (0..vertices as u32).collect();
     fn root(up: &mut [u32], mut v: u32) -> u32 {
         while up[v as usize] != v {
             up[v as usize] = up[up[v as usize] as usize]; // path halving
@@ -56,7 +61,7 @@ pub fn vertex_parts(mesh: &Mesh) -> Parts {
         }
         v
     }
-    for face in mesh.faces() {
+    for face in faces {
         for w in face.windows(2) {
             let (a, b) = (root(&mut up, w[0]), root(&mut up, w[1]));
             if a != b {

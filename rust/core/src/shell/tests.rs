@@ -610,6 +610,9 @@ fn an_edit_moving_a_card_into_another_cards_shell_is_repaired() {
     let r = shell_report(live.mesh(), live.shell());
     assert!(!stats.rebuilt && r.enclosing_cells == 0 && live.shell().check.clean, "{stats:?} {r:?}");
     assert!(under.iter().all(|&v| live.shell().achieved[v] < 0.035), "{:?}", under.iter().map(|&v| live.shell().achieved[v]).collect::<Vec<_>>());
+    // As a rebuild of the edited mesh does.
+    let rebuilt = build_shell(live.mesh(), &thickness, Side::Exterior, &ShellParams::default()).unwrap();
+    assert!(under.iter().all(|&v| rebuilt.achieved[v] < 0.035) && shell_report(live.mesh(), &rebuilt).enclosing_cells == 0);
     // What the update flags for a moved part: the sheet's cells around the card's
     // probe (its first vertex), none of the card's own.
     let probe = moved[n];

@@ -143,32 +143,19 @@ struct Parts {
 
 impl Parts {
     fn of(tris: &[[u32; 3]], vertices: usize) -> Self {
-        let mut parent: Vec<u32> = (0..vertices as u32).collect();
-        fn root(parent: &mut [u32], mut v: u32) -> u32 {
-            while parent[v as usize] != v {
-                parent[v as usize] = parent[parent[v as usize] as usize];
-                v = parent[v as usize];
-            }
-            v
-        }
-        for t in tris {
-            let a = root(&mut parent, t[0]);
-            for &v in &t[1..] {
-                let b = root(&mut parent, v);
-                parent[b as usize] = a;
-            }
-        }
-        let mut index = vec![u32::MAX; vertices];
+        let shared = crate::mesh::parts_of(vertices, tris.iter().map(|t| t.as_slice()));
+        // Numbered in order of their first triangle; a vertex of no triangle has none.
+        let mut index = vec![u32::MAX; shared.count];
         let mut parts: Vec<Vec<u32>> = Vec::new();
         for (i, t) in tris.iter().enumerate() {
-            let r = root(&mut parent, t[0]) as usize;
+            let r = shared.of[t[0] as usize] as usize;
             if index[r] == u32::MAX {
                 index[r] = parts.len() as u32;
                 parts.push(Vec::new());
             }
             parts[index[r] as usize].push(i as u32);
         }
-        let of_vertex = (0..vertices as u32).map(|v| index[root(&mut parent, v) as usize]).collect();
+        let of_vertex = shared.of.iter().map(|&r| index[r as usize]).collect();
         Self { tris: parts, of_vertex }
     }
 }
