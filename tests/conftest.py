@@ -67,3 +67,19 @@ def pytest_unconfigure(config):
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(_exit_status)
+
+
+def run_modal(watch, before_each_timer=None, limit=60.0):
+    """Starts a watched operator's job and feeds it timer events until the modal
+    ends (as Blender's event loop would); its status."""
+    import time
+
+    watch.job.start()
+    status, end = {"RUNNING_MODAL"}, time.monotonic() + limit
+    while status == {"RUNNING_MODAL"}:
+        assert time.monotonic() < end, "the modal never ended"
+        watch.job._thread.join(0.02)
+        if before_each_timer is not None:
+            before_each_timer()
+        status = watch.event(bpy.context, "TIMER")
+    return status

@@ -5,12 +5,11 @@ were. Background mode has no window, so the modal's events are fed here, as the
 Regenerate tests do, to the watch the operator's `invoke` runs."""
 
 import threading
-import time
 
 import bpy
 import numpy as np
 import pytest
-from conftest import add, mesh_object, select_only
+from conftest import add, mesh_object, run_modal, select_only
 
 from thicket import api, mesh_io
 from thicket.operators.add_thick_surface import watched_thick_surfaces
@@ -35,19 +34,6 @@ def watch_for(objects, kind="OFFSET_SHELL", **item):
     item = dict(dict(thickness=0.05, thickness_mode="RELATIVE", output="OUTER"), **item)
     watch = watched_thick_surfaces(objects, kind, item, lambda kind, text: reports.append((kind, text)))
     return watch, reports
-
-
-def run_modal(watch, before_each_timer=None, limit=60.0):
-    """Starts the job and feeds timer events until the modal ends; its status."""
-    watch.job.start()
-    status, end = {"RUNNING_MODAL"}, time.monotonic() + limit
-    while status == {"RUNNING_MODAL"}:
-        assert time.monotonic() < end, "the modal never ended"
-        watch.job._thread.join(0.02)
-        if before_each_timer is not None:
-            before_each_timer()
-        status = watch.event(bpy.context, "TIMER")
-    return status
 
 
 def two_pairs():

@@ -13,6 +13,7 @@ import time
 import bpy
 import numpy as np
 import pytest
+from conftest import run_modal
 
 import thicket_native as tn
 from thicket import api, mesh_io
@@ -61,19 +62,6 @@ def node_tree(resolution=24):
     out = tree.nodes.new("ThicketNodeOutput")
     tree.links.new(sphere.outputs[0], out.inputs[0])
     return tree
-
-
-def run_modal(watch, limit=60.0, before_each_timer=None):
-    """Starts the job and feeds timer events until the modal ends; its status."""
-    watch.job.start()
-    status, end = {"RUNNING_MODAL"}, time.monotonic() + limit
-    while status == {"RUNNING_MODAL"}:
-        assert time.monotonic() < end, "the modal never ended"
-        watch.job._thread.join(0.02)
-        if before_each_timer is not None:
-            before_each_timer()
-        status = watch.event(bpy.context, "TIMER")
-    return status
 
 
 @pytest.mark.parametrize("tree", [SPHERE, SOFT], ids=["sphere", "soft_union"])
