@@ -18,7 +18,7 @@ use super::intersect::{segment_crosses_triangle, tri_box, triangles_intersect, T
 use super::{Shell, Side};
 use crate::mesh::Incidence;
 use crate::Mesh;
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::borrow::Cow;
 
@@ -81,9 +81,11 @@ pub(crate) struct Checker {
     walls: Vec<Wall>,
     wall_start: Vec<u32>,
     /// The enclosure test: the connected part of each cell, and one vertex of each
-    /// part with a tree over their points (empty for a mesh of one part). Not probed
-    /// (`unprobed`): a part that crosses the base, partly in and partly out of
-    /// whatever it crosses (its crossings are inherited, as the base's own), and a
+    /// part (its *probe*) with a tree over their points (empty for a mesh of one
+    /// part). A part that crosses the base is probed at a vertex on none of its
+    /// crossing triangles (those vertices are partly in and partly out of whatever
+    /// the part crosses; its crossings are inherited, as the base's own). Not probed
+    /// (`unprobed`): a part whose every vertex lies on a crossing triangle, and a
     /// loose vertex (no surface to keep out of a shell).
     part_of: Vec<u32>,
     part_of_cell: Vec<u32>,
@@ -163,7 +165,6 @@ impl Checker {
         let part_of_cell: Vec<u32> = cells.iter().map(|c| parts.of[c.vertices[0] as usize]).collect();
         let probes = if parts.count > 1 { parts.first.clone() } else { Vec::new() };
         let part_of = if parts.count > 1 { parts.of } else { Vec::new() };
-        let probe_tree = TriBvh::from_boxes(probes.iter().map(|&v| (p[v as usize].as_dvec3(), p[v as usize].as_dvec3())).collect());
         let mut me = Self {
             base_bvh,
             diag: mesh.bbox_diagonal() as f64,
@@ -179,27 +180,35 @@ impl Checker {
             wall_start,
             part_of_cell,
             probes,
-            probe_tree,
+            probe_tree: TriBvh::from_boxes(Vec::new()),
             unprobed: Vec::new(),
             part_of,
         };
         let pairs = me.base_bvh.overlapping_pairs(&|i, j| me.bases_cross(i, j));
         me.own = vec![false; me.tris.len()];
         pairs.iter().for_each(|&(i, j)| (me.own[i as usize], me.own[j as usize]) = (true, true));
-        me.unprobed = me.unprobed_parts();
+        me.choose_probes(p);
         me
     }
 
-    /// The parts not probed: those with a triangle crossing the base, and loose
-    /// vertices (none probed for a mesh of one part).
-    fn unprobed_parts(&self) -> Vec<bool> {
+    /// Each part's probe: its first vertex on triangles of which none crosses the
+    /// base; a part without one, and a loose vertex, is not probed (none probed for a
+    /// mesh of one part). The probe tree follows.
+    fn choose_probes(&mut self, p: &[Vec3]) {
         if self.probes.is_empty() {
-            return Vec::new();
+            return;
         }
-        let mut unprobed = vec![true; self.probes.len()];
-        self.tris.iter().for_each(|t| unprobed[self.part_of[t[0] as usize] as usize] = false);
-        (0..self.tris.len()).filter(|&t| self.own[t]).for_each(|t| unprobed[self.part_of[self.tris[t][0] as usize] as usize] = true);
-        unprobed
+        let mut probe = vec![u32::MAX; self.probes.len()];
+        for (v, &k) in self.part_of.iter().enumerate() {
+            let around = self.tris_around.of(v);
+            if probe[k as usize] == u32::MAX && !around.is_empty() && around.iter().all(|&t| !self.own[t as usize]) {
+                probe[k as usize] = v as u32;
+            }
+        }
+        self.unprobed = probe.iter().map(|&v| v == u32::MAX).collect();
+        probe.iter().enumerate().filter(|(_, &v)| v != u32::MAX).for_each(|(k, &v)| self.probes[k] = v);
+        let at = |v: u32| (p[v as usize].as_dvec3(), p[v as usize].as_dvec3());
+        self.probe_tree = TriBvh::from_boxes(self.probes.iter().map(|&v| at(v)).collect());
     }
 
     /// Whether base triangles `t` and `j` cross, sharing no vertex.
@@ -262,7 +271,7 @@ impl Checker {
         let flipped: Vec<u32> = near.iter().zip(flags).filter(|(&t, f)| self.own[t as usize] != *f).map(|(&t, _)| t).collect();
         flipped.iter().for_each(|&t| self.own[t as usize] ^= true);
         if !flipped.is_empty() {
-            self.unprobed = self.unprobed_parts();
+            self.choose_probes(p);
         }
         self.diag = mesh.bbox_diagonal() as f64;
         flipped
@@ -464,15 +473,17 @@ impl Checker {
     }
 
     /// The base vertices of the cells whose boxes, grown by `reach`, hold a probe of
-    /// a part that has a vertex in `moved` (sorted): the cells a moved part may have
-    /// entered, for the caller to flag.
-    pub fn cells_near_probes(&self, mesh: &Mesh, moved: &[u32], reach: f64) -> Vec<u32> {
-        if self.probes.is_empty() || moved.is_empty() {
+    /// a part that has a vertex in `moved` or a triangle in `flipped` (whose crossing
+    /// flag changed, which may move its part's probe), sorted: the cells a moved
+    /// part or probe may have entered, for the caller to flag.
+    pub fn cells_near_probes(&self, mesh: &Mesh, moved: &[u32], flipped: &[u32], reach: f64) -> Vec<u32> {
+        if self.probes.is_empty() || (moved.is_empty() && flipped.is_empty()) {
             return Vec::new();
         }
         let p = mesh.positions();
         let mut hit = vec![false; self.probes.len()];
         moved.iter().for_each(|&v| hit[self.part_of[v as usize] as usize] = true);
+        flipped.iter().for_each(|&t| hit[self.part_of[self.tris[t as usize][0] as usize] as usize] = true);
         let mut out = Vec::new();
         for (k, &v) in self.probes.iter().enumerate().filter(|(k, _)| hit[*k]) {
             let x = p[v as usize].as_dvec3();

@@ -196,17 +196,18 @@ impl IncrementalShell {
             self.traces[v as usize] = t;
         }
         let mut seeds = self.reset_repaired(&dirty);
+        let mut flipped = Vec::new();
         if retriangulated {
             self.checker = Checker::new(&self.mesh);
             self.outer_bvh = None;
         } else {
-            let flipped = self.checker.refit_base(&self.mesh, &moved);
+            flipped = self.checker.refit_base(&self.mesh, &moved);
             self.seed_pierced_outer(&changes, &flipped, &mut seeds);
         }
         // A part that moved may now lie inside another part's cells, which did not
         // change: those cells are checked again.
         let reach = self.shell.base_offset.iter().zip(&self.shell.directors).map(|(b, d)| (b.length() + d.length()) as f64).fold(0.0, f64::max);
-        seeds.extend(self.checker.cells_near_probes(&self.mesh, &moved, reach));
+        seeds.extend(self.checker.cells_near_probes(&self.mesh, &moved, &flipped, reach));
         let repair = Repair {
             checker: &self.checker,
             mesh: &self.mesh,

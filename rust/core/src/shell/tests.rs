@@ -581,6 +581,41 @@ fn a_card_inside_or_across_another_cards_shell_is_not_swallowed() {
     }
 }
 
+/// Two small grids crossing each other (a part that crosses the base, as in sculpts
+/// and kitbashed debris) floating wholly inside a larger card's shell: their
+/// crossing vertices are partly in and partly out of each other, but their other
+/// vertices are probed, so the card's shell must not swallow them. It did when a
+/// crossing part was not probed at all. Checked by ray parity on the card's solid.
+#[test]
+fn crossing_parts_inside_another_parts_shell_are_not_swallowed() {
+    let grid = crate::mesh::fixtures::grid(4);
+    let g = grid.vertex_count() as u32;
+    // A flat grid at z = 0.05 and an upright one (x = 0.02) crossing it along its middle.
+    let flat = grid.positions().iter().map(|q| Vec3::new(q.x / 20.0 - 0.1, q.y / 20.0 - 0.1, 0.05));
+    let upright = grid.positions().iter().map(|q| Vec3::new(0.02, q.x / 20.0 - 0.1, q.y / 50.0 + 0.01));
+    let positions: Vec<Vec3> = card(0.5, 0.0, 0.0, 0.0).into_iter().chain(flat).chain(upright).collect();
+    let mut sizes = vec![4];
+    sizes.extend(grid.face_sizes().iter().chain(&grid.face_sizes()));
+    let corners: Vec<u32> = (0..4).chain(grid.corners().iter().map(|&v| v + 4)).chain(grid.corners().iter().map(|&v| v + 4 + g)).collect();
+    let mesh = Mesh::new(positions.clone(), &sizes, corners, None).unwrap();
+    let mut thickness = vec![0.004; positions.len()];
+    thickness[..4].fill(0.1);
+    let checker = defects::Checker::new(&mesh);
+    assert!(checker.base_self_pairs() > 0, "the two grids must cross");
+    for side in [Side::Exterior, Side::Envelope] {
+        let s = build_shell(&mesh, &thickness, side, &ShellParams::default()).unwrap();
+        let r = shell_report(&mesh, &s);
+        let what = format!("{side:?}: {r:?} {:?} card {:?}", s.check, &s.achieved[..4]);
+        assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells, r.enclosing_cells), (0, 0, 0, 0), "{what}");
+        let first = Mesh::new(positions[..4].to_vec(), &[4], (0..4).collect(), None).unwrap();
+        let first_shell =
+            Shell { side, base_offset: s.base_offset[..4].to_vec(), directors: s.directors[..4].to_vec(), ..Shell::from_directors(vec![], vec![]) };
+        let solid = geometry::shell_geometry(&first, &first_shell, geometry::ShellOutput::Solid).unwrap().mesh;
+        let swallowed = positions[4..].iter().filter(|x| inside_solid(&solid, **x)).count();
+        assert_eq!(swallowed, 0, "{what}: {swallowed} vertices of the crossing grids inside the card's shell");
+    }
+}
+
 /// An edit that moves a card into another card's shell, where it crosses nothing
 /// and the cells holding it did not change: the incremental update finds it as a
 /// rebuild does.
@@ -616,7 +651,7 @@ fn an_edit_moving_a_card_into_another_cards_shell_is_repaired() {
     // What the update flags for a moved part: the sheet's cells around the card's
     // probe (its first vertex), none of the card's own.
     let probe = moved[n];
-    let near = defects::Checker::new(live.mesh()).cells_near_probes(live.mesh(), &[n as u32 + 2], 0.05);
+    let near = defects::Checker::new(live.mesh()).cells_near_probes(live.mesh(), &[n as u32 + 2], &[], 0.05);
     assert!(!near.is_empty() && near.iter().all(|&v| (v as usize) < n && (positions[v as usize] - probe).length() < 0.05 + 0.25), "{near:?}");
 }
 
