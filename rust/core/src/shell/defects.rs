@@ -92,6 +92,9 @@ pub(crate) struct Checker {
     probes: Vec<u32>,
     probe_tree: TriBvh,
     unprobed: Vec<bool>,
+    /// Faces with a triangle that crosses the base: their cells hold whatever crosses
+    /// them, inherited as the crossings are, so they are not asked to enclose nothing.
+    crossing_face: Vec<bool>,
 }
 
 /// A side wall of a shell over an open mesh: the quad between layers 0 and 1 over
@@ -182,6 +185,7 @@ impl Checker {
             probes,
             probe_tree: TriBvh::from_boxes(Vec::new()),
             unprobed: Vec::new(),
+            crossing_face: vec![false; mesh.face_count()],
             part_of,
         };
         let pairs = me.base_bvh.overlapping_pairs(&|i, j| me.bases_cross(i, j));
@@ -193,11 +197,13 @@ impl Checker {
 
     /// Each part's probe: its first vertex on triangles of which none crosses the
     /// base; a part without one, and a loose vertex, is not probed (none probed for a
-    /// mesh of one part). The probe tree follows.
+    /// mesh of one part). The probe tree and the crossing faces follow.
     fn choose_probes(&mut self, p: &[Vec3]) {
         if self.probes.is_empty() {
             return;
         }
+        self.crossing_face.fill(false);
+        (0..self.tris.len()).filter(|&t| self.own[t]).for_each(|t| self.crossing_face[self.face_of[t] as usize] = true);
         let mut probe = vec![u32::MAX; self.probes.len()];
         for (v, &k) in self.part_of.iter().enumerate() {
             let around = self.tris_around.of(v);
@@ -451,6 +457,7 @@ impl Checker {
     /// crossings, this bounds the shell's volume (module docs). Only the flagged cells
     /// are asked: a part moving into a cell that did not change is found by the
     /// caller flagging the cells around its probe ([`Checker::cells_near_probes`]).
+    /// Cells over a face that crosses the base are not asked (`crossing_face`).
     fn enclosing(&self, mesh: &Mesh, shell: &Shell, cells: &[u32]) -> Vec<u32> {
         if self.probes.is_empty() {
             return Vec::new();
@@ -461,6 +468,9 @@ impl Checker {
             .copied()
             .filter(|&c| {
                 let cell = &self.cells[c as usize];
+                if self.crossing_face[cell.face as usize] {
+                    return false;
+                }
                 let corners = cell.corners(p, shell);
                 let (lo, hi) = corners.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| (lo.min(q.as_dvec3()), hi.max(q.as_dvec3())));
                 let part = self.part_of_cell[c as usize];

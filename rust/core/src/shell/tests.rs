@@ -616,6 +616,42 @@ fn crossing_parts_inside_another_parts_shell_are_not_swallowed() {
     }
 }
 
+/// Eyes sunk into a head (Suzanne's build): each small sphere crosses the big one and
+/// sticks out by less than the thickness, so the head's cells over the crossing
+/// faces hold part of it, inherited as the crossings are. The result must not
+/// depend on which vertex of an eye is probed: the build (on spatially sorted
+/// vertices) and the report (on the given order, and on the reversed order) agree
+/// that nothing is left. The build called itself clean while the report found
+/// enclosing cells when such cells were asked to enclose nothing.
+#[test]
+fn eyes_crossing_a_head_leave_no_enclosure_whatever_the_vertex_order() {
+    let head = tm::icosphere(3);
+    let eye = tm::icosphere(2);
+    let mut positions: Vec<Vec3> = head.positions().to_vec();
+    let mut sizes = head.face_sizes();
+    let mut corners = head.corners().to_vec();
+    for centre in [Vec3::new(0.35, 0.0, 0.9), Vec3::new(-0.35, 0.0, 0.9)] {
+        let first = positions.len() as u32;
+        positions.extend(eye.positions().iter().map(|q| centre + *q * 0.2));
+        sizes.extend(eye.face_sizes());
+        corners.extend(eye.corners().iter().map(|&v| v + first));
+    }
+    let n = positions.len() as u32;
+    let reversed_corners: Vec<u32> = corners.iter().map(|&v| n - 1 - v).collect();
+    let reversed_positions: Vec<Vec3> = positions.iter().rev().copied().collect();
+    for (name, mesh) in
+        [("given", Mesh::new(positions, &sizes, corners, None).unwrap()), ("reversed", Mesh::new(reversed_positions, &sizes, reversed_corners, None).unwrap())]
+    {
+        assert!(defects::Checker::new(&mesh).base_self_pairs() > 0, "the eyes must cross the head");
+        for (frac, side) in [(0.1, Side::Exterior), (0.1, Side::Envelope), (0.05, Side::Interior)] {
+            let (s, r) = shell_of(&mesh, frac, side);
+            let what = format!("{name} {side:?}: {r:?} {:?}", s.check);
+            assert!(s.check.clean, "{what}");
+            assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells, r.enclosing_cells), (0, 0, 0, 0), "{what}");
+        }
+    }
+}
+
 /// An edit that moves a card into another card's shell, where it crosses nothing
 /// and the cells holding it did not change: the incremental update finds it as a
 /// rebuild does.
