@@ -108,6 +108,7 @@ impl IncrementalShell {
         d.set_item("changed", stats.changed)?;
         d.set_item("retraced", stats.retraced)?;
         d.set_item("kept", stats.kept)?;
+        d.set_item("resettled", stats.resettled)?;
         d.set_item("rebuilt", stats.rebuilt)?;
         Ok(d)
     }
