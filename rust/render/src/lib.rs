@@ -8,6 +8,8 @@
 //!   exact root bracketing of `alpha = 0.5`; ground truth and fallback.
 //! - [`gpu`]: the wgpu slice renderer (chapter 5): plain slicing and the two-pass
 //!   slice interpolation, headless on any Vulkan, Metal or DirectX 12 adapter.
+//! - [`field`]: the GPU sphere tracer of field trees (issue 17), the CPU tracer's
+//!   twin in WGSL.
 //! - [`mipmap`]: double mipmaps for distant views (chapter 6): occupancy levels, then
 //!   transparency levels with directional alpha and normal-distribution ellipsoids.
 //! - [`image_out`]: the rendered frame (colour, alpha, depth, normal) and its PNG and
@@ -17,6 +19,7 @@
 //! - [`silhouette`]: pixel coverage of a mesh or a frame and their intersection over
 //!   union: a bake's fidelity to the reference render of its shell.
 
+pub mod field;
 pub mod gpu;
 pub mod image_out;
 pub mod mipmap;

@@ -1,0 +1,188 @@
+//! The GPU field tracer (`field_trace.wgsl`) against the CPU tracer
+//! (`thicket_core::implicit::trace`), tree by tree: every op, colours, paint, ramps,
+//! displacement and fractal texture functions. The shader is the only second copy of
+//! the evaluator's arithmetic; these comparisons tie the two together.
+//!
+//! Like tests/gpu.rs, these need a GPU adapter and FAIL without one (`make test-rust`
+//! installs lavapipe).
+
+use std::sync::{Mutex, MutexGuard, OnceLock};
+
+use thicket_core::glam::{DMat4, DVec3};
+use thicket_core::implicit::samples::SOFT_CSG_20;
+use thicket_core::implicit::trace::{render, Camera};
+use thicket_core::implicit::FieldTree;
+use thicket_render::field::{FieldTracer, STACK};
+
+fn tracer() -> MutexGuard<'static, FieldTracer> {
+    static T: OnceLock<Mutex<FieldTracer>> = OnceLock::new();
+    T.get_or_init(|| {
+        let t = FieldTracer::new().unwrap_or_else(|e| panic!("no GPU adapter (make test-rust installs lavapipe): {e}"));
+        eprintln!("GPU adapter: {}", t.adapter_name());
+        Mutex::new(t)
+    })
+    .lock()
+    .unwrap_or_else(|e| e.into_inner())
+}
+
+fn camera(size: u32) -> Camera {
+    let view = DMat4::look_at_rh(DVec3::new(2.2, -2.6, 1.8), DVec3::ZERO, DVec3::Z);
+    Camera { view, projection: DMat4::perspective_rh_gl(40f64.to_radians(), 1.0, 0.1, 100.0), width: size, height: size }
+}
+
+/// Agreement of the GPU image with the CPU one.
+#[derive(Debug)]
+struct Agreement {
+    iou: f64,
+    /// Mean absolute RGB difference over pixels both hit.
+    color: f64,
+    /// Share of pixels both hit whose RGB differs by more than 0.1 in some channel.
+    color_outliers: f64,
+    /// Median distance between the hit points, in pixel footprints.
+    depth_median: f64,
+    /// Share of pixels both hit whose normals differ by more than 5 degrees.
+    normal_outliers: f64,
+}
+
+fn compare(name: &str, json: &str, size: u32) -> Agreement {
+    let tree = FieldTree::from_json(json).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let cam = camera(size);
+    let cpu = render(&tree, &cam).unwrap();
+    let gpu = tracer().render(&tree, &cam).unwrap();
+    let g = &gpu.render;
+    let rays = cam.rays().unwrap();
+    let (mut both, mut any) = (0usize, 0usize);
+    let (mut color, mut outliers, mut normal_out) = (0.0, 0usize, 0usize);
+    let mut depths = Vec::new();
+    let w = size as usize;
+    for i in 0..cpu.hits.len() {
+        let (a, b) = (cpu.hits[i], g.hits[i]);
+        any += usize::from(a.is_some() || b.is_some());
+        let (Some(a), Some(b)) = (a, b) else { continue };
+        both += 1;
+        let (pa, pb) = (&cpu.rgba[i * 4..i * 4 + 3], &g.rgba[i * 4..i * 4 + 3]);
+        let diff: Vec<f64> = pa.iter().zip(pb).map(|(x, y)| f64::from((x - y).abs())).collect();
+        color += diff.iter().sum::<f64>() / 3.0;
+        outliers += usize::from(diff.iter().any(|d| *d > 0.1));
+        let ray = rays.ray((i % w) as f64 + 0.5, (i / w) as f64 + 0.5).unwrap();
+        let footprint = ray.near + ray.grow * (a - ray.origin).length();
+        depths.push(a.distance(b) / footprint);
+        let na = tree.sample(a).gradient.normalize();
+        let nb = gpu.normals[i].unwrap();
+        normal_out += usize::from(na.dot(nb) < 5f64.to_radians().cos());
+    }
+    depths.sort_by(f64::total_cmp);
+    let n = both.max(1) as f64;
+    let out = Agreement {
+        iou: both as f64 / any.max(1) as f64,
+        color: color / n,
+        color_outliers: outliers as f64 / n,
+        depth_median: depths.get(depths.len() / 2).copied().unwrap_or(0.0),
+        normal_outliers: normal_out as f64 / n,
+    };
+    eprintln!("{name}: {both} pixels hit by both, {out:?}");
+    assert!(both > 500, "{name}: the tree should cover the view ({both} pixels)");
+    out
+}
+
+/// The tolerances: silhouettes within 1% (IoU), colours within 0.01 on average with
+/// under 1% of pixels off by more than 0.1 (edges, where f32 and f64 marches stop a
+/// step apart), hits within a tenth of a footprint (the hit tolerance) at the
+/// median, under 1% of normals off by more than 5 degrees.
+fn check(name: &str, json: &str) {
+    let a = compare(name, json, 160);
+    assert!(a.iou >= 0.99, "{name}: IoU {a:?}");
+    assert!(a.color < 0.01 && a.color_outliers < 0.01, "{name}: colour {a:?}");
+    assert!(a.depth_median < 0.1, "{name}: depth {a:?}");
+    assert!(a.normal_outliers < 0.01, "{name}: normals {a:?}");
+}
+
+#[test]
+fn soft_csg_20_matches_the_cpu_tracer() {
+    check("soft_csg_20", SOFT_CSG_20);
+}
+
+#[test]
+fn every_primitive_and_exact_operation_matches() {
+    check(
+        "primitives",
+        r#"{"op": "min", "children": [
+          {"op": "plane", "point": [0, 0, -0.8], "normal": [0.1, 0.05, 1], "color": [0.5, 0.5, 0.4, 1]},
+          {"op": "point", "center": [0.6, 0.6, 0.2], "radius": 0.25, "color": [0.9, 0.3, 0.1, 1]},
+          {"op": "segment", "a": [-0.7, 0.2, -0.3], "b": [-0.2, 0.7, 0.5], "radius": 0.12, "color": [0.1, 0.8, 0.3, 1]},
+          {"op": "rectangle", "center": [0.5, -0.5, 0.0], "half_size": [0.3, 0.2], "rotation": [0.9, 0.3, 0.2, 0.1], "radius": 0.08, "color": [0.2, 0.3, 0.9, 1]},
+          {"op": "torus", "center": [-0.4, -0.4, 0.1], "axis": [0.3, 0.2, 1], "major": 0.35, "minor": 0.1, "color": [0.9, 0.8, 0.1, 1]},
+          {"op": "max", "color": [0.7, 0.2, 0.7, 1], "children": [
+            {"op": "box", "center": [0, 0, 0.3], "half_size": [0.3, 0.3, 0.3], "rotation": [0.95, 0.1, 0.2, 0.2], "radius": 0.02},
+            {"op": "negate", "child": {"op": "sphere", "center": [0, 0, 0.6], "radius": 0.3}}]},
+          {"op": "offset", "amount": 0.05, "child": {"op": "h", "children": [
+            {"op": "sphere", "center": [0.1, 0.9, -0.3], "radius": 0.15, "color": [1, 0, 0, 1]},
+            {"op": "sphere", "center": [0.3, 0.9, -0.3], "radius": 0.15, "color": [0, 0, 1, 1]}]}}
+        ]}"#,
+    );
+}
+
+#[test]
+fn soft_operations_blend_colours_alike() {
+    check(
+        "soft",
+        r#"{"op": "union_wp", "p": 4, "children": [
+          {"op": "sphere", "center": [-0.3, 0, 0], "radius": 0.5, "color": [1, 0, 0, 1]},
+          {"op": "sphere", "center": [0.35, 0.1, 0.1], "radius": 0.45, "color": [0, 0, 1, 1]},
+          {"op": "intersection_wp", "p": 12, "children": [
+            {"op": "box", "center": [0, -0.6, -0.3], "half_size": [0.3, 0.3, 0.3], "color": [0, 1, 0, 1]},
+            {"op": "sphere", "center": [0, -0.6, -0.3], "radius": 0.38, "color": [1, 1, 0, 1]}]},
+          {"op": "difference_wp", "p": 10, "children": [
+            {"op": "box", "center": [0.1, 0.6, 0.5], "half_size": [0.35, 0.2, 0.2], "color": [0, 1, 1, 1]},
+            {"op": "sphere", "center": [0.1, 0.6, 0.7], "radius": 0.2, "color": [1, 0, 1, 1]}]}
+        ]}"#,
+    );
+}
+
+#[test]
+fn texture_functions_and_ramps_match() {
+    check(
+        "displace",
+        r#"{"op": "displace", "amplitude": 0.04, "omega": 18, "tau": 0.3,
+          "ramp": [[0, [0.1, 0.2, 0.8, 1]], [0.5, [0.9, 0.9, 0.9, 1]], [1, [0.8, 0.3, 0.1, 1]]],
+          "shape": {"op": "sphere", "center": [0, 0, 0], "radius": 0.7},
+          "texture": {"op": "plane", "point": [0, 0, 0], "normal": [0.2, 0.3, 1]}}"#,
+    );
+    check(
+        "fractal",
+        r#"{"op": "fractal", "terms": [[0.05, 8], [0.025, 16], [0.0125, 32]], "tau": 0.5,
+          "ramp": [[0.2, [0.2, 0.6, 0.2, 1]], [0.8, [0.9, 0.8, 0.3, 1]]],
+          "shape": {"op": "box", "center": [0, 0, 0], "half_size": [0.5, 0.5, 0.4], "radius": 0.05},
+          "texture": {"op": "sphere", "center": [0.3, 0.2, 0.1], "radius": 0}}"#,
+    );
+    check(
+        "painted_displace",
+        r#"{"op": "displace", "amplitude": 0.03, "omega": 12, "tau": 0, "color": [0.3, 0.7, 0.9, 1],
+          "shape": {"op": "torus", "center": [0, 0, 0], "axis": [0, 0, 1], "major": 0.6, "minor": 0.25},
+          "texture": {"op": "segment", "a": [0, 0, -1], "b": [0, 0, 1], "radius": 0}}"#,
+    );
+}
+
+/// A tree nested to the right: each `min` holds its first child while the next
+/// `min` below it is evaluated, `levels + 1` results alive at once.
+fn right_nested(levels: usize) -> String {
+    let mut json = r#"{"op": "sphere", "center": [0, 0, 0], "radius": 0.3}"#.to_string();
+    for k in 0..levels {
+        json = format!(r#"{{"op": "min", "children": [{{"op": "sphere", "center": [{}, 0, 0], "radius": 0.05}}, {json}]}}"#, 0.1 * k as f64);
+    }
+    json
+}
+
+#[test]
+fn a_tree_too_deep_for_the_stack_is_an_error() {
+    // Just fits: the same image as the CPU's.
+    let fits = FieldTree::from_json(&right_nested(STACK - 1)).unwrap();
+    let cam = camera(64);
+    let gpu = tracer().render(&fits, &cam).unwrap();
+    let cpu = render(&fits, &cam).unwrap();
+    let agree = gpu.render.hits.iter().zip(&cpu.hits).filter(|(a, b)| a.is_some() == b.is_some()).count();
+    assert!(agree as f64 > 0.99 * cpu.hits.len() as f64);
+    let deep = FieldTree::from_json(&right_nested(STACK)).unwrap();
+    let err = tracer().render(&deep, &cam).unwrap_err().to_string();
+    assert!(err.contains("results alive at once") && err.contains("cpu"), "{err}");
+}
