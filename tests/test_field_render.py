@@ -177,3 +177,35 @@ def test_bad_cameras_and_trees_raise_invalid_input(scene, change, message):
     args.update(change)
     with pytest.raises(tn.InvalidInput, match=message):
         tn.field_render(json.dumps(args.pop("tree")), **args)
+
+
+def test_gpu_and_cpu_paths_agree_through_the_binding(scene):
+    """device="gpu" (the wgpu tracer; lavapipe in CI) against device="cpu": the same
+    silhouette and colours; "auto" renders too, and a bad device name is refused."""
+    w, h = 128, 96
+    cam = camera(scene, (2.2, -2.6, 1.8), (0.0, 0.0, 0.0), w, h)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    view, projection = cam.matrix_world.inverted(), cam.calc_matrix_camera(depsgraph, x=w, y=h)
+    plane = {"op": "plane", "point": [0, 0, 0], "normal": [0.2, 0.3, 1]}
+    ramp = [[0.0, RED], [1.0, BLUE]]
+    node = {
+        "op": "union_wp",
+        "p": 8,
+        "children": [
+            {"op": "displace", "shape": sphere((0, 0, 0), 0.6, [1, 1, 1, 1]), "texture": plane, "amplitude": 0.03, "omega": 12, "tau": 0.0, "ramp": ramp},
+            {"op": "torus", "center": [0.5, 0.3, 0.2], "axis": [0, 0.3, 1], "major": 0.4, "minor": 0.1, "color": [0.2, 0.9, 0.3, 1]},
+        ],
+    }
+    text = json.dumps(node)
+    cpu = tn.field_render(text, view, projection, width=w, height=h, device="cpu")
+    gpu = tn.field_render(text, view, projection, width=w, height=h, device="gpu")
+    auto = tn.field_render(text, view, projection, width=w, height=h, device="auto")
+    assert gpu.shape == cpu.shape == auto.shape == (h, w, 4) and gpu.dtype == np.float32
+    hit_cpu, hit_gpu = cpu[..., 3] > 0, gpu[..., 3] > 0
+    assert hit_cpu.sum() > 1000
+    assert iou(hit_cpu, hit_gpu) >= 0.99
+    both = hit_cpu & hit_gpu
+    assert np.abs(cpu[both][:, :3] - gpu[both][:, :3]).mean() < 0.01
+    assert iou(hit_cpu, auto[..., 3] > 0) >= 0.99
+    with pytest.raises(tn.InvalidInput, match="device must be"):
+        tn.field_render(text, view, projection, width=w, height=h, device="tpu")

@@ -6,6 +6,7 @@ use pyo3::prelude::*;
 use thicket_core::glam::DMat4;
 use thicket_core::implicit::trace::{render, Camera};
 use thicket_core::implicit::FieldTree;
+use thicket_render::field::render_on_shared_gpu;
 
 use crate::errors::{run_detached, InvalidInput};
 
@@ -26,7 +27,7 @@ fn matrix(value: &Bound<'_, PyAny>, name: &str) -> PyResult<DMat4> {
     Ok(DMat4::from_cols_array_2d(&rows).transpose())
 }
 
-/// field_render(tree_json, view, projection, width=512, height=512) -> ndarray
+/// field_render(tree_json, view, projection, width=512, height=512, device="cpu") -> ndarray
 ///
 /// The field tree `tree_json` (a JSON string; schema: thicket_core::implicit)
 /// sphere-traced as a camera sees it: `view` the world-to-camera matrix
@@ -36,9 +37,13 @@ fn matrix(value: &Bound<'_, PyAny>, name: &str) -> PyResult<DMat4> {
 /// rows top to bottom (flip them for `Image.pixels`, which start at the bottom), the
 /// tree's colours under a headlight, alpha 0 where nothing is hit. A bad tree, a size
 /// below 1 or above 16384, or a non-invertible camera raises InvalidInput (a
-/// ThicketError) saying what is wrong. Runs with the GIL released.
+/// ThicketError) saying what is wrong. `device`: "cpu" (the CPU tracer, in double
+/// precision), "gpu" (the wgpu tracer, the same rays, steps and shading in single
+/// precision; DeviceError without an adapter, InvalidInput for a tree deeper than
+/// its stack of 16 results) or "auto" (the GPU, falling back to the CPU where the GPU
+/// cannot render it). Runs with the GIL released.
 #[pyfunction]
-#[pyo3(signature = (tree_json, view, projection, width=512, height=512))]
+#[pyo3(signature = (tree_json, view, projection, width=512, height=512, device="cpu"))]
 pub fn field_render<'py>(
     py: Python<'py>,
     tree_json: &str,
@@ -46,12 +51,23 @@ pub fn field_render<'py>(
     projection: &Bound<'py, PyAny>,
     width: i64,
     height: i64,
+    device: &str,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
     let (view, projection) = (matrix(view, "view")?, matrix(projection, "projection")?);
     let size = |name: &str, v: i64| u32::try_from(v).map_err(|_| InvalidInput::new_err(format!("{name} must be 1 to 16384 pixels, got {v}")));
     let camera = Camera { view, projection, width: size("width", width)?, height: size("height", height)? };
-    let text = tree_json.to_owned();
-    let out = run_detached(py, move || render(&FieldTree::from_json(&text)?, &camera))?;
+    if !matches!(device, "cpu" | "gpu" | "auto") {
+        return Err(InvalidInput::new_err(format!("device must be \"cpu\", \"gpu\" or \"auto\", got {device:?}")));
+    }
+    let (text, device) = (tree_json.to_owned(), device.to_owned());
+    let out = run_detached(py, move || {
+        let tree = FieldTree::from_json(&text)?;
+        match device.as_str() {
+            "cpu" => render(&tree, &camera),
+            "gpu" => Ok(render_on_shared_gpu(&tree, &camera)?.render),
+            _ => render_on_shared_gpu(&tree, &camera).map(|g| g.render).or_else(|_| render(&tree, &camera)),
+        }
+    })?;
     let (h, w) = (out.height as usize, out.width as usize);
     out.rgba.into_pyarray(py).reshape([h, w, 4])
 }
