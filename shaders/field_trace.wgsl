@@ -68,8 +68,11 @@ fn v4(i: u32) -> vec4<f32> {
     return vec4<f32>(program[i], program[i + 1u], program[i + 2u], program[i + 3u]);
 }
 
-fn copy_slot(dst: u32, src: u32) {
+fn copy_slot(dst: u32, src: u32, full: bool) {
     sf[dst] = sf[src];
+    if !full {
+        return;
+    }
     sg[dst] = sg[src];
     sc[dst] = sc[src];
     st[dst] = st[src];
@@ -137,9 +140,9 @@ fn wp_sign(kind: u32, child: u32) -> f32 {
     return -1.0;
 }
 
-// Runs the program at x; the result is slot 0. `full`: gradient and attributes too
-// (computed either way; the flag only skips nothing, kept for clarity of the calls).
-fn run(x: vec3<f32>) {
+// Runs the program at x; the result is slot 0: its value, and with `full` its
+// gradient, colour and texture (the march needs only values).
+fn run(x: vec3<f32>, full: bool) {
     var sp = 0u;
     var pc = 0u;
     while pc < params.length {
@@ -149,9 +152,11 @@ fn run(x: vec3<f32>) {
             case 0u: {
                 let r = prim(pc, x);
                 sf[sp] = r.x;
-                sg[sp] = r.yzw;
-                sc[sp] = v4(pc + 17u);
-                st[sp] = 0.0;
+                if full {
+                    sg[sp] = r.yzw;
+                    sc[sp] = v4(pc + 17u);
+                    st[sp] = 0.0;
+                }
                 sp += 1u;
                 pc += 21u;
             }
@@ -161,7 +166,9 @@ fn run(x: vec3<f32>) {
             }
             case 2u: {
                 sf[sp - 1u] = -sf[sp - 1u];
-                sg[sp - 1u] = -sg[sp - 1u];
+                if full {
+                    sg[sp - 1u] = -sg[sp - 1u];
+                }
             }
             case 3u: {
                 // h over the top k results (eval::h_block).
@@ -185,18 +192,22 @@ fn run(x: vec3<f32>) {
                     for (var i = first; i < sp; i++) {
                         let w = max(sf[i], 0.0) / m;
                         ss += w * w;
-                        sum += w;
-                        g += w * sg[i];
-                        c += w * sc[i];
-                        t += w * st[i];
+                        if full {
+                            sum += w;
+                            g += w * sg[i];
+                            c += w * sc[i];
+                            t += w * st[i];
+                        }
                     }
                     let len = sqrt(ss);
                     sf[first] = m * len;
-                    sg[first] = g / len;
-                    sc[first] = c / sum;
-                    st[first] = t / sum;
+                    if full {
+                        sg[first] = g / len;
+                        sc[first] = c / sum;
+                        st[first] = t / sum;
+                    }
                 } else if best != first {
-                    copy_slot(first, best);
+                    copy_slot(first, best, full);
                 }
                 sp = first + 1u;
             }
@@ -211,7 +222,7 @@ fn run(x: vec3<f32>) {
                     }
                 }
                 if best != first {
-                    copy_slot(first, best);
+                    copy_slot(first, best, full);
                 }
                 sp = first + 1u;
             }
@@ -238,14 +249,18 @@ fn run(x: vec3<f32>) {
                     let s = wp_sign(kind, i - first);
                     let e = exp(p * s * sf[i] - top);
                     sum += e;
-                    g += e * s * outer * sg[i];
-                    c += e * sc[i];
-                    t += e * st[i];
+                    if full {
+                        g += e * s * outer * sg[i];
+                        c += e * sc[i];
+                        t += e * st[i];
+                    }
                 }
                 sf[first] = outer * (top + log(sum)) / p;
-                sg[first] = g / sum;
-                sc[first] = c / sum;
-                st[first] = t / sum;
+                if full {
+                    sg[first] = g / sum;
+                    sc[first] = c / sum;
+                    st[first] = t / sum;
+                }
                 sp = first + 1u;
             }
             case 7u: {
@@ -257,8 +272,10 @@ fn run(x: vec3<f32>) {
                 let s = sp - 1u;
                 let phase = omega * sf[sp] + tau;
                 sf[s] += amplitude * (cos(phase) + 1.0);
-                sg[s] += -amplitude * omega * sin(phase) * sg[sp];
-                st[s] = 0.5 * (1.0 + cos(phase));
+                if full {
+                    sg[s] += -amplitude * omega * sin(phase) * sg[sp];
+                    st[s] = 0.5 * (1.0 + cos(phase));
+                }
             }
             case 8u: {
                 let count = u32(word(pc));
@@ -280,6 +297,10 @@ fn run(x: vec3<f32>) {
                     t += abs(a) * 0.5 * (1.0 + cos(phase));
                 }
                 sf[s] += add;
+                if !full {
+                    pc += 2u * count;
+                    continue;
+                }
                 sg[s] += d * sg[sp];
                 if weight > 0.0 {
                     st[s] = t / weight;
@@ -289,13 +310,19 @@ fn run(x: vec3<f32>) {
                 pc += 2u * count;
             }
             case 9u: {
-                sc[sp - 1u] = v4(pc);
+                if full {
+                    sc[sp - 1u] = v4(pc);
+                }
                 pc += 4u;
             }
             case 10u: {
                 // tree::ramp_color at the texture value.
                 let count = u32(word(pc));
                 pc += 1u;
+                if !full {
+                    pc += 5u * count;
+                    continue;
+                }
                 let t = st[sp - 1u];
                 var c = v4(pc + 1u);
                 if t > word(pc) {
@@ -353,7 +380,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if t <= end {
         for (var step = 0u; step < params.max_steps; step++) {
             x = origin + t * dir;
-            run(x);
+            run(x, false);
             let f = sf[0];
             let eps = HIT * max(ray.footprint.x + ray.footprint.y * t, 1e-12);
             if f < eps {
@@ -367,7 +394,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     if hit {
-        run(x);
+        run(x, true);
         let g = sg[0];
         var normal = -dir;
         let l = length(g);
