@@ -2,7 +2,7 @@
 //! sphere-traced at 512x512 by the CPU tracer and by the GPU tracer
 //! (`thicket_render::field`, on whatever adapter is present: lavapipe without a GPU),
 //! the median of `--runs` frames on the CPU (3) and `--gpu-runs` on the GPU (1: a
-//! frame takes about 18 s on lavapipe with 2 cores; the device and pipeline are made
+//! frame takes about 10 s on lavapipe with 2 cores; the device and pipeline are made
 //! before), and their ratio.
 //!
 //! `cargo run --release -p thicket-render --example field_trace_gpu_bench [-- --runs N --gpu-runs M]`
