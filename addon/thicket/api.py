@@ -147,21 +147,44 @@ def add_thick_surface(
     return _regenerate(obj, progress=progress)
 
 
-def add_volumetric_texture(obj, pattern="chain_mail", shell_thickness=0.05, side="EXTERIOR", progress=None, **texture_settings):
+def add_volumetric_texture(obj, pattern="chain_mail", shell_thickness=0.05, side="EXTERIOR", progress=None, field_tree_json=None, **texture_settings):
     """Adds a Volumetric Texture item (names of `ThicketItem`: tiling, resolution,
     depth_steps, vertex_group, combine, offset, time, follow_frame...) to `obj`'s
     stack, after a Shell item of `shell_thickness` (relative) that is added first when
     the stack has no shell yet; regenerates and returns the result object.
+    `field_tree_json`: the texture from a field tree instead of `pattern` (README,
+    Volumetric Texture from a field tree): JSON text, a dict, a Blender Text holding
+    the JSON or a Thicket field node tree, authored in the unit texture cell (x, y, z
+    = s, t, depth from the base), sampled at `texture_size` texels (half across the
+    shell). A bad tree raises a ThicketError before the stack is touched.
     `progress`: see the module docs (a cancel keeps the new items, and the previous
     result)."""
     from .stack.versioning import current_names
 
     texture_settings = current_names(texture_settings)  # warns at the caller's line
     _require_mesh(obj)
+    if field_tree_json is not None:
+        texture_settings.update(_field_texture_source(field_tree_json))
     if not any(i.kind in ("SHELL", "OFFSET_SHELL") for i in obj.thicket.items):
         add_item(obj, "SHELL", thickness=shell_thickness, side=side)
     add_item(obj, "VOLUMETRIC_TEXTURE", pattern=pattern, **texture_settings)
     return _regenerate(obj, progress=progress)
+
+
+def _field_texture_source(tree):
+    """The Volumetric Texture item settings that make `tree` its source, the tree checked first."""
+    from .pure.field_nodes import TREE_IDNAME
+    from .pure.field_tree import check_tree
+
+    if isinstance(tree, bpy.types.NodeTree) and tree.bl_idname == TREE_IDNAME:
+        from .nodes.graph import tree_json
+
+        check_tree(tree_json(tree))
+        return {"source": "FIELD_NODES", "field_nodes": tree}
+    if isinstance(tree, bpy.types.Text):
+        check_tree(tree.as_string())
+        return {"source": "FIELD_JSON", "tree_text": tree}
+    return {"source": "FIELD_JSON", "tree": check_tree(tree)}
 
 
 def build_field_mesh(tree_json, name="Field Mesh", resolution=128, bounds=None, adaptive=True, collection=None, progress=None, max_bytes=None):

@@ -28,6 +28,24 @@ def linked_objects(tree):
     return [obj for obj in bpy.data.objects if node_tree_of(obj) == tree]
 
 
+def stack_users(tree):
+    """The stack sources with a Volumetric Texture item whose source is `tree`."""
+    return [
+        obj
+        for obj in bpy.data.objects
+        if obj.type == "MESH" and any(i.kind == "VOLUMETRIC_TEXTURE" and i.source == "FIELD_NODES" and i.field_nodes == tree for i in obj.thicket.items)
+    ]
+
+
+def _used_trees():
+    """The node trees shown by a Field Mesh or filling a Volumetric Texture."""
+    trees = {node_tree_of(obj) for obj in bpy.data.objects}
+    for obj in bpy.data.objects:
+        if obj.type == "MESH":
+            trees.update(i.field_nodes for i in obj.thicket.items if i.kind == "VOLUMETRIC_TEXTURE" and i.source == "FIELD_NODES")
+    return trees - {None}
+
+
 def errors():
     return (TypeError, KeyError, ValueError, RuntimeError, *native.error_types())
 
@@ -92,8 +110,14 @@ def schedule_tree(tree) -> None:
 
 def _regenerate_tree(name: str) -> None:
     tree = bpy.data.node_groups.get(name)
-    if tree is not None and tree.bl_idname == TREE_IDNAME and linked_objects(tree):
+    if tree is None or tree.bl_idname != TREE_IDNAME:
+        return
+    if linked_objects(tree):
         regenerate_tree(tree)
+    from ..stack import auto_update
+
+    for obj in stack_users(tree):  # their stacks regenerate as on any other change
+        auto_update.schedule(obj)
 
 
 _trees = Debounced(_regenerate_tree)
@@ -114,7 +138,7 @@ def _handles(tree):
 
 def changed_trees(depsgraph):
     """The linked trees one of whose handle objects (or their curves) this update moved or changed."""
-    trees = {node_tree_of(obj) for obj in bpy.data.objects} - {None}
+    trees = _used_trees()
     if not trees:
         return []
     moved = set()

@@ -61,7 +61,9 @@ class VolumetricTexture(_Item):
     thin base slab, blended smoothly). combine: a second pattern united with the first
     (chapter 7), shifted by `offset` in (s, t). time: animated patterns' time.
     filepath: a texture file instead of the pattern (a folder of PNG slices, or an
-    .exr volume). Editing (chapter 7): hole_group zeroes the texture by weight, cutter
+    .exr volume). field_tree: a field tree's JSON instead of the pattern (README,
+    Volumetric Texture from a field tree): authored in the unit texture cell, its
+    point (x, y, z) is (s, t, r); sampled at texture_size (half across the shell), alpha only. Editing (chapter 7): hole_group zeroes the texture by weight, cutter
     (vertices, triangles) of a closed mesh in the source's space zeroes it inside;
     move_group's piece of texture moves by move_offset (UV units), its trace showing
     the base. follow_texture: sample at the texture's own texel spacing (at least
@@ -74,6 +76,7 @@ class VolumetricTexture(_Item):
 
     pattern: str = "chain_mail"
     filepath: str = ""
+    field_tree: str = ""
     seed: int = 0
     time: float = 1.0
     feature_thickness: float = 1.0

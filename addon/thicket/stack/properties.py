@@ -17,6 +17,12 @@ PATTERNS = [
 ]
 
 
+def _is_field_tree(self, tree):
+    from ..pure.field_nodes import TREE_IDNAME
+
+    return tree.bl_idname == TREE_IDNAME
+
+
 def _is_mesh(self, obj):
     return obj.type == "MESH" and obj != self.id_data
 
@@ -128,11 +134,20 @@ class ThicketItem(bpy.types.PropertyGroup):
         items=[
             ("PATTERN", "Pattern", "A procedural pattern from Thicket's library"),
             ("FILE", "File", "A texture file: a folder of PNG slices (base first) or an OpenEXR volume"),
+            ("FIELD_NODES", "Field Nodes", "A Thicket field node tree, authored in the unit texture cell (x, y, z = s, t, depth)"),
+            ("FIELD_JSON", "Field JSON", "A field tree's JSON (Field Tree, or its Text), authored in the unit texture cell (x, y, z = s, t, depth)"),
         ],
         default="PATTERN",
         update=_changed,
     )
     filepath: StringProperty(name="Texture File", description="A PNG slice (its folder is the stack) or an .exr volume", subtype="FILE_PATH", update=_changed)
+    field_nodes: PointerProperty(
+        name="Field Nodes",
+        description="A Thicket field node tree filling the texture's unit cell (x, y, z = s, t, depth from the base)",
+        type=bpy.types.NodeTree,
+        poll=_is_field_tree,
+        update=_changed,
+    )
     hole_group: StringProperty(name="Holes", description="Vertex group where the texture is cut away (by weight)", update=_changed)
     cutter: PointerProperty(
         name="Cutter", description="A closed mesh object: the texture is cut away inside it", type=bpy.types.Object, poll=_is_mesh, update=_changed
@@ -217,6 +232,24 @@ class ThicketItem(bpy.types.PropertyGroup):
         """The Solid Texture's tree: its Text's content when set, else its JSON text."""
         return self.tree_text.as_string() if self.tree_text is not None else self.tree
 
+    def texture_field_tree(self):
+        """The Volumetric Texture's field tree JSON for the Field sources ("" for the
+        others); a missing node tree or empty JSON is refused naming the item."""
+        from ..pure.field_tree import invalid
+
+        if self.source == "FIELD_NODES":
+            if self.field_nodes is None:
+                raise invalid(f"'{self.name}' has no field node tree: pick a Thicket field node tree as its source")
+            from ..nodes.graph import tree_json
+
+            return tree_json(self.field_nodes)
+        if self.source == "FIELD_JSON":
+            text = self.tree_json()
+            if not text.strip():
+                raise invalid(f"'{self.name}' has no field tree: give it the tree's JSON or a Text holding it")
+            return text
+        return ""
+
     def texture_time(self, scene=None):
         """The time the pattern is baked at: the scene's (seconds x speed) when following frames."""
         scene = scene or bpy.context.scene
@@ -245,6 +278,7 @@ class ThicketItem(bpy.types.PropertyGroup):
                 max_triangles=self.max_triangles,
                 confirm_above=self.confirm_above,
                 filepath=bpy.path.abspath(self.filepath) if self.source == "FILE" else "",
+                field_tree=self.texture_field_tree(),
                 hole_group=SELECTED_FACES if self.face_selection == "HOLES" else self.hole_group,
                 move_group=SELECTED_FACES if self.face_selection == "MOVE" else self.move_group,
                 move_offset=tuple(self.move_offset),

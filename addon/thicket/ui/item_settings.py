@@ -38,6 +38,15 @@ def _draw_texture_settings(col, obj, item):
     col.prop(item, "source")
     if item.source == "FILE":
         col.prop(item, "filepath")
+    elif item.source == "FIELD_NODES":
+        col.prop(item, "field_nodes")
+        col.prop(item, "texture_size")
+    elif item.source == "FIELD_JSON":
+        col.prop(item, "tree_text")
+        row = col.row()
+        row.active = item.tree_text is None
+        row.prop(item, "tree")
+        col.prop(item, "texture_size")
     else:
         col.prop(item, "pattern")
         col.prop(item, "seed")

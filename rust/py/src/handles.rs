@@ -17,7 +17,7 @@ use crate::arrays;
 use crate::errors::{run_detached, run_maybe_watched};
 use crate::keywords::Keywords;
 use crate::offset::parse_output;
-use crate::texture::{generate, volume_array, volume_samples, BakeInputs, TextureSettings};
+use crate::texture::{from_field, generate, volume_array, volume_samples, BakeInputs, TextureSettings};
 use crate::textured_shell::TexturedShell;
 
 /// Mesh(vertices, face_sizes, corners, uvs=None)
@@ -193,6 +193,16 @@ impl Texture {
     #[pyo3(signature = (pattern, size=(64, 64, 32), seed=0, time=1.0, thickness=1.0))]
     fn pattern(py: Python<'_>, pattern: &str, size: (usize, usize, usize), seed: u32, time: f32, thickness: f32) -> PyResult<Self> {
         Ok(Self { inner: Arc::new(generate(py, pattern, size, seed, time, thickness)?) })
+    }
+
+    /// from_field(tree_json, resolution=(64, 64, 32)) -> Texture: the field tree
+    /// `tree_json` sampled over the unit texture cell, tree point (x, y, z) = texture
+    /// (s, t, r): alpha 1 where the tree is <= 0, 0 outside, a ramp one texel wide
+    /// between (alpha only: colours are not kept). `resolution` is (nx, ny, nz).
+    #[staticmethod]
+    #[pyo3(signature = (tree_json, resolution=(64, 64, 32)))]
+    fn from_field(py: Python<'_>, tree_json: &str, resolution: (usize, usize, usize)) -> PyResult<Self> {
+        Ok(Self { inner: Arc::new(from_field(py, tree_json, resolution)?) })
     }
 
     /// load(path) -> Texture: `load_texture(path)`'s texture, kept in Rust.

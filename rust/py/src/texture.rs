@@ -4,9 +4,10 @@ use numpy::{IntoPyArray, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntyped
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use thicket_core::glam::Vec2;
+use thicket_core::implicit::FieldTree;
 use thicket_core::shell::Shell;
 use thicket_core::texture::bake::{Cutter, MovedRegion};
-use thicket_core::texture::{BakeParams, Generator, Pattern, TextureLayer, TexturedShell, VolumeTexture};
+use thicket_core::texture::{texture_from_field, BakeParams, Generator, Pattern, TextureLayer, TexturedShell, VolumeTexture};
 use thicket_core::Mesh;
 
 use crate::arrays;
@@ -35,6 +36,16 @@ pub(crate) fn generate(py: Python<'_>, pattern: &str, size: (usize, usize, usize
     }
     let g = Generator { pattern, seed, time, thickness };
     run_detached(py, move || g.generate([size.0, size.1, size.2]))
+}
+
+/// The texture `Texture.from_field(tree_json, resolution)` makes: the field tree read
+/// and sampled over the unit texture cell with the GIL released (the core's
+/// `texture::from_field`: tree point (x, y, z) = texture (s, t, r), alpha 1 inside,
+/// 0 outside, a one-texel ramp between). Bad trees and sizes raise InvalidInput.
+pub(crate) fn from_field(py: Python<'_>, tree_json: &str, resolution: (usize, usize, usize)) -> PyResult<VolumeTexture> {
+    let text = tree_json.to_owned();
+    let dims = [resolution.0, resolution.1, resolution.2];
+    run_detached(py, move || texture_from_field(&FieldTree::from_json(&text)?, dims))
 }
 
 /// A texture as numpy float32 (nz, ny, nx), indexed [r, t, s].

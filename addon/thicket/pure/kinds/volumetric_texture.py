@@ -11,6 +11,7 @@ import numpy as np
 from .. import native
 from .. import settings as S
 from ..arrays import MeshArrays
+from ..field_tree import check_tree
 from ..state import ShellContext, State, group_weights
 
 TEXCOORD_ATTRIBUTE = "thicket_texcoord"
@@ -48,6 +49,17 @@ def _pattern(tn, pattern, size, seed, time, thickness):
     return tn.Texture.pattern(pattern, size=size, seed=seed, time=time, thickness=thickness)
 
 
+@functools.lru_cache(maxsize=4)
+def _field(tn, tree, size):
+    """A field tree's texture as a `thicket_native.Texture`, made once per tree and size."""
+    return tn.Texture.from_field(tree, resolution=size)
+
+
+def _size(item: S.VolumetricTexture):
+    size = int(item.texture_size)
+    return (size, size, max(2, size // 2))
+
+
 def _texture(tn, pattern, item: S.VolumetricTexture):
     size = int(item.texture_size)
     return _pattern(tn, pattern, (size, size, max(2, size // 2)), int(item.seed), float(item.time), float(item.feature_thickness))
@@ -55,8 +67,10 @@ def _texture(tn, pattern, item: S.VolumetricTexture):
 
 def item_texture(item: S.VolumetricTexture):
     """The item's texture as a `thicket_native.Texture` handle (its `array()` is the
-    float32 (nz, ny, nx) alpha): its file or its pattern."""
+    float32 (nz, ny, nx) alpha): its field tree, its file or its pattern."""
     tn = native.get()
+    if item.field_tree:
+        return _field(tn, check_tree(item.field_tree), _size(item))
     return _texture_file(tn, item.filepath) if item.filepath else _texture(tn, item.pattern, item)
 
 

@@ -14,6 +14,7 @@
 //! - [`io`]: textures from and to files (PNG slice stacks, OpenEXR volumes).
 
 pub mod bake;
+pub mod from_field;
 pub mod io;
 pub mod layer;
 pub mod mapping;
@@ -22,6 +23,7 @@ pub mod textured_shell;
 pub mod volume;
 
 pub use bake::{bake, BakeParams, BakedMesh};
+pub use from_field::texture_from_field;
 pub use layer::TextureLayer;
 pub use mapping::{CellMap, TextureCoordinates, TriangleCells};
 pub use procedural::{Generator, Pattern};
