@@ -40,8 +40,9 @@ fn matrix(value: &Bound<'_, PyAny>, name: &str) -> PyResult<DMat4> {
 /// ThicketError) saying what is wrong. `device`: "cpu" (the CPU tracer, in double
 /// precision), "gpu" (the wgpu tracer, the same rays, steps and shading in single
 /// precision; DeviceError without an adapter, InvalidInput for a tree deeper than
-/// its stack of 16 results) or "auto" (the GPU, falling back to the CPU where the GPU
-/// cannot render it). Runs with the GIL released.
+/// its stack of 16 results) or "auto" (a hardware GPU, falling back to the CPU where
+/// there is none, the only adapter is a software rasterizer, or the GPU cannot
+/// render the tree). Runs with the GIL released.
 #[pyfunction]
 #[pyo3(signature = (tree_json, view, projection, width=512, height=512, device="cpu"))]
 pub fn field_render<'py>(
@@ -64,8 +65,8 @@ pub fn field_render<'py>(
         let tree = FieldTree::from_json(&text)?;
         match device.as_str() {
             "cpu" => render(&tree, &camera),
-            "gpu" => Ok(render_on_shared_gpu(&tree, &camera)?.render),
-            _ => render_on_shared_gpu(&tree, &camera).map(|g| g.render).or_else(|_| render(&tree, &camera)),
+            "gpu" => Ok(render_on_shared_gpu(&tree, &camera, true)?.render),
+            _ => render_on_shared_gpu(&tree, &camera, false).map(|g| g.render).or_else(|_| render(&tree, &camera)),
         }
     })?;
     let (h, w) = (out.height as usize, out.width as usize);

@@ -186,3 +186,16 @@ fn a_tree_too_deep_for_the_stack_is_an_error() {
     let err = tracer().render(&deep, &cam).unwrap_err().to_string();
     assert!(err.contains("results alive at once") && err.contains("cpu"), "{err}");
 }
+
+/// The shared tracer refuses a software rasterizer unless asked for one ("auto" then
+/// falls back to the CPU tracer, about 27x faster than lavapipe), and renders on it
+/// when asked ("gpu").
+#[test]
+fn the_shared_tracer_takes_a_software_adapter_only_when_asked() {
+    let tree = FieldTree::from_json(SOFT_CSG_20).unwrap();
+    let software = tracer().is_software();
+    let cam = camera(32);
+    assert!(thicket_render::field::render_on_shared_gpu(&tree, &cam, true).is_ok());
+    let refused = thicket_render::field::render_on_shared_gpu(&tree, &cam, false);
+    assert_eq!(refused.is_err(), software, "{:?}", refused.err());
+}
