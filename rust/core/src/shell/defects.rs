@@ -92,9 +92,12 @@ pub(crate) struct Checker {
     probes: Vec<u32>,
     probe_tree: TriBvh,
     unprobed: Vec<bool>,
-    /// Faces with a triangle that crosses the base: their cells hold whatever crosses
-    /// them, inherited as the crossings are, so they are not asked to enclose nothing.
+    /// Faces with a triangle that crosses the base, and the pairs of parts that cross
+    /// each other (sorted, smaller first): a cell over a crossing face holds whatever
+    /// part crosses its own part, inherited as the crossings are, so it is not asked
+    /// to keep that part's probe out; every other part's it is.
     crossing_face: Vec<bool>,
+    crossing_parts: Vec<(u32, u32)>,
 }
 
 /// A side wall of a shell over an open mesh: the quad between layers 0 and 1 over
@@ -186,6 +189,7 @@ impl Checker {
             probe_tree: TriBvh::from_boxes(Vec::new()),
             unprobed: Vec::new(),
             crossing_face: vec![false; mesh.face_count()],
+            crossing_parts: Vec::new(),
             part_of,
         };
         let pairs = me.base_bvh.overlapping_pairs(&|i, j| me.bases_cross(i, j));
@@ -197,13 +201,32 @@ impl Checker {
 
     /// Each part's probe: its first vertex on triangles of which none crosses the
     /// base; a part without one, and a loose vertex, is not probed (none probed for a
-    /// mesh of one part). The probe tree and the crossing faces follow.
+    /// mesh of one part). The probe tree, the crossing faces and the pairs of parts
+    /// that cross follow.
     fn choose_probes(&mut self, p: &[Vec3]) {
         if self.probes.is_empty() {
             return;
         }
         self.crossing_face.fill(false);
-        (0..self.tris.len()).filter(|&t| self.own[t]).for_each(|t| self.crossing_face[self.face_of[t] as usize] = true);
+        let own: Vec<u32> = (0..self.tris.len() as u32).filter(|&t| self.own[t as usize]).collect();
+        own.iter().for_each(|&t| self.crossing_face[self.face_of[t as usize] as usize] = true);
+        let part = |t: u32| self.part_of[self.tris[t as usize][0] as usize];
+        let mut pairs: Vec<(u32, u32)> = own
+            .par_iter()
+            .flat_map_iter(|&t| {
+                let (lo, hi) = tri_box(&self.base[t as usize]);
+                let mut found = Vec::new();
+                self.base_bvh.query(lo, hi, |j| {
+                    if part(j) != part(t) && self.bases_cross(t, j) {
+                        found.push((part(t).min(part(j)), part(t).max(part(j))));
+                    }
+                });
+                found
+            })
+            .collect();
+        pairs.sort_unstable();
+        pairs.dedup();
+        self.crossing_parts = pairs;
         let mut probe = vec![u32::MAX; self.probes.len()];
         for (v, &k) in self.part_of.iter().enumerate() {
             let around = self.tris_around.of(v);
@@ -243,6 +266,11 @@ impl Checker {
             .sum()
     }
 
+    /// The base triangles that cross another part of the mesh.
+    pub fn own_tris(&self) -> Vec<u32> {
+        (0..self.tris.len() as u32).filter(|&t| self.own[t as usize]).collect()
+    }
+
     /// The mesh faces that cross another part of the mesh, sorted, each once.
     pub fn own_faces(&self) -> Vec<u32> {
         let mut f: Vec<u32> = (0..self.tris.len()).filter(|&t| self.own[t]).map(|t| self.face_of[t]).collect();
@@ -276,7 +304,8 @@ impl Checker {
         let flags: Vec<bool> = near.par_iter().map(|&t| self.crosses_base(t)).collect();
         let flipped: Vec<u32> = near.iter().zip(flags).filter(|(&t, f)| self.own[t as usize] != *f).map(|(&t, _)| t).collect();
         flipped.iter().for_each(|&t| self.own[t as usize] ^= true);
-        if !flipped.is_empty() {
+        // A moved crossing triangle may cross other parts than before.
+        if !flipped.is_empty() || touched.iter().any(|&t| self.own[t as usize]) {
             self.choose_probes(p);
         }
         self.diag = mesh.bbox_diagonal() as f64;
@@ -457,7 +486,8 @@ impl Checker {
     /// crossings, this bounds the shell's volume (module docs). Only the flagged cells
     /// are asked: a part moving into a cell that did not change is found by the
     /// caller flagging the cells around its probe ([`Checker::cells_near_probes`]).
-    /// Cells over a face that crosses the base are not asked (`crossing_face`).
+    /// A cell over a face that crosses the base is not asked about the parts that
+    /// cross its own (`crossing_face`, `crossing_parts`).
     fn enclosing(&self, mesh: &Mesh, shell: &Shell, cells: &[u32]) -> Vec<u32> {
         if self.probes.is_empty() {
             return Vec::new();
@@ -468,15 +498,16 @@ impl Checker {
             .copied()
             .filter(|&c| {
                 let cell = &self.cells[c as usize];
-                if self.crossing_face[cell.face as usize] {
-                    return false;
-                }
+                let crossing = self.crossing_face[cell.face as usize];
                 let corners = cell.corners(p, shell);
                 let (lo, hi) = corners.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| (lo.min(q.as_dvec3()), hi.max(q.as_dvec3())));
                 let part = self.part_of_cell[c as usize];
                 self.probe_tree.any(lo, hi, |k| {
                     let v = self.probes[k as usize];
-                    k != part && !self.unprobed[k as usize] && cell.encloses(p, shell, p[v as usize].as_dvec3())
+                    k != part
+                        && !self.unprobed[k as usize]
+                        && !(crossing && self.crossing_parts.binary_search(&(k.min(part), k.max(part))).is_ok())
+                        && cell.encloses(p, shell, p[v as usize].as_dvec3())
                 })
             })
             .collect()

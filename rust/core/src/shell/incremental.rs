@@ -212,14 +212,17 @@ impl IncrementalShell {
         }
         let mut seeds = self.reset_repaired(&dirty);
         let resettled = seeds.len();
-        let mut flipped = Vec::new();
-        if retriangulated {
+        let flipped = if retriangulated {
             self.checker = Checker::new(&self.mesh);
             self.outer_bvh = None;
+            // Crossings and probes are found anew: the parts that cross are looked
+            // for near their (maybe new) probes, as after flipped flags.
+            self.checker.own_tris()
         } else {
-            flipped = self.checker.refit_base(&self.mesh, &moved);
+            let flipped = self.checker.refit_base(&self.mesh, &moved);
             self.seed_pierced_outer(&changes, &flipped, &mut seeds);
-        }
+            flipped
+        };
         // A part that moved may now lie inside another part's cells, which did not
         // change: those cells are checked again.
         let reach = self.shell.base_offset.iter().zip(&self.shell.directors).map(|(b, d)| (b.length() + d.length()) as f64).fold(0.0, f64::max);
@@ -361,13 +364,13 @@ impl IncrementalShell {
         let mut ring: Vec<u32> = retraced.to_vec();
         ring.iter().for_each(|&v| reset[v as usize] = true);
         let mut seeds = Vec::with_capacity(ring.len());
-        for _ in 0..=RESET_RINGS {
-            if ring.is_empty() {
+        for r in 0..=RESET_RINGS {
+            seeds.extend(&ring);
+            if r == RESET_RINGS || ring.is_empty() {
                 break;
             }
             let mut next = Vec::new();
             for &v in &ring {
-                seeds.push(v);
                 for &f in self.tracer.faces_around.of(v as usize) {
                     for &u in self.mesh.face(f as usize) {
                         if !reset[u as usize] && repaired(u as usize) {

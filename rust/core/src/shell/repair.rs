@@ -127,7 +127,7 @@ impl Repair<'_> {
         // Two flag sets, swapped round after round: clearing costs what they held.
         let mut next = checker.clean();
         let mut shortened = vec![false; mesh.vertex_count()];
-        let mut streak = Streaks { last: vec![u32::MAX; mesh.vertex_count()], length: vec![0; mesh.vertex_count()] };
+        let mut streak = Streaks { last: vec![0; mesh.vertex_count()], length: vec![0; mesh.vertex_count()] };
         let mut scale = vec![1.0f32; mesh.vertex_count()];
         for round in 0.. {
             if self.cancelled() {
@@ -182,8 +182,8 @@ impl Repair<'_> {
                 (shell.base_offset[v], shell.directors[v]) = normal_shape(shell.side, normals[v] * length);
             } else {
                 let k = streaks.length[v];
-                streaks.length[v] = if streaks.last[v] == round.wrapping_sub(1) { k + 1 } else { 0 };
-                streaks.last[v] = round;
+                streaks.length[v] = if streaks.last[v] == round { k + 1 } else { 0 };
+                streaks.last[v] = round + 1;
                 shorten(shell, v, factor.powf(1.0 + streaks.length[v] as f32 / ACCELERATION));
             }
             checker.mark_around(v, next);
@@ -244,8 +244,8 @@ impl Repair<'_> {
     }
 }
 
-/// Per vertex: the last repair round that shortened it and how many rounds before
-/// that did in a row.
+/// Per vertex: one past the last repair round that shortened it (0: none yet) and how
+/// many rounds before that did in a row.
 struct Streaks {
     last: Vec<u32>,
     length: Vec<u32>,

@@ -644,6 +644,31 @@ fn crossing_parts_inside_another_parts_shell_are_not_swallowed() {
     }
 }
 
+/// A third part crossing a card (a small upright quad through it) must not free the
+/// card's cell from keeping out a part that crosses nothing: a small card floating
+/// inside the first card's shell. The crossing exempts only the crossing part.
+#[test]
+fn a_crossing_elsewhere_does_not_let_a_cell_swallow_another_part() {
+    let crosser = [Vec3::new(0.3, 0.2, -0.02), Vec3::new(0.3, 0.3, -0.02), Vec3::new(0.3, 0.3, 0.02), Vec3::new(0.3, 0.2, 0.02)];
+    let positions: Vec<Vec3> = card(0.5, 0.0, 0.0, 0.0).into_iter().chain(card(0.1, -0.2, -0.2, 0.03)).chain(crosser).collect();
+    let mesh = Mesh::new(positions.clone(), &[4, 4, 4], (0..12).collect(), None).unwrap();
+    assert!(defects::Checker::new(&mesh).base_self_pairs() > 0, "the upright quad must cross the card");
+    let mut thickness = vec![0.004; 12];
+    thickness[..4].fill(0.1);
+    for side in [Side::Exterior, Side::Envelope] {
+        let s = build_shell(&mesh, &thickness, side, &ShellParams::default()).unwrap();
+        let r = shell_report(&mesh, &s);
+        let what = format!("{side:?}: {r:?} {:?} card {:?}", s.check, &s.achieved[..4]);
+        assert!(s.check.clean && r.enclosing_cells == 0, "{what}");
+        let first = Mesh::new(positions[..4].to_vec(), &[4], (0..4).collect(), None).unwrap();
+        let first_shell =
+            Shell { side, base_offset: s.base_offset[..4].to_vec(), directors: s.directors[..4].to_vec(), ..Shell::from_directors(vec![], vec![]) };
+        let solid = geometry::shell_geometry(&first, &first_shell, geometry::ShellOutput::Solid).unwrap().mesh;
+        let swallowed = positions[4..8].iter().filter(|x| inside_solid(&solid, **x)).count();
+        assert_eq!(swallowed, 0, "{what}: the floating card is inside the first card's shell");
+    }
+}
+
 /// Eyes sunk into a head (Suzanne's build): each small sphere crosses the big one and
 /// sticks out by less than the thickness, so the head's cells over the crossing
 /// faces hold part of it, inherited as the crossings are. The result must not
