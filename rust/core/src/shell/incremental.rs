@@ -38,18 +38,6 @@ pub const DEFAULT_TOLERANCE: f64 = 3e-2;
 /// from the thesis: past a third, `shell_bench`'s updates cost as much as a rebuild).
 const REBUILD_FRACTION: usize = 3;
 
-/// Rings of repaired directors around the retraced ones that an update repairs again
-/// from their traced value. Not from the thesis. The whole connected group (as a
-/// rebuild would repair it) spans most of a shell that is compressed everywhere
-/// (the twice-subdivided comb inside at 5%: 8k of 25k vertices reset for an edit of
-/// 2, 130 ms). With 3 rings that edit takes 14-19 ms; over 9 meshes and 3 sides
-/// (`make bench`'s hard meshes, Suzanne, the bunny) the mean distance of the
-/// directors from a rebuild's grew by at most 0.0034 of the thickness (Suzanne's
-/// envelope; most by under 0.0002), vertices farther than a quarter of their
-/// thickness from a rebuild's went from 6 to 19 of 120k, and every shell stayed
-/// without defects.
-const RESET_RINGS: usize = 3;
-
 /// What one update did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct UpdateStats {
@@ -60,7 +48,7 @@ pub struct UpdateStats {
     /// Directors within reach of the change that the tolerance let keep their value.
     pub kept: usize,
     /// Directors repaired again from their traced value: the retraced ones and the
-    /// repaired ones around them ([`RESET_RINGS`]).
+    /// repaired ones connected to them.
     pub resettled: usize,
     /// Whether the update rebuilt the whole shell (topology or most vertices changed).
     pub rebuilt: bool,
@@ -353,34 +341,31 @@ impl IncrementalShell {
     }
 
     /// The repair shortens the directors of a tangle together, round by round, so its
-    /// result depends on the whole group. The repaired directors within
-    /// [`RESET_RINGS`] rings of the retraced ones go back to their traced value with
-    /// them; the repair then runs again from these seeds, the rest of the group
-    /// keeping its repair. Repaired groups the update did not retrace keep theirs.
+    /// result depends on the whole group. The repaired directors connected to the
+    /// retraced ones go back to their traced value with them; the repair then runs
+    /// again from these seeds: the rounds a rebuild would run on these groups.
+    /// Repaired groups the update did not retrace keep their repair. (Resetting only
+    /// three rings around the retraced ones cut an edit of 2 vertices of a shell
+    /// compressed everywhere, the twice-subdivided comb inside at 5%, from 130 to
+    /// 14-19 ms, but left Suzanne and bunny updates 6-7 vertices more than a quarter
+    /// of the thickness from a rebuild's in the Python suite, where 3 are allowed.)
     fn reset_repaired(&mut self, retraced: &[u32]) -> Vec<u32> {
         let raw = assemble(&self.mesh, &self.thickness, self.side, &self.traces);
         let repaired = |v: usize| self.shell.directors[v] != raw.directors[v] || self.shell.base_offset[v] != raw.base_offset[v];
         let mut reset = vec![false; self.mesh.vertex_count()];
-        let mut ring: Vec<u32> = retraced.to_vec();
-        ring.iter().for_each(|&v| reset[v as usize] = true);
-        let mut seeds = Vec::with_capacity(ring.len());
-        for r in 0..=RESET_RINGS {
-            seeds.extend(&ring);
-            if r == RESET_RINGS || ring.is_empty() {
-                break;
-            }
-            let mut next = Vec::new();
-            for &v in &ring {
-                for &f in self.tracer.faces_around.of(v as usize) {
-                    for &u in self.mesh.face(f as usize) {
-                        if !reset[u as usize] && repaired(u as usize) {
-                            reset[u as usize] = true;
-                            next.push(u);
-                        }
+        let mut stack: Vec<u32> = retraced.to_vec();
+        stack.iter().for_each(|&v| reset[v as usize] = true);
+        let mut seeds = Vec::with_capacity(stack.len());
+        while let Some(v) = stack.pop() {
+            seeds.push(v);
+            for &f in self.tracer.faces_around.of(v as usize) {
+                for &u in self.mesh.face(f as usize) {
+                    if !reset[u as usize] && repaired(u as usize) {
+                        reset[u as usize] = true;
+                        stack.push(u);
                     }
                 }
             }
-            ring = next;
         }
         for &v in &seeds {
             let v = v as usize;
