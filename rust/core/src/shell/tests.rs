@@ -544,6 +544,20 @@ fn inside_solid(solid: &Mesh, x: Vec3) -> bool {
     hits % 2 == 1
 }
 
+/// How many of `points` lie inside the closed shell solid of the mesh's first card
+/// (vertices 0-3, one quad) under `shell` (ray parity).
+fn inside_first_card(positions: &[Vec3], shell: &Shell, points: &[Vec3]) -> usize {
+    let first = Mesh::new(positions[..4].to_vec(), &[4], (0..4).collect(), None).unwrap();
+    let first_shell = Shell {
+        side: shell.side,
+        base_offset: shell.base_offset[..4].to_vec(),
+        directors: shell.directors[..4].to_vec(),
+        ..Shell::from_directors(vec![], vec![])
+    };
+    let solid = geometry::shell_geometry(&first, &first_shell, geometry::ShellOutput::Solid).unwrap().mesh;
+    points.iter().filter(|x| inside_solid(&solid, **x)).count()
+}
+
 /// A card floating wholly inside another card's shell crosses none of its skins, and
 /// one across its edge crosses only its side wall: both used to be swallowed (and a
 /// bake of the first card's texture grew through the second). Checked independently
@@ -607,11 +621,7 @@ fn crossing_parts_inside_another_parts_shell_are_not_swallowed() {
         let r = shell_report(&mesh, &s);
         let what = format!("{side:?}: {r:?} {:?} card {:?}", s.check, &s.achieved[..4]);
         assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells, r.enclosing_cells), (0, 0, 0, 0), "{what}");
-        let first = Mesh::new(positions[..4].to_vec(), &[4], (0..4).collect(), None).unwrap();
-        let first_shell =
-            Shell { side, base_offset: s.base_offset[..4].to_vec(), directors: s.directors[..4].to_vec(), ..Shell::from_directors(vec![], vec![]) };
-        let solid = geometry::shell_geometry(&first, &first_shell, geometry::ShellOutput::Solid).unwrap().mesh;
-        let swallowed = positions[4..].iter().filter(|x| inside_solid(&solid, **x)).count();
+        let swallowed = inside_first_card(&positions, &s, &positions[4..]);
         assert_eq!(swallowed, 0, "{what}: {swallowed} vertices of the crossing grids inside the card's shell");
     }
 }
@@ -632,11 +642,7 @@ fn a_crossing_elsewhere_does_not_let_a_cell_swallow_another_part() {
         let r = shell_report(&mesh, &s);
         let what = format!("{side:?}: {r:?} {:?} card {:?}", s.check, &s.achieved[..4]);
         assert!(s.check.clean && r.enclosing_cells == 0, "{what}");
-        let first = Mesh::new(positions[..4].to_vec(), &[4], (0..4).collect(), None).unwrap();
-        let first_shell =
-            Shell { side, base_offset: s.base_offset[..4].to_vec(), directors: s.directors[..4].to_vec(), ..Shell::from_directors(vec![], vec![]) };
-        let solid = geometry::shell_geometry(&first, &first_shell, geometry::ShellOutput::Solid).unwrap().mesh;
-        let swallowed = positions[4..8].iter().filter(|x| inside_solid(&solid, **x)).count();
+        let swallowed = inside_first_card(&positions, &s, &positions[4..8]);
         assert_eq!(swallowed, 0, "{what}: the floating card is inside the first card's shell");
     }
 }
