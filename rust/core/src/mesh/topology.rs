@@ -82,6 +82,70 @@ pub fn parts_of<'a>(vertices: usize, faces: impl Iterator<Item = &'a [u32]>) -> 
     Parts { count: first.len(), of, first }
 }
 
+/// Faces' windings relative to their neighbours: faces joined through edges of exactly
+/// two faces form a patch, and a face's `sign` is +1 where it walks each such edge
+/// against its neighbour (consistent winding with the patch's first face) and -1
+/// where it had to be reversed to be. A mesh wound consistently has every sign +1; a
+/// face wound backwards among its neighbours gets -1. Non-orientable patches keep
+/// the first sign each face is reached with.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Windings {
+    pub sign: Vec<i8>,
+    /// The patch of each face, numbered in order of first face.
+    pub patch: Vec<u32>,
+    pub patches: usize,
+}
+
+/// [`Windings`] of `mesh`'s faces, by a breadth-first walk over its manifold edges.
+pub fn face_windings(mesh: &Mesh) -> Windings {
+    let faces: Vec<&[u32]> = mesh.faces().collect();
+    // Undirected edge -> (uses, first face, that face walks it from the smaller end).
+    let mut edges: HashMap<(u32, u32), (u32, u32, bool, u32, bool)> = HashMap::with_capacity(mesh.corners().len());
+    for (f, face) in faces.iter().enumerate() {
+        for i in 0..face.len() {
+            let (a, b) = (face[i], face[(i + 1) % face.len()]);
+            if a == b {
+                continue;
+            }
+            let e = edges.entry((a.min(b), a.max(b))).or_insert((0, f as u32, a < b, u32::MAX, false));
+            if e.0 == 1 {
+                (e.3, e.4) = (f as u32, a < b);
+            }
+            e.0 += 1;
+        }
+    }
+    let mut sign = vec![0i8; faces.len()];
+    let mut patch = vec![u32::MAX; faces.len()];
+    let mut patches = 0u32;
+    let mut queue = std::collections::VecDeque::new();
+    for start in 0..faces.len() {
+        if patch[start] != u32::MAX {
+            continue;
+        }
+        (sign[start], patch[start]) = (1, patches);
+        queue.push_back(start);
+        while let Some(f) = queue.pop_front() {
+            let face = faces[f];
+            for i in 0..face.len() {
+                let (a, b) = (face[i], face[(i + 1) % face.len()]);
+                let Some(&(uses, f0, up0, f1, up1)) = edges.get(&(a.min(b), a.max(b))) else { continue };
+                if uses != 2 || f0 == f1 {
+                    continue;
+                }
+                let (g, same_way) = if f0 as usize == f { (f1, up0 == up1) } else { (f0, up0 == up1) };
+                let g = g as usize;
+                if patch[g] == u32::MAX {
+                    // Walking the shared edge the same way means opposite windings.
+                    (sign[g], patch[g]) = (if same_way { -sign[f] } else { sign[f] }, patches);
+                    queue.push_back(g);
+                }
+            }
+        }
+        patches += 1;
+    }
+    Windings { sign, patch, patches: patches as usize }
+}
+
 /// Which items (faces, triangles, cells) use each vertex, in compressed rows.
 #[derive(Debug, Clone, Default)]
 pub struct Incidence {
@@ -141,5 +205,27 @@ mod tests {
             assert_eq!(around.of(v).len(), 3, "vertex {v}");
             assert!(around.of(v).iter().all(|&f| cube.face(f as usize).contains(&(v as u32))));
         }
+    }
+    #[test]
+    fn windings_find_a_face_wound_backwards_and_separate_patches() {
+        let cube = fixtures::cube();
+        let w = face_windings(&cube);
+        assert_eq!((w.patches, w.sign.iter().all(|&s| s == 1)), (1, true));
+        // Face 2 reversed: it alone is -1 (or all the others, were it the first).
+        let faces: Vec<Vec<u32>> = cube.faces().enumerate().map(|(f, v)| if f == 2 { v.iter().rev().copied().collect() } else { v.to_vec() }).collect();
+        let sizes: Vec<u32> = faces.iter().map(|f| f.len() as u32).collect();
+        let flipped = Mesh::new(cube.positions().to_vec(), &sizes, faces.concat(), None).unwrap();
+        let w = face_windings(&flipped);
+        assert_eq!(w.sign.iter().filter(|&&s| s == -1).count(), 1);
+        assert_eq!(w.sign[2], -1);
+        // Two cubes: two patches.
+        let n = cube.vertex_count() as u32;
+        let corners: Vec<u32> = cube.corners().iter().copied().chain(cube.corners().iter().map(|c| c + n)).collect();
+        let positions: Vec<_> = cube.positions().iter().copied().chain(cube.positions().iter().map(|p| *p + glam::Vec3::X * 3.0)).collect();
+        let sizes = [cube.face_sizes(), cube.face_sizes()].concat();
+        let two = Mesh::new(positions, &sizes, corners, None).unwrap();
+        let w = face_windings(&two);
+        assert_eq!(w.patches, 2);
+        assert!(w.patch[..6].iter().all(|&p| p == 0) && w.patch[6..].iter().all(|&p| p == 1));
     }
 }

@@ -464,3 +464,29 @@ fn thin_strands_in_fast_tilting_cells_do_not_cross() {
     assert!(check.is_closed_manifold(), "{check:?}");
     assert_eq!(crate::hard_meshes::self_intersections(&as_mesh(&b)), 0);
 }
+
+#[test]
+fn a_cell_whose_map_reverses_alone_is_wound_with_its_neighbours() {
+    // A director leaning far along the surface reverses the map at the centre of some
+    // of its cells while the shell as a whole keeps the base's orientation (as a long
+    // director beside a nearly collapsed one did on a folded quad of Suzanne). Wound by
+    // their own Jacobian those cells faced the other way from their neighbours and
+    // the slab's edges on their common sides were walked the same way twice.
+    let mesh = tm::icosphere(2);
+    let h = 0.05 * mesh.bbox_diagonal();
+    let normals = crate::mesh::vertex_normals(&mesh);
+    let mut directors: Vec<Vec3> = normals.iter().map(|n| *n * h).collect();
+    let v = 7;
+    let tangent = normals[v].any_orthonormal_vector();
+    directors[v] = (tangent * 3.0 + normals[v] * 0.2) * h;
+    let s = crate::shell::Shell::from_directors(vec![Vec3::ZERO; directors.len()], directors);
+    let tri = mesh.triangulate();
+    let centre = Vec3::new(1.0 / 3.0, 1.0 / 3.0, 0.5);
+    let reversed = tri.triangles.iter().filter(|t| mapping::CellMap::new(&mesh, &s, &t[..], &[Vec2::ZERO; 3]).jacobians(centre).0.determinant() < 0.0).count();
+    assert!((1..6).contains(&reversed), "{reversed} reversed cells: the case needs a few");
+    let slab = VolumeTexture::from_fn([4, 4, 33], |c| if c.z < 0.5 { 1.0 } else { 0.0 }).unwrap();
+    let b = bake(&mesh, &s, &layer(slab), &BakeParams { resolution: 3, depth_steps: 16, ..Default::default() }).unwrap();
+    let r = crate::polygonize::validate::SurfaceCheck::of(&b.positions, &b.triangles);
+    assert_eq!((r.misoriented_edges, r.boundary_edges, r.overused_edges), (0, 0, 0), "{r:?}");
+    assert!(as_mesh(&b).signed_volume() > 0.0);
+}

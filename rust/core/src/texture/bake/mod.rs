@@ -30,8 +30,9 @@ mod polygonize;
 mod simplify;
 mod uv_mask;
 
-use super::mapping::{TextureCoordinates, TriangleCells};
+use super::mapping::{CellMap, TextureCoordinates, TriangleCells};
 use super::TextureLayer;
+use crate::mesh::face_windings;
 use crate::polygonize::weld::{weld, Piece};
 use crate::progress::Progress;
 use crate::shell::Shell;
@@ -215,6 +216,8 @@ struct Setup {
     /// How far simplification may move the surface, in lattice steps
     /// ([`SIMPLIFY_ERROR`], [`THIN_SIMPLIFY_ERROR`]).
     simplify_error: f32,
+    /// Per cell: its triangles are reversed ([`cell_flips`]).
+    flips: Vec<bool>,
 }
 
 /// The lattice of a bake: steps per cell edge, heights, culling blocks.
@@ -356,7 +359,8 @@ impl Setup {
         let effects = Effects::new(&lattice.tris, &lattice.st, params, shell, heights.len() - 1, mask_resolution(lattice.tris.len(), n));
         let bounds = textures.iter().map(|l| MaxPyramid::new(&l.texture)).collect();
         let simplify_error = if thin { THIN_SIMPLIFY_ERROR } else { SIMPLIFY_ERROR };
-        Ok(Self { coords, lattice, effects, bounds, heights, block, texture_finer_than_lattice: finer, resolution: params.resolution, simplify_error })
+        let flips = cell_flips(mesh, shell, &lattice.tris, &lattice.faces);
+        Ok(Self { coords, lattice, effects, bounds, heights, block, texture_finer_than_lattice: finer, resolution: params.resolution, simplify_error, flips })
     }
 
     /// The same setup with `block` steps per block edge (a coarser lattice): the
@@ -372,8 +376,31 @@ impl Setup {
     }
 
     fn cells<'a>(&'a self, mesh: &'a Mesh, shell: &'a Shell, field: &'a Occupancy<'a>, cull: bool) -> Cells<'a> {
-        Cells { mesh, shell, lattice: &self.lattice, field, heights: &self.heights, block: self.block, cull }
+        Cells { mesh, shell, lattice: &self.lattice, field, heights: &self.heights, block: self.block, cull, flips: &self.flips }
     }
+}
+
+/// Which cells' triangles are reversed: those whose map from `(u, v, r)` to the world
+/// reverses orientation, decided for each patch of consistently wound faces as a whole
+/// ([`face_windings`]): the sign of the sum over its cells of the map's Jacobian at
+/// their centres, times each face's winding. One cell's own Jacobian is not enough:
+/// a triangle of a folded quad can have a director leaning under it (a valid shell
+/// still; its neighbour across the quad's diagonal does not) and reversing it alone
+/// walks the edges on their common side the same way (Suzanne's cheek, 8-40 edges).
+pub(super) fn cell_flips(mesh: &Mesh, shell: &Shell, triangles: &[[u32; 3]], faces: &[u32]) -> Vec<bool> {
+    let windings = face_windings(mesh);
+    let centre = Vec3::new(1.0 / 3.0, 1.0 / 3.0, 0.5);
+    let signed: Vec<(u32, f64)> = triangles
+        .par_iter()
+        .zip(faces)
+        .map(|(t, &f)| {
+            let det = CellMap::new(mesh, shell, t, &[Vec2::ZERO; 3]).jacobians(centre).0.determinant() as f64;
+            (windings.patch[f as usize], det * windings.sign[f as usize] as f64)
+        })
+        .collect();
+    let mut total = vec![0.0f64; windings.patches];
+    signed.iter().for_each(|&(patch, det)| total[patch as usize] += det);
+    faces.iter().map(|&f| (windings.sign[f as usize] as f64 * total[windings.patch[f as usize] as usize]) < 0.0).collect()
 }
 
 /// Lattice samples the estimate may take: tens of milliseconds, far below a bake.

@@ -29,6 +29,8 @@ pub(super) struct Cells<'a> {
     pub block: u32,
     /// Skip blocks the bounds prove empty (off only to test that culling changes nothing).
     pub cull: bool,
+    /// Per cell: its triangles are reversed ([`super::cell_flips`]).
+    pub flips: &'a [bool],
 }
 
 /// A block of a cell: the corners of its triangle (local lattice points), its small
@@ -222,8 +224,8 @@ impl Cells<'_> {
         }
         let mut piece = Piece::with_capacity(s.last.0 + s.last.0 / 4, s.last.1 + s.last.1 / 4);
         // Orientation: triangles face from inside to outside in parameter space, flipped
-        // where the cell map reverses orientation (interior shells).
-        let flip = cell.jacobians(Vec3::new(1.0 / 3.0, 1.0 / 3.0, 0.5)).0.determinant() < 0.0;
+        // where the shell's map reverses orientation (interior shells).
+        let flip = self.flips[t];
         let ijl = &s.ijl;
         let param = |lp: usize| ijl[lp];
         let on_rim = |lp: usize| {
