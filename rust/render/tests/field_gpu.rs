@@ -10,9 +10,11 @@ use std::sync::{Mutex, MutexGuard, OnceLock};
 
 use thicket_core::glam::{DMat4, DVec3};
 use thicket_core::implicit::samples::SOFT_CSG_20;
+use thicket_core::implicit::tape::Instruction;
 use thicket_core::implicit::trace::{render, Camera};
 use thicket_core::implicit::FieldTree;
-use thicket_render::field::{FieldTracer, STACK};
+use thicket_render::field::program::opcode;
+use thicket_render::field::{FieldTracer, Program, STACK};
 
 fn tracer() -> MutexGuard<'static, FieldTracer> {
     static T: OnceLock<Mutex<FieldTracer>> = OnceLock::new();
@@ -198,4 +200,107 @@ fn the_shared_tracer_takes_a_software_adapter_only_when_asked() {
     assert!(thicket_render::field::render_on_shared_gpu(&tree, &cam, true).is_ok());
     let refused = thicket_render::field::render_on_shared_gpu(&tree, &cam, false);
     assert_eq!(refused.is_err(), software, "{:?}", refused.err());
+}
+
+/// Words of the instruction at `words[0]`, by the shader's layout (its header), read
+/// from the words alone.
+fn shader_length(words: &[f32]) -> usize {
+    let count = |i: usize| words[i] as usize;
+    match words[0] {
+        opcode::PRIM => 22,
+        opcode::OFFSET | opcode::H | opcode::MIN | opcode::MAX => 2,
+        opcode::NEGATE => 1,
+        opcode::WP | opcode::DISPLACE => 4,
+        opcode::FRACTAL => 4 + 2 * count(1),
+        opcode::PAINT => 5,
+        opcode::RAMP => 2 + 5 * count(1),
+        other => panic!("unknown opcode {other}"),
+    }
+}
+
+/// The GPU program is the core's tape translated instruction by instruction (not a
+/// second walk of the tree): as many instructions as the tape, each the opcode of the
+/// tape's instruction at its place with its parameters, laid out as the shader reads
+/// them, and the tape's stack depth.
+#[test]
+fn the_gpu_program_is_the_tape_translated() {
+    let mut trees = vec![SOFT_CSG_20.to_string(), right_nested(5)];
+    trees.push(
+        r#"{"op": "max", "color": [0.1, 0.2, 0.3, 1], "children": [
+          {"op": "fractal", "terms": [[0.05, 8], [0.02, 16]], "tau": 0.5, "ramp": [[0.2, [0.2, 0.6, 0.2, 1]], [0.8, [0.9, 0.8, 0.3, 1]]],
+           "shape": {"op": "torus", "center": [0, 0, 0], "axis": [0.3, 0, 1], "major": 0.6, "minor": 0.2},
+           "texture": {"op": "negate", "child": {"op": "point", "center": [0.3, 0.2, 0.1]}}},
+          {"op": "displace", "amplitude": 0.03, "omega": 12, "color": [0.3, 0.7, 0.9, 1],
+           "shape": {"op": "offset", "amount": 0.1, "child": {"op": "h", "children": [
+             {"op": "plane", "point": [0, 0, 0], "normal": [0, 0, 1]}, {"op": "rectangle", "center": [0, 0, 0], "half_size": [0.3, 0.2]}]}},
+           "texture": {"op": "difference_wp", "p": 6, "children": [
+             {"op": "segment", "a": [0, 0, -1], "b": [0, 0, 1]}, {"op": "box", "center": [0, 0, 0], "half_size": [0.2, 0.2, 0.2]}]}}]}"#
+            .to_string(),
+    );
+    for json in &trees {
+        let tree = FieldTree::from_json(json).unwrap();
+        let program = Program::compile(&tree).unwrap();
+        let tape: Vec<Instruction> = tree.instructions().collect();
+        assert_eq!(program.starts.len(), tape.len(), "{json}");
+        assert_eq!(program.depth, tree.stack_depth());
+        let mut at = 0;
+        let mut primitives = 0;
+        for (inst, &start) in tape.iter().zip(&program.starts) {
+            assert_eq!(start, at, "instructions follow each other");
+            let w = &program.words[start..];
+            let expected = match inst {
+                Instruction::Primitive(p) => {
+                    // Parameters: the tape's compiled frame, id order and colour.
+                    assert_eq!(p.id, primitives);
+                    primitives += 1;
+                    assert_eq!(w[2..5], p.center.to_array().map(|v| v as f32));
+                    assert_eq!(w[5..8], p.axes[0].to_array().map(|v| v as f32));
+                    assert_eq!(w[18..22], p.color.map(|v| v as f32));
+                    opcode::PRIM
+                }
+                Instruction::Offset(a) => {
+                    assert_eq!(w[1], *a as f32);
+                    opcode::OFFSET
+                }
+                Instruction::Negate => opcode::NEGATE,
+                Instruction::H(n) | Instruction::Min(n) | Instruction::Max(n) => {
+                    assert_eq!(w[1], *n as f32);
+                    match inst {
+                        Instruction::H(_) => opcode::H,
+                        Instruction::Min(_) => opcode::MIN,
+                        _ => opcode::MAX,
+                    }
+                }
+                Instruction::Wp { p, n, .. } => {
+                    assert_eq!(w[1..3], [*n as f32, *p as f32]);
+                    opcode::WP
+                }
+                Instruction::Displace { amplitude, .. } => {
+                    assert_eq!(w[1], *amplitude as f32);
+                    opcode::DISPLACE
+                }
+                Instruction::Fractal { terms, .. } => {
+                    assert_eq!(w[1], terms.len() as f32);
+                    opcode::FRACTAL
+                }
+                Instruction::Paint(c) => {
+                    assert_eq!(w[1..5], c.map(|v| v as f32));
+                    opcode::PAINT
+                }
+                Instruction::Ramp(r) => {
+                    assert_eq!(w[1], r.len() as f32);
+                    opcode::RAMP
+                }
+            };
+            assert_eq!(w[0], expected, "{inst:?}");
+            at += shader_length(w);
+        }
+        assert_eq!(at, program.words.len(), "the words are exactly the tape's instructions");
+        assert_eq!(primitives, tree.primitive_count());
+    }
+    // The depth check reads the tape's: one level more than the stack is refused.
+    let deep = FieldTree::from_json(&right_nested(STACK)).unwrap();
+    assert_eq!(deep.stack_depth(), STACK + 1);
+    let err = Program::compile(&deep).unwrap_err().to_string();
+    assert!(err.contains("results alive at once") && err.contains("cpu"), "{err}");
 }

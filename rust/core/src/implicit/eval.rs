@@ -6,6 +6,10 @@
 //! Everything is computed in double precision: value, analytic gradient (the chain
 //! rule per node, section 5's gradient tree), colour (section 5: blended by the
 //! weights the gradient uses), the texture value and the dominant primitive's id.
+//!
+//! [`Tape::compile`] is the one walk of a tree: other back ends (the GPU tracer's
+//! program) translate its instructions through [`super::tape`] rather than walk the
+//! tree themselves.
 
 use super::kernel::{self, Prim, PrimKind};
 use super::tree::{ramp_color, Node, Op, Ramp, DEFAULT_COLOR};
@@ -21,7 +25,7 @@ const CHUNK: usize = 1024;
 /// How an approximate set operation signs its arguments and result:
 /// `result = outer · w_p(sign_i · f_i)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum WpKind {
+pub enum WpKind {
     /// `w_p(f1, ..., fn)`.
     Intersection,
     /// `-w_p(-f1, ..., -fn)`.

@@ -90,6 +90,7 @@ pub mod bounds;
 mod eval;
 mod kernel;
 pub mod samples;
+pub mod tape;
 pub mod trace;
 pub mod tree;
 

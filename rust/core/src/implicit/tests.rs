@@ -860,3 +860,47 @@ fn texture_layers_have_a_uniform_thickness_on_unit_gradient_shapes_and_not_on_a_
     eprintln!("scaled sphere: layers {lo} to {hi}, {worst} off {thickness}");
     assert!(worst > 0.3 * thickness && worst > 1e4 * TOLERANCE, "scaled sphere: layers from {lo} to {hi}, not {thickness}");
 }
+
+/// The tape's public face ([`tape`]) is the evaluator's tape: post order, ids in JSON
+/// order, paints after their operation and ramps after their texture op, the
+/// primitives' compiled frames (evaluated here by hand), and the stack depth.
+#[test]
+fn the_public_tape_is_the_evaluators_post_order() {
+    use tape::{Instruction as I, PrimitiveKind};
+    let t = tree(&json!({"op": "min", "color": [0.5, 0.5, 0.5, 1], "children": [
+        {"op": "sphere", "center": [0.1, 0.2, 0.3], "radius": 0.4},
+        {"op": "offset", "amount": 0.1, "child": {"op": "negate", "child": {"op": "plane", "point": [0, 0, 0], "normal": [0, 0, 2]}}},
+        {"op": "displace", "amplitude": 0.1, "omega": 3, "ramp": [[0, [1, 0, 0, 1]]],
+         "shape": {"op": "box", "center": [0, 0, 0], "half_size": [0.2, 0.3, 0.4]},
+         "texture": {"op": "segment", "a": [0, 0, 0], "b": [1, 0, 0]}}]}));
+    let insts: Vec<I> = t.instructions().collect();
+    let names: Vec<String> = insts
+        .iter()
+        .map(|i| match i {
+            I::Primitive(p) => format!("{:?}#{}", p.kind, p.id),
+            other => format!("{other:?}").split(['(', ' ']).next().unwrap().to_string(),
+        })
+        .collect();
+    assert_eq!(names, ["Sphere#0", "Plane#1", "Negate", "Offset", "Cuboid#2", "Cuboid#3", "Displace", "Ramp", "Min", "Paint"]);
+    assert!(matches!(insts[8], I::Min(3)));
+    assert_eq!(t.stack_depth(), 4);
+    assert_eq!(t.primitive_count(), 4);
+    // The primitives' parameters evaluate to the tree's own values (the plane's normal
+    // normalized, the box's frame the identity).
+    let x = DVec3::new(0.35, -0.2, 0.15);
+    for inst in &insts {
+        if let I::Primitive(p) = inst {
+            let d = x - p.center;
+            let v = match p.kind {
+                PrimitiveKind::Sphere => d.length() - p.radius,
+                PrimitiveKind::Plane => p.axes[0].dot(d),
+                _ => continue,
+            };
+            let alone = match p.id {
+                0 => json!({"op": "sphere", "center": [0.1, 0.2, 0.3], "radius": 0.4}),
+                _ => json!({"op": "plane", "point": [0, 0, 0], "normal": [0, 0, 2]}),
+            };
+            assert!((v - tree(&alone).sample(x).value).abs() < 1e-12, "{p:?}");
+        }
+    }
+}

@@ -1,4 +1,4 @@
-//! The GPU sphere tracer of field trees (issue 17): the tree compiled to a flat
+//! The GPU sphere tracer of field trees (issue 17): the tree's compiled tape translated to a flat
 //! postfix program ([`program`]) interpreted per pixel by `shaders/field_trace.wgsl`
 //! with the CPU tracer's rays, step rule and shading
 //! ([`thicket_core::implicit::trace`]), so the two images agree (tests/field_gpu.rs
@@ -121,7 +121,7 @@ impl FieldTracer {
     /// single precision. A tree deeper than the shader's stack ([`STACK`]) or a bad
     /// camera is an error.
     pub fn render(&self, tree: &FieldTree, camera: &Camera) -> Result<GpuRender> {
-        let program = Program::compile(tree.node())?;
+        let program = Program::compile(tree)?;
         let rays = camera.rays()?;
         let (w, h) = (camera.width as usize, camera.height as usize);
         let lipschitz = tree.lipschitz();
