@@ -99,19 +99,25 @@ pub struct Windings {
 /// [`Windings`] of `mesh`'s faces, by a breadth-first walk over its manifold edges.
 pub fn face_windings(mesh: &Mesh) -> Windings {
     let faces: Vec<&[u32]> = mesh.faces().collect();
-    // Undirected edge -> (uses, first face, that face walks it from the smaller end).
-    let mut edges: HashMap<(u32, u32), (u32, u32, bool, u32, bool)> = HashMap::with_capacity(mesh.corners().len());
+    // Undirected edge -> its uses, and its first two faces with whether each walks it
+    // from the smaller end.
+    #[derive(Clone, Copy)]
+    struct Uses {
+        count: u32,
+        sides: [(u32, bool); 2],
+    }
+    let mut edges: HashMap<(u32, u32), Uses> = HashMap::with_capacity(mesh.corners().len());
     for (f, face) in faces.iter().enumerate() {
         for i in 0..face.len() {
             let (a, b) = (face[i], face[(i + 1) % face.len()]);
             if a == b {
                 continue;
             }
-            let e = edges.entry((a.min(b), a.max(b))).or_insert((0, f as u32, a < b, u32::MAX, false));
-            if e.0 == 1 {
-                (e.3, e.4) = (f as u32, a < b);
+            let e = edges.entry((a.min(b), a.max(b))).or_insert(Uses { count: 0, sides: [(u32::MAX, false); 2] });
+            if e.count < 2 {
+                e.sides[e.count as usize] = (f as u32, a < b);
             }
-            e.0 += 1;
+            e.count += 1;
         }
     }
     let mut sign = vec![0i8; faces.len()];
@@ -128,8 +134,8 @@ pub fn face_windings(mesh: &Mesh) -> Windings {
             let face = faces[f];
             for i in 0..face.len() {
                 let (a, b) = (face[i], face[(i + 1) % face.len()]);
-                let Some(&(uses, f0, up0, f1, up1)) = edges.get(&(a.min(b), a.max(b))) else { continue };
-                if uses != 2 || f0 == f1 {
+                let Some(&Uses { count, sides: [(f0, up0), (f1, up1)] }) = edges.get(&(a.min(b), a.max(b))) else { continue };
+                if count != 2 || f0 == f1 {
                     continue;
                 }
                 let (g, same_way) = if f0 as usize == f { (f1, up0 == up1) } else { (f0, up0 == up1) };
