@@ -325,12 +325,14 @@ impl Tracer {
         let mut slot = 1;
         let cos_eps = params.max_turn.cos();
         let step0 = h / params.steps as f64;
-        // The step grows back by at most a factor of two after a turn: a trajectory
-        // bending through a concavity would otherwise retry the full step (and halve
-        // it again, an evaluation each time) at every step.
-        let mut last = step0;
+        // The step grows back by a factor of two only after a step that turned by
+        // less than half the threshold: a trajectory bending through a concavity
+        // would otherwise retry the longer step (and halve it again, an evaluation
+        // each time) at every step.
+        let cos_half = (0.5 * params.max_turn).cos();
+        let mut next = step0;
         'outer: while t < h * (1.0 - 1e-7) && evals < params.max_evaluations {
-            let mut delta = (h - t).min(step0).min(2.0 * last);
+            let mut delta = (h - t).min(step0).min(next);
             let mut halvings = 0;
             loop {
                 let xn = x + g * (speed * delta);
@@ -354,9 +356,10 @@ impl Tracer {
                 // where the direction swings) is accepted whatever the turn: halving it
                 // would only spend evaluations on no motion.
                 let still = speed * delta <= STALL * h;
-                if gn.dot(g) >= cos_eps || still || halvings >= params.max_halvings || evals >= params.max_evaluations {
+                let turn = gn.dot(g);
+                if turn >= cos_eps || still || halvings >= params.max_halvings || evals >= params.max_evaluations {
                     t += delta;
-                    last = delta;
+                    next = if turn >= cos_half { 2.0 * delta } else { delta };
                     (x, g, speed, push, clearance) = (xn, gn, sn, pn, cn);
                     if slot < TRACE_SAMPLES - 1 && t >= h * slot as f64 / (TRACE_SAMPLES - 1) as f64 {
                         samples[slot] = Sample { at: x.as_vec3(), push: push as f32 };
