@@ -2,7 +2,9 @@
 // (thicket_core::implicit::trace). The tree comes as a flat postfix program
 // (rust/render/src/field/program.rs) interpreted per pixel with a small stack of
 // (value, gradient, colour, texture) results; the arithmetic of every opcode is the
-// evaluator's (thicket_core::implicit::eval and kernel), in f32. Each ray steps by
+// evaluator's (thicket_core::implicit::eval and kernel), in f32. Each pixel makes its
+// own ray from the camera (the CPU's `Rays::ray`: near-plane origin, unit direction to
+// the far plane, footprint near + grow t) and clips it to the tree's box; it steps by
 // max(f / L, a tenth of the pixel's footprint) and hits where f is below that; the hit
 // is shaded with the tree's colour, ambient 0.1 plus Lambert under a headlight.
 //
@@ -20,36 +22,36 @@ const STACK: u32 = 16u;
 const AMBIENT: f32 = 0.1;
 const HIT: f32 = 0.1;
 
+// The camera as homogeneous points (inverse(projection * view) applied to normalized
+// device coordinates, in double precision on the CPU): the near and far planes'
+// points at pixel coordinates (0, 0), and their change per pixel along x and y (the
+// same for both planes). Pixel (x, y)'s point is near0 + x dx + y dy, then divided by w.
 struct Params {
+    near0: vec4<f32>,
+    far0: vec4<f32>,
+    dx: vec4<f32>,
+    dy: vec4<f32>,
+    // The tree's box, grown by the CPU tracer's margin; w is 1 where there is a box.
+    lo: vec4<f32>,
+    hi: vec4<f32>,
     width: u32,
     height: u32,
     length: u32,
     max_steps: u32,
     inv_lipschitz: f32,
-    _pad0: f32,
-    _pad1: f32,
-    _pad2: f32,
-}
-
-// One ray: origin.xyz + t0, direction.xyz + end, near, grow.
-struct Ray {
-    origin: vec4<f32>,
-    direction: vec4<f32>,
-    footprint: vec4<f32>,
-}
-
-struct Pixel {
-    rgba: vec4<f32>,
-    // The hit point and 1, or 0 where nothing was hit.
-    hit: vec4<f32>,
-    // The unit normal at the hit (the normalized gradient).
-    normal: vec4<f32>,
+    // Bit 0: write `geometry` too.
+    flags: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> program: array<f32>;
-@group(0) @binding(2) var<storage, read> rays: array<Ray>;
-@group(0) @binding(3) var<storage, read_write> pixels: array<Pixel>;
+// Per pixel: linear RGBA as four f16 (r | g << 16, b | a << 16); 0 where nothing is hit.
+@group(0) @binding(2) var<storage, read_write> colors: array<vec2<u32>>;
+// Per pixel, with flags bit 0: the hit's parameter t along the ray (f32 bits; -1 where
+// nothing is hit) and its unit normal, octahedral, as two snorm16 (pack2x16snorm).
+@group(0) @binding(3) var<storage, read_write> geometry: array<vec2<u32>>;
 
 var<private> sf: array<f32, STACK>;
 var<private> sg: array<vec3<f32>, STACK>;
@@ -360,29 +362,124 @@ fn finite4(v: vec4<f32>) -> vec4<f32> {
     return out;
 }
 
+// The IEEE binary16 bits of a finite x within f16's range, rounded to nearest even
+// (pack2x16float needs a capability naga does not grant by default).
+fn f16_bits(x: f32) -> u32 {
+    let b = bitcast<u32>(x);
+    let sign = (b >> 16u) & 0x8000u;
+    let a = b & 0x7fffffffu;
+    if a >= 0x47800000u {
+        return sign | 0x7c00u;
+    }
+    if a < 0x38800000u {
+        // Subnormal (or zero): units of 2^-24; round() is to nearest even.
+        return sign | u32(round(bitcast<f32>(a) * 16777216.0));
+    }
+    // Rebias the exponent (127 to 15) and round the 13 dropped bits to nearest even.
+    let r = a - 0x38000000u;
+    return sign | ((r + 0xfffu + ((r >> 13u) & 1u)) >> 13u);
+}
+
+fn pack_half2(v: vec2<f32>) -> u32 {
+    return f16_bits(v.x) | (f16_bits(v.y) << 16u);
+}
+
+// A unit vector's octahedral coordinates in [-1, 1]^2.
+fn octahedral(n: vec3<f32>) -> vec2<f32> {
+    let p = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
+    if n.z >= 0.0 {
+        return p;
+    }
+    return (1.0 - abs(p.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
+}
+
+// One pixel's ray (the CPU's `Rays::ray` at the pixel's centre).
+struct PixelRay {
+    ok: bool,
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+    length: f32,
+    near: f32,
+    grow: f32,
+}
+
+// The world point of a homogeneous one, and the change of that point when the
+// homogeneous point moves by `d` (one pixel along x), without cancellation when d.w = 0.
+fn pixel_step(h: vec4<f32>, d: vec4<f32>) -> f32 {
+    return length(d.xyz * h.w - h.xyz * d.w) / abs(h.w * (h.w + d.w));
+}
+
+fn make_ray(px: f32, py: f32) -> PixelRay {
+    var r: PixelRay;
+    r.ok = false;
+    let hn = params.near0 + px * params.dx + py * params.dy;
+    let hf = params.far0 + px * params.dx + py * params.dy;
+    if hn.w == 0.0 || hf.w == 0.0 {
+        return r;
+    }
+    r.origin = hn.xyz / hn.w;
+    let d = hf.xyz / hf.w - r.origin;
+    r.length = length(d);
+    r.near = pixel_step(hn, params.dx);
+    let far = pixel_step(hf, params.dx);
+    if !(r.length > 0.0 && r.length <= 3.4e38 && r.near <= 3.4e38 && far <= 3.4e38 && all(abs(r.origin) <= vec3<f32>(3.4e38))) {
+        return r;
+    }
+    r.dir = d / r.length;
+    r.grow = (far - r.near) / r.length;
+    r.ok = true;
+    return r;
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.width || id.y >= params.height {
         return;
     }
     let index = id.y * params.width + id.x;
-    let ray = rays[index];
-    let origin = ray.origin.xyz;
-    let dir = ray.direction.xyz;
-    var t = ray.origin.w;
-    let end = ray.direction.w;
-    var out: Pixel;
-    out.rgba = vec4<f32>(0.0);
-    out.hit = vec4<f32>(0.0);
-    out.normal = vec4<f32>(0.0);
+    let ray = make_ray(f32(id.x) + 0.5, f32(id.y) + 0.5);
+    let origin = ray.origin;
+    let dir = ray.dir;
+    // The part [t, end] of [0, length] inside the box (the CPU's clip; a direction
+    // along a slab keeps the range where the origin is inside it).
+    var t = 0.0;
+    var end = ray.length;
+    var live = ray.ok;
+    if live && params.lo.w > 0.0 {
+        for (var a = 0u; a < 3u; a++) {
+            if dir[a] == 0.0 {
+                if origin[a] < params.lo[a] || origin[a] > params.hi[a] {
+                    live = false;
+                }
+                continue;
+            }
+            let inv = 1.0 / dir[a];
+            var u = (params.lo[a] - origin[a]) * inv;
+            var v = (params.hi[a] - origin[a]) * inv;
+            if u > v {
+                let s = u;
+                u = v;
+                v = s;
+            }
+            if u > t {
+                t = u;
+            }
+            if v < end {
+                end = v;
+            }
+        }
+    }
+    var rgba = vec4<f32>(0.0);
+    var depth = -1.0;
+    var normal = vec3<f32>(0.0, 0.0, 1.0);
     var hit = false;
     var x = origin;
-    if t <= end {
+    if live && t <= end {
         for (var step = 0u; step < params.max_steps; step++) {
             x = origin + t * dir;
             run(x, false);
             let f = sf[0];
-            let eps = HIT * max(ray.footprint.x + ray.footprint.y * t, 1e-12);
+            let eps = HIT * max(ray.near + ray.grow * t, 1e-12);
             if f < eps {
                 hit = true;
                 break;
@@ -396,15 +493,18 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if hit {
         run(x, true);
         let g = sg[0];
-        var normal = -dir;
+        normal = -dir;
         let l = length(g);
         if l > 0.0 && l <= 3.4e38 {
             normal = g / l;
         }
         let light = AMBIENT + (1.0 - AMBIENT) * abs(dot(normal, dir));
-        out.rgba = finite4(vec4<f32>(sc[0].rgb * light, clamp(sc[0].a, 0.0, 1.0)));
-        out.hit = vec4<f32>(x, 1.0);
-        out.normal = vec4<f32>(normal, 0.0);
+        // Finite, and within f16's range.
+        rgba = clamp(finite4(vec4<f32>(sc[0].rgb * light, clamp(sc[0].a, 0.0, 1.0))), vec4<f32>(-65504.0), vec4<f32>(65504.0));
+        depth = t;
     }
-    pixels[index] = out;
+    colors[index] = vec2<u32>(pack_half2(rgba.xy), pack_half2(rgba.zw));
+    if (params.flags & 1u) != 0u {
+        geometry[index] = vec2<u32>(bitcast<u32>(depth), pack2x16snorm(octahedral(normal)));
+    }
 }

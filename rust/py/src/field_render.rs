@@ -6,7 +6,7 @@ use pyo3::prelude::*;
 use thicket_core::glam::DMat4;
 use thicket_core::implicit::trace::{render, Camera};
 use thicket_core::implicit::FieldTree;
-use thicket_render::field::render_on_shared_gpu;
+use thicket_render::field::render_rgba_on_shared_gpu;
 
 use crate::errors::{run_detached, InvalidInput};
 
@@ -39,7 +39,7 @@ fn matrix(value: &Bound<'_, PyAny>, name: &str) -> PyResult<DMat4> {
 /// below 1 or above 16384, or a non-invertible camera raises InvalidInput (a
 /// ThicketError) saying what is wrong. `device`: "cpu" (the CPU tracer, in double
 /// precision), "gpu" (the wgpu tracer, the same rays, steps and shading in single
-/// precision; DeviceError without an adapter, InvalidInput for a tree deeper than
+/// precision, colours returned through half precision; DeviceError without an adapter, InvalidInput for a tree deeper than
 /// its stack of 16 results) or "auto" (a hardware GPU, falling back to the CPU where
 /// there is none, the only adapter is a software rasterizer, or the GPU cannot
 /// render the tree). Runs with the GIL released.
@@ -64,11 +64,11 @@ pub fn field_render<'py>(
     let out = run_detached(py, move || {
         let tree = FieldTree::from_json(&text)?;
         match device.as_str() {
-            "cpu" => render(&tree, &camera),
-            "gpu" => Ok(render_on_shared_gpu(&tree, &camera, true)?.render),
-            _ => render_on_shared_gpu(&tree, &camera, false).map(|g| g.render).or_else(|_| render(&tree, &camera)),
+            "cpu" => render(&tree, &camera).map(|r| r.rgba),
+            "gpu" => render_rgba_on_shared_gpu(&tree, &camera, true),
+            _ => render_rgba_on_shared_gpu(&tree, &camera, false).or_else(|_| render(&tree, &camera).map(|r| r.rgba)),
         }
     })?;
-    let (h, w) = (out.height as usize, out.width as usize);
-    out.rgba.into_pyarray(py).reshape([h, w, 4])
+    let (h, w) = (camera.height as usize, camera.width as usize);
+    out.into_pyarray(py).reshape([h, w, 4])
 }

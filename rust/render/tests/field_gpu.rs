@@ -46,9 +46,9 @@ struct Agreement {
     normal_outliers: f64,
 }
 
-fn compare(name: &str, json: &str, size: u32) -> Agreement {
+fn compare_with(name: &str, json: &str, cam: &Camera) -> Agreement {
     let tree = FieldTree::from_json(json).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let cam = camera(size);
+    let cam = *cam;
     let cpu = render(&tree, &cam).unwrap();
     let gpu = tracer().render(&tree, &cam).unwrap();
     let g = &gpu.render;
@@ -56,7 +56,8 @@ fn compare(name: &str, json: &str, size: u32) -> Agreement {
     let (mut both, mut any) = (0usize, 0usize);
     let (mut color, mut outliers, mut normal_out) = (0.0, 0usize, 0usize);
     let mut depths = Vec::new();
-    let w = size as usize;
+    let w = cam.width as usize;
+    assert_eq!((g.width, g.height, g.rgba.len(), g.hits.len()), (cpu.width, cpu.height, cpu.rgba.len(), cpu.hits.len()));
     for i in 0..cpu.hits.len() {
         let (a, b) = (cpu.hits[i], g.hits[i]);
         any += usize::from(a.is_some() || b.is_some());
@@ -92,7 +93,11 @@ fn compare(name: &str, json: &str, size: u32) -> Agreement {
 /// step apart), hits within a tenth of a footprint (the hit tolerance) at the
 /// median, under 1% of normals off by more than 5 degrees.
 fn check(name: &str, json: &str) {
-    let a = compare(name, json, 160);
+    check_with(name, json, &camera(160));
+}
+
+fn check_with(name: &str, json: &str, cam: &Camera) {
+    let a = compare_with(name, json, cam);
     assert!(a.iou >= 0.99, "{name}: IoU {a:?}");
     assert!(a.color < 0.01 && a.color_outliers < 0.01, "{name}: colour {a:?}");
     assert!(a.depth_median < 0.1, "{name}: depth {a:?}");
@@ -102,6 +107,48 @@ fn check(name: &str, json: &str) {
 #[test]
 fn soft_csg_20_matches_the_cpu_tracer() {
     check("soft_csg_20", SOFT_CSG_20);
+}
+
+/// Rays made on the GPU from the camera's matrices: an off-centre perspective (the
+/// window shifted as Blender's lens shift does, clip x + 0.35 w, y - 0.2 w) rolled
+/// about the view axis, on a wide image, and an orthographic view on a tall one. A
+/// ray generator that ignored the shift, swapped the axes, flipped y or took the
+/// image for square would move the silhouette by tens of pixels.
+#[test]
+fn off_centre_and_non_square_cameras_match() {
+    let roll = DMat4::from_axis_angle(DVec3::Z, 0.3);
+    let view = roll * DMat4::look_at_rh(DVec3::new(2.0, -2.8, 1.4), DVec3::new(0.2, 0.1, 0.0), DVec3::Z);
+    let (w, h) = (203, 117);
+    let shift = DMat4::from_translation(DVec3::new(0.35, -0.2, 0.0));
+    let perspective = Camera { view, projection: shift * DMat4::perspective_rh_gl(0.6, w as f64 / h as f64, 0.05, 500.0), width: w, height: h };
+    check_with("off_centre_perspective", SOFT_CSG_20, &perspective);
+    let (w, h) = (90, 171);
+    let half = 1.3;
+    let ortho =
+        Camera { view, projection: DMat4::orthographic_rh_gl(-half * w as f64 / h as f64, half * 0.8, -half, half * 1.1, 0.1, 20.0), width: w, height: h };
+    check_with("orthographic", SOFT_CSG_20, &ortho);
+}
+
+/// The colours alone (the binding's frame) are the full frame's; buffers are kept
+/// between frames of one size (a warm frame allocates nothing) and a different tree
+/// or size in between does not leak into the next frame.
+#[test]
+fn kept_buffers_and_the_colour_only_frame_agree_with_a_fresh_frame() {
+    let t = tracer();
+    let a = FieldTree::from_json(SOFT_CSG_20).unwrap();
+    let b = FieldTree::from_json(&right_nested(3)).unwrap();
+    let (cam, other) = (camera(48), Camera { width: 40, height: 56, ..camera(48) });
+    let first = t.render(&a, &cam).unwrap();
+    let rgba = t.render_rgba(&a, &cam).unwrap();
+    assert!(!t.last_times().unwrap().allocated, "a warm frame of the same size allocates nothing");
+    assert_eq!(rgba, first.render.rgba);
+    assert!(first.render.hits.iter().any(Option::is_some));
+    let _ = t.render(&b, &cam).unwrap();
+    assert_eq!(t.render(&a, &cam).unwrap(), first, "the program of the tree in between is replaced");
+    let small = t.render_rgba(&b, &other).unwrap();
+    assert!(t.last_times().unwrap().allocated);
+    assert_eq!(small.len(), 40 * 56 * 4);
+    assert_eq!(t.render(&a, &cam).unwrap(), first, "after another size");
 }
 
 #[test]
