@@ -242,9 +242,52 @@ impl Cell {
     /// inward), in double precision. Tetrahedra pressed flat by a zero director do not
     /// count: a cell of zero height is the shell compressed to nothing there, not a
     /// fold (so zero thickness is always valid, which the final check relies on).
+    ///
+    /// The tetrahedra are not enough: the map a texture is drawn through,
+    /// `P(u, v, r) = Σ b_i(u, v) (x_i + r d_i)` over each triangle of either split
+    /// (chapter 3.1), can fold inside a cell whose tetrahedra are all upright, where
+    /// its directors differ many times in length (found on public scans and CAD
+    /// parts: bakes crossed themselves in such cells). So a cell is inverted too where
+    /// that map's Jacobian is negative anywhere ([`Cell::map_folds`]).
     pub fn is_inverted(&self, positions: &[Vec3], shell: &Shell) -> bool {
         let s = shell.side.orientation() as f64;
-        self.tet_volumes(positions, shell).iter().any(|v| v.is_some_and(|v| s * v <= 0.0))
+        self.tet_volumes(positions, shell).iter().any(|v| v.is_some_and(|v| s * v <= 0.0)) || self.map_folds(positions, shell)
+    }
+
+    /// Whether the Jacobian of the cell's map `P(u, v, r)` over a triangle of either
+    /// split of its base (those [`tet_volumes`](Self::tet_volumes) checks), oriented by
+    /// the shell side, is negative somewhere in the cell. For a fixed `r` the map is
+    /// affine in `(u, v)`, so `∂P/∂u × ∂P/∂v` is constant and `∂P/∂r = Σ b_i d_i` is
+    /// affine: the Jacobian is least at a corner, where it is
+    /// `q_m(r) = ((e_1 + r f_1) × (e_2 + r f_2)) · d_m`, a quadratic in `r`, least at
+    /// `r = 0`, `r = 1` or its vertex. Exact up to double rounding; a zero director
+    /// (a cell pressed flat at that corner) gives zero, not a fold.
+    pub fn map_folds(&self, positions: &[Vec3], shell: &Shell) -> bool {
+        let side = shell.side.orientation() as f64;
+        let k = self.count as usize;
+        let x: Vec<DVec3> = self.base().iter().map(|&v| shell.point(positions, v as usize, 0.0).as_dvec3()).collect();
+        let d: Vec<DVec3> = self.base().iter().zip(&x).map(|(&v, x)| shell.point(positions, v as usize, 1.0).as_dvec3() - *x).collect();
+        let prisms: &[[usize; 3]] = if k == 4 { &[[0, 1, 2], [0, 2, 3], [1, 2, 3], [1, 3, 0]] } else { &[[0, 1, 2]] };
+        let base_at = |q: usize| positions[self.vertices[q] as usize].as_dvec3();
+        let facing = match k {
+            4 => crate::mesh::newell_normal(&[0, 1, 2, 3].map(|q| positions[self.vertices[q] as usize])).as_dvec3(),
+            _ => (base_at(1) - base_at(0)).cross(base_at(2) - base_at(0)),
+        };
+        prisms.iter().any(|&[i, j, l]| {
+            // The prisms the tetrahedra skip (no area, or folding the base itself).
+            let base = [i, j, l].map(base_at);
+            if !((base[1] - base[0]).cross(base[2] - base[0]).dot(facing) > 0.0) {
+                return false;
+            }
+            let (e1, f1, e2, f2) = (x[j] - x[i], d[j] - d[i], x[l] - x[i], d[l] - d[i]);
+            let (n0, n1, n2) = (e1.cross(e2), e1.cross(f2) + f1.cross(e2), f1.cross(f2));
+            [i, j, l].iter().any(|&m| {
+                let (a, b, c) = (side * n0.dot(d[m]), side * n1.dot(d[m]), side * n2.dot(d[m]));
+                let q = |r: f64| a + r * (b + r * c);
+                let vertex = if c > 0.0 { -b / (2.0 * c) } else { -1.0 };
+                q(0.0) < 0.0 || q(1.0) < 0.0 || (vertex > 0.0 && vertex < 1.0 && q(vertex) < 0.0)
+            })
+        })
     }
 }
 
@@ -315,5 +358,58 @@ mod tests {
         assert_eq!(s.mesh.positions()[4].z, 0.5);
         assert!(build_geometry(&m, &d, ShellOutput::Layers(0)).is_err());
         assert!(build_geometry(&m, &d[..3], ShellOutput::Outer).is_err());
+    }
+    #[test]
+    fn a_cell_folds_where_its_maps_jacobian_turns_negative_even_with_upright_tetrahedra() {
+        // Random prisms over a triangle facing +z, directors of lengths 0.02 to 1.5
+        // leaning up to about 60 degrees: map_folds against the map's Jacobian by
+        // central differences on a dense (u, v, r) grid (an independent reference).
+        let mut rng = crate::test_rng::Rng(7);
+        let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let cell = Cell { face: 0, vertices: [0, 1, 2, 0], count: 3 };
+        let (mut folds, mut upright_but_folding, mut undecided) = (0, 0, 0);
+        for _ in 0..3000 {
+            let directors: Vec<Vec3> = (0..3)
+                .map(|_| {
+                    let lean = rng.vec(1.0).truncate().as_vec2() * 1.7;
+                    lean.extend(1.0).normalize() * rng.range(0.02, 1.5) as f32
+                })
+                .collect();
+            let shell = Shell::from_directors(vec![Vec3::ZERO; 3], directors.clone());
+            let map = |u: f64, v: f64, r: f64| {
+                let b = [1.0 - u - v, u, v];
+                (0..3).map(|i| (positions[i].as_dvec3() + directors[i].as_dvec3() * r) * b[i]).sum::<DVec3>()
+            };
+            let h = 1e-5;
+            let mut least = f64::INFINITY;
+            for i in 0..=12 {
+                for j in 0..=12 - i {
+                    for k in 0..=24 {
+                        let (u, v, r) = (i as f64 / 12.0, j as f64 / 12.0, k as f64 / 24.0);
+                        let du = (map(u + h, v, r) - map(u - h, v, r)) / (2.0 * h);
+                        let dv = (map(u, v + h, r) - map(u, v - h, r)) / (2.0 * h);
+                        let dr = (map(u, v, r + h) - map(u, v, r - h)) / (2.0 * h);
+                        least = least.min(du.cross(dv).dot(dr));
+                    }
+                }
+            }
+            let exact = cell.map_folds(&positions, &shell);
+            // The grid misses folds thinner than its spacing: only clear cases count.
+            if least < -1e-3 {
+                assert!(exact, "a fold of {least} was missed: {directors:?}");
+            } else if least > 1e-6 {
+                assert!(!exact, "an upright map was called folded: {directors:?}");
+            } else {
+                undecided += 1;
+            }
+            folds += usize::from(exact);
+            let tets_upright = cell.tet_volumes(&positions, &shell).iter().all(|v| v.is_some_and(|v| v > 0.0));
+            upright_but_folding += usize::from(exact && tets_upright);
+        }
+        assert!(folds > 100 && upright_but_folding > 10, "{folds} folding, {upright_but_folding} of them with upright tetrahedra");
+        assert!(undecided < 300, "{undecided}");
+        // Such a cell is inverted; a cell pressed flat at one corner is not.
+        let flat = Shell::from_directors(vec![Vec3::ZERO; 3], vec![Vec3::ZERO, Vec3::Z, Vec3::Z]);
+        assert!(!cell.map_folds(&positions, &flat) && !cell.is_inverted(&positions, &flat));
     }
 }
