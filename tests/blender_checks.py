@@ -1,6 +1,7 @@
 """A shell's crossings and inverted cells found with Blender's own tools, independent
 of the project's checker: `BVHTree.overlap` on Blender's triangulation for skin/skin
-and skin/base crossings, and a numpy orientation test of every cell's tetrahedra.
+and skin/base crossings, and numpy orientation tests of every cell's tetrahedra and of
+the map a texture is drawn through.
 Shared by the tests and `make bench`."""
 
 import numpy as np
@@ -46,6 +47,23 @@ def inverted_cells(bottom, top, tris, orientation):
     return int((bad & (area > 0)).sum())
 
 
+def folding_cells(bottom, top, tris, orientation, samples=65):
+    """Cells whose map P(u, v, r) = sum b_i (bottom_i + r (top_i - bottom_i)) has a
+    negative Jacobian: for fixed r the map is affine in (u, v), so the Jacobian is
+    checked at the corners, on `samples` values of r (sampled, not solved: the
+    project's checker finds the least value exactly). Cells without area and corners
+    without height (pressed flat) are not folds."""
+    x = [bottom[tris[:, k]].astype(np.float64) for k in range(3)]
+    d = [top[tris[:, k]].astype(np.float64) - x[k] for k in range(3)]
+    area = np.linalg.norm(np.cross(x[1] - x[0], x[2] - x[0]), axis=1)
+    bad = np.zeros(len(tris), bool)
+    for r in np.linspace(0.0, 1.0, samples):
+        normal = np.cross(x[1] + r * d[1] - x[0] - r * d[0], x[2] + r * d[2] - x[0] - r * d[0])
+        for k in range(3):
+            bad |= np.einsum("ij,ij->i", normal, d[k]) * orientation < -1e-12 * area * np.linalg.norm(d[k], axis=1)
+    return int((bad & (area > 0)).sum())
+
+
 def blender_check(base, out, side, tris):
     """Crossings and inverted cells of a shell result, found with Blender's tools.
     Crossings involving a base triangle that crosses the base itself are inherited."""
@@ -67,4 +85,5 @@ def blender_check(base, out, side, tris):
         base_pairs += int((~touching & ~np.isin(pairs, own).any(axis=1)).sum())
     orientation = -1.0 if side == "interior" else 1.0
     inverted = inverted_cells(base + offset, base + offset + directors, tris, orientation)
-    return {"self": self_pairs, "base": base_pairs, "inverted": inverted, "own": len(own)}
+    folding = folding_cells(base + offset, base + offset + directors, tris, orientation)
+    return {"self": self_pairs, "base": base_pairs, "inverted": inverted, "folding": folding, "own": len(own)}

@@ -2,8 +2,8 @@
 
 Every shell here is checked with Blender's own tools, independently of the project's
 checker: `BVHTree.overlap` for skin/skin and skin/base crossings on Blender's own
-triangulation of meshes read by Blender's OBJ importer, and a numpy orientation test
-of every cell's tetrahedra. Meshes: generated hard shapes (tests/data/hard: thin
+triangulation of meshes read by Blender's OBJ importer, and numpy orientation tests
+of every cell's tetrahedra and of the map a texture is drawn through (its Jacobian). Meshes: generated hard shapes (tests/data/hard: thin
 parts, narrow gaps, sharp creases), the scanned bunny and Suzanne (whose eyes cross
 its head: a base with intersections of its own).
 """
@@ -74,7 +74,7 @@ def test_shells_never_fold_by_blenders_own_checks(scene, name):
             out = tn.shell(a.vertices, a.face_sizes, a.corners, fraction, side=side, relative=True, factors=factors)
             found = blender_check(a.vertices, out, side, tris)
             what = f"{name} {side} {fraction} {'weighted' if factors is not None else 'uniform'}: {found} {out['check']}"
-            assert (found["self"], found["base"], found["inverted"]) == (0, 0, 0), what
+            assert (found["self"], found["base"], found["inverted"], found["folding"]) == (0, 0, 0, 0), what
             assert out["check"]["clean"], what
             ratio = out["achieved"] / out["target"]
             # Compressed only as far as the geometry requires: at least half of the room.

@@ -265,8 +265,11 @@ impl Cell {
     pub fn map_folds(&self, positions: &[Vec3], shell: &Shell) -> bool {
         let side = shell.side.orientation() as f64;
         let k = self.count as usize;
-        let x: Vec<DVec3> = self.base().iter().map(|&v| shell.point(positions, v as usize, 0.0).as_dvec3()).collect();
-        let d: Vec<DVec3> = self.base().iter().zip(&x).map(|(&v, x)| shell.point(positions, v as usize, 1.0).as_dvec3() - *x).collect();
+        let (mut x, mut d) = ([DVec3::ZERO; 4], [DVec3::ZERO; 4]);
+        for (q, &v) in self.base().iter().enumerate() {
+            x[q] = shell.point(positions, v as usize, 0.0).as_dvec3();
+            d[q] = shell.point(positions, v as usize, 1.0).as_dvec3() - x[q];
+        }
         let prisms: &[[usize; 3]] = if k == 4 { &[[0, 1, 2], [0, 2, 3], [1, 2, 3], [1, 3, 0]] } else { &[[0, 1, 2]] };
         let base_at = |q: usize| positions[self.vertices[q] as usize].as_dvec3();
         let facing = match k {

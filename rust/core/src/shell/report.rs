@@ -33,7 +33,8 @@ pub struct ShellReport {
     pub base_self_intersections: usize,
     /// Vertices (with a positive target and a normal) below 95% of their target.
     pub compressed_vertices: usize,
-    /// Cells with a non-positive tetrahedron (see [`Cell::is_inverted`]).
+    /// Cells with a non-positive tetrahedron or whose map folds inside (see
+    /// [`Cell::is_inverted`], [`Cell::map_folds`]).
     pub inverted_cells: usize,
     /// Cells enclosing another connected part of the base (a part wholly inside
     /// another part's shell, which crosses none of its skins).

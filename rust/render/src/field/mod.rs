@@ -347,7 +347,8 @@ impl FieldTracer {
         }
         let queue = &self.gpu.queue;
         queue.write_buffer(&f.uniform, 0, bytemuck::bytes_of(&params));
-        if f.words[..program.words.len()] != program.words[..] {
+        // Bits, not values: -0.0 == 0.0, and a NaN word would re-upload every frame.
+        if !f.words[..program.words.len()].iter().zip(&program.words).all(|(a, b)| a.to_bits() == b.to_bits()) {
             queue.write_buffer(&f.program, 0, bytemuck::cast_slice(&program.words));
             f.words[..program.words.len()].copy_from_slice(&program.words);
         }

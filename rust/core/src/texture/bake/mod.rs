@@ -383,7 +383,8 @@ impl Setup {
 /// Which cells' triangles are reversed: those whose map from `(u, v, r)` to the world
 /// reverses orientation, decided for each patch of consistently wound faces as a whole
 /// ([`face_windings`]): the sign of the sum over its cells of the map's Jacobian at
-/// their centres, times each face's winding. One cell's own Jacobian is not enough:
+/// their centres, times each face's winding (a patch pressed flat: its shell's side).
+/// One cell's own Jacobian is not enough:
 /// a triangle of a folded quad can have a director leaning under it (a valid shell
 /// still; its neighbour across the quad's diagonal does not) and reversing it alone
 /// walks the edges on their common side the same way (Suzanne's cheek, 8-40 edges).
@@ -398,9 +399,15 @@ pub(super) fn cell_flips(mesh: &Mesh, shell: &Shell, triangles: &[[u32; 3]], fac
             (windings.patch[f as usize], det * windings.sign[f as usize] as f64)
         })
         .collect();
-    let mut total = vec![0.0f64; windings.patches];
-    signed.iter().for_each(|&(patch, det)| total[patch as usize] += det);
-    faces.iter().map(|&f| (windings.sign[f as usize] as f64 * total[windings.patch[f as usize] as usize]) < 0.0).collect()
+    let (mut total, mut size) = (vec![0.0f64; windings.patches], vec![0.0f64; windings.patches]);
+    signed.iter().for_each(|&(patch, det)| {
+        total[patch as usize] += det;
+        size[patch as usize] += det.abs();
+    });
+    // A patch pressed flat (or balanced to rounding) says nothing: its shell's side does.
+    let fallback = if shell.side == crate::shell::Side::Interior { -1.0 } else { 1.0 };
+    let orientation: Vec<f64> = total.iter().zip(&size).map(|(&t, &s)| if t.abs() > 1e-9 * s && s > 0.0 { t } else { fallback }).collect();
+    faces.iter().map(|&f| (windings.sign[f as usize] as f64 * orientation[windings.patch[f as usize] as usize]) < 0.0).collect()
 }
 
 /// Lattice samples the estimate may take: tens of milliseconds, far below a bake.
