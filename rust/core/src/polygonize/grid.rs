@@ -25,7 +25,7 @@
 //! within 1% of a cell of the level are moved off it by that much ([`OFF_ISO`]).
 
 use super::estimate::{over_limit, peak_bytes, Mesher, Watch};
-use super::marching::{centre_weights, march_prism, step_inside, Crossing, OFF_ISO};
+use super::marching::{march_prism, Crossing, OFF_ISO};
 use super::weld::{edge_key, weld, Piece, UNSHARED};
 use crate::field::ScalarField;
 use crate::{Error, Result};
@@ -346,14 +346,10 @@ fn march_slab<F: ScalarField + ?Sized>(field: &F, grid: &Grid, k0: u32, k1: u32,
     let mut ends: Vec<(Vec3, Vec3)> = Vec::new();
     let mut guesses: Vec<Crossing> = Vec::new();
     let mut tris = Vec::new();
-    // Centres of long loops, placed once the loops' vertices are refined: numbered
-    // from CENTRE in the triangles until then.
-    let mut centres: Vec<Centre> = Vec::new();
     for k in k0..k1 {
         watch.check()?;
         sample_plane(field, grid, k + 1, needed_points(grid, live.as_deref(), k0, k1, k + 1, &mut needed), &mut points, &mut above);
         let layer = live.as_deref().map(|live| &live[((k - k0) * nx * ny) as usize..][..(nx * ny) as usize]);
-        let k_layer = k;
         for j in 0..ny {
             for i in 0..nx {
                 if layer.is_some_and(|layer| !layer[(j * nx + i) as usize]) {
@@ -404,17 +400,7 @@ fn march_slab<F: ScalarField + ?Sized>(field: &F, grid: &Grid, k0: u32, k1: u32,
                         slots[slot] = index;
                         index
                     };
-                    let centre = |ring: &[(usize, usize, u32)]| {
-                        let mut c = Centre { values: vals, corners: [Vec3::ZERO; 6], ring: [(0, 0, 0); 9], len: ring.len() };
-                        for (k, x) in c.corners.iter_mut().enumerate() {
-                            let ((a, b), up) = corner(k);
-                            *x = grid.point(a, b, k_layer + u32::from(up));
-                        }
-                        c.ring[..ring.len()].copy_from_slice(ring);
-                        centres.push(c);
-                        CENTRE + centres.len() as u32 - 1
-                    };
-                    march_prism(&vals, 0.0, false, vertex, centre, &mut tris);
+                    march_prism(&vals, 0.0, false, vertex, &mut tris);
                 }
             }
         }
@@ -422,80 +408,13 @@ fn march_slab<F: ScalarField + ?Sized>(field: &F, grid: &Grid, k0: u32, k1: u32,
         std::mem::swap(&mut slots_below, &mut slots_above);
         slots_above.fill(u32::MAX);
     }
+    piece.tris = tris;
     if refine {
         refine_vertices(field, grid, &mut piece.pos, &ends, &mut guesses);
     }
-    // Each centre from its loop's vertices where they are now (the same rule as a
-    // bake's cells), never shared.
-    let first = piece.pos.len() as u32;
-    for c in &centres {
-        let along = c.ring[..c.len].iter().map(|&(a, b, id)| {
-            let f = guesses[id as usize].result();
-            (a, b, if ends[id as usize].0 == c.corners[a] { f } else { 1.0 - f })
-        });
-        let w = centre_weights(&c.values, 0.0, along);
-        piece.pos.push((0..6).map(|k| c.corners[k] * w[k]).sum());
-        piece.keys.push(UNSHARED);
-    }
-    if refine {
-        centre_steps(field, grid, &mut piece.pos[first as usize..], &centres);
-    }
-    for v in tris.iter_mut().flatten().filter(|v| **v >= CENTRE) {
-        *v = *v - CENTRE + first;
-    }
-    piece.tris = tris;
     normals(field, grid, &mut piece);
     Ok(piece)
 }
-
-/// Where [`march_slab`] numbers the centres of long loops until they are placed.
-const CENTRE: u32 = 1 << 31;
-
-/// A long loop's prism, waiting for its loop's vertices to be refined: its values and
-/// corners, the loop as [`march_prism`] gives it.
-struct Centre {
-    values: [f32; 6],
-    corners: [Vec3; 6],
-    ring: [(usize, usize, u32); 9],
-    len: usize,
-}
-
-/// Moves the centres of long loops toward the cut field's zero set, as the loops'
-/// vertices were refined onto it: [`CENTRE_STEPS`] Newton steps along its gradient
-/// (the field's, or the nearest box face's where the box cut it), each kept inside
-/// the centre's prism ([`step_inside`]), one batch per step.
-fn centre_steps<F: ScalarField + ?Sized>(field: &F, grid: &Grid, pos: &mut [Vec3], centres: &[Centre]) {
-    let mut values = vec![0.0; pos.len()];
-    let mut grads = vec![Vec3::ZERO; pos.len()];
-    // The nearest to the zero set of the points tried (steps overshoot at creases).
-    let mut best: Vec<(f32, Vec3)> = vec![(f32::INFINITY, Vec3::ZERO); pos.len()];
-    for step in 0..=CENTRE_STEPS {
-        field.values(pos, &mut values);
-        if step < CENTRE_STEPS {
-            field.gradients(pos, &mut grads);
-        }
-        for (v, (p, c)) in pos.iter_mut().zip(centres).enumerate() {
-            let (d, face) = grid.to_box(*p);
-            let (f, g) = if d >= values[v] { (d, face) } else { (values[v], grads[v]) };
-            if f.abs() < best[v].0 {
-                best[v] = (f.abs(), *p);
-            }
-            if step == CENTRE_STEPS {
-                *p = best[v].1;
-                continue;
-            }
-            let [c0, c1, c2, c3] = [0, 1, 2, 3].map(|k| c.corners[k]);
-            let frame = glam::Mat3::from_cols(c1 - c0, c2 - c0, c3 - c0);
-            let inverse = frame.inverse();
-            let local = step_inside(inverse * (*p - c0), inverse * (-f * g / g.length_squared()), OFF_ISO);
-            *p = c0 + frame * local;
-        }
-    }
-}
-
-/// Newton steps moving a long loop's centre onto the field's zero set. Not from a
-/// paper: four bring the centres of random sphere unions within a tenth of a cell.
-const CENTRE_STEPS: usize = 4;
 
 /// Moves each vertex onto the cut field's crossing of its edge.
 fn refine_vertices<F: ScalarField + ?Sized>(field: &F, grid: &Grid, pos: &mut [Vec3], ends: &[(Vec3, Vec3)], guesses: &mut [Crossing]) {

@@ -18,99 +18,24 @@ pub const OFF_ISO: f32 = 0.01;
 /// with `flip`, for a prism whose frame reverses orientation). `vertex(a, b)` gives
 /// the iso-vertex on the edge from corner `a` to corner `b`; it is asked once per edge
 /// of this prism, and must give every prism sharing that edge the same vertex (its
-/// place is the lattice's business: [`crossing`]). A loop of at least
-/// [`prism_table::CENTRE_LOOP`] iso-vertices is fanned from a vertex inside the prism
-/// that `centre(ring)` makes from the loop, given as `(a, b, vertex)` per iso-vertex
-/// in winding order (its place: [`centre_weights`]); it belongs to this prism alone.
+/// place is the lattice's business: [`crossing`]).
 #[inline]
-pub fn march_prism(
-    values: &[f32; 6],
-    level: f32,
-    flip: bool,
-    mut vertex: impl FnMut(usize, usize) -> u32,
-    mut centre: impl FnMut(&[(usize, usize, u32)]) -> u32,
-    out: &mut Vec<[u32; 3]>,
-) {
+pub fn march_prism(values: &[f32; 6], level: f32, flip: bool, mut vertex: impl FnMut(usize, usize) -> u32, out: &mut Vec<[u32; 3]>) {
     let case = prism_table::classify(values, level);
-    if case.count == 0 && case.ring_len == 0 {
+    if case.count == 0 {
         return;
     }
     let mut verts = [u32::MAX; 9];
-    let mut at = |e: u8| {
-        let e = e as usize;
-        if verts[e] == u32::MAX {
-            verts[e] = vertex(EDGES[e][0], EDGES[e][1]);
-        }
-        verts[e]
-    };
-    let mut push = |t: [u32; 3]| out.push(if flip { [t[0], t[2], t[1]] } else { t });
     for tri in &case.tris[..case.count as usize] {
-        push(tri.map(&mut at));
+        let t = tri.map(|e| {
+            let e = e as usize;
+            if verts[e] == u32::MAX {
+                verts[e] = vertex(EDGES[e][0], EDGES[e][1]);
+            }
+            verts[e]
+        });
+        out.push(if flip { [t[0], t[2], t[1]] } else { t });
     }
-    let ring = case.ring();
-    if !ring.is_empty() {
-        let mut loop_ = [(0, 0, 0); 9];
-        for (k, &e) in ring.iter().enumerate() {
-            loop_[k] = (EDGES[e as usize][0], EDGES[e as usize][1], at(e));
-        }
-        let loop_ = &loop_[..ring.len()];
-        let c = centre(loop_);
-        for k in 0..loop_.len() {
-            push([c, loop_[k].2, loop_[(k + 1) % loop_.len()].2]);
-        }
-    }
-}
-
-/// How far a loop's centre stays from the prism's faces, in the prism's own
-/// coordinates (barycentric across, the layer's share up): it must not meet the
-/// surface of the prism beside it, which a curved lattice (a bake's cells) bends by a
-/// few percent of a step (`VERTEX_MARGIN` in the bake). Not from a paper.
-const CENTRE_MARGIN: f32 = 0.05;
-
-/// Where the centre of a loop of iso-vertices goes, as weights of the prism's six
-/// corners (non-negative, summing to 1; the lattice maps corners to its own space,
-/// where a prism is a triangle times an interval): the mean of the loop's vertices in
-/// the prism's coordinates, `(a, b, f)` each (on the edge from corner `a` to `b`, at
-/// `f` from `a`), then one Newton step onto `level` of the values' interpolation
-/// (linear across, linear up) along its gradient, shortened to keep it
-/// [`CENTRE_MARGIN`] inside the prism.
-pub fn centre_weights(values: &[f32; 6], level: f32, ring: impl Iterator<Item = (usize, usize, f32)>) -> [f32; 6] {
-    // Coordinates (w1, w2, t): w0 = 1 - w1 - w2.
-    let local = |c: usize| glam::Vec3::new(f32::from(c % 3 == 1), f32::from(c % 3 == 2), (c / 3) as f32);
-    let (mut sum, mut n) = (glam::Vec3::ZERO, 0.0f32);
-    for (a, b, f) in ring {
-        sum += local(a).lerp(local(b), f);
-        n += 1.0;
-    }
-    let mut x = sum / n.max(1.0);
-    let v = values;
-    let interp = |x: glam::Vec3| {
-        let w = [1.0 - x.x - x.y, x.x, x.y];
-        (0..3).map(|k| w[k] * ((1.0 - x.z) * v[k] + x.z * v[k + 3])).sum::<f32>()
-    };
-    let t = x.z;
-    let w = [1.0 - x.x - x.y, x.x, x.y];
-    let g = glam::Vec3::new(
-        (1.0 - t) * (v[1] - v[0]) + t * (v[4] - v[3]),
-        (1.0 - t) * (v[2] - v[0]) + t * (v[5] - v[3]),
-        (0..3).map(|k| w[k] * (v[k + 3] - v[k])).sum::<f32>(),
-    );
-    x = step_inside(x, -(interp(x) - level) * g / g.length_squared(), CENTRE_MARGIN);
-    let w = [1.0 - x.x - x.y, x.x, x.y];
-    [w[0] * (1.0 - x.z), w[1] * (1.0 - x.z), w[2] * (1.0 - x.z), w[0] * x.z, w[1] * x.z, w[2] * x.z]
-}
-
-/// `x + s step` in a prism's coordinates `(w1, w2, t)` ([`centre_weights`]) for the
-/// largest `s` in `[0, 1]` that keeps `w0 = 1 - w1 - w2`, `w1`, `w2`, `t` and `1 - t`
-/// above `margin` (or not lower, where they start below it); `x` where the step is
-/// not a number.
-pub fn step_inside(x: glam::Vec3, step: glam::Vec3, margin: f32) -> glam::Vec3 {
-    if !step.is_finite() {
-        return x;
-    }
-    let limits = [(1.0 - x.x - x.y, -step.x - step.y), (x.x, step.x), (x.y, step.y), (x.z, step.z), (1.0 - x.z, -step.z)];
-    let s = limits.iter().fold(1.0f32, |s, &(room, rate)| if rate < 0.0 { s.min(((room - margin) / -rate).max(0.0)) } else { s });
-    x + s * step
 }
 
 /// Refinement of an iso-vertex by [`crossing`]: at most `steps` evaluations, fewer once
@@ -272,7 +197,6 @@ mod tests {
                 asked.push((a, b));
                 asked.len() as u32 - 1
             },
-            |_| unreachable!(),
             &mut tris,
         );
         asked.sort();
@@ -288,15 +212,14 @@ mod tests {
                 k += 1;
                 k - 1
             },
-            |_| unreachable!(),
             &mut again,
         );
         let t = tris[0];
         assert_eq!(again[0], [t[0], t[2], t[1]]);
         // All outside or all inside: nothing.
         let mut none = Vec::new();
-        march_prism(&[0.0; 6], 0.5, false, |_, _| 0, |_| 0, &mut none);
-        march_prism(&[1.0; 6], 0.5, false, |_, _| 0, |_| 0, &mut none);
+        march_prism(&[0.0; 6], 0.5, false, |_, _| 0, &mut none);
+        march_prism(&[1.0; 6], 0.5, false, |_, _| 0, &mut none);
         assert!(none.is_empty());
     }
 }

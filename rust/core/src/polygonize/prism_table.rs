@@ -23,32 +23,11 @@ pub const SIDES: [[usize; 4]; 3] = [[0, 1, 4, 3], [1, 2, 5, 4], [2, 0, 3, 5]];
 /// Bottom and top triangles, counter-clockwise seen from outside.
 const CAPS: [[usize; 3]; 2] = [[0, 2, 1], [3, 4, 5]];
 
-/// Loops of at least this many crossings are fanned from a centre vertex inside the
-/// prism ([`Case::ring`]) instead of from one of their own vertices. A fan from a loop
-/// vertex has its triangles on the loop's far side; where the lattice is curved or
-/// sheared (a bake's cells) such a fan folds and its triangles cross the neighbouring
-/// prisms' surface (Suzanne's head, chain mail: 5 crossing pairs exterior, 15 interior).
-/// Loops of four or fewer crossings are kept: a quad has no better split. Five: see
-/// the measurements in `polygonize/tests.rs` (`fan_from_centre_rule`).
-pub const CENTRE_LOOP: usize = 6;
-
-/// Triangles of one case, as edge indices (at most seven: nine crossings in one loop),
-/// and the one loop of at least [`CENTRE_LOOP`] crossings, if any (two would need more
-/// than nine edges), which is fanned from a centre vertex: triangles `[centre, ring[i],
-/// ring[i + 1]]` (cyclic) face from inside to outside, as `tris` do.
+/// Triangles of one case, as edge indices; at most seven (nine crossings in one loop).
 #[derive(Clone, Copy, Default)]
 pub struct Case {
     pub count: u8,
     pub tris: [[u8; 3]; 7],
-    pub ring_len: u8,
-    pub ring: [u8; 9],
-}
-
-impl Case {
-    /// The edges of the loop fanned from a centre vertex, in winding order (empty if none).
-    pub fn ring(&self) -> &[u8] {
-        &self.ring[..self.ring_len as usize]
-    }
 }
 
 /// Case index: bit `c` set when corner `c` is inside; bit `6 + k` set when side quad
@@ -196,13 +175,6 @@ fn build() -> Vec<Case> {
                     ring.push(e);
                     e = next[e];
                 }
-                if ring.len() >= CENTRE_LOOP {
-                    // The fan from one of its vertices winds the loop as `ring`.
-                    debug_assert_eq!(case.ring_len, 0, "one long loop per prism");
-                    case.ring_len = ring.len() as u8;
-                    ring.iter().enumerate().for_each(|(k, &e)| case.ring[k] = e as u8);
-                    continue;
-                }
                 for t in triangulate(&ring) {
                     case.tris[case.count as usize] = t.map(|e| e as u8);
                     case.count += 1;
@@ -218,8 +190,7 @@ mod tests {
     use super::*;
 
     /// Every crossing edge is used, every triangle edge is shared by exactly two
-    /// triangles or lies on a prism face, and triangles face the outside corners. The
-    /// centre of a fanned loop ([`Case::ring`]) is vertex 9, at its crossings' mean.
+    /// triangles or lies on a prism face, and triangles face the outside corners.
     #[test]
     fn every_case_is_a_closed_surface_inside_the_prism() {
         // Corner positions of a right prism; an iso-point at each edge's midpoint.
@@ -227,25 +198,20 @@ mod tests {
             let base = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]][c % 3];
             glam::Vec3::new(base[0], base[1], (c / 3) as f32)
         };
-        let edge_mid = |e: u8| (corner(EDGES[e as usize][0]) + corner(EDGES[e as usize][1])) / 2.0;
+        let mid = |e: u8| (corner(EDGES[e as usize][0]) + corner(EDGES[e as usize][1])) / 2.0;
         for inside in 0u8..64 {
             for connected in 0u8..8 {
-                let case = case(inside, connected);
-                let ring = case.ring();
-                assert!(ring.is_empty() || ring.len() >= CENTRE_LOOP);
-                let all: Vec<[u8; 3]> =
-                    case.tris[..case.count as usize].iter().copied().chain((0..ring.len()).map(|k| [9, ring[k], ring[(k + 1) % ring.len()]])).collect();
-                let mid = |e: u8| if e == 9 { ring.iter().map(|&e| edge_mid(e)).sum::<glam::Vec3>() / ring.len() as f32 } else { edge_mid(e) };
+                let t = case(inside, connected);
                 let ins = |c: usize| inside & (1 << c) != 0;
                 let crossing: Vec<u8> = (0..9u8).filter(|&e| ins(EDGES[e as usize][0]) != ins(EDGES[e as usize][1])).collect();
-                let mut used: Vec<u8> = all.iter().flatten().copied().filter(|&e| e != 9).collect();
+                let mut used: Vec<u8> = t.tris[..t.count as usize].iter().flatten().copied().collect();
                 used.sort();
                 used.dedup();
                 assert_eq!(used, crossing, "case {inside:06b}/{connected:03b}");
                 // Interior edges (both ends on one loop, not on one face) pair up
                 // with opposite directions: consistent orientation.
                 let mut directed = std::collections::HashMap::new();
-                for tri in &all {
+                for tri in &t.tris[..t.count as usize] {
                     for k in 0..3 {
                         *directed.entry((tri[k], tri[(k + 1) % 3])).or_insert(0) += 1;
                     }
@@ -255,19 +221,19 @@ mod tests {
                 }
                 // No triangle lies in a prism face (the prism across it could make
                 // the same triangle facing the other way).
-                for tri in all.iter().filter(|t| !t.contains(&9)) {
+                for tri in &t.tris[..t.count as usize] {
                     assert!(!in_one_face(tri.map(|e| e as usize)), "case {inside:06b}/{connected:03b}: {tri:?} lies in a face");
                 }
                 // Edges inside the loop's triangulation (used by two of its triangles)
                 // are no chords the neighbouring prism could draw as well.
-                for (&(a, b), _) in directed.iter().filter(|(&(a, b), _)| a != 9 && b != 9 && directed.contains_key(&(b, a))) {
+                for (&(a, b), _) in directed.iter().filter(|(&(a, b), _)| directed.contains_key(&(b, a))) {
                     assert!(!shared_chord(a as usize, b as usize), "case {inside:06b}/{connected:03b}: chord {a}-{b}");
                 }
                 // Orientation: every triangle's normal points away from the inside
                 // corners' centroid of its own loop, checked on single-loop cases.
-                if !all.is_empty() && (connected == 0) && inside.count_ones() == 1 {
+                if t.count > 0 && (connected == 0) && inside.count_ones() == 1 {
                     let c = (0..6).find(|&c| ins(c)).unwrap();
-                    for tri in &all {
+                    for tri in &t.tris[..t.count as usize] {
                         let [a, b, d] = tri.map(mid);
                         let nrm = (b - a).cross(d - a);
                         assert!(nrm.dot((a + b + d) / 3.0 - corner(c)) > 0.0, "case {inside:06b} faces inward");

@@ -10,7 +10,7 @@
 
 use super::lattice::Lattice;
 use super::occupancy::Occupancy;
-use crate::polygonize::marching::{centre_weights, crossing, linear, march_prism, off_level, Refine};
+use crate::polygonize::marching::{crossing, linear, march_prism, off_level, Refine};
 use crate::polygonize::weld::{edge_key, Piece, UNSHARED};
 use crate::texture::mapping::CellMap;
 use crate::texture::volume::Column;
@@ -57,9 +57,6 @@ pub(super) struct Scratch {
     ijl: Vec<IVec3>,
     /// Lattice gradient per local point, computed on first use (NaN: not yet).
     grads: Vec<std::cell::Cell<Vec3>>,
-    /// Per vertex of the piece: the lower end of its lattice edge and its share of the
-    /// edge from there (a loop's centre: none), for the centres of long loops.
-    fracs: Vec<(usize, f32)>,
     /// Sizes of the last piece, to reserve the next.
     last: (usize, usize),
     /// Per local column: bit `l` set when layer `l` is inside (columns of at most 64
@@ -241,8 +238,6 @@ impl Cells<'_> {
         let grads = &s.grads;
         let (ids, vals, slots, touched, masks) = (&s.ids, &s.vals, &mut s.slots, &mut s.touched, &s.masks);
         let footprints = &mut s.footprints;
-        let fracs = &mut s.fracs;
-        fracs.clear();
         let value = |p: IVec3| -> Option<f32> {
             let ok = p.x >= 0 && p.y >= 0 && p.x + p.y <= n as i32 && (0..=m as i32).contains(&p.z);
             ok.then(|| vals[lat.local_index(p.x as u32, p.y as u32) * lm + p.z as usize])
@@ -274,7 +269,7 @@ impl Cells<'_> {
             grads[lp].set(g);
             g
         };
-        let mut iso = |piece: &mut Piece, fracs: &mut Vec<(usize, f32)>, p: usize, q: usize| -> u32 {
+        let mut iso = |piece: &mut Piece, p: usize, q: usize| -> u32 {
             let (lo, hi) = if ids[p] < ids[q] { (p, q) } else { (q, p) };
             let slot = lo * EDGE_DIRECTIONS + direction(param(hi) - param(lo));
             if slots[slot] != u32::MAX {
@@ -306,49 +301,13 @@ impl Cells<'_> {
             piece.pos.push(cell.world(q));
             piece.attr.push(cell.texture(q));
             piece.grad.push(grad);
-            fracs.push((lo, f));
             slots[slot] = idx;
             touched.push(slot);
             idx
         };
-        // The centre of a long loop: inside the prism, never shared with another cell
-        // (no key), its attributes interpolated from the prism's corners as an
-        // iso-vertex's are from its edge's ends.
-        let centre = |piece: &mut Piece, fracs: &mut Vec<(usize, f32)>, c: &[usize; 6], v: &[f32; 6], ring: &[(usize, usize, u32)]| -> u32 {
-            let along = ring.iter().map(|&(a, b, id)| {
-                let (lo, f) = fracs[id as usize];
-                (a, b, if lo == c[a] { f } else { 1.0 - f })
-            });
-            let w = centre_weights(v, 0.5, along);
-            let q: Vec3 = (0..6).map(|k| to_q(param(c[k])) * w[k]).sum();
-            let g: Vec3 = (0..6).map(|k| lattice_gradient(c[k]) * w[k]).sum();
-            let grad = -cell.parameter_gradient_to_world(q, g);
-            let idx = piece.pos.len() as u32;
-            piece.keys.push(UNSHARED);
-            piece.pos.push(cell.world(q));
-            piece.attr.push(cell.texture(q));
-            piece.grad.push(grad);
-            fracs.push((usize::MAX, 0.0));
-            idx
-        };
         let mut emit = |piece: &mut Piece, c: [usize; 6]| {
             let mut tris = std::mem::take(&mut piece.tris);
-            let v = c.map(|k| vals[k]);
-            let state = std::cell::RefCell::new((&mut *piece, &mut *fracs));
-            march_prism(
-                &v,
-                0.5,
-                flip,
-                |a, b| {
-                    let (piece, fracs) = &mut *state.borrow_mut();
-                    iso(piece, fracs, c[a], c[b])
-                },
-                |ring| {
-                    let (piece, fracs) = &mut *state.borrow_mut();
-                    centre(piece, fracs, &c, &v, ring)
-                },
-                &mut tris,
-            );
+            march_prism(&c.map(|k| vals[k]), 0.5, flip, |a, b| iso(piece, c[a], c[b]), &mut tris);
             piece.tris = tris;
         };
         let (blocks, smalls, mixed) = (&s.blocks, &s.smalls, &s.mixed);
