@@ -287,7 +287,7 @@ fn the_gpu_program_is_the_tape_translated() {
     for json in &trees {
         let tree = FieldTree::from_json(json).unwrap();
         let program = Program::compile(&tree).unwrap();
-        let tape: Vec<Instruction> = tree.instructions().collect();
+        let tape = tree.instructions();
         assert_eq!(program.starts.len(), tape.len(), "{json}");
         assert_eq!(program.depth, tree.stack_depth());
         let mut at = 0;
@@ -296,13 +296,13 @@ fn the_gpu_program_is_the_tape_translated() {
             assert_eq!(start, at, "instructions follow each other");
             let w = &program.words[start..];
             let expected = match inst {
-                Instruction::Primitive(p) => {
+                Instruction::Prim { prim: p, id, color } => {
                     // Parameters: the tape's compiled frame, id order and colour.
-                    assert_eq!(p.id, primitives);
+                    assert_eq!(*id, primitives);
                     primitives += 1;
                     assert_eq!(w[2..5], p.center.to_array().map(|v| v as f32));
                     assert_eq!(w[5..8], p.axes[0].to_array().map(|v| v as f32));
-                    assert_eq!(w[18..22], p.color.map(|v| v as f32));
+                    assert_eq!(w[18..22], color.map(|v| v as f32));
                     opcode::PRIM
                 }
                 Instruction::Offset(a) => {

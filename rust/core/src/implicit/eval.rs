@@ -57,29 +57,36 @@ impl WpKind {
     }
 }
 
-/// One instruction of the tape: pops its children's results and pushes its own.
+/// One instruction of the tape, in post order: pops its children's results and
+/// pushes its own (`Paint` and `Ramp` rewrite the top result's colour).
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) enum Inst {
+pub enum Inst {
+    /// A primitive compiled to its frame, with its id and diffuse colour.
     Prim {
         prim: Prim,
         id: u32,
         color: [f64; 4],
     },
+    /// `f - amount`.
     Offset(f64),
     Negate,
+    /// `h` over the top `n` results.
     H(usize),
     Min(usize),
     Max(usize),
+    /// `outer · w_p(sign_i · f_i)` over the top `n` results ([`WpKind`]).
     Wp {
         p: f64,
         n: usize,
         kind: WpKind,
     },
+    /// Shape and texture (the top two results): `f0 + amplitude (cos(omega f1 + tau) + 1)`.
     Displace {
         amplitude: f64,
         omega: f64,
         tau: f64,
     },
+    /// Shape and texture: `f0 + Σ a_j (cos(omega_j f1 + tau) + 1)`.
     Fractal {
         terms: Vec<[f64; 2]>,
         tau: f64,

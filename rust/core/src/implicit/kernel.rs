@@ -81,7 +81,7 @@ pub(crate) fn cos_range(a: f64, b: f64) -> (f64, f64) {
 
 /// Which skeleton a [`Prim`] is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum PrimKind {
+pub enum PrimKind {
     /// `axes[0] · (x - center)`.
     Plane,
     /// `|x - center| - radius`.
@@ -97,7 +97,7 @@ pub(crate) enum PrimKind {
 /// A primitive compiled to an orthonormal frame: `axes` are the unit plane normals
 /// `n1, n2, n3 = n1 × n2` of section 3, in world space.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Prim {
+pub struct Prim {
     pub kind: PrimKind,
     pub center: DVec3,
     pub axes: [DVec3; 3],

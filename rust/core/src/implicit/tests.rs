@@ -873,11 +873,11 @@ fn the_public_tape_is_the_evaluators_post_order() {
         {"op": "displace", "amplitude": 0.1, "omega": 3, "ramp": [[0, [1, 0, 0, 1]]],
          "shape": {"op": "box", "center": [0, 0, 0], "half_size": [0.2, 0.3, 0.4]},
          "texture": {"op": "segment", "a": [0, 0, 0], "b": [1, 0, 0]}}]}));
-    let insts: Vec<I> = t.instructions().collect();
+    let insts = t.instructions();
     let names: Vec<String> = insts
         .iter()
         .map(|i| match i {
-            I::Primitive(p) => format!("{:?}#{}", p.kind, p.id),
+            I::Prim { prim: p, id, .. } => format!("{:?}#{}", p.kind, id),
             other => format!("{other:?}").split(['(', ' ']).next().unwrap().to_string(),
         })
         .collect();
@@ -888,15 +888,15 @@ fn the_public_tape_is_the_evaluators_post_order() {
     // The primitives' parameters evaluate to the tree's own values (the plane's normal
     // normalized, the box's frame the identity).
     let x = DVec3::new(0.35, -0.2, 0.15);
-    for inst in &insts {
-        if let I::Primitive(p) = inst {
+    for inst in insts {
+        if let I::Prim { prim: p, id, .. } = inst {
             let d = x - p.center;
             let v = match p.kind {
                 PrimitiveKind::Sphere => d.length() - p.radius,
                 PrimitiveKind::Plane => p.axes[0].dot(d),
                 _ => continue,
             };
-            let alone = match p.id {
+            let alone = match id {
                 0 => json!({"op": "sphere", "center": [0.1, 0.2, 0.3], "radius": 0.4}),
                 _ => json!({"op": "plane", "point": [0, 0, 0], "normal": [0, 0, 2]}),
             };

@@ -10,7 +10,7 @@ mod validate;
 
 pub use normals::{vertex_normal, vertex_normals};
 pub use reorder::morton_codes;
-pub use topology::{boundary_edges, face_windings, parts_of, vertex_parts, EdgeMap, Incidence, Parts, Windings};
+pub use topology::{boundary_edges, face_windings, parts_of, vertex_parts, EdgeMap, EdgeUses, Incidence, Parts, Windings};
 pub use triangulate::{face_triangles, newell_normal, Triangulation};
 pub use validate::MeshReport;
 

@@ -4,34 +4,61 @@
 use super::Mesh;
 use std::collections::HashMap;
 
-/// Undirected edge -> number of faces using it, and the directed half-edge of its first use.
+/// How faces use one undirected edge: how many, and the first two, each with whether
+/// it walks the edge from its smaller end.
+#[derive(Debug, Clone, Copy)]
+pub struct EdgeUses {
+    pub count: u32,
+    pub faces: [(u32, bool); 2],
+}
+
+impl EdgeUses {
+    /// The directed half-edge of the first use.
+    pub fn first_half_edge(&self, (lo, hi): (u32, u32)) -> (u32, u32) {
+        if self.faces[0].1 {
+            (lo, hi)
+        } else {
+            (hi, lo)
+        }
+    }
+}
+
+/// Undirected edge `(smaller, larger)` -> how faces use it.
 pub struct EdgeMap {
-    pub uses: HashMap<(u32, u32), (u32, (u32, u32))>,
+    pub uses: HashMap<(u32, u32), EdgeUses>,
 }
 
 impl EdgeMap {
     pub fn of(mesh: &Mesh) -> Self {
-        let mut uses: HashMap<(u32, u32), (u32, (u32, u32))> = HashMap::with_capacity(mesh.corners().len());
-        for face in mesh.faces() {
+        let mut uses: HashMap<(u32, u32), EdgeUses> = HashMap::with_capacity(mesh.corners().len());
+        for (f, face) in mesh.faces().enumerate() {
             for i in 0..face.len() {
                 let (a, b) = (face[i], face[(i + 1) % face.len()]);
                 if a == b {
                     continue;
                 }
-                uses.entry((a.min(b), a.max(b))).or_insert((0, (a, b))).0 += 1;
+                let e = uses.entry((a.min(b), a.max(b))).or_insert(EdgeUses { count: 0, faces: [(u32::MAX, false); 2] });
+                if e.count < 2 {
+                    e.faces[e.count as usize] = (f as u32, a < b);
+                }
+                e.count += 1;
             }
         }
         Self { uses }
     }
     pub fn count_with(&self, pred: impl Fn(u32) -> bool) -> usize {
-        self.uses.values().filter(|(n, _)| pred(*n)).count()
+        self.uses.values().filter(|e| pred(e.count)).count()
+    }
+    /// Uses of the undirected edge between `a` and `b`.
+    pub fn get(&self, a: u32, b: u32) -> Option<&EdgeUses> {
+        self.uses.get(&(a.min(b), a.max(b)))
     }
 }
 
 /// Directed boundary edges (used by exactly one face), in the direction that face uses
 /// them, sorted for deterministic output.
 pub fn boundary_edges(mesh: &Mesh) -> Vec<(u32, u32)> {
-    let mut edges: Vec<(u32, u32)> = EdgeMap::of(mesh).uses.values().filter(|(n, _)| *n == 1).map(|(_, e)| *e).collect();
+    let mut edges: Vec<(u32, u32)> = EdgeMap::of(mesh).uses.iter().filter(|(_, e)| e.count == 1).map(|(&k, e)| e.first_half_edge(k)).collect();
     edges.sort_unstable();
     edges
 }
@@ -99,27 +126,7 @@ pub struct Windings {
 /// [`Windings`] of `mesh`'s faces, by a breadth-first walk over its manifold edges.
 pub fn face_windings(mesh: &Mesh) -> Windings {
     let faces: Vec<&[u32]> = mesh.faces().collect();
-    // Undirected edge -> its uses, and its first two faces with whether each walks it
-    // from the smaller end.
-    #[derive(Clone, Copy)]
-    struct Uses {
-        count: u32,
-        sides: [(u32, bool); 2],
-    }
-    let mut edges: HashMap<(u32, u32), Uses> = HashMap::with_capacity(mesh.corners().len());
-    for (f, face) in faces.iter().enumerate() {
-        for i in 0..face.len() {
-            let (a, b) = (face[i], face[(i + 1) % face.len()]);
-            if a == b {
-                continue;
-            }
-            let e = edges.entry((a.min(b), a.max(b))).or_insert(Uses { count: 0, sides: [(u32::MAX, false); 2] });
-            if e.count < 2 {
-                e.sides[e.count as usize] = (f as u32, a < b);
-            }
-            e.count += 1;
-        }
-    }
+    let edges = EdgeMap::of(mesh);
     let mut sign = vec![0i8; faces.len()];
     let mut patch = vec![u32::MAX; faces.len()];
     let mut patches = 0u32;
@@ -134,7 +141,7 @@ pub fn face_windings(mesh: &Mesh) -> Windings {
             let face = faces[f];
             for i in 0..face.len() {
                 let (a, b) = (face[i], face[(i + 1) % face.len()]);
-                let Some(&Uses { count, sides: [(f0, up0), (f1, up1)] }) = edges.get(&(a.min(b), a.max(b))) else { continue };
+                let Some(&EdgeUses { count, faces: [(f0, up0), (f1, up1)] }) = edges.get(a, b) else { continue };
                 if count != 2 || f0 == f1 {
                     continue;
                 }

@@ -200,26 +200,44 @@ impl Cell {
 
     /// The tetrahedra of [`tet_volumes`](Self::tet_volumes)' decomposition.
     fn tets(&self, positions: &[Vec3], shell: &Shell) -> Vec<[DVec3; 4]> {
-        let c: Vec<DVec3> = self.corners(positions, shell).into_iter().map(|p| p.as_dvec3()).collect();
-        let k = self.count as usize;
-        let prisms: &[[usize; 3]] = if k == 4 { &[[0, 1, 2], [0, 2, 3], [1, 2, 3], [1, 3, 0]] } else { &[[0, 1, 2]] };
-        let base_at = |q: usize| positions[self.vertices[q] as usize].as_dvec3();
-        let facing = match k {
-            4 => crate::mesh::newell_normal(&[0, 1, 2, 3].map(|q| positions[self.vertices[q] as usize])).as_dvec3(),
-            _ => (base_at(1) - base_at(0)).cross(base_at(2) - base_at(0)),
-        };
-        let mut out = Vec::with_capacity(3 * prisms.len());
-        for &[i, j, l] in prisms {
-            // A base triangle of zero area has no inside to fold, and one facing away
-            // from its quad folds the base itself: their prisms are skipped.
-            let base = [i, j, l].map(base_at);
-            if !((base[1] - base[0]).cross(base[2] - base[0]).dot(facing) > 0.0) {
-                continue;
-            }
-            let (a, b, cc, a2, b2, c2) = (c[i], c[j], c[l], c[i + k], c[j + k], c[l + k]);
-            out.extend([[a, b, cc, a2], [b, cc, a2, b2], [cc, a2, b2, c2]]);
+        let (x, d) = self.rings(positions, shell);
+        let top = |q: usize| x[q] + d[q];
+        let mut out = Vec::with_capacity(6);
+        for [i, j, l] in self.upright_splits(positions) {
+            out.extend([[x[i], x[j], x[l], top(i)], [x[j], x[l], top(i), top(j)], [x[l], top(i), top(j), top(l)]]);
         }
         out
+    }
+
+    /// Each corner's base point (r = 0) and director (r = 1 minus r = 0), in double
+    /// precision; unused slots of a prism are zero.
+    fn rings(&self, positions: &[Vec3], shell: &Shell) -> ([DVec3; 4], [DVec3; 4]) {
+        let (mut x, mut d) = ([DVec3::ZERO; 4], [DVec3::ZERO; 4]);
+        for (q, &v) in self.base().iter().enumerate() {
+            x[q] = shell.point(positions, v as usize, 0.0).as_dvec3();
+            d[q] = shell.point(positions, v as usize, 1.0).as_dvec3() - x[q];
+        }
+        (x, d)
+    }
+
+    /// The base triangles the cell's checks split it over: a prism's own, or both
+    /// splits of a hexahedron's base, `(a b c)`, `(a c d)` and `(b c d)`, `(b d a)`,
+    /// each only where it faces the way the quad does. A base triangle of zero area
+    /// has no inside to fold, and one facing away from its quad folds the base itself.
+    fn upright_splits<'a>(&self, positions: &'a [Vec3]) -> impl Iterator<Item = [usize; 3]> + 'a {
+        const QUAD: [[usize; 3]; 4] = [[0, 1, 2], [0, 2, 3], [1, 2, 3], [1, 3, 0]];
+        const TRIANGLE: [[usize; 3]; 1] = [[0, 1, 2]];
+        let splits: &'static [[usize; 3]] = if self.is_hexahedron() { &QUAD } else { &TRIANGLE };
+        let vertices = self.vertices;
+        let base_at = move |q: usize| positions[vertices[q] as usize].as_dvec3();
+        let facing = match self.count {
+            4 => crate::mesh::newell_normal(&vertices.map(|v| positions[v as usize])).as_dvec3(),
+            _ => (base_at(1) - base_at(0)).cross(base_at(2) - base_at(0)),
+        };
+        splits.iter().copied().filter(move |t| {
+            let base = t.map(base_at);
+            (base[1] - base[0]).cross(base[2] - base[0]).dot(facing) > 0.0
+        })
     }
 
     /// Whether `x` lies strictly inside the cell: inside a tetrahedron of its
@@ -264,24 +282,8 @@ impl Cell {
     /// (a cell pressed flat at that corner) gives zero, not a fold.
     pub fn map_folds(&self, positions: &[Vec3], shell: &Shell) -> bool {
         let side = shell.side.orientation() as f64;
-        let k = self.count as usize;
-        let (mut x, mut d) = ([DVec3::ZERO; 4], [DVec3::ZERO; 4]);
-        for (q, &v) in self.base().iter().enumerate() {
-            x[q] = shell.point(positions, v as usize, 0.0).as_dvec3();
-            d[q] = shell.point(positions, v as usize, 1.0).as_dvec3() - x[q];
-        }
-        let prisms: &[[usize; 3]] = if k == 4 { &[[0, 1, 2], [0, 2, 3], [1, 2, 3], [1, 3, 0]] } else { &[[0, 1, 2]] };
-        let base_at = |q: usize| positions[self.vertices[q] as usize].as_dvec3();
-        let facing = match k {
-            4 => crate::mesh::newell_normal(&[0, 1, 2, 3].map(|q| positions[self.vertices[q] as usize])).as_dvec3(),
-            _ => (base_at(1) - base_at(0)).cross(base_at(2) - base_at(0)),
-        };
-        prisms.iter().any(|&[i, j, l]| {
-            // The prisms the tetrahedra skip (no area, or folding the base itself).
-            let base = [i, j, l].map(base_at);
-            if !((base[1] - base[0]).cross(base[2] - base[0]).dot(facing) > 0.0) {
-                return false;
-            }
+        let (x, d) = self.rings(positions, shell);
+        self.upright_splits(positions).any(|[i, j, l]| {
             let (e1, f1, e2, f2) = (x[j] - x[i], d[j] - d[i], x[l] - x[i], d[l] - d[i]);
             let (n0, n1, n2) = (e1.cross(e2), e1.cross(f2) + f1.cross(e2), f1.cross(f2));
             [i, j, l].iter().any(|&m| {

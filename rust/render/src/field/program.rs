@@ -56,19 +56,19 @@ impl Program {
         let mut p = Program { words: Vec::new(), starts: Vec::with_capacity(instructions.len()), depth };
         for inst in instructions {
             p.starts.push(p.words.len());
-            emit(&inst, &mut p.words);
+            emit(inst, &mut p.words);
         }
         Ok(p)
     }
 }
 
 /// One instruction's words.
-fn emit(inst: &Instruction<'_>, w: &mut Vec<f32>) {
+fn emit(inst: &Instruction, w: &mut Vec<f32>) {
     let f = |v: f64| v as f32;
-    match *inst {
+    match inst {
         // Kind (0 plane, 1 sphere, 2 cuboid, 3 torus), centre, the three axes of its
         // frame, half sizes, radius, colour.
-        Instruction::Primitive(p) => {
+        Instruction::Prim { prim: p, color, .. } => {
             let kind = match p.kind {
                 PrimitiveKind::Plane => 0.0,
                 PrimitiveKind::Sphere => 1.0,
@@ -82,25 +82,25 @@ fn emit(inst: &Instruction<'_>, w: &mut Vec<f32>) {
             }
             w.extend(p.half.map(f));
             w.push(f(p.radius));
-            w.extend(p.color.map(f));
+            w.extend(color.map(f));
         }
-        Instruction::Offset(amount) => w.extend([OFFSET, f(amount)]),
+        Instruction::Offset(amount) => w.extend([OFFSET, f(*amount)]),
         Instruction::Negate => w.push(NEGATE),
-        Instruction::H(n) => w.extend([H, n as f32]),
-        Instruction::Min(n) => w.extend([MIN, n as f32]),
-        Instruction::Max(n) => w.extend([MAX, n as f32]),
+        Instruction::H(n) => w.extend([H, *n as f32]),
+        Instruction::Min(n) => w.extend([MIN, *n as f32]),
+        Instruction::Max(n) => w.extend([MAX, *n as f32]),
         Instruction::Wp { p, n, kind } => {
             let kind = match kind {
                 WpKind::Intersection => 0.0,
                 WpKind::Union => 1.0,
                 WpKind::Difference => 2.0,
             };
-            w.extend([WP, n as f32, f(p), kind]);
+            w.extend([WP, *n as f32, f(*p), kind]);
         }
-        Instruction::Displace { amplitude, omega, tau } => w.extend([DISPLACE, f(amplitude), f(omega), f(tau)]),
+        Instruction::Displace { amplitude, omega, tau } => w.extend([DISPLACE, f(*amplitude), f(*omega), f(*tau)]),
         Instruction::Fractal { terms, tau } => {
             let weight: f64 = terms.iter().map(|t| t[0].abs()).sum();
-            w.extend([FRACTAL, terms.len() as f32, f(tau), f(weight)]);
+            w.extend([FRACTAL, terms.len() as f32, f(*tau), f(weight)]);
             w.extend(terms.iter().flat_map(|t| t.map(f)));
         }
         Instruction::Paint(color) => {
