@@ -95,6 +95,8 @@ def blender_defects(out):
         bm = bmesh.new()
         bm.from_mesh(mesh)
         not_manifold = sum(not e.is_manifold for e in bm.edges)
+        # A vertex where two sheets touch (every edge still used twice) is not manifold either.
+        pinched = sum(not v.is_manifold for v in bm.verts)
         tree = BVHTree.FromBMesh(bm)
         bm.free()
     finally:
@@ -114,6 +116,7 @@ def blender_defects(out):
         "edges used twice one way": int((directed > 1).sum()),
         "duplicate faces": int((same_face > 1).sum()),
         "not manifold (bmesh)": not_manifold,
+        "vertices not manifold (bmesh)": pinched,
         "crossing pairs (BVHTree)": len({tuple(sorted(p)) for p in pairs.tolist()}),
         "inward (negative volume)": int(volume <= 0),
     }
