@@ -479,12 +479,20 @@ fn build_in_order(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPara
     let (steps, settle) = watched_steps(mesh.vertex_count(), repairs);
     progress.inspect(|p| p.start(steps));
     let lengths = side_lengths(thickness, side);
-    let (tracer, _) = Tracer::new(mesh, &lengths, params);
-    let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
-    let traces = trace_vertices(&tracer, mesh, &lengths, side, params, &all, progress)?;
+    // The defect checker depends on the mesh alone: it is built while the tracing
+    // runs (its serial parts would leave a core idle after it).
+    let (traced, checker) = rayon::join(
+        || -> Result<_> {
+            let (tracer, _) = Tracer::new(mesh, &lengths, params);
+            let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
+            let traces = trace_vertices(&tracer, mesh, &lengths, side, params, &all, progress)?;
+            Ok((tracer, traces))
+        },
+        || repairs.then(|| super::defects::Checker::new(mesh)),
+    );
+    let (tracer, traces) = traced?;
     let mut shell = assemble(mesh, thickness, side, &traces);
-    if repairs {
-        let checker = super::defects::Checker::new(mesh);
+    if let Some(checker) = checker {
         let repair = Repair { checker: &checker, mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR, cancel: progress };
         shell.check = repair.settle(&mut None, &mut shell, None);
     }
