@@ -9,9 +9,16 @@
 //! another card's shell, a pebble inside a wall's) — the enclosure test, one point
 //! per connected part. One search serves the report (every
 //! element, once) and the repair pass (only the elements around directors it just
-//! shortened, round after round, on a refitted BVH). Crossings that involve a base
-//! triangle which already crosses the base (self-intersecting input) are counted
-//! apart, as inherited: no shell can remove them.
+//! shortened, round after round, on a refitted BVH).
+//!
+//! On a base that crosses itself, a crossing of two skin triangles, or of a skin
+//! triangle and a base triangle, is *inherited* (counted apart, not a defect) only
+//! when the two base triangles under it cross each other: pressed flat, the shell
+//! has exactly the base's crossings, so no shell can remove these. Every other
+//! crossing is a defect, also one of a skin triangle over a face that crosses the
+//! base somewhere else (issue 14: no new intersecting pairs beyond the base's own);
+//! zero thickness removes it, so the repair always ends. Likewise a cell is spared
+//! the enclosure test only for the parts that its own face crosses.
 
 use super::geometry::{prisms, Cell};
 use super::intersect::{segment_crosses_triangle, tri_box, triangles_intersect, TriBvh};
@@ -37,8 +44,8 @@ pub(crate) struct Findings {
     pub inverted: Vec<u32>,
     /// Cells enclosing a point of another connected part of the base.
     pub enclosing: Vec<u32>,
-    /// Intersecting pairs of either kind that involve a base triangle which intersects
-    /// the base itself: inherited from the input, not counted as defects.
+    /// Intersecting pairs of either kind whose two base triangles cross each other:
+    /// inherited from the input, not counted as defects.
     pub inherited: usize,
 }
 
@@ -71,6 +78,9 @@ pub(crate) struct Checker {
     /// Base triangles that cross another base triangle (sharing no vertex): the
     /// input intersects itself there.
     pub own: Vec<bool>,
+    /// The pairs of base triangles that cross (sharing no vertex), both ways round,
+    /// sorted: the crossings a shell inherits ([`inherited`](Self::inherited)).
+    crossings: Vec<(u32, u32)>,
     /// The base mesh's bounding-box diagonal (the scale of "coincide").
     diag: f64,
     /// Triangles and cells around each vertex (CSR).
@@ -86,18 +96,18 @@ pub(crate) struct Checker {
     /// crossing triangles (those vertices are partly in and partly out of whatever
     /// the part crosses; its crossings are inherited, as the base's own). Not probed
     /// (`unprobed`): a part whose every vertex lies on a crossing triangle, and a
-    /// loose vertex (no surface to keep out of a shell).
+    /// loose vertex (no surface to keep out of a shell). A cell is not asked to keep
+    /// out the probe of a part that its own face crosses (`face_parts`).
     part_of: Vec<u32>,
     part_of_cell: Vec<u32>,
     probes: Vec<u32>,
     probe_tree: TriBvh,
     unprobed: Vec<bool>,
-    /// Faces with a triangle that crosses the base, and the pairs of parts that cross
-    /// each other (sorted, smaller first): a cell over a crossing face holds whatever
-    /// part crosses its own part, inherited as the crossings are, so it is not asked
-    /// to keep that part's probe out; every other part's it is.
-    crossing_face: Vec<bool>,
-    crossing_parts: Vec<(u32, u32)>,
+    /// (face, part) for each face with a triangle that crosses a triangle of another
+    /// part, sorted: a cell over the face holds some of that part, inherited as the
+    /// crossings are, so it is not asked to keep that part's probe out; every other
+    /// part's it is, as every other cell is.
+    face_parts: Vec<(u32, u32)>,
 }
 
 /// A side wall of a shell over an open mesh: the quad between layers 0 and 1 over
@@ -188,45 +198,32 @@ impl Checker {
             probes,
             probe_tree: TriBvh::from_boxes(Vec::new()),
             unprobed: Vec::new(),
-            crossing_face: vec![false; mesh.face_count()],
-            crossing_parts: Vec::new(),
+            face_parts: Vec::new(),
+            crossings: Vec::new(),
             part_of,
         };
         let pairs = me.base_bvh.overlapping_pairs(&|i, j| me.bases_cross(i, j));
+        me.crossings = pairs.iter().flat_map(|&(i, j)| [(i, j), (j, i)]).collect();
+        me.crossings.sort_unstable();
         me.own = vec![false; me.tris.len()];
-        pairs.iter().for_each(|&(i, j)| (me.own[i as usize], me.own[j as usize]) = (true, true));
+        me.crossings.iter().for_each(|&(i, _)| me.own[i as usize] = true);
         me.choose_probes(p);
         me
     }
 
     /// Each part's probe: its first vertex on triangles of which none crosses the
     /// base; a part without one, and a loose vertex, is not probed (none probed for a
-    /// mesh of one part). The probe tree, the crossing faces and the pairs of parts
-    /// that cross follow.
+    /// mesh of one part). The probe tree and the faces that cross other parts follow.
     fn choose_probes(&mut self, p: &[Vec3]) {
         if self.probes.is_empty() {
             return;
         }
-        self.crossing_face.fill(false);
-        let own: Vec<u32> = (0..self.tris.len() as u32).filter(|&t| self.own[t as usize]).collect();
-        own.iter().for_each(|&t| self.crossing_face[self.face_of[t as usize] as usize] = true);
         let part = |t: u32| self.part_of[self.tris[t as usize][0] as usize];
-        let mut pairs: Vec<(u32, u32)> = own
-            .par_iter()
-            .flat_map_iter(|&t| {
-                let (lo, hi) = tri_box(&self.base[t as usize]);
-                let mut found = Vec::new();
-                self.base_bvh.query(lo, hi, |j| {
-                    if part(j) != part(t) && self.bases_cross(t, j) {
-                        found.push((part(t).min(part(j)), part(t).max(part(j))));
-                    }
-                });
-                found
-            })
-            .collect();
+        let mut pairs: Vec<(u32, u32)> =
+            self.crossings.iter().filter(|&&(t, u)| part(t) != part(u)).map(|&(t, u)| (self.face_of[t as usize], part(u))).collect();
         pairs.sort_unstable();
         pairs.dedup();
-        self.crossing_parts = pairs;
+        self.face_parts = pairs;
         let mut probe = vec![u32::MAX; self.probes.len()];
         for (v, &k) in self.part_of.iter().enumerate() {
             let around = self.tris_around.of(v);
@@ -246,24 +243,28 @@ impl Checker {
         !shares(&self.tris[t], &self.tris[j]) && triangles_intersect(&self.base[t], &self.base[j])
     }
 
-    /// Whether base triangle `t` crosses another base triangle that shares no vertex.
-    fn crosses_base(&self, t: u32) -> bool {
+    /// The base triangles that cross base triangle `t`, sharing no vertex with it.
+    fn crossing_bases(&self, t: u32) -> Vec<u32> {
         let (lo, hi) = tri_box(&self.base[t as usize]);
-        self.base_bvh.any(lo, hi, |j| self.bases_cross(t, j))
+        let mut found = Vec::new();
+        self.base_bvh.query(lo, hi, |j| {
+            if self.bases_cross(t, j) {
+                found.push(j);
+            }
+        });
+        found
+    }
+
+    /// Whether a crossing of skin (or base) items over base triangles `t` and `u` is
+    /// inherited: `t` and `u` cross each other in the base (module docs).
+    pub fn inherited(&self, t: u32, u: u32) -> bool {
+        self.own[t as usize] && self.own[u as usize] && self.crossings.binary_search(&(t, u)).is_ok()
     }
 
     /// Pairs of base triangles that cross each other (sharing no vertex): the input's
     /// own intersections.
     pub fn base_self_pairs(&self) -> usize {
-        let own: Vec<u32> = (0..self.tris.len() as u32).filter(|&t| self.own[t as usize]).collect();
-        own.par_iter()
-            .map(|&t| {
-                let (lo, hi) = tri_box(&self.base[t as usize]);
-                let mut n = 0;
-                self.base_bvh.query(lo, hi, |j| n += usize::from(j > t && self.bases_cross(t, j)));
-                n
-            })
-            .sum()
+        self.crossings.len() / 2
     }
 
     /// The base triangles that cross another part of the mesh.
@@ -301,7 +302,15 @@ impl Checker {
         touched.iter().for_each(|&t| around(tri_box(&self.base[t as usize])));
         near.sort_unstable();
         near.dedup();
-        let flags: Vec<bool> = near.par_iter().map(|&t| self.crosses_base(t)).collect();
+        // A pair of base triangles begins or stops crossing only if one of them moved.
+        let mut moving = vec![false; self.tris.len()];
+        touched.iter().for_each(|&t| moving[t as usize] = true);
+        self.crossings.retain(|&(t, u)| !moving[t as usize] && !moving[u as usize]);
+        let fresh: Vec<(u32, u32)> = touched.par_iter().flat_map_iter(|&t| self.crossing_bases(t).into_iter().map(move |u| (t, u))).collect();
+        self.crossings.extend(fresh.iter().flat_map(|&(t, u)| [(t, u), (u, t)]));
+        self.crossings.sort_unstable();
+        self.crossings.dedup();
+        let flags: Vec<bool> = near.iter().map(|&t| self.crossings.binary_search_by_key(&t, |c| c.0).is_ok()).collect();
         let flipped: Vec<u32> = near.iter().zip(flags).filter(|(&t, f)| self.own[t as usize] != *f).map(|(&t, _)| t).collect();
         flipped.iter().for_each(|&t| self.own[t as usize] ^= true);
         // A moved crossing triangle may cross other parts than before.
@@ -400,7 +409,7 @@ impl Checker {
         self.items_of(t, shell.side).any(|i| {
             let mine = self.skin_tri(mesh, shell, i);
             let (lo, hi) = tri_box(&mine);
-            tree.any(lo, hi, |j| !(self.own[t as usize] || self.own[self.item_tri(j) as usize]) && self.skins_cross(mesh, shell, i, || mine, j))
+            tree.any(lo, hi, |j| !self.inherited(t, self.item_tri(j)) && self.skins_cross(mesh, shell, i, || mine, j))
         })
     }
 
@@ -465,7 +474,7 @@ impl Checker {
                 debug_assert_eq!(tree.len(), self.items(shell.side), "the skin tree must hold every skin triangle");
                 let skin = tree.overlapping_pairs(&|i, j| self.skins_cross(mesh, shell, i, || self.skin_tri(mesh, shell, i), j));
                 let base = tree.overlapping_pairs_with(&self.base_bvh, &|i, j| self.skin_crosses_base(mesh, shell, i, || self.skin_tri(mesh, shell, i), j));
-                let kind = |t: u32, u: u32, k: u8| if self.own[t as usize] || self.own[u as usize] { 2 } else { k };
+                let kind = |t: u32, u: u32, k: u8| if self.inherited(t, u) { 2 } else { k };
                 let skin = skin.into_iter().map(|(i, j)| (kind(self.item_tri(i), self.item_tri(j), 0), i, j));
                 skin.chain(base.into_iter().map(|(i, j)| (kind(self.item_tri(i), j, 1), i, j))).collect()
             }
@@ -486,8 +495,7 @@ impl Checker {
     /// crossings, this bounds the shell's volume (module docs). Only the flagged cells
     /// are asked: a part moving into a cell that did not change is found by the
     /// caller flagging the cells around its probe ([`Checker::cells_near_probes`]).
-    /// A cell over a face that crosses the base is not asked about the parts that
-    /// cross its own (`crossing_face`, `crossing_parts`).
+    /// A cell is not asked about the parts that its own face crosses (`face_parts`).
     fn enclosing(&self, mesh: &Mesh, shell: &Shell, cells: &[u32]) -> Vec<u32> {
         if self.probes.is_empty() {
             return Vec::new();
@@ -498,7 +506,6 @@ impl Checker {
             .copied()
             .filter(|&c| {
                 let cell = &self.cells[c as usize];
-                let crossing = self.crossing_face[cell.face as usize];
                 let corners = cell.corners(p, shell);
                 let (lo, hi) = corners.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| (lo.min(q.as_dvec3()), hi.max(q.as_dvec3())));
                 let part = self.part_of_cell[c as usize];
@@ -506,7 +513,7 @@ impl Checker {
                     let v = self.probes[k as usize];
                     k != part
                         && !self.unprobed[k as usize]
-                        && !(crossing && self.crossing_parts.binary_search(&(k.min(part), k.max(part))).is_ok())
+                        && self.face_parts.binary_search(&(cell.face, k)).is_err()
                         && cell.encloses(p, shell, p[v as usize].as_dvec3())
                 })
             })
@@ -589,23 +596,22 @@ impl Checker {
             .par_iter()
             .flat_map_iter(|&t| self.items_of(t, shell.side).map(move |i| (t, i)))
             .flat_map_iter(|(t, i)| {
-                let tu = t as usize;
                 let mine = self.skin_tri(mesh, shell, i);
                 let (lo, hi) = tri_box(&mine);
                 let mut hits = Vec::new();
                 if let Some(tree) = outer_tree {
                     tree.query(lo, hi, |j| {
-                        let u = self.item_tri(j) as usize;
+                        let u = self.item_tri(j);
                         // Each pair once: by the lower item, unless only the higher is flagged.
-                        let first = j > i || !tri_flagged(u);
+                        let first = j > i || !tri_flagged(u as usize);
                         if first && self.skins_cross(mesh, shell, i, || mine, j) {
-                            hits.push((if self.own[tu] || self.own[u] { 2 } else { 0 }, i, j));
+                            hits.push((if self.inherited(t, u) { 2 } else { 0 }, i, j));
                         }
                     });
                 }
                 self.base_bvh.query(lo, hi, |j| {
                     if self.skin_crosses_base(mesh, shell, i, || mine, j) {
-                        hits.push((if self.own[tu] || self.own[j as usize] { 2 } else { 1 }, i, j));
+                        hits.push((if self.inherited(t, j) { 2 } else { 1 }, i, j));
                     }
                 });
                 hits
@@ -660,6 +666,7 @@ mod tests {
     use crate::hard_meshes;
     use crate::shell::{build_shell, ShellParams, Thickness};
     use crate::testmeshes;
+    use glam::Vec3;
 
     /// Two icospheres that pass through each other: a base that crosses itself.
     fn overlapping_spheres() -> Mesh {
@@ -693,8 +700,12 @@ mod tests {
             let t = Thickness::relative(fraction).per_vertex(&mesh, None).unwrap();
             let shell = build_shell(&mesh, &t, side, &unrepaired).unwrap();
             let checker = Checker::new(&mesh);
-            let own: Vec<bool> = (0..checker.tris.len() as u32).map(|t| checker.crosses_base(t)).collect();
+            let own: Vec<bool> = (0..checker.tris.len() as u32).map(|t| !checker.crossing_bases(t).is_empty()).collect();
             assert_eq!(checker.own, own, "{name}: base crossings");
+            let mut crossings: Vec<(u32, u32)> =
+                (0..checker.tris.len() as u32).flat_map(|t| checker.crossing_bases(t).into_iter().map(move |u| (t, u))).collect();
+            crossings.sort_unstable();
+            assert_eq!(checker.crossings, crossings, "{name}: crossing pairs");
             let tree = checker.outer_tree(&mesh, &shell, None);
             let sorted = |f: Findings| {
                 let mut f = f;
@@ -716,5 +727,81 @@ mod tests {
             inherited += joined.3;
         }
         assert!(self_pairs > 100 && inherited > 0, "the shells must fold and the cards cross: {self_pairs}, {inherited}");
+    }
+    /// Two tubes (long ellipsoids) crossing like a plus sign: a base that crosses
+    /// itself along two loops, with room around them for thick shells.
+    fn crossing_tubes() -> Mesh {
+        let s = testmeshes::icosphere(3);
+        let n = s.vertex_count() as u32;
+        let mut p: Vec<Vec3> = s.positions().iter().map(|q| *q * Vec3::new(1.0, 0.25, 0.25)).collect();
+        p.extend(s.positions().iter().map(|q| *q * Vec3::new(0.25, 1.0, 0.25) + Vec3::new(0.1, 0.0, 0.05)));
+        let tris = s.triangulate().triangles;
+        let all: Vec<[u32; 3]> = tris.iter().copied().chain(tris.iter().map(|t| t.map(|v| v + n))).collect();
+        Mesh::from_triangles(p, &all).unwrap()
+    }
+
+    /// Crossings of a shell's skins with each other and with the base whose two base
+    /// triangles do not cross each other, found by testing every pair of triangles
+    /// of a triangle mesh that share no vertex (independent of the checker's trees
+    /// and of its rule), and how far the base triangle of such a pair farthest from
+    /// the base's crossings is from the nearest one (a share of the diagonal).
+    fn new_crossings(mesh: &Mesh, shell: &Shell) -> (usize, f64) {
+        let p = mesh.positions();
+        let tris = mesh.triangulate().triangles;
+        let layers = skins(shell.side);
+        let at = |t: &[u32; 3], r: Option<f32>| t.map(|v| r.map_or(p[v as usize], |r| shell.point(p, v as usize, r)).as_dvec3());
+        let boxes: Vec<(DVec3, DVec3)> = tris
+            .iter()
+            .map(|t| {
+                let all = layers.iter().map(|&r| at(t, Some(r))).chain([at(t, None)]).flatten();
+                all.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| (lo.min(q), hi.max(q)))
+            })
+            .collect();
+        let crossing = |t: usize, u: usize| !shares(&tris[t], &tris[u]) && triangles_intersect(&at(&tris[t], None), &at(&tris[u], None));
+        let own: Vec<usize> = (0..tris.len()).filter(|&t| (0..tris.len()).any(|u| crossing(t, u))).collect();
+        let centre = |t: usize| at(&tris[t], None).iter().sum::<DVec3>() / 3.0;
+        let (mut count, mut farthest) = (0, 0.0f64);
+        for t in 0..tris.len() {
+            for u in t + 1..tris.len() {
+                let ((lo, hi), (lo2, hi2)) = (boxes[t], boxes[u]);
+                if shares(&tris[t], &tris[u]) || lo.cmpgt(hi2).any() || lo2.cmpgt(hi).any() || crossing(t, u) {
+                    continue;
+                }
+                let mut skin_pairs = layers.iter().flat_map(|&r| layers.iter().map(move |&s| (Some(r), Some(s))));
+                let with_base = layers.iter().flat_map(|&r| [(Some(r), None), (None, Some(r))]);
+                if skin_pairs.any(|(r, s)| triangles_intersect(&at(&tris[t], r), &at(&tris[u], s)))
+                    || with_base.clone().any(|(r, s)| triangles_intersect(&at(&tris[t], r), &at(&tris[u], s)))
+                {
+                    count += 1;
+                    let away = |a: usize| own.iter().map(|&o| centre(o).distance(centre(a))).fold(f64::INFINITY, f64::min);
+                    farthest = farthest.max(away(t).max(away(u)));
+                }
+            }
+        }
+        (count, farthest / mesh.bbox_diagonal() as f64)
+    }
+
+    /// Issue 14: a base that crosses itself gets no new crossings. Pressed flat, a
+    /// shell has exactly the base's crossing pairs; every other crossing is new, even
+    /// one of a skin triangle over a face that crosses the base elsewhere (the rule
+    /// that let any pair with such a face pass left crossings a few percent of the
+    /// diagonal away from the base's). Counted by brute force over every pair of
+    /// triangles, on every side and thickness.
+    #[test]
+    fn a_self_crossing_base_gets_no_crossing_pair_its_base_triangles_lack() {
+        let mesh = crossing_tubes();
+        let checker = Checker::new(&mesh);
+        assert!(checker.base_self_pairs() > 0, "the tubes must cross");
+        for (fraction, side) in crate::shell::tests::HARD_CASES {
+            let t = Thickness::relative(fraction).per_vertex(&mesh, None).unwrap();
+            let shell = build_shell(&mesh, &t, side, &ShellParams::default()).unwrap();
+            let r = crate::shell::report::shell_report(&mesh, &shell);
+            let (new, away) = new_crossings(&mesh, &shell);
+            let what = format!("{side:?} {fraction}: {new} new crossing pairs, up to {away:.4} of the diagonal from the base's; {r:?}");
+            eprintln!("{what}");
+            assert_eq!(new, 0, "{what}");
+            assert!(shell.check.clean && r.inherited_intersections > 0, "{what}");
+            assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{what}");
+        }
     }
 }
