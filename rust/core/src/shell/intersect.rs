@@ -18,6 +18,13 @@ fn orient(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
 /// closed triangle).
 pub fn segment_crosses_triangle(p: DVec3, q: DVec3, t: &[DVec3; 3]) -> bool {
     let (dp, dq) = (orient(t[0], t[1], t[2], p), orient(t[0], t[1], t[2], q));
+    crosses_inside(p, q, dp, dq, t)
+}
+
+/// [`segment_crosses_triangle`] given the sides `dp`, `dq` of `p` and `q` of the
+/// plane of `t` (`orient(t[0], t[1], t[2], ·)`).
+#[inline]
+fn crosses_inside(p: DVec3, q: DVec3, dp: f64, dq: f64, t: &[DVec3; 3]) -> bool {
     if !(dp * dq < 0.0) {
         return false;
     }
@@ -28,8 +35,15 @@ pub fn segment_crosses_triangle(p: DVec3, q: DVec3, t: &[DVec3; 3]) -> bool {
 }
 
 /// Whether two triangles intersect (an edge of either properly crosses the other).
+/// Each corner's side of the other's plane is computed once (an edge test used to
+/// compute both its ends', every corner twice), by the very expression
+/// [`segment_crosses_triangle`] uses: the answer is its answer, bit for bit, and
+/// most pairs, which lie on one side of a plane, end after six determinants.
 pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
-    (0..3).any(|i| segment_crosses_triangle(a[i], a[(i + 1) % 3], b)) || (0..3).any(|i| segment_crosses_triangle(b[i], b[(i + 1) % 3], a))
+    let of_a = a.map(|p| orient(b[0], b[1], b[2], p));
+    let of_b = b.map(|p| orient(a[0], a[1], a[2], p));
+    (0..3).any(|i| crosses_inside(a[i], a[(i + 1) % 3], of_a[i], of_a[(i + 1) % 3], b))
+        || (0..3).any(|i| crosses_inside(b[i], b[(i + 1) % 3], of_b[i], of_b[(i + 1) % 3], a))
 }
 
 /// Squared distance from `p` to the closed triangle `t` (closest point by Voronoi
@@ -269,6 +283,41 @@ mod tests {
         }
         let apart = coplanar.map(|p| p + DVec3::Z * 0.01);
         assert!(!triangles_meet(&a, &apart, 0.005) && triangles_meet(&a, &apart, 0.0101));
+    }
+
+    /// The triangle test with each corner's side computed once answers as six
+    /// segment tests do, on random pairs and on pairs made to touch: a corner on the
+    /// other's plane or edge, a shared edge, coplanar overlaps, grid points (exact
+    /// zeros), needles.
+    #[test]
+    fn triangles_intersect_is_six_segment_tests() {
+        let six = |a: &[DVec3; 3], b: &[DVec3; 3]| {
+            (0..3).any(|i| segment_crosses_triangle(a[i], a[(i + 1) % 3], b)) || (0..3).any(|i| segment_crosses_triangle(b[i], b[(i + 1) % 3], a))
+        };
+        let mut rnd = uniform(7);
+        let (mut crossing, mut pairs) = (0, 0);
+        for k in 0..20000 {
+            let mut point = || match k % 3 {
+                // Coarse grid points: many corners exactly on planes and edges.
+                0 => DVec3::new((rnd() * 2.0).round(), (rnd() * 2.0).round(), (rnd() * 2.0).round()),
+                _ => DVec3::new(rnd(), rnd(), rnd()),
+            };
+            let a = [point(), point(), point()];
+            let mut b = [point(), point(), point()];
+            match k % 7 {
+                1 => b[0] = a[0].lerp(a[1], 0.5),
+                2 => (b[0], b[1]) = (a[1], a[2]),
+                3 => b = [a[0], a[1].lerp(a[2], 0.3), a[0].lerp(a[2], 0.7) + (a[1] - a[0]) * 0.2],
+                4 => b[1] = b[0] + DVec3::splat(1e-12),
+                _ => {}
+            }
+            for (x, y) in [(a, b), (b, a)] {
+                assert_eq!(triangles_intersect(&x, &y), six(&x, &y), "{x:?} {y:?}");
+                crossing += usize::from(six(&x, &y));
+                pairs += 1;
+            }
+        }
+        assert!(crossing > pairs / 10 && crossing < pairs * 9 / 10, "{crossing} of {pairs}");
     }
 
     #[test]
