@@ -18,7 +18,9 @@ pub const OFF_ISO: f32 = 0.01;
 /// with `flip`, for a prism whose frame reverses orientation). `vertex(a, b)` gives
 /// the iso-vertex on the edge from corner `a` to corner `b`; it is asked once per edge
 /// of this prism, and must give every prism sharing that edge the same vertex (its
-/// place is the lattice's business: [`crossing`]).
+/// place is the lattice's business: [`crossing`]). Every loop is triangulated between
+/// its own vertices, as the table chose (the choice keeps neighbouring prisms from
+/// drawing the same chord: it is not arbitrary).
 #[inline]
 pub fn march_prism(values: &[f32; 6], level: f32, flip: bool, mut vertex: impl FnMut(usize, usize) -> u32, out: &mut Vec<[u32; 3]>) {
     let case = prism_table::classify(values, level);
@@ -36,6 +38,105 @@ pub fn march_prism(values: &[f32; 6], level: f32, flip: bool, mut vertex: impl F
         });
         out.push(if flip { [t[0], t[2], t[1]] } else { t });
     }
+}
+
+/// [`march_prism`], except that a loop of at least [`prism_table::CENTRE_LOOP`]
+/// iso-vertices is fanned from a vertex inside the prism, which `centre(ctx, ring)`
+/// makes from the loop, given as `(a, b, vertex)` per iso-vertex in winding order (its
+/// place: [`centre_weights`]); it belongs to this prism alone (no other prism's
+/// triangle has it, and the fan draws no chord between loop vertices, so neighbours
+/// meet only along the loop's segments on the prism's faces, as before). `vertex`
+/// and `centre` share the lattice's state through `ctx`. Other loops are triangulated
+/// exactly as [`march_prism`] does.
+#[inline]
+pub fn march_prism_centred<C>(
+    values: &[f32; 6],
+    level: f32,
+    flip: bool,
+    ctx: &mut C,
+    mut vertex: impl FnMut(&mut C, usize, usize) -> u32,
+    mut centre: impl FnMut(&mut C, &[(usize, usize, u32)]) -> u32,
+    out: &mut Vec<[u32; 3]>,
+) {
+    let case = prism_table::classify(values, level);
+    if case.count == 0 {
+        return;
+    }
+    let mut verts = [u32::MAX; 9];
+    let mut at = |ctx: &mut C, e: u8| {
+        let e = e as usize;
+        if verts[e] == u32::MAX {
+            verts[e] = vertex(ctx, EDGES[e][0], EDGES[e][1]);
+        }
+        verts[e]
+    };
+    let mut push = |t: [u32; 3]| out.push(if flip { [t[0], t[2], t[1]] } else { t });
+    let fanned = case.ring_tris();
+    for (k, tri) in case.tris[..case.count as usize].iter().enumerate() {
+        if !fanned.contains(&k) {
+            push(tri.map(|e| at(ctx, e)));
+        }
+    }
+    let ring = case.ring();
+    if !ring.is_empty() {
+        let mut loop_ = [(0, 0, 0); 9];
+        for (k, &e) in ring.iter().enumerate() {
+            loop_[k] = (EDGES[e as usize][0], EDGES[e as usize][1], at(ctx, e));
+        }
+        let loop_ = &loop_[..ring.len()];
+        let c = centre(ctx, loop_);
+        for k in 0..loop_.len() {
+            push([c, loop_[k].2, loop_[(k + 1) % loop_.len()].2]);
+        }
+    }
+}
+
+/// How far a loop's centre stays from the prism's faces, in the prism's own
+/// coordinates (barycentric across, the layer's share up): it must not meet the
+/// surface of the prism beside it, which a curved lattice (a bake's cells) bends by a
+/// few percent of a step (`VERTEX_MARGIN` in the bake). Not from a paper.
+const CENTRE_MARGIN: f32 = 0.05;
+
+/// Where the centre of a loop of iso-vertices goes, as weights of the prism's six
+/// corners (non-negative, summing to 1; the lattice maps corners to its own space,
+/// where a prism is a triangle times an interval): the mean of the loop's vertices in
+/// the prism's coordinates, `(a, b, f)` each (on the edge from corner `a` to `b`, at
+/// `f` from `a`), then one Newton step onto `level` of the values' interpolation
+/// (linear across, linear up) along its gradient, shortened to keep it
+/// [`CENTRE_MARGIN`] inside the prism.
+pub fn centre_weights(values: &[f32; 6], level: f32, ring: impl Iterator<Item = (usize, usize, f32)>) -> [f32; 6] {
+    // Coordinates (w1, w2, t): w0 = 1 - w1 - w2.
+    let local = |c: usize| glam::Vec3::new(f32::from(c % 3 == 1), f32::from(c % 3 == 2), (c / 3) as f32);
+    let (mut sum, mut n) = (glam::Vec3::ZERO, 0.0f32);
+    for (a, b, f) in ring {
+        sum += local(a).lerp(local(b), f);
+        n += 1.0;
+    }
+    let x = sum / n.max(1.0);
+    let v = values;
+    let (t, w) = (x.z, [1.0 - x.x - x.y, x.x, x.y]);
+    let value = (0..3).map(|k| w[k] * ((1.0 - t) * v[k] + t * v[k + 3])).sum::<f32>();
+    let g = glam::Vec3::new(
+        (1.0 - t) * (v[1] - v[0]) + t * (v[4] - v[3]),
+        (1.0 - t) * (v[2] - v[0]) + t * (v[5] - v[3]),
+        (0..3).map(|k| w[k] * (v[k + 3] - v[k])).sum::<f32>(),
+    );
+    let x = step_inside(x, -(value - level) * g / g.length_squared(), CENTRE_MARGIN);
+    let (t, w) = (x.z, [1.0 - x.x - x.y, x.x, x.y]);
+    [w[0] * (1.0 - t), w[1] * (1.0 - t), w[2] * (1.0 - t), w[0] * t, w[1] * t, w[2] * t]
+}
+
+/// `x + s step` in a prism's coordinates `(w1, w2, t)` ([`centre_weights`]) for the
+/// largest `s` in `[0, 1]` that keeps `w0 = 1 - w1 - w2`, `w1`, `w2`, `t` and `1 - t`
+/// above `margin` (or not lower, where they start below it); `x` where the step is
+/// not a number.
+fn step_inside(x: glam::Vec3, step: glam::Vec3, margin: f32) -> glam::Vec3 {
+    if !step.is_finite() {
+        return x;
+    }
+    let limits = [(1.0 - x.x - x.y, -step.x - step.y), (x.x, step.x), (x.y, step.y), (x.z, step.z), (1.0 - x.z, -step.z)];
+    let s = limits.iter().fold(1.0f32, |s, &(room, rate)| if rate < 0.0 { s.min(((room - margin) / -rate).max(0.0)) } else { s });
+    x + s * step
 }
 
 /// Refinement of an iso-vertex by [`crossing`]: at most `steps` evaluations, fewer once

@@ -23,11 +23,45 @@ pub const SIDES: [[usize; 4]; 3] = [[0, 1, 4, 3], [1, 2, 5, 4], [2, 0, 3, 5]];
 /// Bottom and top triangles, counter-clockwise seen from outside.
 const CAPS: [[usize; 3]; 2] = [[0, 2, 1], [3, 4, 5]];
 
-/// Triangles of one case, as edge indices; at most seven (nine crossings in one loop).
+/// Loops of at least this many crossings may be fanned from a centre vertex inside the
+/// prism ([`Case::ring`], [`crate::polygonize::marching::march_prism_centred`]) instead
+/// of being triangulated between their own vertices. Such a triangulation has its
+/// triangles on the loop's far side; where the lattice is curved or sheared (a bake's
+/// cells) it folds and its triangles cross the neighbouring prisms' surface (Suzanne's
+/// head, chain mail: 5 crossing pairs exterior, 15 interior). Loops of four or fewer
+/// crossings are kept: a quad has no better split. Not from a paper.
+pub const CENTRE_LOOP: usize = 6;
+
+/// Triangles of one case, as edge indices (at most seven: nine crossings in one loop),
+/// every loop triangulated between its own vertices; and the one loop of at least
+/// [`CENTRE_LOOP`] crossings, if any (two would need more than nine edges), whose
+/// triangles are `tris[ring_start..ring_start + ring_len - 2]`: a lattice may fan that
+/// loop from a centre vertex instead, triangles `[centre, ring[i], ring[i + 1]]`
+/// (cyclic), which face from inside to outside as `tris` do. `tris` are the table's
+/// own triangulation whether or not a lattice asks for centres.
 #[derive(Clone, Copy, Default)]
 pub struct Case {
     pub count: u8,
     pub tris: [[u8; 3]; 7],
+    pub ring_len: u8,
+    pub ring_start: u8,
+    pub ring: [u8; 9],
+}
+
+impl Case {
+    /// The edges of the loop that may be fanned from a centre vertex, in winding order
+    /// (empty if none).
+    #[inline]
+    pub fn ring(&self) -> &[u8] {
+        &self.ring[..self.ring_len as usize]
+    }
+
+    /// The range of `tris` that triangulates [`Case::ring`] between its own vertices.
+    #[inline]
+    pub fn ring_tris(&self) -> std::ops::Range<usize> {
+        let start = self.ring_start as usize;
+        start..start + (self.ring_len as usize).saturating_sub(2)
+    }
 }
 
 /// Case index: bit `c` set when corner `c` is inside; bit `6 + k` set when side quad
@@ -175,7 +209,15 @@ fn build() -> Vec<Case> {
                     ring.push(e);
                     e = next[e];
                 }
-                for t in triangulate(&ring) {
+                let tris = triangulate(&ring);
+                if ring.len() >= CENTRE_LOOP {
+                    debug_assert_eq!(case.ring_len, 0, "one long loop per prism");
+                    debug_assert_eq!(tris.len(), ring.len() - 2);
+                    case.ring_len = ring.len() as u8;
+                    case.ring_start = case.count;
+                    ring.iter().enumerate().for_each(|(k, &e)| case.ring[k] = e as u8);
+                }
+                for t in tris {
                     case.tris[case.count as usize] = t.map(|e| e as u8);
                     case.count += 1;
                 }
@@ -190,7 +232,9 @@ mod tests {
     use super::*;
 
     /// Every crossing edge is used, every triangle edge is shared by exactly two
-    /// triangles or lies on a prism face, and triangles face the outside corners.
+    /// triangles or lies on a prism face, and triangles face the outside corners: for
+    /// the table's own triangulation, and with its long loop ([`Case::ring`]) fanned
+    /// from a centre vertex (9, at its crossings' mean) instead.
     #[test]
     fn every_case_is_a_closed_surface_inside_the_prism() {
         // Corner positions of a right prism; an iso-point at each edge's midpoint.
@@ -198,48 +242,70 @@ mod tests {
             let base = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]][c % 3];
             glam::Vec3::new(base[0], base[1], (c / 3) as f32)
         };
-        let mid = |e: u8| (corner(EDGES[e as usize][0]) + corner(EDGES[e as usize][1])) / 2.0;
+        let edge_mid = |e: u8| (corner(EDGES[e as usize][0]) + corner(EDGES[e as usize][1])) / 2.0;
+        let mut long_loops = 0;
         for inside in 0u8..64 {
             for connected in 0u8..8 {
                 let t = case(inside, connected);
-                let ins = |c: usize| inside & (1 << c) != 0;
-                let crossing: Vec<u8> = (0..9u8).filter(|&e| ins(EDGES[e as usize][0]) != ins(EDGES[e as usize][1])).collect();
-                let mut used: Vec<u8> = t.tris[..t.count as usize].iter().flatten().copied().collect();
-                used.sort();
-                used.dedup();
-                assert_eq!(used, crossing, "case {inside:06b}/{connected:03b}");
-                // Interior edges (both ends on one loop, not on one face) pair up
-                // with opposite directions: consistent orientation.
-                let mut directed = std::collections::HashMap::new();
-                for tri in &t.tris[..t.count as usize] {
-                    for k in 0..3 {
-                        *directed.entry((tri[k], tri[(k + 1) % 3])).or_insert(0) += 1;
+                let ring = t.ring();
+                assert!(ring.is_empty() || ring.len() >= CENTRE_LOOP, "case {inside:06b}/{connected:03b}");
+                long_loops += usize::from(!ring.is_empty());
+                let own: Vec<[u8; 3]> = t.tris[..t.count as usize].to_vec();
+                let centred: Vec<[u8; 3]> = (0..t.count as usize)
+                    .filter(|k| !t.ring_tris().contains(k))
+                    .map(|k| t.tris[k])
+                    .chain((0..ring.len()).map(|k| [9, ring[k], ring[(k + 1) % ring.len()]]))
+                    .collect();
+                // The loop's own triangles are exactly those over its edges, bounded
+                // by the loop walked in its winding order.
+                let over_ring: Vec<&[u8; 3]> = own.iter().filter(|tri| tri.iter().any(|e| ring.contains(e))).collect();
+                assert!(over_ring.iter().all(|tri| tri.iter().all(|e| ring.contains(e))));
+                assert_eq!(over_ring.len(), ring.len().saturating_sub(2));
+                assert!(t.ring_tris().all(|k| ring.contains(&t.tris[k][0])));
+                let mid = |e: u8| if e == 9 { ring.iter().map(|&e| edge_mid(e)).sum::<glam::Vec3>() / ring.len() as f32 } else { edge_mid(e) };
+                for (what, tris) in [("own", &own), ("centred", &centred)] {
+                    let ins = |c: usize| inside & (1 << c) != 0;
+                    let crossing: Vec<u8> = (0..9u8).filter(|&e| ins(EDGES[e as usize][0]) != ins(EDGES[e as usize][1])).collect();
+                    let mut used: Vec<u8> = tris.iter().flatten().copied().filter(|&e| e != 9).collect();
+                    used.sort();
+                    used.dedup();
+                    assert_eq!(used, crossing, "{what} case {inside:06b}/{connected:03b}");
+                    // Interior edges (both ends on one loop, not on one face) pair up
+                    // with opposite directions: consistent orientation.
+                    let mut directed = std::collections::HashMap::new();
+                    for tri in tris {
+                        for k in 0..3 {
+                            *directed.entry((tri[k], tri[(k + 1) % 3])).or_insert(0) += 1;
+                        }
                     }
-                }
-                for (&(a, b), &n) in &directed {
-                    assert_eq!(n, 1, "edge {a}-{b} twice in one direction, case {inside:06b}");
-                }
-                // No triangle lies in a prism face (the prism across it could make
-                // the same triangle facing the other way).
-                for tri in &t.tris[..t.count as usize] {
-                    assert!(!in_one_face(tri.map(|e| e as usize)), "case {inside:06b}/{connected:03b}: {tri:?} lies in a face");
-                }
-                // Edges inside the loop's triangulation (used by two of its triangles)
-                // are no chords the neighbouring prism could draw as well.
-                for (&(a, b), _) in directed.iter().filter(|(&(a, b), _)| directed.contains_key(&(b, a))) {
-                    assert!(!shared_chord(a as usize, b as usize), "case {inside:06b}/{connected:03b}: chord {a}-{b}");
-                }
-                // Orientation: every triangle's normal points away from the inside
-                // corners' centroid of its own loop, checked on single-loop cases.
-                if t.count > 0 && (connected == 0) && inside.count_ones() == 1 {
-                    let c = (0..6).find(|&c| ins(c)).unwrap();
-                    for tri in &t.tris[..t.count as usize] {
-                        let [a, b, d] = tri.map(mid);
-                        let nrm = (b - a).cross(d - a);
-                        assert!(nrm.dot((a + b + d) / 3.0 - corner(c)) > 0.0, "case {inside:06b} faces inward");
+                    for (&(a, b), &n) in &directed {
+                        assert_eq!(n, 1, "{what}: edge {a}-{b} twice in one direction, case {inside:06b}");
+                        // An edge used once is a segment of a loop on a prism face.
+                        assert!(directed.contains_key(&(b, a)) || (a != 9 && b != 9 && in_one_face([a as usize, b as usize, b as usize])), "{what}: {a}-{b}");
+                    }
+                    // No triangle lies in a prism face (the prism across it could make
+                    // the same triangle facing the other way).
+                    for tri in tris.iter().filter(|t| !t.contains(&9)) {
+                        assert!(!in_one_face(tri.map(|e| e as usize)), "{what} case {inside:06b}/{connected:03b}: {tri:?} lies in a face");
+                    }
+                    // Edges inside the loop's triangulation (used by two of its
+                    // triangles) are no chords the neighbouring prism could draw as well.
+                    for (&(a, b), _) in directed.iter().filter(|(&(a, b), _)| a != 9 && b != 9 && directed.contains_key(&(b, a))) {
+                        assert!(!shared_chord(a as usize, b as usize), "{what} case {inside:06b}/{connected:03b}: chord {a}-{b}");
+                    }
+                    // Orientation: every triangle's normal points away from the inside
+                    // corners' centroid of its own loop, checked on single-loop cases.
+                    if !tris.is_empty() && (connected == 0) && inside.count_ones() == 1 {
+                        let c = (0..6).find(|&c| ins(c)).unwrap();
+                        for tri in tris {
+                            let [a, b, d] = tri.map(mid);
+                            let nrm = (b - a).cross(d - a);
+                            assert!(nrm.dot((a + b + d) / 3.0 - corner(c)) > 0.0, "{what} case {inside:06b} faces inward");
+                        }
                     }
                 }
             }
         }
+        assert!(long_loops > 0, "some cases have loops of six or more crossings");
     }
 }

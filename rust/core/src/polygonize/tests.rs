@@ -424,3 +424,131 @@ fn a_box_whose_extent_overflows_is_refused_by_both_meshers() {
     let dual = super::dual::mesh_dual(&field, &super::dual::DualParams { bounds: huge, resolution: 8 });
     assert!(dual.is_err());
 }
+
+#[test]
+fn a_six_crossing_loop_is_fanned_from_a_centre_inside_the_prism_when_asked() {
+    // Corners 0 and 4 inside, joined across their side quad (its mean is above the
+    // level): one loop through the six edges at them. A triangulation between its own
+    // vertices folded where the bake's lattice is sheared (Suzanne's head, chain mail:
+    // 2 crossing pairs exterior, 11 interior); the bake asks for a centre vertex.
+    let values = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    let mut rings = Vec::new();
+    let mut tris = Vec::new();
+    marching::march_prism_centred(
+        &values,
+        0.4,
+        false,
+        &mut 0u32,
+        |made, _, _| {
+            *made += 1;
+            *made - 1
+        },
+        |_, ring| {
+            rings.push(ring.to_vec());
+            100
+        },
+        &mut tris,
+    );
+    assert_eq!(rings.len(), 1, "one centre vertex");
+    let ring = &rings[0];
+    assert_eq!(ring.len(), 6);
+    assert_eq!(tris.len(), 6, "{tris:?}");
+    assert!(tris.iter().all(|t| t.contains(&100)), "every triangle at the centre: {tris:?}");
+    // A closed fan: the spokes pair up in opposite directions, and the rim is the loop,
+    // walked once in its own order.
+    let mut directed = std::collections::HashSet::new();
+    for t in &tris {
+        for k in 0..3 {
+            assert!(directed.insert((t[k], t[(k + 1) % 3])), "{tris:?}");
+        }
+    }
+    for k in 0..6 {
+        let (a, b) = (ring[k].2, ring[(k + 1) % 6].2);
+        assert!(directed.contains(&(a, b)) && !directed.contains(&(b, a)));
+        assert!(directed.contains(&(100, a)) && directed.contains(&(a, 100)));
+    }
+    // Without a centre (the field polygonizer), the table's own four triangles over
+    // the same six vertices, with the same rim.
+    let (mut plain, mut asked) = (Vec::new(), Vec::new());
+    marching::march_prism(
+        &values,
+        0.4,
+        false,
+        |a, b| {
+            asked.push((a, b));
+            asked.len() as u32 - 1
+        },
+        &mut plain,
+    );
+    assert_eq!(plain.len(), 4, "{plain:?}");
+    let edge = |k: usize| (ring[k].0, ring[k].1);
+    for t in &plain {
+        for k in 0..3 {
+            let (a, b) = (asked[t[k] as usize], asked[t[(k + 1) % 3] as usize]);
+            let (i, j) = ((0..6).find(|&i| edge(i) == a).unwrap(), (0..6).find(|&j| edge(j) == b).unwrap());
+            // A rim edge keeps the loop's direction; a chord is walked back by another.
+            assert!(j == (i + 1) % 6 || i != (j + 1) % 6, "{plain:?}");
+        }
+    }
+    // The centre: inside the prism, moved from the loop's mean (crossings at the
+    // midpoints here) onto the level of the values' interpolation.
+    let w = marching::centre_weights(&values, 0.4, ring.iter().map(|&(a, b, _)| (a, b, 0.5)));
+    assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5 && w.iter().all(|&x| x > 0.0), "{w:?}");
+    let value = w.iter().zip(&values).map(|(w, v)| w * v).sum::<f32>();
+    assert!((value - 0.4).abs() < 0.02, "{value} {w:?}");
+}
+
+#[test]
+fn prisms_without_a_long_loop_march_alike_with_or_without_centres() {
+    // Every inside set, ambiguous sides joined or not: march_prism_centred makes
+    // march_prism's triangles (same vertices asked in the same order) where no loop has
+    // six crossings, and otherwise those of the other loops plus one fan.
+    let mut long = 0;
+    for inside in 0u8..64 {
+        for connected in 0u8..8 {
+            // Values giving the case: inside corners 1 (or 0.6), outside 0; an
+            // ambiguous side joined when its mean reaches the level (0.5).
+            let mut values: [f32; 6] = std::array::from_fn(|c| f32::from(u8::from(inside & (1 << c) != 0)));
+            for (k, side) in prism_table::SIDES.iter().enumerate() {
+                if connected & (1 << k) == 0 {
+                    for &c in side {
+                        values[c] = values[c].min(0.6);
+                    }
+                }
+            }
+            let case = prism_table::classify(&values, 0.5);
+            let (mut plain, mut centred) = (Vec::new(), Vec::new());
+            let (mut asked, mut asked_centred) = (Vec::new(), Vec::new());
+            marching::march_prism(
+                &values,
+                0.5,
+                true,
+                |a, b| {
+                    asked.push((a, b));
+                    asked.len() as u32 - 1
+                },
+                &mut plain,
+            );
+            marching::march_prism_centred(
+                &values,
+                0.5,
+                true,
+                &mut asked_centred,
+                |asked, a, b| {
+                    asked.push((a, b));
+                    asked.len() as u32 - 1
+                },
+                |_, _| 99,
+                &mut centred,
+            );
+            if case.ring().is_empty() {
+                assert_eq!((&plain, &asked), (&centred, &asked_centred), "case {inside:06b}/{connected:03b}");
+            } else {
+                long += 1;
+                let fan = centred.iter().filter(|t| t.contains(&99)).count();
+                assert_eq!((fan, centred.len() - fan), (case.ring().len(), plain.len() - (case.ring().len() - 2)));
+            }
+        }
+    }
+    assert!(long > 0);
+}

@@ -1,4 +1,5 @@
-//! Marching prisms over one cell's lattice ([`march_prism`]), sampled only where the occupancy can change: the cell is
+//! Marching prisms over one cell's lattice ([`march_prism_centred`]: loops of six or more
+//! crossings fanned from a centre vertex inside their prism), sampled only where the occupancy can change: the cell is
 //! split into blocks (`block` lattice steps per edge, all heights); a block whose
 //! [`Occupancy::upper_bound`] stays below the iso-level and whose rim samples (computed by
 //! their owner cells) do too holds no surface and is skipped, so the neighbour sees the
@@ -10,7 +11,7 @@
 
 use super::lattice::Lattice;
 use super::occupancy::Occupancy;
-use crate::polygonize::marching::{crossing, linear, march_prism, off_level, Refine};
+use crate::polygonize::marching::{centre_weights, crossing, linear, march_prism_centred, off_level, Refine};
 use crate::polygonize::weld::{edge_key, Piece, UNSHARED};
 use crate::texture::mapping::CellMap;
 use crate::texture::volume::Column;
@@ -57,6 +58,10 @@ pub(super) struct Scratch {
     ijl: Vec<IVec3>,
     /// Lattice gradient per local point, computed on first use (NaN: not yet).
     grads: Vec<std::cell::Cell<Vec3>>,
+    /// Per vertex of the piece: the local point at the lower end of its lattice edge
+    /// and its share of the edge from there (a loop's centre: none), for the centres
+    /// of long loops.
+    fracs: Vec<(usize, f32)>,
     /// Sizes of the last piece, to reserve the next.
     last: (usize, usize),
     /// Per local column: bit `l` set when layer `l` is inside (columns of at most 64
@@ -238,6 +243,8 @@ impl Cells<'_> {
         let grads = &s.grads;
         let (ids, vals, slots, touched, masks) = (&s.ids, &s.vals, &mut s.slots, &mut s.touched, &s.masks);
         let footprints = &mut s.footprints;
+        let fracs = &mut s.fracs;
+        fracs.clear();
         let value = |p: IVec3| -> Option<f32> {
             let ok = p.x >= 0 && p.y >= 0 && p.x + p.y <= n as i32 && (0..=m as i32).contains(&p.z);
             ok.then(|| vals[lat.local_index(p.x as u32, p.y as u32) * lm + p.z as usize])
@@ -269,7 +276,7 @@ impl Cells<'_> {
             grads[lp].set(g);
             g
         };
-        let mut iso = |piece: &mut Piece, p: usize, q: usize| -> u32 {
+        let mut iso = |(piece, fracs): &mut (&mut Piece, &mut Vec<(usize, f32)>), p: usize, q: usize| -> u32 {
             let (lo, hi) = if ids[p] < ids[q] { (p, q) } else { (q, p) };
             let slot = lo * EDGE_DIRECTIONS + direction(param(hi) - param(lo));
             if slots[slot] != u32::MAX {
@@ -301,13 +308,45 @@ impl Cells<'_> {
             piece.pos.push(cell.world(q));
             piece.attr.push(cell.texture(q));
             piece.grad.push(grad);
+            fracs.push((lo, f));
             slots[slot] = idx;
             touched.push(slot);
             idx
         };
+        // The centre of a long loop: inside the prism, never shared with another cell
+        // (no key), its attributes interpolated from the prism's corners as an
+        // iso-vertex's are from its edge's ends. A fan from one of the loop's own
+        // vertices folds in curved or sheared cells, and its triangles crossed the
+        // neighbouring prisms' surface.
+        let centre = |(piece, fracs): &mut (&mut Piece, &mut Vec<(usize, f32)>), c: &[usize; 6], v: &[f32; 6], ring: &[(usize, usize, u32)]| -> u32 {
+            let along = ring.iter().map(|&(a, b, id)| {
+                let (lo, f) = fracs[id as usize];
+                (a, b, if lo == c[a] { f } else { 1.0 - f })
+            });
+            let w = centre_weights(v, 0.5, along);
+            let q: Vec3 = (0..6).map(|k| to_q(param(c[k])) * w[k]).sum();
+            let g: Vec3 = (0..6).map(|k| lattice_gradient(c[k]) * w[k]).sum();
+            let grad = -cell.parameter_gradient_to_world(q, g);
+            let idx = piece.pos.len() as u32;
+            piece.keys.push(UNSHARED);
+            piece.pos.push(cell.world(q));
+            piece.attr.push(cell.texture(q));
+            piece.grad.push(grad);
+            fracs.push((usize::MAX, 0.0));
+            idx
+        };
         let mut emit = |piece: &mut Piece, c: [usize; 6]| {
             let mut tris = std::mem::take(&mut piece.tris);
-            march_prism(&c.map(|k| vals[k]), 0.5, flip, |a, b| iso(piece, c[a], c[b]), &mut tris);
+            let v = c.map(|k| vals[k]);
+            march_prism_centred(
+                &v,
+                0.5,
+                flip,
+                &mut (&mut *piece, &mut *fracs),
+                |ctx, a, b| iso(ctx, c[a], c[b]),
+                |ctx, ring| centre(ctx, &c, &v, ring),
+                &mut tris,
+            );
             piece.tris = tris;
         };
         let (blocks, smalls, mixed) = (&s.blocks, &s.smalls, &s.mixed);
@@ -412,5 +451,32 @@ mod tests {
             }
             assert_eq!(seen.len() as u32, n * n, "n {n} block {block}: the blocks cover the cell");
         }
+    }
+
+    #[test]
+    fn long_loops_fanned_from_a_centre_do_not_cross_in_sheared_cells() {
+        // The coil's interior shell (5%) under chain mail at the default settings (a
+        // 16x16x8 texture, the lattice following it, unsimplified here): its cells are
+        // sheared along the tube, and loops of six crossings triangulated between their
+        // own vertices (the table's fan, which the field polygonizer keeps) folded
+        // across the neighbouring prisms' surface: 8 crossing pairs on these four faces
+        // (1906 on the whole coil). Fanned from a centre inside their prism: none.
+        use crate::shell::{build_shell, ShellParams, Side, Thickness};
+        use crate::texture::{bake::bake, BakeParams, Generator, Pattern, TextureLayer};
+        let coil = crate::hard_meshes::coil();
+        let t = Thickness::relative(0.05).per_vertex(&coil, None).unwrap();
+        let s = build_shell(&coil, &t, Side::Interior, &ShellParams::default()).unwrap();
+        let faces = 32..36;
+        let corners: Vec<u32> = faces.clone().flat_map(|f| coil.face(f).to_vec()).collect();
+        let sizes: Vec<u32> = faces.map(|f| coil.face(f).len() as u32).collect();
+        let mesh = Mesh::new(coil.positions().to_vec(), &sizes, corners, None).unwrap();
+        let texture = Generator::new(Pattern::ChainMail).generate([16, 16, 8]).unwrap();
+        let layers = [TextureLayer { texture, offset: glam::Vec2::ZERO }];
+        let b = bake(&mesh, &s, &layers, &BakeParams { triangle_budget: 0, ..Default::default() }).unwrap();
+        assert!(b.triangles.len() > 10_000, "{}", b.triangles.len());
+        let check = crate::polygonize::SurfaceCheck::of(&b.positions, &b.triangles);
+        assert!(check.is_closed_manifold(), "{check:?}");
+        let m = Mesh::from_triangles(b.positions.clone(), &b.triangles).unwrap();
+        assert_eq!(crate::hard_meshes::self_intersections(&m), 0);
     }
 }
