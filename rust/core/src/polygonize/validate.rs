@@ -66,7 +66,7 @@ impl SurfaceCheck {
                 }
             }
         }
-        check.pinched_vertices = pinched_vertices(positions.len(), triangles);
+        check.pinched_vertices = vertex_fans(positions.len(), triangles).iter().filter(|&&f| f > 1).count();
         check.components = components(positions.len(), triangles);
         let used = {
             let mut seen = vec![false; positions.len()];
@@ -89,8 +89,10 @@ impl SurfaceCheck {
     }
 }
 
-/// Vertices whose incident triangles are not one edge-connected fan.
-fn pinched_vertices(vertices: usize, triangles: &[[u32; 3]]) -> usize {
+/// Each vertex's number of fans: the edge-connected pieces of its incident triangles
+/// (saturating at 255; 0 for a vertex of no triangle). A vertex inside a manifold
+/// surface has one; more where sheets touch at a point (a pinched vertex).
+pub(crate) fn vertex_fans(vertices: usize, triangles: &[[u32; 3]]) -> Vec<u8> {
     // Per vertex, its triangles' other two corners; a fan joins triangles that share
     // one of them. Union-find over the corner pairs of each vertex.
     let mut start = vec![0usize; vertices + 1];
@@ -109,11 +111,12 @@ fn pinched_vertices(vertices: usize, triangles: &[[u32; 3]]) -> usize {
             fill[v] += 1;
         }
     }
-    let mut pinched = 0;
+    let mut fans = vec![0u8; vertices];
     let mut parent: Vec<usize> = Vec::new();
     for v in 0..vertices {
         let ring = &around[start[v]..start[v + 1]];
         if ring.len() < 2 {
+            fans[v] = ring.len() as u8;
             continue;
         }
         parent.clear();
@@ -135,11 +138,9 @@ fn pinched_vertices(vertices: usize, triangles: &[[u32; 3]]) -> usize {
             }
         }
         let roots = (0..ring.len()).filter(|&i| find(&mut parent, i) == i).count();
-        if roots > 1 {
-            pinched += 1;
-        }
+        fans[v] = roots.min(255) as u8;
     }
-    pinched
+    fans
 }
 
 /// Edge-connected pieces of the triangles.

@@ -377,10 +377,13 @@ impl IncrementalShell {
         seeds
     }
 
-    /// Moved base triangles can cross skin triangles no retraced director touches,
-    /// and base triangles that began or stopped crossing the base (`flipped`) change
-    /// which crossings are inherited: the vertices of the skin triangles near them,
-    /// and their own, join the repair's seeds (their directors keep their value).
+    /// Moved base triangles can cross skin triangles no retraced director touches:
+    /// the vertices of the skin triangles near them, and their own, join the repair's
+    /// seeds (their directors keep their value). A crossing is inherited only where
+    /// its two base triangles cross each other, and a base pair starts or stops
+    /// crossing only where one of its triangles moved, whose vertices are seeds
+    /// already; base triangles that began or stopped crossing the base (`flipped`) are
+    /// seeded too, as they change which parts the probes of crossing parts answer for.
     fn seed_pierced_outer(&self, changes: &[(usize, [DVec3; 3], [DVec3; 3])], flipped: &[u32], seeds: &mut Vec<u32>) {
         let Some(outer) = &self.outer_bvh else { return };
         let mut near = vec![false; self.mesh.vertex_count()];

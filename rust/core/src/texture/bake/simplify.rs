@@ -10,6 +10,7 @@
 //! vertices around the faults are locked and their connected parts simplified again,
 //! or in the end the piece is kept whole.
 
+use crate::polygonize::validate::vertex_fans;
 use crate::polygonize::weld::{Piece, UNSHARED};
 use crate::shell::intersect::triangles_meet;
 use crate::spatial::{tri_box, Bvh};
@@ -195,7 +196,11 @@ fn ends(e: u64) -> [u32; 2] {
 }
 
 /// A triangle list's sorted directed edges, its open ones (no reverse), its
-/// triangles sorted, and each vertex's number of [`fans`].
+/// triangles sorted, and each vertex's number of fans ([`vertex_fans`]). Edge collapse
+/// can pinch two sheets together at a vertex (a neck thinner than the error collapsed
+/// to a point) while every edge stays used twice: Blender's bmesh then calls the
+/// vertex not manifold (chain mail on Suzanne's head, interior 5%, 16 x 16 x 8
+/// texture: 5 such vertices; the cup's exterior: 76), and so do booleans and slicers.
 struct Shape {
     directed: Vec<u64>,
     open: Vec<u64>,
@@ -214,7 +219,7 @@ impl Shape {
         let open = open.collect();
         let mut sorted = tris.to_vec();
         sorted.sort_unstable();
-        Self { directed, open, tris: sorted, fans: fans(tris, vertices) }
+        Self { directed, open, tris: sorted, fans: vertex_fans(vertices, tris) }
     }
 
     fn has_edge(&self, a: u32, b: u32) -> bool {
@@ -222,53 +227,12 @@ impl Shape {
     }
 }
 
-/// Each vertex's number of fans: the connected pieces of its link (the edges opposite
-/// it in its triangles), saturating at 255; 0 for a vertex of no triangle. A vertex
-/// inside a manifold surface has one fan. Edge collapse can pinch two sheets together
-/// at a vertex (a neck thinner than the error collapsed to a point) while every edge
-/// stays used twice: Blender's bmesh then calls the vertex not manifold (chain mail
-/// on Suzanne's head, interior 5%, 16 x 16 x 8 texture: 5 such vertices; the cup's
-/// exterior: 76), and so do booleans and slicers.
-fn fans(tris: &[[u32; 3]], vertices: usize) -> Vec<u8> {
-    let mut link: Vec<(u32, u32, u32)> = tris.iter().flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3], t[(k + 2) % 3]))).collect();
-    link.sort_unstable();
-    // Union-find over each link's vertices (a handful: linear lookups).
-    fn node(x: u32, nodes: &mut Vec<u32>, up: &mut Vec<usize>) -> usize {
-        nodes.iter().position(|&y| y == x).unwrap_or_else(|| {
-            nodes.push(x);
-            up.push(up.len());
-            up.len() - 1
-        })
-    }
-    fn root(up: &mut [usize], mut i: usize) -> usize {
-        while up[i] != i {
-            up[i] = up[up[i]];
-            i = up[i];
-        }
-        i
-    }
-    let mut out = vec![0u8; vertices];
-    let (mut nodes, mut up) = (Vec::new(), Vec::new());
-    for group in link.chunk_by(|a, b| a.0 == b.0) {
-        nodes.clear();
-        up.clear();
-        for &(_, a, b) in group {
-            let (i, j) = (node(a, &mut nodes, &mut up), node(b, &mut nodes, &mut up));
-            let (i, j) = (root(&mut up, i), root(&mut up, j));
-            up[i] = j;
-        }
-        let roots = (0..up.len()).filter(|&i| up[i] == i).count();
-        out[group[0].0 as usize] = roots.min(255) as u8;
-    }
-    out
-}
-
 /// The vertices of `after` where it is not a manifold piece with the rim of `piece`
 /// (whose shape is `before`): on directed edges used twice, on edges open in one and
 /// not the other, on new edges joining two rim vertices, in degenerate or new flat
 /// triangles (zero area), in coincident ones (also
-/// opposite: equal vertex sets), at vertices pinched into more [`fans`] than they
-/// had, or in [`crossings`].
+/// opposite: equal vertex sets), at vertices pinched into more fans than they had,
+/// or in [`crossings`].
 fn faults(piece: &Piece, before: &Shape, after: &[[u32; 3]], fresh: &[bool]) -> Vec<u32> {
     let now = Shape::of(after, piece.pos.len());
     let mut bad: Vec<u32> = now.directed.windows(2).filter(|w| w[0] == w[1]).flat_map(|w| ends(w[0])).collect();
@@ -459,7 +423,7 @@ mod tests {
     fn fans_count_the_sheets_pinched_at_a_vertex() {
         // Two tetrahedra sharing vertex 0: two fans there, one elsewhere, none unused.
         let tris = vec![[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2], [0, 4, 5], [0, 5, 6], [0, 6, 4], [4, 6, 5]];
-        assert_eq!(fans(&tris, 8), [2, 1, 1, 1, 1, 1, 1, 0]);
+        assert_eq!(vertex_fans(8, &tris), [2, 1, 1, 1, 1, 1, 1, 0]);
     }
 
     /// An hourglass (a closed surface of revolution) whose neck is far thinner than
@@ -493,11 +457,11 @@ mod tests {
         }
         let n = piece.pos.len();
         (piece.keys, piece.attr, piece.grad) = (vec![UNSHARED; n], vec![glam::Vec3::ZERO; n], vec![glam::Vec3::Z; n]);
-        assert!(fans(&piece.tris, n).iter().all(|&f| f == 1));
+        assert!(vertex_fans(n, &piece.tris).iter().all(|&f| f == 1));
         let before = piece.tris.len();
         let out = simplify(piece, 40, 0.05);
         assert!(out.tris.len() < before, "simplified: {} of {before}", out.tris.len());
-        let pinched = fans(&out.tris, out.pos.len()).iter().filter(|&&f| f > 1).count();
+        let pinched = vertex_fans(out.pos.len(), &out.tris).iter().filter(|&&f| f > 1).count();
         assert_eq!(pinched, 0, "{} triangles", out.tris.len());
         let shape = Shape::of(&out.tris, out.pos.len());
         assert!(shape.open.is_empty() && shape.directed.windows(2).all(|w| w[0] != w[1]));
