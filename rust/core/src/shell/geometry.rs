@@ -195,18 +195,14 @@ impl Cell {
             let flat = (0..4).any(|i| (i + 1..4).any(|j| t[i] == t[j]));
             (!flat).then(|| tet_volume(t))
         };
-        self.tets(positions, shell).into_iter().map(vol).collect()
+        self.tets(positions, shell).map(vol).collect()
     }
 
     /// The tetrahedra of [`tet_volumes`](Self::tet_volumes)' decomposition.
-    fn tets(&self, positions: &[Vec3], shell: &Shell) -> Vec<[DVec3; 4]> {
+    fn tets<'a>(&self, positions: &'a [Vec3], shell: &Shell) -> impl Iterator<Item = [DVec3; 4]> + 'a {
         let (x, d) = self.rings(positions, shell);
-        let top = |q: usize| x[q] + d[q];
-        let mut out = Vec::with_capacity(6);
-        for [i, j, l] in self.upright_splits(positions) {
-            out.extend([[x[i], x[j], x[l], top(i)], [x[j], x[l], top(i), top(j)], [x[l], top(i), top(j), top(l)]]);
-        }
-        out
+        let top = move |q: usize| x[q] + d[q];
+        self.upright_splits(positions).flat_map(move |[i, j, l]| [[x[i], x[j], x[l], top(i)], [x[j], x[l], top(i), top(j)], [x[l], top(i), top(j), top(l)]])
     }
 
     /// Each corner's base point (r = 0) and director (r = 1 minus r = 0), in double
@@ -245,7 +241,7 @@ impl Cell {
     /// [`tet_volumes`](Self::tet_volumes) checks both), in double precision. A cell
     /// pressed flat has no inside.
     pub fn encloses(&self, positions: &[Vec3], shell: &Shell, x: DVec3) -> bool {
-        self.tets(positions, shell).into_iter().any(|t| {
+        self.tets(positions, shell).any(|t| {
             let whole = tet_volume(t);
             whole != 0.0
                 && (0..4).all(|i| {
