@@ -16,6 +16,80 @@ def loop_triangles(mesh):
     return tris.reshape(-1, 3)
 
 
+def loop_polygons(mesh):
+    """The face each of Blender's loop triangles belongs to."""
+    mesh.calc_loop_triangles()
+    polygons = np.empty(len(mesh.loop_triangles), np.int32)
+    mesh.loop_triangles.foreach_get("polygon_index", polygons)
+    return polygons
+
+
+def face_triangles(tris, polygons):
+    """Per loop triangle, up to four triangles covering its face: a quad's two loop
+    triangles and its other split (a project may split a quad along the other
+    diagonal), a triangle repeated four times, an n-gon's own loop triangle."""
+    out = np.repeat(tris[:, None, :], 4, axis=1)
+    if polygons is None:
+        return out
+    order = np.argsort(polygons, kind="stable")
+    counts = np.bincount(polygons)
+    quads = np.flatnonzero(counts == 2)
+    if len(quads):
+        start = np.searchsorted(polygons[order], quads)
+        first, second = order[start], order[start + 1]
+        t1, t2 = tris[first], tris[second]
+        in2 = (t1[:, :, None] == t2[:, None, :]).any(axis=2)  # t1's corners on the diagonal
+        diag = np.sort(np.where(in2, t1, -1), axis=1)[:, 1:]
+        apex1 = t1[~in2]
+        in1 = (t2[:, :, None] == t1[:, None, :]).any(axis=2)
+        apex2 = t2[~in1]
+        other = np.stack([np.stack([apex1, apex2, diag[:, 0]], 1), np.stack([apex1, apex2, diag[:, 1]], 1)], 1)
+        both = np.concatenate([t1[:, None], t2[:, None], other], axis=1)
+        out[first] = both
+        out[second] = both
+    return out
+
+
+def orient(a, b, c, d):
+    """Rows of the orientation determinant of d against the plane of abc (float64)."""
+    return np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a)
+
+
+def segments_cross(p, q, a, b, c):
+    """Whether segments p-q properly cross triangles abc (rows, float64): p and q
+    strictly on either side of the plane and the line pq through the closed triangle
+    (the textbook orientation test; a segment in the triangle's plane does not count)."""
+    straddle = orient(a, b, c, p) * orient(a, b, c, q) < 0
+    s1, s2, s3 = orient(p, q, a, b), orient(p, q, b, c), orient(p, q, c, a)
+    through = ((s1 >= 0) & (s2 >= 0) & (s3 >= 0)) | ((s1 <= 0) & (s2 <= 0) & (s3 <= 0))
+    return straddle & through
+
+
+def triangles_cross(t, u):
+    """Whether triangles t and u (m x 3 x 3, float64) intersect: an edge of one
+    crosses the other."""
+    hit = np.zeros(len(t), bool)
+    for x, y in ((t, u), (u, t)):
+        for k in range(3):
+            hit |= segments_cross(x[:, k], x[:, (k + 1) % 3], y[:, 0], y[:, 1], y[:, 2])
+    return hit
+
+
+def bases_cross(base, pairs, covering):
+    """Whether the base faces under each pair of triangles cross each other (a
+    float64 test, independent of Blender's overlap and of the project's checker).
+    Pairs of faces sharing a vertex do not count (their triangles touch there)."""
+    if len(pairs) == 0:
+        return np.zeros(0, bool)
+    p = base.astype(np.float64)
+    fa, fb = covering[pairs[:, 0]], covering[pairs[:, 1]]  # m x 4 x 3
+    ta = np.repeat(fa, 4, axis=1).reshape(-1, 3)
+    tb = np.tile(fb, (1, 4, 1)).reshape(-1, 3)
+    shared = (ta[:, :, None] == tb[:, None, :]).any(axis=(1, 2))
+    cross = triangles_cross(p[ta], p[tb]) & ~shared
+    return cross.reshape(-1, 16).any(axis=1)
+
+
 def overlapping(a_points, b_points, tris, same):
     """Crossing triangle pairs by Blender's BVHTree.overlap (pairs sharing a vertex
     index are dropped for a tree against itself)."""
@@ -64,12 +138,24 @@ def folding_cells(bottom, top, tris, orientation, samples=65):
     return int((bad & (area > 0)).sum())
 
 
-def blender_check(base, out, side, tris):
+def blender_check(base, out, side, tris, polygons=None):
     """Crossings and inverted cells of a shell result, found with Blender's tools.
-    Crossings involving a base triangle that crosses the base itself are inherited."""
+
+    A crossing pair is inherited only where the two base faces its triangles stand on
+    cross each other (at zero thickness the shell has exactly those pairs); a pair
+    with one triangle over a face that crosses some other face elsewhere is not
+    excused. Whether two base faces cross is decided by a float64 test here
+    (`bases_cross`), not by Blender's overlap, which misses crossings near a vertex.
+    `polygons` (Blender's `loop_polygons`) lets a quad cross by either split, as the
+    project may split it along the other diagonal."""
     offset, directors = out["base_offset"], out["directors"]
     skins = [base + offset + directors] + ([base + offset] if side == "envelope" else [])
     own = np.unique(overlapping(base, base, tris, same=True))
+    covering = face_triangles(tris, None if polygons is None else np.asarray(polygons))
+
+    def inherited(pairs):
+        return bases_cross(base, pairs, covering)
+
     flat = np.linalg.norm(directors, axis=1) + np.linalg.norm(offset, axis=1) == 0
     self_pairs = base_pairs = 0
     for i, skin in enumerate(skins):
@@ -78,11 +164,11 @@ def blender_check(base, out, side, tris):
             if i != j:  # inner and outer of one envelope: pairs over cells sharing a vertex are the cell's own
                 shared = (tris[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
                 pairs = pairs[~shared]
-            self_pairs += int((~np.isin(pairs, own).any(axis=1)).sum())
+            self_pairs += int((~inherited(pairs)).sum())
         pairs = overlapping(skin, base, tris, same=False)
         # A skin triangle touches the base where a shared corner is pressed flat.
         touching = ((tris[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]) & flat[tris[pairs[:, 0]]][:, :, None]).any(axis=(1, 2))
-        base_pairs += int((~touching & ~np.isin(pairs, own).any(axis=1)).sum())
+        base_pairs += int((~touching & ~inherited(pairs)).sum())
     orientation = -1.0 if side == "interior" else 1.0
     inverted = inverted_cells(base + offset, base + offset + directors, tris, orientation)
     folding = folding_cells(base + offset, base + offset + directors, tris, orientation)
