@@ -43,7 +43,7 @@ pub use effects::{Effects, Site};
 use glam::{Vec2, Vec3};
 use lattice::Lattice;
 use occupancy::Occupancy;
-use polygonize::{Cells, Scratch};
+use polygonize::{Cells, Margins, Scratch};
 use rayon::prelude::*;
 
 /// Bake settings.
@@ -218,6 +218,8 @@ struct Setup {
     simplify_error: f32,
     /// Per cell: its triangles are reversed ([`cell_flips`]).
     flips: Vec<bool>,
+    /// How far iso-vertices keep off the lattice points ([`Margins`]).
+    margins: Margins,
 }
 
 /// The lattice of a bake: steps per cell edge, heights, culling blocks.
@@ -360,7 +362,20 @@ impl Setup {
         let bounds = textures.iter().map(|l| MaxPyramid::new(&l.texture)).collect();
         let simplify_error = if thin { THIN_SIMPLIFY_ERROR } else { SIMPLIFY_ERROR };
         let flips = cell_flips(mesh, shell, &lattice.tris, &lattice.faces);
-        Ok(Self { coords, lattice, effects, bounds, heights, block, texture_finer_than_lattice: finer, resolution: params.resolution, simplify_error, flips })
+        let margins = Margins::new(mesh, shell, &lattice.tris, &heights);
+        Ok(Self {
+            coords,
+            lattice,
+            effects,
+            bounds,
+            heights,
+            block,
+            texture_finer_than_lattice: finer,
+            resolution: params.resolution,
+            simplify_error,
+            flips,
+            margins,
+        })
     }
 
     /// The same setup with `block` steps per block edge (a coarser lattice): the
@@ -376,7 +391,7 @@ impl Setup {
     }
 
     fn cells<'a>(&'a self, mesh: &'a Mesh, shell: &'a Shell, field: &'a Occupancy<'a>, cull: bool) -> Cells<'a> {
-        Cells { mesh, shell, lattice: &self.lattice, field, heights: &self.heights, block: self.block, cull, flips: &self.flips }
+        Cells { mesh, shell, lattice: &self.lattice, field, heights: &self.heights, block: self.block, cull, flips: &self.flips, margins: &self.margins }
     }
 }
 

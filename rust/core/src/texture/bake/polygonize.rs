@@ -17,6 +17,7 @@ use crate::texture::mapping::CellMap;
 use crate::texture::volume::Column;
 use crate::{shell::Shell, Mesh};
 use glam::{IVec3, Vec3};
+use rayon::prelude::*;
 
 /// Everything a cell needs, shared by all cells.
 pub(super) struct Cells<'a> {
@@ -32,6 +33,62 @@ pub(super) struct Cells<'a> {
     pub cull: bool,
     /// Per cell: its triangles are reversed ([`super::cell_flips`]).
     pub flips: &'a [bool],
+    /// How far iso-vertices keep off the lattice points, per cell and per mesh vertex.
+    pub margins: &'a Margins,
+}
+
+/// How close to a lattice point an iso-vertex may come, as a share of its lattice
+/// edge ([`VERTEX_MARGIN`], more in twisted cells): per cell, and per mesh vertex the
+/// most of the cells around it, which the iso-vertices on the cells' common sides
+/// take (both cells then clamp alike).
+pub(super) struct Margins {
+    pub cell: Vec<f32>,
+    pub vertex: Vec<f32>,
+}
+
+impl Margins {
+    /// The margins of `triangles` (cells of `mesh` under `shell`) whose layers are
+    /// `heights` apart. A cell's map is bilinear in `(u, v)` and `r`: a flat triangle
+    /// between mapped iso-vertices is off the map's image by up to its twist, the
+    /// directors' spread times the layer's height, over a lattice step (the
+    /// narrowest altitude over `n`, which cancels). Where that is a sizeable share of
+    /// a step (a knife edge's cap, fanned from its centre into cells 30 times thinner
+    /// than the shell, whose directors turn 35 degrees across them) the sheets around
+    /// a lattice point, [`VERTEX_MARGIN`] from it on either side, crossed: the
+    /// margin grows with the twist ([`TWIST_MARGIN`]), up to [`MAX_VERTEX_MARGIN`].
+    pub fn new(mesh: &Mesh, shell: &Shell, triangles: &[[u32; 3]], heights: &[f32]) -> Self {
+        let layer = f64::from(heights.windows(2).map(|w| w[1] - w[0]).fold(0.0, f32::max));
+        let p = mesh.positions();
+        let cell: Vec<f32> = triangles
+            .par_iter()
+            .map(|t| {
+                let d = t.map(|v| shell.directors[v as usize].as_dvec3());
+                let spread = (0..3).map(|k| d[k].distance(d[(k + 1) % 3])).fold(0.0, f64::max);
+                // The narrowest altitude of the cell's cross-section at r = 0, 1/2, 1.
+                let narrowest = [0.0, 0.5, 1.0]
+                    .iter()
+                    .map(|&r| {
+                        let x = t.map(|v| shell.point(p, v as usize, r).as_dvec3());
+                        let longest = (0..3).map(|k| x[k].distance(x[(k + 1) % 3])).fold(0.0, f64::max);
+                        (x[1] - x[0]).cross(x[2] - x[0]).length() / longest
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                let twist = layer * spread / narrowest;
+                if twist.is_finite() {
+                    (twist * TWIST_MARGIN).clamp(f64::from(VERTEX_MARGIN), f64::from(MAX_VERTEX_MARGIN)) as f32
+                } else if spread == 0.0 {
+                    VERTEX_MARGIN
+                } else {
+                    MAX_VERTEX_MARGIN
+                }
+            })
+            .collect();
+        let mut vertex = vec![VERTEX_MARGIN; mesh.vertex_count()];
+        for (t, m) in triangles.iter().zip(&cell) {
+            t.iter().for_each(|&v| vertex[v as usize] = vertex[v as usize].max(*m));
+        }
+        Self { cell, vertex }
+    }
 }
 
 /// A block of a cell: the corners of its triangle (local lattice points), its small
@@ -231,6 +288,23 @@ impl Cells<'_> {
         // Orientation: triangles face from inside to outside in parameter space, flipped
         // where the shell's map reverses orientation (interior shells).
         let flip = self.flips[t];
+        // Iso-vertices on the cell's sides keep the margin of the side's mesh vertices
+        // (each point's corners of the cell: one at a corner, two on a side), which
+        // the neighbour across it computes alike; the rest, the cell's own.
+        let corners = lat.tris[t].map(|v| self.margins.vertex[v as usize]);
+        let own = self.margins.cell[t];
+        let rim_corners = |p: IVec3| -> u8 {
+            let (i, j, n) = (p.x, p.y, n as i32);
+            match (i, j) {
+                (0, 0) => 0b001,
+                _ if i == n => 0b010,
+                _ if j == n => 0b100,
+                (_, 0) => 0b011,
+                (0, _) => 0b101,
+                _ if i + j == n => 0b110,
+                _ => 0,
+            }
+        };
         let ijl = &s.ijl;
         let param = |lp: usize| ijl[lp];
         let on_rim = |lp: usize| {
@@ -295,9 +369,11 @@ impl Cells<'_> {
             } else {
                 crossing(vals[lo], vals[hi], 0.5, CROSSING, |f| self.field.at(t, &cell, qa.lerp(qb, f), footprints))
             };
-            // Kept off the lattice points ([`VERTEX_MARGIN`]); the same on both sides of
-            // the rim (the neighbour clamps the same linear guess).
-            let f = f.clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN);
+            // Kept off the lattice points ([`Margins`]); the same on both sides of the
+            // rim (the neighbour clamps the same linear guess by the same margin).
+            let side = rim_corners(param(lo)) | rim_corners(param(hi));
+            let margin = if shared && side.count_ones() <= 2 { (0..3).filter(|k| side >> k & 1 == 1).map(|k| corners[k]).fold(0.0, f32::max) } else { own };
+            let f = f.clamp(margin, 1.0 - margin);
             let q = qa.lerp(qb, f);
             // Gradient: the lattice's central differences (one-sided on the cell's rim)
             // interpolated along the edge, carried to world space by the cell map.
@@ -387,10 +463,20 @@ impl Cells<'_> {
 /// triangles crossed: the blade's fur at the default settings had 12 crossing pairs in
 /// the caps' cells next to the edge (4 per cell, none in parameter space). Not from the
 /// paper: 0.02 left them, 0.05 and 0.1 remove them; 0.05 moves the surface by at most a
-/// twentieth of a step (the simplifier moves it by up to 0.15).
+/// twentieth of a step (the simplifier moves it by up to 0.15). Twisted cells take
+/// more ([`Margins`]).
 ///
 /// [`OFF_ISO`]: crate::polygonize::marching::OFF_ISO
 const VERTEX_MARGIN: f32 = 0.05;
+
+/// A cell's margin per unit of its twist ([`Margins::new`]): a flat triangle over a
+/// bilinear patch is off it by at most a quarter of the patch's twist. Not from the
+/// paper: the blade's exterior grass (16 x 16 x 8, unsimplified) crossed at margins
+/// of 0.05 on cap cells of twist 0.85 and not at 0.2.
+const TWIST_MARGIN: f64 = 0.3;
+
+/// The most margin a cell takes: its surface moves by up to this share of a step.
+const MAX_VERTEX_MARGIN: f32 = 0.25;
 
 /// Refinement of an iso-vertex across a column's neighbour: three evaluations of the
 /// texture (bake_fidelity: thin strands keep their width; more cost bake time).
@@ -451,6 +537,43 @@ mod tests {
             }
             assert_eq!(seen.len() as u32, n * n, "n {n} block {block}: the blocks cover the cell");
         }
+    }
+
+    #[test]
+    fn twisted_cells_keep_their_iso_vertices_further_off_the_lattice_points() {
+        // The blade's exterior shell (5%) under grass at the default settings (a
+        // 16x16x8 texture, the lattice following it, unsimplified): its caps are fanned
+        // from their centre into cells about 30 times thinner than the shell, whose
+        // directors turn 35 degrees across them. The sheets around a grass blade one
+        // lattice point wide, 0.05 of a step off it on either side, crossed there (16
+        // crossing pairs on these three faces, 36 on the whole blade); with the
+        // margin grown with the cell's twist, none.
+        use crate::shell::{build_shell, ShellParams, Side, Thickness};
+        use crate::texture::{bake::bake, BakeParams, Generator, Pattern, TextureLayer};
+        let blade = crate::hard_meshes::blade();
+        let t = Thickness::relative(0.05).per_vertex(&blade, None).unwrap();
+        let s = build_shell(&blade, &t, Side::Exterior, &ShellParams::default()).unwrap();
+        let faces = 1309..1312;
+        let corners: Vec<u32> = faces.clone().flat_map(|f| blade.face(f).to_vec()).collect();
+        let sizes: Vec<u32> = faces.map(|f| blade.face(f).len() as u32).collect();
+        let mesh = Mesh::new(blade.positions().to_vec(), &sizes, corners, None).unwrap();
+        let texture = Generator::new(Pattern::Grass).generate([16, 16, 8]).unwrap();
+        let layers = [TextureLayer { texture, offset: glam::Vec2::ZERO }];
+        let b = bake(&mesh, &s, &layers, &BakeParams { triangle_budget: 0, ..Default::default() }).unwrap();
+        assert!(b.triangles.len() > 1_000, "{}", b.triangles.len());
+        let check = crate::polygonize::SurfaceCheck::of(&b.positions, &b.triangles);
+        assert!(check.is_closed_manifold(), "{check:?}");
+        let m = Mesh::from_triangles(b.positions.clone(), &b.triangles).unwrap();
+        assert_eq!(crate::hard_meshes::self_intersections(&m), 0);
+        // The margins: the least on the blade's flat flank, more on these cap cells,
+        // and each mesh vertex takes the most of its cells'.
+        let heights: Vec<f32> = (0..=16).map(|l| l as f32 / 16.0).collect();
+        let flank = blade.face(100);
+        let cells = [[flank[0], flank[1], flank[2]], blade.face(1309).try_into().unwrap()];
+        let margins = Margins::new(&blade, &s, &cells, &heights);
+        assert_eq!(margins.cell[0], VERTEX_MARGIN);
+        assert!(margins.cell[1] > 2.0 * VERTEX_MARGIN && margins.cell[1] <= MAX_VERTEX_MARGIN, "{:?}", margins.cell);
+        assert!(cells[1].iter().all(|&v| margins.vertex[v as usize] == margins.cell[1]));
     }
 
     #[test]
