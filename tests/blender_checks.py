@@ -16,40 +16,6 @@ def loop_triangles(mesh):
     return tris.reshape(-1, 3)
 
 
-def loop_polygons(mesh):
-    """The face each of Blender's loop triangles belongs to."""
-    mesh.calc_loop_triangles()
-    polygons = np.empty(len(mesh.loop_triangles), np.int32)
-    mesh.loop_triangles.foreach_get("polygon_index", polygons)
-    return polygons
-
-
-def face_triangles(tris, polygons):
-    """Per loop triangle, up to four triangles covering its face: a quad's two loop
-    triangles and its other split (a project may split a quad along the other
-    diagonal), a triangle repeated four times, an n-gon's own loop triangle."""
-    out = np.repeat(tris[:, None, :], 4, axis=1)
-    if polygons is None:
-        return out
-    order = np.argsort(polygons, kind="stable")
-    counts = np.bincount(polygons)
-    quads = np.flatnonzero(counts == 2)
-    if len(quads):
-        start = np.searchsorted(polygons[order], quads)
-        first, second = order[start], order[start + 1]
-        t1, t2 = tris[first], tris[second]
-        in2 = (t1[:, :, None] == t2[:, None, :]).any(axis=2)  # t1's corners on the diagonal
-        diag = np.sort(np.where(in2, t1, -1), axis=1)[:, 1:]
-        apex1 = t1[~in2]
-        in1 = (t2[:, :, None] == t1[:, None, :]).any(axis=2)
-        apex2 = t2[~in1]
-        other = np.stack([np.stack([apex1, apex2, diag[:, 0]], 1), np.stack([apex1, apex2, diag[:, 1]], 1)], 1)
-        both = np.concatenate([t1[:, None], t2[:, None], other], axis=1)
-        out[first] = both
-        out[second] = both
-    return out
-
-
 def orient(a, b, c, d):
     """Rows of the orientation determinant of d against the plane of abc (float64)."""
     return np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a)
@@ -75,19 +41,16 @@ def triangles_cross(t, u):
     return hit
 
 
-def bases_cross(base, pairs, covering):
-    """Whether the base faces under each pair of triangles cross each other (a
-    float64 test, independent of Blender's overlap and of the project's checker).
-    Pairs of faces sharing a vertex do not count (their triangles touch there)."""
+def bases_cross(base, pairs, tris):
+    """Whether the two base triangles of each pair cross each other (a float64
+    orientation test, independent of Blender's overlap and of the project's checker;
+    triangles sharing a vertex touch there and do not count)."""
     if len(pairs) == 0:
         return np.zeros(0, bool)
     p = base.astype(np.float64)
-    fa, fb = covering[pairs[:, 0]], covering[pairs[:, 1]]  # m x 4 x 3
-    ta = np.repeat(fa, 4, axis=1).reshape(-1, 3)
-    tb = np.tile(fb, (1, 4, 1)).reshape(-1, 3)
+    ta, tb = tris[pairs[:, 0]], tris[pairs[:, 1]]
     shared = (ta[:, :, None] == tb[:, None, :]).any(axis=(1, 2))
-    cross = triangles_cross(p[ta], p[tb]) & ~shared
-    return cross.reshape(-1, 16).any(axis=1)
+    return triangles_cross(p[ta], p[tb]) & ~shared
 
 
 def overlapping(a_points, b_points, tris, same):
@@ -138,23 +101,23 @@ def folding_cells(bottom, top, tris, orientation, samples=65):
     return int((bad & (area > 0)).sum())
 
 
-def blender_check(base, out, side, tris, polygons=None):
+def blender_check(base, out, side, tris):
     """Crossings and inverted cells of a shell result, found with Blender's tools.
 
-    A crossing pair is inherited only where the two base faces its triangles stand on
-    cross each other (at zero thickness the shell has exactly those pairs); a pair
+    A crossing pair is inherited only where its two base triangles cross each other
+    (at zero thickness the shell has exactly those pairs), the project's rule; a pair
     with one triangle over a face that crosses some other face elsewhere is not
-    excused. Whether two base faces cross is decided by a float64 test here
-    (`bases_cross`), not by Blender's overlap, which misses crossings near a vertex.
-    `polygons` (Blender's `loop_polygons`) lets a quad cross by either split, as the
-    project may split it along the other diagonal."""
+    excused. Whether two base triangles cross is decided by a float64 test here
+    (`bases_cross`), not by Blender's overlap, which misses crossings where edges pass
+    near each other. Blender's loop triangles are among the project's own (it checks
+    both splits of a quad); n-gons are triangulated by each in its own way, so meshes
+    with n-gons can fail here where the project is clean."""
     offset, directors = out["base_offset"], out["directors"]
     skins = [base + offset + directors] + ([base + offset] if side == "envelope" else [])
     own = np.unique(overlapping(base, base, tris, same=True))
-    covering = face_triangles(tris, None if polygons is None else np.asarray(polygons))
 
     def inherited(pairs):
-        return bases_cross(base, pairs, covering)
+        return bases_cross(base, pairs, tris)
 
     flat = np.linalg.norm(directors, axis=1) + np.linalg.norm(offset, axis=1) == 0
     self_pairs = base_pairs = 0

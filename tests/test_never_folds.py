@@ -11,7 +11,7 @@ its head: a base with intersections of its own).
 import bpy
 import numpy as np
 import pytest
-from blender_checks import blender_check, loop_polygons, loop_triangles, overlapping
+from blender_checks import bases_cross, blender_check, loop_triangles, overlapping, triangles_cross
 from conftest import DATA, add, positions
 from mathutils.bvhtree import BVHTree
 
@@ -66,13 +66,13 @@ def room(gaps, side, target):
 def test_shells_never_fold_by_blenders_own_checks(scene, name):
     obj = load(name)
     a = mesh_io.read_mesh(obj.data)
-    tris, polygons = loop_triangles(obj.data), loop_polygons(obj.data)
+    tris = loop_triangles(obj.data)
     gaps = normal_gaps(obj)
     weights = (0.5 + 0.5 * np.abs(np.sin(a.vertices @ np.array([3.0, 2.0, 1.0], np.float32)))).astype(np.float32)
     for side, fraction in CASES:
         for factors in (None, weights):
             out = tn.shell(a.vertices, a.face_sizes, a.corners, fraction, side=side, relative=True, factors=factors)
-            found = blender_check(a.vertices, out, side, tris, polygons)
+            found = blender_check(a.vertices, out, side, tris)
             what = f"{name} {side} {fraction} {'weighted' if factors is not None else 'uniform'}: {found} {out['check']}"
             assert (found["self"], found["base"], found["inverted"], found["folding"]) == (0, 0, 0, 0), what
             assert out["check"]["clean"], what
@@ -124,6 +124,21 @@ def test_a_self_intersecting_base_is_reported_and_its_faces_selected(scene):
     assert sphere.thicket.source_crossings == 0 and len(api.crossing_faces(sphere)) == 0
 
 
+def test_the_float64_test_deciding_inherited_pairs():
+    """`bases_cross` (which base pairs cross, for the inherited rule): a triangle
+    through another crosses it, lifted just clear of it does not, nor do triangles
+    sharing a vertex or lying in one plane."""
+    flat = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0]], np.float64)
+    through = np.array([[0.5, 0.5, -1], [0.5, 0.5, 1], [1.5, 0.5, 1]], np.float64)
+    for lift, crosses in ((0.0, True), (1.0 + 1e-9, False), (1.0 - 1e-6, True)):
+        assert triangles_cross(flat[None], (through + [0, 0, lift])[None])[0] == crosses, lift
+    assert not triangles_cross(flat[None], (flat + [0.5, 0.5, 0])[None])[0]  # coplanar
+    points = np.vstack([flat, through, [[2, 2, 1], [2, 2, -1]]]).astype(np.float32)
+    tris = np.array([[0, 1, 2], [3, 4, 5], [1, 6, 7]])
+    # Triangle 2 shares corner 1 with triangle 0 and passes through its plane there.
+    assert bases_cross(points, np.array([[0, 1], [1, 0], [0, 2]]), tris).tolist() == [True, True, False]
+
+
 def test_blenders_check_excuses_only_crossings_of_the_faces_beneath(scene):
     """The independent check excuses a crossing only where the two base faces under
     it cross each other, as the project's checker does: Suzanne pressed flat has
@@ -132,9 +147,9 @@ def test_blenders_check_excuses_only_crossings_of_the_faces_beneath(scene):
     that crosses something) let pass."""
     head = load("suzanne")
     a = mesh_io.read_mesh(head.data)
-    tris, polygons = loop_triangles(head.data), loop_polygons(head.data)
+    tris = loop_triangles(head.data)
     flat = {"base_offset": np.zeros_like(a.vertices), "directors": np.zeros_like(a.vertices)}
-    found = blender_check(a.vertices, flat, "exterior", tris, polygons)
+    found = blender_check(a.vertices, flat, "exterior", tris)
     assert (found["self"], found["base"], found["inverted"]) == (0, 0, 0) and found["own"] > 0, found
     # Loose parts by label propagation over triangles; the head is the largest.
     labels = np.arange(len(a.vertices))
@@ -152,7 +167,7 @@ def test_blenders_check_excuses_only_crossings_of_the_faces_beneath(scene):
         at = labels == part
         grown_eyes[at] = 0.3 * (a.vertices[at] - a.vertices[at].mean(axis=0))
     out = {"base_offset": np.zeros_like(a.vertices), "directors": grown_eyes}
-    found = blender_check(a.vertices, out, "exterior", tris, polygons)
+    found = blender_check(a.vertices, out, "exterior", tris)
     skin = a.vertices + grown_eyes
     own = np.unique(overlapping(a.vertices, a.vertices, tris, same=True))
     pairs = overlapping(skin, skin, tris, same=True)
@@ -193,7 +208,7 @@ def test_incremental_edits_pushing_two_parts_together_stay_clean(scene):
     assert 0 < (weight > 0).sum() < 0.15 * len(base)
     api.add_thick_surface(obj, kind="SHELL", thickness=0.1, output="OUTER")
     live_shells.recent.clear()
-    tris, polygons = loop_triangles(obj.data), loop_polygons(obj.data)
+    tris = loop_triangles(obj.data)
     for step in np.linspace(0.0, 0.2 * radius, 7)[1:]:
         moved = base.copy()
         moved[:, 0] += step * weight
@@ -202,7 +217,7 @@ def test_incremental_edits_pushing_two_parts_together_stay_clean(scene):
         api.regenerate(obj)
         outer = positions(obj.thicket.result)
         out = {"base_offset": np.zeros_like(moved), "directors": outer - moved}
-        found = blender_check(moved, out, "exterior", tris, polygons)
+        found = blender_check(moved, out, "exterior", tris)
         assert (found["self"], found["base"], found["inverted"]) == (0, 0, 0), (step, found)
     assert found["own"] > 0, "the last edits push the spheres into each other"
     updates = [s for s in live_shells.recent if s is not None]

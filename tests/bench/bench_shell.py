@@ -18,7 +18,7 @@ sys.path[:0] = [str(ROOT / "addon"), str(ROOT / "build" / "site"), str(ROOT / "t
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
-from blender_checks import blender_check, loop_polygons, loop_triangles, overlapping  # noqa: E402
+from blender_checks import blender_check, loop_triangles, overlapping  # noqa: E402
 from blender_objects import mesh_object  # noqa: E402
 
 import thicket  # noqa: E402
@@ -62,7 +62,7 @@ def bench(obj):
     tn = native.get()
     a = mesh_io.read_mesh(obj.data)
     n = a.vertex_count
-    tris, polygons = loop_triangles(obj.data), loop_polygons(obj.data)
+    tris = loop_triangles(obj.data)
     diag = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
     own = len(np.unique(overlapping(a.vertices, a.vertices, tris, same=True)))
     print(f"\n{obj.name}: {n} vertices" + (f" ({own} triangles crossing the mesh itself)" if own else ""))
@@ -74,7 +74,7 @@ def bench(obj):
         shell = tn.shell(a.vertices, a.face_sizes, a.corners, fraction, side=side, relative=True)
         ours = time.perf_counter() - t
         first = ours if first is None else first
-        row("Thicket Shell (L_p field)", blender_check(a.vertices, shell, side, tris, polygons), shell["achieved"] / shell["target"], ours, ours)
+        row("Thicket Shell (L_p field)", blender_check(a.vertices, shell, side, tris), shell["achieved"] / shell["target"], ours, ours)
         for name, settings in (
             ("Solidify Even", {"use_even_offset": True}),
             ("Solidify Even+Clamp", {"use_even_offset": True, "thickness_clamp": 1.0}),
@@ -87,7 +87,7 @@ def bench(obj):
                 if flipped:  # Blender puts the offset copy second
                     directors = np.ascontiguousarray(out[n:] - a.vertices)
                 result = {"base_offset": np.zeros_like(directors), "directors": directors}
-                found = blender_check(a.vertices, result, side, tris, polygons)
+                found = blender_check(a.vertices, result, side, tris)
                 ratio = np.linalg.norm(directors, axis=1) / (fraction * diag)
             row(name, found, ratio, seconds, ours)
     return first
