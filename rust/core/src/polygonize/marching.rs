@@ -94,7 +94,10 @@ pub fn march_prism_centred<C>(
 /// How far a loop's centre stays from the prism's faces, in the prism's own
 /// coordinates (barycentric across, the layer's share up): it must not meet the
 /// surface of the prism beside it, which a curved lattice (a bake's cells) bends by a
-/// few percent of a step (`VERTEX_MARGIN` in the bake). Not from a paper.
+/// few percent of a step (`VERTEX_MARGIN` in the bake). Not from a paper. Twisted
+/// bake cells bend further (up to a quarter of a step, the bake's `Margins`), where
+/// the iso-vertices keep up to 0.25 off the lattice points; a loop's centre keeps
+/// this fixed margin there too (not measured to cross, not proven not to).
 const CENTRE_MARGIN: f32 = 0.05;
 
 /// Where the centre of a loop of iso-vertices goes, as weights of the prism's six

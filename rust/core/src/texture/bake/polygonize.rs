@@ -476,6 +476,9 @@ const VERTEX_MARGIN: f32 = 0.05;
 const TWIST_MARGIN: f64 = 0.3;
 
 /// The most margin a cell takes: its surface moves by up to this share of a step.
+/// Cells twisted beyond `MAX_VERTEX_MARGIN / TWIST_MARGIN` (about 0.83; the blade's
+/// caps measure 0.85) get no more, so a sharper edge under a thicker shell could
+/// cross again there; a larger margin would fatten one-texel strands further.
 const MAX_VERTEX_MARGIN: f32 = 0.25;
 
 /// Refinement of an iso-vertex across a column's neighbour: three evaluations of the
