@@ -103,53 +103,101 @@ pub(crate) fn restore(
     // how the vertices are numbered (a kept shell and a fresh one agree).
     let code = crate::mesh::morton_codes(mesh.positions());
     tries.sort_unstable_by_key(|&v| (code[v as usize], v));
-    let mut stamp = vec![0u32; checker.cells.len()];
-    let mut batch_id = 0u32;
-    let mut dirty = checker.clean();
+    let mut attempt = Attempts { checker, outer, mesh, stamp: vec![0u32; checker.cells.len()], batch_id: 0, dirty: checker.clean(), cancel };
     let mut restored = 0;
     for (level, &(t, rings, reach)) in ATTEMPTS.iter().enumerate() {
         if level == NEIGHBOUR_ATTEMPTS {
             tries.retain(|c| with_room.binary_search(c).is_ok());
         }
-        let mut pending = std::mem::take(&mut tries);
+        let (kept, failed) = attempt.run(shell, &room.shell, std::mem::take(&mut tries), (t, rings, reach));
+        restored += kept;
+        tries = failed;
+    }
+    // Then part of the target, where the whole does not fit (module docs): every short
+    // vertex, longest share first.
+    for &reach in PARTIAL.iter() {
+        let mut tries: Vec<u32> = short.iter().copied().filter(|&v| shell.achieved[v as usize] < reach * shell.target[v as usize]).collect();
+        tries.sort_unstable_by_key(|&v| (code[v as usize], v));
+        // A try undone for a neighbour's tried in the same batch is tried again
+        // while any try is kept.
+        loop {
+            let (kept, failed) = attempt.run(shell, &room.shell, tries, (0.0, 0, reach));
+            restored += kept;
+            if kept == 0 || failed.is_empty() {
+                break;
+            }
+            tries = failed;
+        }
+    }
+    restored
+}
+
+/// Shares of the target tried, in turn, for the vertices still short after
+/// [`ATTEMPTS`], one vertex at a time along its own direction (the normal where
+/// pressed flat). Beside a base's own crossings (two tubes through each other) the
+/// repair presses bands of vertices flat; lifted to its whole target, a vertex on
+/// a crossing face crosses the base's neighbouring triangles, but a share of it
+/// often fits.
+pub(crate) const PARTIAL: [f32; 4] = [0.5, 0.25, 0.1, 0.03];
+
+/// What the tries of one attempt share: the checker, the outer-layer tree kept in
+/// step, and per-cell stamps for batches without shared cells.
+struct Attempts<'a> {
+    checker: &'a Checker,
+    outer: &'a mut TriBvh,
+    mesh: &'a Mesh,
+    stamp: Vec<u32>,
+    batch_id: u32,
+    dirty: Dirty,
+    cancel: Option<&'a crate::progress::Progress>,
+}
+
+impl Attempts<'_> {
+    /// Tries `(t, rings, reach)` (see [`ATTEMPTS`]) around each of `pending`, keeping
+    /// what stays clean; returns how many tries were kept and the vertices whose try
+    /// failed (to be tried at the next attempt).
+    fn run(&mut self, shell: &mut Shell, normal: &Shell, mut pending: Vec<u32>, (t, rings, reach): (f32, u32, f32)) -> (usize, Vec<u32>) {
+        let checker = self.checker;
+        let (mut restored, mut failed) = (0, Vec::new());
+        let enough = GOAL.min(reach);
         // The single-vertex attempts start with every try in one batch: most fit at
         // once (on open meshes nearly every boundary vertex is short), and only those
         // that fail are tried again in batches without shared cells.
         let mut bulk = rings == 0;
-        while !pending.is_empty() && !cancel.is_some_and(|p| p.is_cancelled()) {
+        while !pending.is_empty() && !self.cancel.is_some_and(|p| p.is_cancelled()) {
             // A batch of tries whose groups share no cell (nor triangle), so that a
             // folded cell is blamed on one group; two groups whose outer triangles
             // cross are both undone, and tried again at the next attempt.
-            batch_id += 1;
+            self.batch_id += 1;
             let (mut batch, mut later) = (Vec::new(), Vec::new());
             for c in pending {
-                if shell.achieved[c as usize] >= GOAL * shell.target[c as usize] {
+                if shell.achieved[c as usize] >= enough * shell.target[c as usize] {
                     continue; // lengthened with another vertex's group
                 }
                 let turn = |k: u32| t * if k <= 1 { 1.0 } else { (rings + 1 - k) as f32 / rings as f32 };
                 let members: Vec<(u32, f32)> = rings_around(checker, c, rings).into_iter().map(|(w, k)| (w, turn(k))).collect();
                 let cells: Vec<u32> = members.iter().flat_map(|&(w, _)| checker.cells_of(w as usize)).copied().collect();
-                if !bulk && cells.iter().any(|&k| stamp[k as usize] == batch_id) {
+                if !bulk && cells.iter().any(|&k| self.stamp[k as usize] == self.batch_id) {
                     later.push(c);
                 } else {
-                    cells.iter().for_each(|&k| stamp[k as usize] = batch_id);
+                    cells.iter().for_each(|&k| self.stamp[k as usize] = self.batch_id);
                     batch.push((c, members));
                 }
             }
             pending = later;
-            let saved: Vec<Saved> = batch.iter().map(|(_, m)| propose(shell, &room.shell, m, reach)).collect();
-            let kept = keep_clean(checker, outer, mesh, shell, &saved, &mut dirty);
+            let saved: Vec<Saved> = batch.iter().map(|(_, m)| propose(shell, normal, m, reach)).collect();
+            let kept = keep_clean(checker, self.outer, self.mesh, shell, &saved, &mut self.dirty);
             for ((c, _), (kept, saved)) in batch.into_iter().zip(kept.into_iter().zip(&saved)) {
                 match (kept && !saved.is_empty(), bulk) {
                     (true, _) => restored += 1,
                     (false, true) => pending.push(c),
-                    (false, false) => tries.push(c),
+                    (false, false) => failed.push(c),
                 }
             }
             bulk = false;
         }
+        (restored, failed)
     }
-    restored
 }
 
 /// `c` and the corners of the cells within `rings` rings of it, with their ring.
@@ -184,7 +232,7 @@ fn propose(shell: &mut Shell, normal: &Shell, members: &[(u32, f32)], reach: f32
             }
         };
         let now = shell.achieved[w];
-        let length = if now < GOAL * shell.target[w] { reach * shell.target[w] } else { now };
+        let length = if now < GOAL.min(reach) * shell.target[w] { reach * shell.target[w] } else { now };
         saved.push((w as u32, (shell.base_offset[w], shell.directors[w]), now));
         set(shell, w, (b * length, d * length), length);
     }
@@ -200,8 +248,8 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
     refit(checker, outer, mesh, shell, dirty);
     while !(dirty.cell_list.is_empty() && dirty.tri_list.is_empty()) {
         let found = checker.find(mesh, shell, Some(dirty), Some(outer));
-        let bad = checker.defect_vertex_list(&found);
-        let (failed, kept): (Vec<usize>, Vec<usize>) = live.iter().partition(|&&g| saved[g].iter().any(|s| bad.binary_search(&s.0).is_ok()));
+        let blamed = blame(checker, &found, saved, &live);
+        let (failed, kept): (Vec<usize>, Vec<usize>) = live.iter().partition(|&&g| blamed.binary_search(&g).is_ok());
         if failed.is_empty() {
             break;
         }
@@ -216,6 +264,33 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
     let mut kept = vec![false; saved.len()];
     live.iter().for_each(|&g| kept[g] = true);
     kept
+}
+
+/// The groups of `live` (indices into `saved`) to undo for the defects `found`:
+/// every group moving a corner of an inverted or enclosing cell or of a skin item
+/// crossing the base, and of two skin items crossing each other only the later
+/// group (when both moved, either alone may fit; if the crossing stays, the next
+/// check blames the other).
+fn blame(checker: &Checker, found: &super::defects::Findings, saved: &[Saved], live: &[usize]) -> Vec<usize> {
+    let mut owner: Vec<(u32, usize)> = live.iter().flat_map(|&g| saved[g].iter().map(move |s| (s.0, g))).collect();
+    owner.sort_unstable();
+    let groups = |vertices: &[u32]| -> Vec<usize> {
+        vertices.iter().flat_map(|v| owner[owner.partition_point(|o| o.0 < *v)..].iter().take_while(move |o| o.0 == *v).map(|o| o.1)).collect()
+    };
+    let mut blamed: Vec<usize> = Vec::new();
+    for &(i, j) in &found.self_pairs {
+        let both = [checker.item_vertices(i), checker.item_vertices(j)].concat();
+        blamed.extend(groups(&both).into_iter().max());
+    }
+    for &(i, _) in &found.base_pairs {
+        blamed.extend(groups(checker.item_vertices(i)));
+    }
+    for &c in found.inverted.iter().chain(&found.enclosing) {
+        blamed.extend(groups(checker.cells[c as usize].base()));
+    }
+    blamed.sort_unstable();
+    blamed.dedup();
+    blamed
 }
 
 /// The unit shape `t` of the way from `from` towards `to`, scaled so its director has
