@@ -75,7 +75,8 @@ pub fn run_maybe_watched<T: Send>(
 /// Runs heavy core work on a worker thread, like [`run_detached`], while this thread
 /// calls `callback(fraction)` at once, then about ten times a second, with the GIL held
 /// (fraction from `progress`), and with 1.0 when the work succeeded. A callback that returns `False` or raises, or a signal such as
-/// Ctrl-C, cancels the work; an exception is raised once the work has stopped.
+/// Ctrl-C, cancels the work (the callback is not called again); an exception is
+/// raised once the work has stopped.
 pub fn run_watched<T: Send>(
     py: Python<'_>,
     callback: &Bound<'_, PyAny>,
@@ -99,7 +100,10 @@ pub fn run_watched<T: Send>(
                     break;
                 }
             }
-            if raised.is_some() {
+            // Once cancelled (a `False`, an exception, a signal) the callback is not
+            // asked again while the work winds down: a phase between two cancel
+            // checks can outlast the 100 ms tick.
+            if raised.is_some() || progress.is_cancelled() {
                 continue;
             }
             let answer = py.check_signals().and_then(|_| callback.call1((progress.fraction(),)));
