@@ -10,6 +10,28 @@ use crate::Mesh;
 use glam::Vec2;
 use std::collections::HashMap;
 
+/// Where a local point lies on its cell ([`Lattice::place`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Place {
+    /// At corner `k` (0, 1, 2: a, b, c).
+    Corner(usize),
+    /// On the side from corner `a` to corner `b`, `step` lattice steps from `a`.
+    Side(usize, usize, u32),
+    Inside,
+}
+
+impl Place {
+    /// The cell's corners the point shares with the neighbours (bit `k`: corner `k`):
+    /// one at a corner, the side's two on a side, none inside.
+    pub fn corners(self) -> u8 {
+        match self {
+            Place::Corner(k) => 1 << k,
+            Place::Side(a, b, _) => 1 << a | 1 << b,
+            Place::Inside => 0,
+        }
+    }
+}
+
 pub(super) struct Lattice {
     pub n: u32,
     pub tris: Vec<[u32; 3]>,
@@ -78,19 +100,30 @@ impl Lattice {
         [(0, 0), (self.n, 0), (0, self.n)][k.min(2)]
     }
 
+    /// Where local point `(i, j)` lies on its cell: at a corner, on a side, or inside.
+    pub fn place(&self, i: u32, j: u32) -> Place {
+        let n = self.n;
+        match (i, j) {
+            (0, 0) => Place::Corner(0),
+            _ if i == n => Place::Corner(1),
+            _ if j == n => Place::Corner(2),
+            (_, 0) => Place::Side(0, 1, i),
+            (0, _) => Place::Side(0, 2, j),
+            _ if i + j == n => Place::Side(1, 2, j),
+            _ => Place::Inside,
+        }
+    }
+
     /// Whether local point `(i, j)` of cell `t` lies on the shell's side walls.
     pub fn on_wall(&self, t: usize, i: u32, j: u32) -> bool {
-        let [a, b, c] = self.tris[t];
-        let n = self.n;
-        let edge = |p: u32, q: u32| self.edge_on_wall[self.edges[&(p.min(q), p.max(q))] as usize];
-        match (i, j) {
-            (0, 0) => self.vertex_on_wall[a as usize],
-            _ if i == n => self.vertex_on_wall[b as usize],
-            _ if j == n => self.vertex_on_wall[c as usize],
-            (_, 0) => edge(a, b),
-            (0, _) => edge(a, c),
-            _ if i + j == n => edge(b, c),
-            _ => false,
+        let tri = self.tris[t];
+        match self.place(i, j) {
+            Place::Corner(k) => self.vertex_on_wall[tri[k] as usize],
+            Place::Side(a, b, _) => {
+                let (p, q) = (tri[a], tri[b]);
+                self.edge_on_wall[self.edges[&(p.min(q), p.max(q))] as usize]
+            }
+            Place::Inside => false,
         }
     }
 
@@ -98,7 +131,6 @@ impl Lattice {
     /// point's local coordinates there.
     pub fn owner(&self, t: usize, i: u32, j: u32) -> (usize, u32, u32) {
         let tri = self.tris[t];
-        let n = self.n;
         let vertex = |v: u32| {
             let (o, k) = self.vertex_owner[v as usize];
             let (i, j) = self.corner(k as usize);
@@ -126,14 +158,10 @@ impl Lattice {
             };
             (o, go(pa.0, pb.0), go(pa.1, pb.1))
         };
-        match (i, j) {
-            (0, 0) => vertex(tri[0]),
-            _ if i == n => vertex(tri[1]),
-            _ if j == n => vertex(tri[2]),
-            (_, 0) => on_edge(0, 1, i),
-            (0, _) => on_edge(0, 2, j),
-            _ if i + j == n => on_edge(1, 2, j),
-            _ => (t, i, j),
+        match self.place(i, j) {
+            Place::Corner(k) => vertex(tri[k]),
+            Place::Side(a, b, step) => on_edge(a, b, step),
+            Place::Inside => (t, i, j),
         }
     }
 
@@ -156,17 +184,12 @@ impl Lattice {
     /// Global key of local point `(i, j)` of triangle `t` (corner a at (0,0), b at
     /// (n,0), c at (0,n)).
     pub fn key(&self, t: usize, i: u32, j: u32) -> usize {
-        let [a, b, c] = self.tris[t];
-        let n = self.n;
-        match (i, j) {
-            (0, 0) => a as usize,
-            _ if i == n => b as usize,
-            _ if j == n => c as usize,
-            (_, 0) => self.edge_key(a, b, i),
-            (0, _) => self.edge_key(a, c, j),
-            _ if i + j == n => self.edge_key(b, c, j),
-            _ => {
-                let (i, j, n) = (i as usize, j as usize, n as usize);
+        let tri = self.tris[t];
+        match self.place(i, j) {
+            Place::Corner(k) => tri[k] as usize,
+            Place::Side(a, b, step) => self.edge_key(tri[a], tri[b], step),
+            Place::Inside => {
+                let (i, j, n) = (i as usize, j as usize, self.n as usize);
                 let base = self.vertex_count as usize + self.edges.len() * (n - 1) + t * self.interior_per_face();
                 base + (i - 1) * (n - 1) - (i - 1) * i / 2 + (j - 1)
             }
