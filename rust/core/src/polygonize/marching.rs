@@ -23,21 +23,8 @@ pub const OFF_ISO: f32 = 0.01;
 /// drawing the same chord: it is not arbitrary).
 #[inline]
 pub fn march_prism(values: &[f32; 6], level: f32, flip: bool, mut vertex: impl FnMut(usize, usize) -> u32, out: &mut Vec<[u32; 3]>) {
-    let case = prism_table::classify(values, level);
-    if case.count == 0 {
-        return;
-    }
-    let mut verts = [u32::MAX; 9];
-    for tri in &case.tris[..case.count as usize] {
-        let t = tri.map(|e| {
-            let e = e as usize;
-            if verts[e] == u32::MAX {
-                verts[e] = vertex(EDGES[e][0], EDGES[e][1]);
-            }
-            verts[e]
-        });
-        out.push(if flip { [t[0], t[2], t[1]] } else { t });
-    }
+    type NoCentre = fn(&mut (), &[(usize, usize, u32)]) -> u32;
+    march(values, level, flip, &mut (), |_, a, b| vertex(a, b), None::<NoCentre>, out);
 }
 
 /// [`march_prism`], except that a loop of at least [`prism_table::CENTRE_LOOP`]
@@ -54,10 +41,20 @@ pub fn march_prism_centred<C>(
     level: f32,
     flip: bool,
     ctx: &mut C,
-    mut vertex: impl FnMut(&mut C, usize, usize) -> u32,
-    mut centre: impl FnMut(&mut C, &[(usize, usize, u32)]) -> u32,
+    vertex: impl FnMut(&mut C, usize, usize) -> u32,
+    centre: impl FnMut(&mut C, &[(usize, usize, u32)]) -> u32,
     out: &mut Vec<[u32; 3]>,
 ) {
+    march(values, level, flip, ctx, vertex, Some(centre), out);
+}
+
+/// Both of the above: the long loop is fanned from its centre where `centre` is given.
+#[inline]
+fn march<C, V, F>(values: &[f32; 6], level: f32, flip: bool, ctx: &mut C, mut vertex: V, centre: Option<F>, out: &mut Vec<[u32; 3]>)
+where
+    V: FnMut(&mut C, usize, usize) -> u32,
+    F: FnMut(&mut C, &[(usize, usize, u32)]) -> u32,
+{
     let case = prism_table::classify(values, level);
     if case.count == 0 {
         return;
@@ -71,14 +68,13 @@ pub fn march_prism_centred<C>(
         verts[e]
     };
     let mut push = |t: [u32; 3]| out.push(if flip { [t[0], t[2], t[1]] } else { t });
-    let fanned = case.ring_tris();
+    let (fanned, ring) = if centre.is_some() { (case.ring_tris(), case.ring()) } else { (0..0, &[][..]) };
     for (k, tri) in case.tris[..case.count as usize].iter().enumerate() {
         if !fanned.contains(&k) {
             push(tri.map(|e| at(ctx, e)));
         }
     }
-    let ring = case.ring();
-    if !ring.is_empty() {
+    if let (Some(mut centre), false) = (centre, ring.is_empty()) {
         let mut loop_ = [(0, 0, 0); 9];
         for (k, &e) in ring.iter().enumerate() {
             loop_[k] = (EDGES[e as usize][0], EDGES[e as usize][1], at(ctx, e));
@@ -91,23 +87,18 @@ pub fn march_prism_centred<C>(
     }
 }
 
-/// How far a loop's centre stays from the prism's faces, in the prism's own
-/// coordinates (barycentric across, the layer's share up): it must not meet the
-/// surface of the prism beside it, which a curved lattice (a bake's cells) bends by a
-/// few percent of a step (`VERTEX_MARGIN` in the bake). Not from a paper. Twisted
-/// bake cells bend further (up to a quarter of a step, the bake's `Margins`), where
-/// the iso-vertices keep up to 0.25 off the lattice points; a loop's centre keeps
-/// this fixed margin there too (not measured to cross, not proven not to).
-const CENTRE_MARGIN: f32 = 0.05;
-
 /// Where the centre of a loop of iso-vertices goes, as weights of the prism's six
 /// corners (non-negative, summing to 1; the lattice maps corners to its own space,
 /// where a prism is a triangle times an interval): the mean of the loop's vertices in
 /// the prism's coordinates, `(a, b, f)` each (on the edge from corner `a` to `b`, at
 /// `f` from `a`), then one Newton step onto `level` of the values' interpolation
-/// (linear across, linear up) along its gradient, shortened to keep it
-/// [`CENTRE_MARGIN`] inside the prism.
-pub fn centre_weights(values: &[f32; 6], level: f32, ring: impl Iterator<Item = (usize, usize, f32)>) -> [f32; 6] {
+/// (linear across, linear up) along its gradient, shortened to keep it `margin`
+/// inside the prism, in the prism's own coordinates (barycentric across, the layer's
+/// share up): it must not meet the surface of the prism beside it, which a curved
+/// lattice bends by as much as its iso-vertices keep off the lattice points (the
+/// bake's `Margins`: 0.05 of a step, up to 0.25 in twisted cells). A mean already
+/// closer to a face than `margin` is not moved closer.
+pub fn centre_weights(values: &[f32; 6], level: f32, ring: impl Iterator<Item = (usize, usize, f32)>, margin: f32) -> [f32; 6] {
     // Coordinates (w1, w2, t): w0 = 1 - w1 - w2.
     let local = |c: usize| glam::Vec3::new(f32::from(c % 3 == 1), f32::from(c % 3 == 2), (c / 3) as f32);
     let (mut sum, mut n) = (glam::Vec3::ZERO, 0.0f32);
@@ -124,7 +115,7 @@ pub fn centre_weights(values: &[f32; 6], level: f32, ring: impl Iterator<Item = 
         (1.0 - t) * (v[2] - v[0]) + t * (v[5] - v[3]),
         (0..3).map(|k| w[k] * (v[k + 3] - v[k])).sum::<f32>(),
     );
-    let x = step_inside(x, -(value - level) * g / g.length_squared(), CENTRE_MARGIN);
+    let x = step_inside(x, -(value - level) * g / g.length_squared(), margin);
     let (t, w) = (x.z, [1.0 - x.x - x.y, x.x, x.y]);
     [w[0] * (1.0 - t), w[1] * (1.0 - t), w[2] * (1.0 - t), w[0] * t, w[1] * t, w[2] * t]
 }

@@ -492,7 +492,7 @@ fn a_six_crossing_loop_is_fanned_from_a_centre_inside_the_prism_when_asked() {
     }
     // The centre: inside the prism, moved from the loop's mean (crossings at the
     // midpoints here) onto the level of the values' interpolation.
-    let w = marching::centre_weights(&values, 0.4, ring.iter().map(|&(a, b, _)| (a, b, 0.5)));
+    let w = marching::centre_weights(&values, 0.4, ring.iter().map(|&(a, b, _)| (a, b, 0.5)), 0.05);
     assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5 && w.iter().all(|&x| x > 0.0), "{w:?}");
     let value = w.iter().zip(&values).map(|(w, v)| w * v).sum::<f32>();
     assert!((value - 0.4).abs() < 0.02, "{value} {w:?}");

@@ -9,7 +9,7 @@
 //! occupancy's crossing by [`crossing`]; those on the cell's rim carry a global edge
 //! key so [`crate::polygonize::weld`] can join them with the neighbour's.
 
-use super::lattice::Lattice;
+use super::lattice::{Lattice, Place};
 use super::occupancy::Occupancy;
 use crate::polygonize::marching::{centre_weights, crossing, linear, march_prism_centred, off_level, Refine};
 use crate::polygonize::weld::{edge_key, Piece, UNSHARED};
@@ -140,7 +140,7 @@ impl Scratch {
         self.ij = lat.local_points().collect();
         self.ijl = self.ij.iter().flat_map(|&(i, j)| (0..layers as i32).map(move |l| IVec3::new(i as i32, j as i32, l))).collect();
         let (n, k) = (lat.n, block);
-        let on_rim = |(i, j): (u32, u32)| i == 0 || j == 0 || i + j == n;
+        let on_rim = |(i, j): (u32, u32)| lat.place(i, j) != Place::Inside;
         for bi in 0..n / k {
             for bj in 0..n / k - bi {
                 // The block's lower triangle, then its upper one where it exists.
@@ -293,24 +293,10 @@ impl Cells<'_> {
         // the neighbour across it computes alike; the rest, the cell's own.
         let corners = lat.tris[t].map(|v| self.margins.vertex[v as usize]);
         let own = self.margins.cell[t];
-        let rim_corners = |p: IVec3| -> u8 {
-            let (i, j, n) = (p.x, p.y, n as i32);
-            match (i, j) {
-                (0, 0) => 0b001,
-                _ if i == n => 0b010,
-                _ if j == n => 0b100,
-                (_, 0) => 0b011,
-                (0, _) => 0b101,
-                _ if i + j == n => 0b110,
-                _ => 0,
-            }
-        };
         let ijl = &s.ijl;
         let param = |lp: usize| ijl[lp];
-        let on_rim = |lp: usize| {
-            let p = ijl[lp];
-            p.x == 0 || p.y == 0 || p.x + p.y == n as i32
-        };
+        let place = |p: IVec3| lat.place(p.x as u32, p.y as u32);
+        let on_rim = |lp: usize| place(ijl[lp]) != Place::Inside;
         let to_q = |p: IVec3| Vec3::new(p.x as f32 / n as f32, p.y as f32 / n as f32, heights[p.z as usize]);
         s.grads.clear();
         s.grads.resize(points, std::cell::Cell::new(Vec3::NAN));
@@ -371,7 +357,7 @@ impl Cells<'_> {
             };
             // Kept off the lattice points ([`Margins`]); the same on both sides of the
             // rim (the neighbour clamps the same linear guess by the same margin).
-            let side = rim_corners(param(lo)) | rim_corners(param(hi));
+            let side = place(param(lo)).corners() | place(param(hi)).corners();
             let margin = if shared && side.count_ones() <= 2 { (0..3).filter(|k| side >> k & 1 == 1).map(|k| corners[k]).fold(0.0, f32::max) } else { own };
             let f = f.clamp(margin, 1.0 - margin);
             let q = qa.lerp(qb, f);
@@ -399,7 +385,7 @@ impl Cells<'_> {
                 let (lo, f) = fracs[id as usize];
                 (a, b, if lo == c[a] { f } else { 1.0 - f })
             });
-            let w = centre_weights(v, 0.5, along);
+            let w = centre_weights(v, 0.5, along, own);
             let q: Vec3 = (0..6).map(|k| to_q(param(c[k])) * w[k]).sum();
             let g: Vec3 = (0..6).map(|k| lattice_gradient(c[k]) * w[k]).sum();
             let grad = -cell.parameter_gradient_to_world(q, g);
@@ -542,6 +528,27 @@ mod tests {
         }
     }
 
+    /// Bakes `pattern` (16x16x8, unsimplified) over `faces` of `mesh` under its
+    /// `side` shell at 5% of the diagonal, checks that the bake is a closed 2-manifold
+    /// without crossing pairs, and returns its triangle count and the shell.
+    fn bake_faces_cleanly(mesh: &Mesh, faces: std::ops::Range<usize>, side: crate::shell::Side, pattern: crate::texture::Pattern) -> (usize, Shell) {
+        use crate::shell::{build_shell, ShellParams, Thickness};
+        use crate::texture::{bake::bake, BakeParams, Generator, TextureLayer};
+        let t = Thickness::relative(0.05).per_vertex(mesh, None).unwrap();
+        let s = build_shell(mesh, &t, side, &ShellParams::default()).unwrap();
+        let corners: Vec<u32> = faces.clone().flat_map(|f| mesh.face(f).to_vec()).collect();
+        let sizes: Vec<u32> = faces.map(|f| mesh.face(f).len() as u32).collect();
+        let part = Mesh::new(mesh.positions().to_vec(), &sizes, corners, None).unwrap();
+        let texture = Generator::new(pattern).generate([16, 16, 8]).unwrap();
+        let layers = [TextureLayer { texture, offset: glam::Vec2::ZERO }];
+        let b = bake(&part, &s, &layers, &BakeParams { triangle_budget: 0, ..Default::default() }).unwrap();
+        let check = crate::polygonize::SurfaceCheck::of(&b.positions, &b.triangles);
+        assert!(check.is_closed_manifold(), "{check:?}");
+        let m = Mesh::from_triangles(b.positions.clone(), &b.triangles).unwrap();
+        assert_eq!(crate::hard_meshes::self_intersections(&m), 0);
+        (b.triangles.len(), s)
+    }
+
     #[test]
     fn twisted_cells_keep_their_iso_vertices_further_off_the_lattice_points() {
         // The blade's exterior shell (5%) under grass at the default settings (a
@@ -551,32 +558,30 @@ mod tests {
         // lattice point wide, 0.05 of a step off it on either side, crossed there (16
         // crossing pairs on these three faces, 36 on the whole blade); with the
         // margin grown with the cell's twist, none.
-        use crate::shell::{build_shell, ShellParams, Side, Thickness};
-        use crate::texture::{bake::bake, BakeParams, Generator, Pattern, TextureLayer};
         let blade = crate::hard_meshes::blade();
-        let t = Thickness::relative(0.05).per_vertex(&blade, None).unwrap();
-        let s = build_shell(&blade, &t, Side::Exterior, &ShellParams::default()).unwrap();
-        let faces = 1309..1312;
-        let corners: Vec<u32> = faces.clone().flat_map(|f| blade.face(f).to_vec()).collect();
-        let sizes: Vec<u32> = faces.map(|f| blade.face(f).len() as u32).collect();
-        let mesh = Mesh::new(blade.positions().to_vec(), &sizes, corners, None).unwrap();
-        let texture = Generator::new(Pattern::Grass).generate([16, 16, 8]).unwrap();
-        let layers = [TextureLayer { texture, offset: glam::Vec2::ZERO }];
-        let b = bake(&mesh, &s, &layers, &BakeParams { triangle_budget: 0, ..Default::default() }).unwrap();
-        assert!(b.triangles.len() > 1_000, "{}", b.triangles.len());
-        let check = crate::polygonize::SurfaceCheck::of(&b.positions, &b.triangles);
-        assert!(check.is_closed_manifold(), "{check:?}");
-        let m = Mesh::from_triangles(b.positions.clone(), &b.triangles).unwrap();
-        assert_eq!(crate::hard_meshes::self_intersections(&m), 0);
-        // The margins: the least on the blade's flat flank, more on these cap cells,
-        // and each mesh vertex takes the most of its cells'.
+        let (triangles, s) = bake_faces_cleanly(&blade, 1309..1312, crate::shell::Side::Exterior, crate::texture::Pattern::Grass);
+        assert!(triangles > 1_000, "{triangles}");
+        // The margins: the least on the blade's flat flank, more on the cap cells,
+        // and each mesh vertex takes the most of the cells around it (the cells here:
+        // the flank's, the caps' and the triangles beside the caps, some of which
+        // meet cells of another margin at a vertex).
         let heights: Vec<f32> = (0..=16).map(|l| l as f32 / 16.0).collect();
+        let caps: Vec<u32> = (1309..1312).flat_map(|f| blade.face(f).to_vec()).collect();
+        let triangle = |f: usize| <[u32; 3]>::try_from(blade.face(f)).ok();
         let flank = blade.face(100);
-        let cells = [[flank[0], flank[1], flank[2]], blade.face(1309).try_into().unwrap()];
+        let mut cells = vec![[flank[0], flank[1], flank[2]]];
+        cells.extend((1309..1312).map(|f| triangle(f).unwrap()));
+        cells.extend((0..blade.face_count()).filter(|f| !(1309..1312).contains(f) && blade.face(*f).iter().any(|v| caps.contains(v))).filter_map(triangle));
         let margins = Margins::new(&blade, &s, &cells, &heights);
         assert_eq!(margins.cell[0], VERTEX_MARGIN);
-        assert!(margins.cell[1] > 2.0 * VERTEX_MARGIN && margins.cell[1] <= MAX_VERTEX_MARGIN, "{:?}", margins.cell);
-        assert!(cells[1].iter().all(|&v| margins.vertex[v as usize] == margins.cell[1]));
+        assert!(margins.cell[1..4].iter().all(|&m| m > 2.0 * VERTEX_MARGIN && m <= MAX_VERTEX_MARGIN), "{:?}", margins.cell);
+        let around = |v: u32| cells.iter().zip(&margins.cell).filter(move |(c, _)| c.contains(&v)).map(|(_, &m)| m);
+        let least = |v: u32| around(v).fold(f32::MAX, f32::min);
+        let most = |v: u32| around(v).fold(0.0, f32::max);
+        assert!(cells.iter().flatten().any(|&v| least(v) < most(v)), "no vertex between cells of different margins: {:?}", margins.cell);
+        for &v in cells.iter().flatten() {
+            assert_eq!(margins.vertex[v as usize], most(v), "vertex {v}");
+        }
     }
 
     #[test]
@@ -587,22 +592,8 @@ mod tests {
         // own vertices (the table's fan, which the field polygonizer keeps) folded
         // across the neighbouring prisms' surface: 8 crossing pairs on these four faces
         // (1906 on the whole coil). Fanned from a centre inside their prism: none.
-        use crate::shell::{build_shell, ShellParams, Side, Thickness};
-        use crate::texture::{bake::bake, BakeParams, Generator, Pattern, TextureLayer};
         let coil = crate::hard_meshes::coil();
-        let t = Thickness::relative(0.05).per_vertex(&coil, None).unwrap();
-        let s = build_shell(&coil, &t, Side::Interior, &ShellParams::default()).unwrap();
-        let faces = 32..36;
-        let corners: Vec<u32> = faces.clone().flat_map(|f| coil.face(f).to_vec()).collect();
-        let sizes: Vec<u32> = faces.map(|f| coil.face(f).len() as u32).collect();
-        let mesh = Mesh::new(coil.positions().to_vec(), &sizes, corners, None).unwrap();
-        let texture = Generator::new(Pattern::ChainMail).generate([16, 16, 8]).unwrap();
-        let layers = [TextureLayer { texture, offset: glam::Vec2::ZERO }];
-        let b = bake(&mesh, &s, &layers, &BakeParams { triangle_budget: 0, ..Default::default() }).unwrap();
-        assert!(b.triangles.len() > 10_000, "{}", b.triangles.len());
-        let check = crate::polygonize::SurfaceCheck::of(&b.positions, &b.triangles);
-        assert!(check.is_closed_manifold(), "{check:?}");
-        let m = Mesh::from_triangles(b.positions.clone(), &b.triangles).unwrap();
-        assert_eq!(crate::hard_meshes::self_intersections(&m), 0);
+        let (triangles, _) = bake_faces_cleanly(&coil, 32..36, crate::shell::Side::Interior, crate::texture::Pattern::ChainMail);
+        assert!(triangles > 10_000, "{triangles}");
     }
 }
