@@ -416,7 +416,7 @@ mod tests {
             let (q, origin) = (rotation(&mut rnd), DVec3::new(rnd(), rnd(), rnd()) * 10.0);
             let at = |x: f64, y: f64, z: f64| origin + q * DVec3::new(x, y, z);
             let t = [at(rnd(), rnd(), 0.0), at(rnd(), rnd(), 0.0), at(rnd(), rnd(), 0.0)];
-            let lift = if k % 5 == 0 { 0.0 } else { rnd() * 10f64.powi(-((k % 13) as i32) - 6) };
+            let lift = if k % 5 == 0 { 0.0 } else { rnd() * 10f64.powi(-(k % 13) - 6) };
             let mut p = at(rnd(), rnd(), lift);
             if k % 7 == 0 {
                 p = t[0] + (t[1] - t[0]) * 2.0; // exactly coplanar where the sum is exact
