@@ -133,6 +133,20 @@ def test_the_float64_test_deciding_inherited_pairs():
     for lift, crosses in ((0.0, True), (1.0 + 1e-9, False), (1.0 - 1e-6, True)):
         assert triangles_cross(flat[None], (through + [0, 0, lift])[None])[0] == crosses, lift
     assert not triangles_cross(flat[None], (flat + [0.5, 0.5, 0])[None])[0]  # coplanar
+    # On a tilted plane, where corners are not exactly representable, the float64
+    # determinants of disjoint coplanar triangles are rounding noise; the signs are
+    # exact, so none crosses (the naive float64 test said 18 of these 2,000 cross).
+    rng = np.random.default_rng(5)
+    axes, _ = np.linalg.qr(rng.normal(size=(2000, 3, 3)))
+    near = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float64)
+    beside = np.array([[1 + 1e-6, 0, 0], [0, 1 + 1e-6, 0], [1, 1, 0]], np.float64)
+    place = rng.normal(size=(2000, 1, 3)) * 10
+    lift = rng.normal(size=(2000, 1, 3))
+    t, u = (near @ axes + place + 0.3 * lift, beside @ axes + place + 0.3 * lift)
+    assert not triangles_cross(t, u).any()
+    # A triangle through the plane at a slope of 2e-12 still crosses.
+    shallow = np.array([[0.2, 0.2, -1e-12], [0.6, 0.2, 1e-12], [0.2, 0.6, 1e-12]])
+    assert triangles_cross(near[None], shallow[None])[0]
     points = np.vstack([flat, through, [[2, 2, 1], [2, 2, -1]]]).astype(np.float32)
     tris = np.array([[0, 1, 2], [3, 4, 5], [1, 6, 7]])
     # Triangle 2 shares corner 1 with triangle 0 and passes through its plane there.
