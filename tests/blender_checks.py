@@ -18,8 +18,9 @@ def loop_triangles(mesh):
     return tris.reshape(-1, 3)
 
 
-# Shewchuk's bound on the rounding of the orientation determinant computed in float64
-# from differences ((7 + 56 eps) eps times its permanent, eps = 2^-53), rounded up.
+# A bound on the rounding of the orientation determinant computed in float64 from
+# differences, as a share of its permanent: Shewchuk's (7 + 56 eps) eps with
+# eps = 2^-53, taken twice over (numpy's eps is 2^-52).
 ORIENT_ERROR = 8 * np.finfo(np.float64).eps
 
 
@@ -37,7 +38,8 @@ def orient(a, b, c, d):
         + (au[:, 0] * av[:, 1] + au[:, 1] * av[:, 0]) * aw[:, 2]
     )
     sign = np.sign(det)
-    for i in np.flatnonzero(np.abs(det) <= ORIENT_ERROR * permanent):
+    # A zero permanent: every term is exactly zero, and so is the sign already.
+    for i in np.flatnonzero((np.abs(det) <= ORIENT_ERROR * permanent) & (permanent > 0)):
         pa, pb, pc, pd = ([Fraction(float(x)) for x in point[i]] for point in (a, b, c, d))
         eu, ev, ew = ([q - r for q, r in zip(point, pa)] for point in (pb, pc, pd))
         cross = (eu[1] * ev[2] - eu[2] * ev[1], eu[2] * ev[0] - eu[0] * ev[2], eu[0] * ev[1] - eu[1] * ev[0])

@@ -541,12 +541,42 @@ fn prisms_without_a_long_loop_march_alike_with_or_without_centres() {
                 |_, _| 99,
                 &mut centred,
             );
+            // The table read directly: its triangles in order, flipped, each edge's
+            // vertex asked the first time a triangle uses it.
+            let mut edge_ids = [u32::MAX; 9];
+            let mut reference_asked = Vec::new();
+            let reference: Vec<[u32; 3]> = case.tris[..case.count as usize]
+                .iter()
+                .map(|tri| {
+                    let t = tri.map(|e| {
+                        let e = e as usize;
+                        if edge_ids[e] == u32::MAX {
+                            reference_asked.push((prism_table::EDGES[e][0], prism_table::EDGES[e][1]));
+                            edge_ids[e] = reference_asked.len() as u32 - 1;
+                        }
+                        edge_ids[e]
+                    });
+                    [t[0], t[2], t[1]]
+                })
+                .collect();
+            assert_eq!((&plain, &asked), (&reference, &reference_asked), "case {inside:06b}/{connected:03b}");
             if case.ring().is_empty() {
                 assert_eq!((&plain, &asked), (&centred, &asked_centred), "case {inside:06b}/{connected:03b}");
             } else {
                 long += 1;
-                let fan = centred.iter().filter(|t| t.contains(&99)).count();
-                assert_eq!((fan, centred.len() - fan), (case.ring().len(), plain.len() - (case.ring().len() - 2)));
+                // The other loops' triangles as the table has them, then a fan from
+                // the centre over consecutive vertices of the long loop.
+                let vertex = |asked: &[(usize, usize)], id: u32| asked[id as usize];
+                let (fan, rest): (Vec<[u32; 3]>, Vec<[u32; 3]>) = centred.iter().copied().partition(|t| t.contains(&99));
+                let kept: Vec<_> =
+                    reference.iter().enumerate().filter(|(k, _)| !case.ring_tris().contains(k)).map(|(_, t)| t.map(|i| vertex(&reference_asked, i))).collect();
+                assert_eq!(rest.iter().map(|t| t.map(|i| vertex(&asked_centred, i))).collect::<Vec<_>>(), kept);
+                let ring: Vec<(usize, usize)> = case.ring().iter().map(|&e| (prism_table::EDGES[e as usize][0], prism_table::EDGES[e as usize][1])).collect();
+                assert_eq!(fan.len(), ring.len());
+                for (k, t) in fan.iter().enumerate() {
+                    // Flipped: [centre, next, this].
+                    assert_eq!((t[0], vertex(&asked_centred, t[2]), vertex(&asked_centred, t[1])), (99, ring[k], ring[(k + 1) % ring.len()]));
+                }
             }
         }
     }

@@ -1,8 +1,10 @@
 //! Triangle intersection tests for shell reports: an AABB tree over triangles (the
 //! shared [`crate::spatial::Bvh`]) and a tri–tri test built from orientation
 //! determinants (two triangles intersect when an edge of one properly crosses the
-//! other). Their signs are exact for the given f64 coordinates (Shewchuk's adaptive
-//! predicates, the `robust` crate): nearly coplanar triangles, whose naive
+//! other). Their signs are exact for the given f64 coordinates absent underflow
+//! (always, for coordinates from f32 positions: their nonzero differences are at
+//! least 1.4e-45; Shewchuk's adaptive predicates, the `robust` crate, assume the
+//! same): nearly coplanar triangles, whose naive
 //! determinants are rounding noise, are told apart exactly. Pairs that merely touch,
 //! and coplanar pairs (overlapping or not: every determinant is zero), are not counted
 //! by [`triangles_intersect`]; [`triangles_meet`] counts touching and overlapping pairs
@@ -50,7 +52,8 @@ impl Plane {
             det
         } else if bound == 0.0 {
             // Every product is zero, so is every exact term (a difference rounds to
-            // zero only when exactly zero).
+            // zero only when exactly zero, and no product underflowed: see the module
+            // docs).
             0.0
         } else if !bound.is_finite() {
             det // infinite or NaN coordinates: the naive value
