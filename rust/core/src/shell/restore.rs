@@ -200,7 +200,7 @@ impl Attempts<'_> {
                 }
             }
             pending = later;
-            let saved: Vec<Saved> = batch.iter().map(|(_, m)| propose(shell, normal, m, reach)).collect();
+            let saved: Vec<Saved> = batch.iter().map(|(_, m)| propose(shell, normal, m, (enough, reach))).collect();
             let kept = keep_clean(checker, self.outer, self.mesh, shell, &saved, &mut self.dirty);
             for ((c, _), (kept, saved)) in batch.into_iter().zip(kept.into_iter().zip(&saved)) {
                 match (kept && !saved.is_empty(), bulk) {
@@ -231,8 +231,9 @@ fn rings_around(checker: &Checker, c: u32, rings: u32) -> Vec<(u32, u32)> {
 }
 
 /// Turns each member by its weight towards its normal, lengthening it to `reach` of
-/// its target where short of [`GOAL`]; returns what the directors were.
-fn propose(shell: &mut Shell, normal: &Shell, members: &[(u32, f32)], reach: f32) -> Saved {
+/// its target where short of `enough` of it ([`GOAL`] or less); returns what the
+/// directors were.
+fn propose(shell: &mut Shell, normal: &Shell, members: &[(u32, f32)], (enough, reach): (f32, f32)) -> Saved {
     let unit = |s: &Shell, v: usize| -> Option<Shape> {
         let l = s.directors[v].length();
         (l > 0.0 && l.is_finite()).then(|| (s.base_offset[v] / l, s.directors[v] / l))
@@ -247,7 +248,7 @@ fn propose(shell: &mut Shell, normal: &Shell, members: &[(u32, f32)], reach: f32
             }
         };
         let now = shell.achieved[w];
-        let length = if now < GOAL.min(reach) * shell.target[w] { reach * shell.target[w] } else { now };
+        let length = if now < enough * shell.target[w] { reach * shell.target[w] } else { now };
         saved.push((w as u32, (shell.base_offset[w], shell.directors[w]), now));
         set(shell, w, (b * length, d * length), length);
     }
