@@ -320,6 +320,33 @@ def test_solid_texture_errors_add_nothing_and_reach_the_stack(scene):
     assert "no field tree" in cube.thicket.last_error
 
 
+def test_editing_a_tree_text_regenerates_the_stacks_that_read_it(scene):
+    """Texts are not in the depsgraph, so typing in one sends no update: the watcher
+    (a timer in the interface; called here as the timer calls it) regenerates the
+    stacks reading an edited Text, and only those. A tree broken halfway through
+    typing is the stack's error, the last result kept."""
+    from thicket.stack import text_watch
+
+    assert text_watch.is_watching()
+    cube, other = subdivided_cube(2), subdivided_cube(1)
+    text = bpy.data.texts.new("tree")
+    text.write(striped())
+    result = api.add_solid_texture(cube, text)
+    api.add_solid_texture(other, striped())  # its own JSON: not a reader of the Text
+    text_watch.poll()  # the first look only remembers
+    assert text_watch.poll() == [], "nothing edited"
+    before = attribute(result.data, "thicket_color").copy()
+    text.from_string(striped(omega=3.0))
+    assert text_watch.poll() == [cube]
+    after = attribute(result.data, "thicket_color")
+    np.testing.assert_allclose(after, tn.field_eval(striped(omega=3.0), positions(result))["colors"], atol=1e-6)
+    assert np.abs(after - before).max() > 0.1
+    text.from_string("{")
+    assert text_watch.poll() == [cube]
+    assert "JSON" in cube.thicket.last_error
+    np.testing.assert_array_equal(attribute(result.data, "thicket_color"), after)
+
+
 def test_solid_texture_refuses_a_colour_attribute_named_like_a_uv_map_or_a_reserved_one(scene):
     cube = subdivided_cube(1)
     uv = cube.data.uv_layers[0].name

@@ -33,7 +33,7 @@ def register():
     from . import cli
     from .nodes import live
     from .nodes.tree import MENU_ENTRIES as NODE_MENU_ENTRIES
-    from .stack import auto_update, versioning
+    from .stack import auto_update, text_watch, versioning
     from .stack.properties import register_properties
     from .ui import MENU_ENTRIES
 
@@ -45,6 +45,7 @@ def register():
         getattr(bpy.types, menu).append(entry)
     versioning.register()
     auto_update.register_handlers()
+    text_watch.register()
     live.register_handlers()
     _cli_handle = cli.register()
 
@@ -56,13 +57,14 @@ def unregister():
     from . import cli
     from .nodes import live
     from .render import overlay
-    from .stack import auto_update, versioning
+    from .stack import auto_update, text_watch, versioning
     from .stack.properties import unregister_properties
 
     overlay.disable()
     cli.unregister(_cli_handle)
     _cli_handle = None
     auto_update.unregister_handlers()
+    text_watch.unregister()
     live.unregister_handlers()
     versioning.unregister()
     classes_done, menu_entries = _registered

@@ -1,0 +1,76 @@
+"""Stacks whose field tree lives in a Text follow edits of that Text.
+
+Texts are not in the depsgraph: typing in the Text editor sends no update that the
+stack's handlers could see. A timer (twice a second, in UI sessions) compares each
+Text's content with what it held at the last look and schedules the stacks that read
+a changed Text (a Solid Texture's, or a Field JSON Volumetric Texture's, *Tree Text*)
+like any other change: debounced, and a tree broken halfway through typing is the
+stack's error on the panel, the last result kept. Background scripts, where timers
+never run, call `poll()` or `thicket.api.regenerate` themselves.
+"""
+
+import bpy
+from bpy.app.handlers import persistent
+
+from . import auto_update
+
+POLL_SECONDS = 0.5
+
+#: Each Text's content digest at the last look, by the Text's address.
+_seen: dict[int, int] = {}
+
+
+def reads_text(item) -> bool:
+    """Whether the stack item's result comes from its Tree Text (when one is set)."""
+    return item.tree_text is not None and (item.kind == "SOLID_TEXTURE" or (item.kind == "VOLUMETRIC_TEXTURE" and item.source == "FIELD_JSON"))
+
+
+def readers(texts):
+    """The stack sources with an item reading one of `texts` (addresses)."""
+    return [obj for obj in bpy.data.objects if obj.type == "MESH" and any(reads_text(i) and i.tree_text.as_pointer() in texts for i in obj.thicket.items)]
+
+
+def poll():
+    """Schedules the stacks reading a Text edited since the last call (a Text seen
+    for the first time is only remembered) and returns them."""
+    current = {text.as_pointer(): hash(text.as_string()) for text in bpy.data.texts}
+    changed = {key for key, digest in current.items() if _seen.get(key, digest) != digest}
+    _seen.clear()
+    _seen.update(current)
+    if not changed:
+        return []
+    sources = readers(changed)
+    for obj in sources:
+        auto_update.schedule(obj)
+    return sources
+
+
+def _tick():
+    if bpy.data.texts:
+        poll()
+    return POLL_SECONDS
+
+
+@persistent
+def _on_load(*_args):
+    """Texts of another file: nothing seen yet (addresses are reused)."""
+    _seen.clear()
+
+
+def register():
+    if not bpy.app.timers.is_registered(_tick):
+        bpy.app.timers.register(_tick, first_interval=POLL_SECONDS, persistent=True)
+    if _on_load not in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.append(_on_load)
+
+
+def unregister():
+    if bpy.app.timers.is_registered(_tick):
+        bpy.app.timers.unregister(_tick)
+    if _on_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_on_load)
+    _seen.clear()
+
+
+def is_watching() -> bool:
+    return bpy.app.timers.is_registered(_tick)
