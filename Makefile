@@ -115,6 +115,7 @@ bench: vulkan setup $(STAMP_BENCH)
 	cargo run --release -q -p thicket-core --example field_mesh_bench
 	cargo run --release -q -p thicket-core --example implicit_mesh_bench -- --runs 3
 	$(VENV_BENCH)/bin/python tests/bench/bench_field_peers.py
+	cargo run --release -q -p thicket-peers
 	cargo run --release -q -p thicket-core --example field_trace_bench
 	cargo run --release -q -p thicket-render --example field_trace_gpu_bench
 	cargo run --release -q -p thicket-render --example bake_fidelity
