@@ -16,6 +16,10 @@ use thicket_core::glam::{Vec2, Vec3};
 use thicket_core::polygonize::{mesh_field, GridParams, SurfaceCheck};
 use thicket_core::texture::{Generator, Pattern};
 
+#[path = "common/zero_set.rs"]
+mod zero_set;
+use zero_set::distance;
+
 struct Torus;
 
 impl ScalarField for Torus {
@@ -47,16 +51,6 @@ impl<F: ScalarField> ScalarField for Cut<'_, F> {
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
-}
-
-/// The worst and mean `|f| / |grad f|` over `points`, in cells.
-fn distance<F: ScalarField>(field: &F, points: &[Vec3], cell: f32) -> (f32, f32) {
-    let mut values = vec![0.0; points.len()];
-    let mut grads = vec![Vec3::ZERO; points.len()];
-    field.values(points, &mut values);
-    field.gradients(points, &mut grads);
-    let d: Vec<f32> = values.iter().zip(&grads).map(|(v, g)| v.abs() / g.length().max(1e-6) / cell).collect();
-    (d.iter().copied().fold(0.0, f32::max), d.iter().sum::<f32>() / d.len().max(1) as f32)
 }
 
 fn bench<F: ScalarField>(name: &str, field: &F, bounds: (Vec3, Vec3), cells: u32) {

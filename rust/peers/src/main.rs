@@ -11,14 +11,16 @@
 //! `cargo run --release -p thicket-peers -- [--runs N] [--depth D]`
 
 mod fidget_tree;
+#[path = "../../core/examples/common/zero_set.rs"]
+mod zero_set;
 
 use fidget_tree::Wp;
+use zero_set::distance;
 
 use fidget::jit::JitShape;
 use fidget::mesh::{Octree, Settings};
 use fidget::render::ThreadPool;
 use std::time::Instant;
-use thicket_core::field::ScalarField;
 use thicket_core::glam::Vec3;
 use thicket_core::implicit::samples::SOFT_CSG_20 as TREE;
 use thicket_core::implicit::FieldTree;
@@ -34,16 +36,6 @@ fn best<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, T) {
         ms = ms.min(start.elapsed().as_secs_f64() * 1e3);
     }
     (ms, out.expect("at least one run"))
-}
-
-/// The worst and mean `|f| / |grad f|` over `points`, in cells.
-fn distance(tree: &FieldTree, points: &[Vec3], cell: f32) -> (f32, f32) {
-    let mut values = vec![0.0; points.len()];
-    let mut grads = vec![Vec3::ZERO; points.len()];
-    tree.values(points, &mut values);
-    tree.gradients(points, &mut grads);
-    let d: Vec<f32> = values.iter().zip(&grads).map(|(v, g)| v.abs() / g.length().max(1e-6) / cell).collect();
-    (d.iter().copied().fold(0.0, f32::max), d.iter().sum::<f32>() / d.len().max(1) as f32)
 }
 
 fn report(name: &str, ms: f64, positions: &[Vec3], triangles: &[[u32; 3]], tree: &FieldTree, cell: f32) {
