@@ -93,8 +93,12 @@ fn edits(mesh: &thicket_core::Mesh, t: &[f32], side: Side, params: &ShellParams)
         let rebuild = start.elapsed().as_secs_f64();
         let r = shell_report(inc.mesh(), inc.shell());
         let mean = |s: &thicket_core::shell::Shell| s.achieved.iter().zip(&s.target).map(|(a, t)| if *t > 0.0 { a / t } else { 1.0 }).sum::<f32>() / n as f32;
+        // Directors more than a quarter of their target from the rebuild's (the Python
+        // suite allows 3 on Suzanne).
+        let s = inc.shell();
+        let far = (0..n).filter(|&v| (s.directors[v] - rebuilt.directors[v]).length() > 0.25 * rebuilt.target[v]).count();
         println!(
-            "  edit {}: incremental {:.1} ms ({} retraced, {} kept; {} repair rounds), rebuild {:.0} ms; defects {:?}; mean ratio {:.4} (rebuild {:.4})",
+            "  edit {}: incremental {:.1} ms ({} retraced, {} kept; {} repair rounds), rebuild {:.0} ms; defects {:?}; mean ratio {:.4} (rebuild {:.4}); {far} directors off by > 1/4",
             step + 1,
             incremental * 1e3,
             stats.retraced,

@@ -38,6 +38,15 @@ pub const DEFAULT_TOLERANCE: f64 = 3e-2;
 /// from the thesis: past a third, `shell_bench`'s updates cost as much as a rebuild).
 const REBUILD_FRACTION: usize = 3;
 
+/// How many rings of repaired directors around the retraced ones an update resets
+/// and repairs again; beyond them, repaired directors keep their length and the
+/// repair rounds shorten the reset ones instead where they share a defect
+/// ([`Repair::held`]). Not from the thesis: connected repaired regions span whole
+/// compressed shells (the twice-subdivided comb inside at 5%: 10.3k of 24.8k vertices
+/// reset for a 248-vertex edit, its update all repair), and Suzanne's edit in the
+/// Python suite needs 5 rings to stay within 3 vertices of a rebuild's.
+const RESET_RINGS: u32 = 6;
+
 /// What one update did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct UpdateStats {
@@ -105,7 +114,15 @@ impl IncrementalShell {
         let mut shell = assemble(&mesh, &thickness, side, &traces);
         let checker = Checker::new(&mesh);
         let mut outer_bvh = None;
-        let repair = Repair { checker: &checker, mesh: &mesh, normals: &tracer.normals, rounds: params.repair_rounds, factor: REPAIR_FACTOR, cancel: progress };
+        let repair = Repair {
+            checker: &checker,
+            mesh: &mesh,
+            normals: &tracer.normals,
+            rounds: params.repair_rounds,
+            factor: REPAIR_FACTOR,
+            cancel: progress,
+            held: None,
+        };
         shell.check = repair.settle(&mut outer_bvh, &mut shell, None);
         if let Some(p) = progress {
             p.check()?;
@@ -198,7 +215,7 @@ impl IncrementalShell {
         for (&v, t) in dirty.iter().zip(fresh) {
             self.traces[v as usize] = t;
         }
-        let mut seeds = self.reset_repaired(&dirty);
+        let (mut seeds, held) = self.reset_repaired(&dirty);
         let resettled = seeds.len();
         let flipped = if retriangulated {
             self.checker = Checker::new(&self.mesh);
@@ -222,6 +239,7 @@ impl IncrementalShell {
             rounds: self.params.repair_rounds,
             factor: REPAIR_FACTOR,
             cancel: None,
+            held: Some(&held),
         };
         self.shell.check = repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
         Ok(UpdateStats { changed, retraced: dirty.len(), kept, resettled, rebuilt: false })
@@ -344,28 +362,42 @@ impl IncrementalShell {
     /// result depends on the whole group. The repaired directors connected to the
     /// retraced ones go back to their traced value with them; the repair then runs
     /// again from these seeds: the rounds a rebuild would run on these groups.
-    /// Repaired groups the update did not retrace keep their repair. (Resetting only
-    /// three rings around the retraced ones cut an edit of 2 vertices of a shell
-    /// compressed everywhere, the twice-subdivided comb inside at 5%, from 130 to
-    /// 14-19 ms, but left Suzanne and bunny updates 6-7 vertices more than a quarter
-    /// of the thickness from a rebuild's in the Python suite, where 3 are allowed.)
-    fn reset_repaired(&mut self, retraced: &[u32]) -> Vec<u32> {
+    /// Repaired groups the update did not retrace keep their repair, and so do the
+    /// repaired directors more than [`RESET_RINGS`] rings from the retraced ones:
+    /// returned as held, they are shortened again only by defects no reset director
+    /// touches. (Resetting three rings while letting the repair shorten the directors
+    /// beyond them cut an edit of 2 vertices of the twice-subdivided comb inside at 5%
+    /// from 130 to 14-19 ms, but left Suzanne and bunny updates 6-7 vertices more than
+    /// a quarter of the thickness from a rebuild's in the Python suite, where 3 are
+    /// allowed.)
+    fn reset_repaired(&mut self, retraced: &[u32]) -> (Vec<u32>, Vec<bool>) {
         let raw = assemble(&self.mesh, &self.thickness, self.side, &self.traces);
         let repaired = |v: usize| self.shell.directors[v] != raw.directors[v] || self.shell.base_offset[v] != raw.base_offset[v];
         let mut reset = vec![false; self.mesh.vertex_count()];
-        let mut stack: Vec<u32> = retraced.to_vec();
-        stack.iter().for_each(|&v| reset[v as usize] = true);
-        let mut seeds = Vec::with_capacity(stack.len());
-        while let Some(v) = stack.pop() {
-            seeds.push(v);
-            for &f in self.tracer.faces_around.of(v as usize) {
-                for &u in self.mesh.face(f as usize) {
-                    if !reset[u as usize] && repaired(u as usize) {
-                        reset[u as usize] = true;
-                        stack.push(u);
+        let mut held = vec![false; self.mesh.vertex_count()];
+        let mut ring: Vec<u32> = retraced.to_vec();
+        ring.iter().for_each(|&v| reset[v as usize] = true);
+        let mut seeds = Vec::with_capacity(ring.len());
+        let mut depth = 0;
+        while !ring.is_empty() {
+            seeds.extend_from_slice(&ring);
+            let mut next = Vec::new();
+            for &v in &ring {
+                for &f in self.tracer.faces_around.of(v as usize) {
+                    for &u in self.mesh.face(f as usize) {
+                        if !reset[u as usize] && !held[u as usize] && repaired(u as usize) {
+                            if depth < RESET_RINGS {
+                                reset[u as usize] = true;
+                                next.push(u);
+                            } else {
+                                held[u as usize] = true;
+                            }
+                        }
                     }
                 }
             }
+            ring = next;
+            depth += 1;
         }
         for &v in &seeds {
             let v = v as usize;
@@ -374,7 +406,7 @@ impl IncrementalShell {
             self.shell.achieved[v] = raw.achieved[v];
         }
         self.shell.target = raw.target;
-        seeds
+        (seeds, held)
     }
 
     /// Moved base triangles can cross skin triangles no retraced director touches:

@@ -78,7 +78,7 @@ pub fn untangle_around(mesh: &Mesh, shell: &mut Shell, rounds: u32, factor: f32,
     }
     let checker = Checker::new(mesh);
     let normals = vertex_normals(mesh);
-    Repair { checker: &checker, mesh, normals: &normals, rounds, factor, cancel: None }.untangle(&mut None, shell, seeds)
+    Repair { checker: &checker, mesh, normals: &normals, rounds, factor, cancel: None, held: None }.untangle(&mut None, shell, seeds)
 }
 
 /// What the repair and restore passes use besides the shell: the mesh, its defect
@@ -93,6 +93,10 @@ pub(crate) struct Repair<'a> {
     /// its next batch, leaving the shell unfinished (`clean` false): the caller
     /// drops it ([`crate::Error::Cancelled`]).
     pub cancel: Option<&'a crate::progress::Progress>,
+    /// Directors the repair rounds (not the final check) leave alone where a defect
+    /// has another corner to shorten: after a local edit, the repaired directors
+    /// around the reset region keep the length their earlier repair gave them.
+    pub held: Option<&'a [bool]>,
 }
 
 impl Repair<'_> {
@@ -171,7 +175,7 @@ impl Repair<'_> {
         let mut folded: Vec<u32> = found.inverted.iter().flat_map(|&c| checker.cells[c as usize].base()).copied().collect();
         folded.sort_unstable();
         let mut any = false;
-        for v in checker.defect_vertex_list(found) {
+        for v in self.corners_to_shorten(found) {
             let folds = folded.binary_search(&v).is_ok();
             let v = v as usize;
             let length = shell.achieved[v];
@@ -241,6 +245,36 @@ impl Repair<'_> {
             }
         }
         any
+    }
+}
+
+impl Repair<'_> {
+    /// The corners of every defect a repair round shortens, sorted, each once: all of
+    /// them, or where some are [`held`](Repair::held), the others (the held ones only
+    /// where a defect has no other corner).
+    fn corners_to_shorten(&self, found: &Findings) -> Vec<u32> {
+        let checker = self.checker;
+        let Some(held) = self.held else { return checker.defect_vertex_list(found) };
+        let mut out = Vec::new();
+        let mut add = |corners: &[&[u32]]| {
+            let all = corners.iter().flat_map(|c| c.iter().copied());
+            match all.clone().all(|v| held[v as usize]) {
+                true => out.extend(all),
+                false => out.extend(all.filter(|&v| !held[v as usize])),
+            }
+        };
+        for &(i, j) in &found.self_pairs {
+            add(&[checker.item_vertices(i), checker.item_vertices(j)]);
+        }
+        for &(i, _) in &found.base_pairs {
+            add(&[checker.item_vertices(i)]);
+        }
+        for &c in found.inverted.iter().chain(&found.enclosing) {
+            add(&[checker.cells[c as usize].base()]);
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
     }
 }
 

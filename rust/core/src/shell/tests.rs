@@ -212,6 +212,61 @@ fn incremental_update_matches_full_rebuild() {
 }
 
 #[test]
+fn incremental_update_resets_only_the_repair_around_the_edit() {
+    // Inside the thin-toothed comb at 10% nearly every director is repaired, in one
+    // connected region (3422 of 3494 vertices): an update used to reset and repair
+    // all of it again, its cost a whole repair's. Now only the repaired directors within a few rings of the retraced
+    // ones are reset; the shell stays clean and near a rebuild's.
+    let mesh = tm::comb(3);
+    let n = mesh.vertex_count();
+    let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+    let params = ShellParams::default();
+    let mut inc = incremental::IncrementalShell::new(mesh.clone(), t.clone(), Side::Interior, params.clone()).unwrap();
+    let raw = inc.traced_directors();
+    let repaired: Vec<bool> = (0..n).map(|v| inc.shell().directors[v] != raw[v]).collect();
+    // The largest connected region of repaired vertices (what the old reset spread over).
+    let mut region = vec![usize::MAX; n];
+    let mut sizes = Vec::new();
+    for s in (0..n).filter(|&v| repaired[v]) {
+        if region[s] != usize::MAX {
+            continue;
+        }
+        let (id, mut stack, mut size) = (sizes.len(), vec![s], 0);
+        region[s] = id;
+        while let Some(v) = stack.pop() {
+            size += 1;
+            for f in mesh.faces().filter(|f| f.contains(&(v as u32))) {
+                for &u in f {
+                    if repaired[u as usize] && region[u as usize] == usize::MAX {
+                        region[u as usize] = id;
+                        stack.push(u as usize);
+                    }
+                }
+            }
+        }
+        sizes.push(size);
+    }
+    let (largest, &size) = sizes.iter().enumerate().max_by_key(|s| *s.1).expect("the repair shortened something");
+    assert!(size > n / 3, "largest repaired region {size} of {n}");
+    // A bump at a repaired vertex of that region.
+    let centre = (0..n).find(|&v| region[v] == largest).unwrap();
+    let diag = mesh.bbox_diagonal();
+    let moved = bumped(&mesh, centre, 0.005 * diag, 0.03 * diag);
+    let stats = inc.update(&moved, &t).unwrap();
+    assert!(!stats.rebuilt && stats.retraced < n / 10, "{stats:?} of {n}");
+    assert!(stats.resettled < size / 2, "{stats:?}: reset most of the repaired region ({size} of {n})");
+    let r = shell_report(inc.mesh(), inc.shell());
+    assert_eq!((r.inverted_cells, r.outer_self_intersections, r.outer_base_intersections), (0, 0, 0), "{r:?}");
+    let full = build_shell(&with_positions(&mesh, moved), &t, Side::Interior, &params).unwrap();
+    let s = inc.shell();
+    let far = (0..n).filter(|&v| (s.directors[v] - full.directors[v]).length() > 0.25 * full.target[v]).count();
+    let mean = |s: &Shell| s.achieved.iter().zip(&s.target).map(|(a, t)| a / t).sum::<f32>() / n as f32;
+    eprintln!("{stats:?} of {n}, region {size}; far {far}; mean {} vs {}", mean(s), mean(&full));
+    assert!(far <= 3, "{far} directors more than a quarter of the target from a rebuild's");
+    assert!((mean(s) - mean(&full)).abs() < 0.005, "mean ratio {} vs a rebuild's {}", mean(s), mean(&full));
+}
+
+#[test]
 fn incremental_update_follows_boundaries_quads_and_thickness() {
     // An open quad sheet (boundary extension faces, quads split for integration):
     // moving a corner region and thickening some vertices gives the rebuilt shell.
@@ -877,7 +932,7 @@ fn the_repair_and_the_restore_stop_on_a_cancel() {
     cancelled.cancel();
     for (cancel, name) in [(Some(&cancelled), "cancelled"), (None, "not cancelled")] {
         let mut shell = traced.clone();
-        let repair = Repair { checker: &checker, mesh: &mesh, normals: &normals, rounds: 80, factor: 0.92, cancel };
+        let repair = Repair { checker: &checker, mesh: &mesh, normals: &normals, rounds: 80, factor: 0.92, cancel, held: None };
         let done = repair.settle(&mut None, &mut shell, None);
         if cancel.is_some() {
             assert!(!done.clean && done.rounds == 0 && shell.directors == traced.directors, "{name}: {done:?}");
