@@ -7,6 +7,8 @@
 //!   bubbles), each tileable, seeded and, where it moves, driven by a time.
 //! - [`mapping`]: texture coordinates of the shell's cells (UVs times tiling, or one
 //!   tile per face) and the cell map between world and texture space.
+//! - [`charts`]: generated texture coordinates for meshes without a UV map: charts
+//!   projected flat, one tile every `tile_size` world units.
 //! - [`layer`]: a texture placed in the shell with its `(s, t)` offset.
 //! - [`bake`]: the iso-surface polygonized over the whole shell as one crack-free mesh.
 //! - [`textured_shell`]: mesh, shell, textures and effects as one checked object, from
@@ -14,6 +16,7 @@
 //! - [`io`]: textures from and to files (PNG slice stacks, OpenEXR volumes).
 
 pub mod bake;
+pub mod charts;
 pub mod from_field;
 pub mod io;
 pub mod layer;
@@ -23,6 +26,7 @@ pub mod textured_shell;
 pub mod volume;
 
 pub use bake::{bake, BakeParams, BakedMesh};
+pub use charts::Charts;
 pub use from_field::texture_from_field;
 pub use layer::TextureLayer;
 pub use mapping::{CellMap, TextureCoordinates, TriangleCells};
