@@ -67,6 +67,23 @@ impl Mesh {
         Ok(d)
     }
 
+    /// world_size_uvs(tile_size) -> dict
+    ///
+    /// Texture coordinates for a mesh without a UV map (the core's `texture::Charts`):
+    /// faces grouped into charts that project flat without folding, one texture tile
+    /// every `tile_size` world units. `uvs` float32 (corners, 2), `chart_of_face`
+    /// int32 (faces,), `chart_count`. A tile size that is not a positive finite length
+    /// raises `InvalidInput`.
+    fn world_size_uvs<'py>(&self, py: Python<'py>, tile_size: f32) -> PyResult<Bound<'py, PyDict>> {
+        let mesh = self.inner.clone();
+        let charts = run_detached(py, move || thicket_core::texture::Charts::of(&mesh, tile_size))?;
+        let d = PyDict::new(py);
+        d.set_item("chart_count", charts.count)?;
+        d.set_item("uvs", arrays::vec2_array(py, charts.corner_st)?)?;
+        d.set_item("chart_of_face", arrays::u32_as_i32_array(py, charts.chart_of_face))?;
+        Ok(d)
+    }
+
     /// vertex_normals() -> float32 (n, 3)
     ///
     /// Unit vertex normals as Blender computes them (the core's `mesh::vertex_normals`):
