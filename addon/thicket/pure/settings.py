@@ -55,7 +55,10 @@ class VolumetricTexture(_Item):
     """Volumetric Texture: detail mapped into the shell above it, baked to geometry.
 
     pattern: "chain_mail", "weave", "rivets", "grass", "fur" or "bubbles" (chapter 3);
-    (s, t) come from the active UV map times `tiling` (one tile per face without UVs),
+    (s, t) come from the active UV map times `tiling`; without UVs, `no_uv_tiles`
+    says how: "face" (one tile per face) or "world" (generated charts, one tile every
+    `tile_size` world units along the surface, 0: `auto_tile_size` of the base; the
+    generated coordinates stand in for the UV map, so `tiling` still multiplies them),
     r runs along the shell's directors. resolution: lattice steps per base edge;
     depth_steps: lattice steps across the shell. vertex_group: where the texture exists (elsewhere a
     thin base slab, blended smoothly). combine: a second pattern united with the first
@@ -82,6 +85,8 @@ class VolumetricTexture(_Item):
     feature_thickness: float = 1.0
     texture_size: int = 64
     tiling: float = 1.0
+    no_uv_tiles: str = "face"
+    tile_size: float = 0.0
     resolution: int = 8
     depth_steps: int = 16
     vertex_group: str = ""

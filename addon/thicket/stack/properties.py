@@ -116,7 +116,28 @@ class ThicketItem(bpy.types.PropertyGroup):
     texture_size: IntProperty(
         name="Texture Size", description="Texels along s and t (half as many across the shell)", min=8, max=256, default=64, update=_changed
     )
-    tiling: FloatProperty(name="Tiling", description="Texture tiles per UV unit (per face without UVs)", min=0.01, soft_max=64.0, default=1.0, update=_changed)
+    tiling: FloatProperty(
+        name="Tiling", description="Texture tiles per UV unit (per face, or per Tile Size, without UVs)", min=0.01, soft_max=64.0, default=1.0, update=_changed
+    )
+    no_uv_tiles: EnumProperty(
+        name="Without UV Map",
+        description="Where the texture's tiles go on a mesh without a UV map",
+        items=[
+            ("FACE", "One Tile per Face", "Each face is one whole tile: the pattern's size follows the faces (dense meshes make very many tiles)"),
+            ("WORLD", "World-Size Tiles", "Generated coordinates: the surface cut into charts laid flat, one tile every Tile Size along the surface"),
+        ],
+        default="FACE",
+        update=_changed,
+    )
+    tile_size: FloatProperty(
+        name="Tile Size",
+        description="World length of one texture tile with World-Size Tiles (0: automatic, 1/32 of the base's bounding-box diagonal)",
+        min=0.0,
+        default=0.0,
+        subtype="DISTANCE",
+        precision=4,
+        update=_changed,
+    )
     resolution: IntProperty(name="Resolution", description="Samples along each base edge of a cell", min=1, max=64, default=8, update=_changed)
     depth_steps: IntProperty(
         name="Depth Steps",
@@ -268,6 +289,8 @@ class ThicketItem(bpy.types.PropertyGroup):
                 feature_thickness=self.feature_thickness,
                 texture_size=self.texture_size,
                 tiling=self.tiling,
+                no_uv_tiles=self.no_uv_tiles.lower(),
+                tile_size=self.tile_size,
                 resolution=self.resolution,
                 depth_steps=saved_value(self, "depth_steps"),
                 vertex_group=SELECTED_FACES if self.face_selection == "REGION" else self.vertex_group,

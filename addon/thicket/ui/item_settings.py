@@ -34,6 +34,15 @@ def _draw_solid_texture_settings(col, item):
         col.prop(item, "color_attribute")
 
 
+def _draw_no_uv_tiles(col, obj, item):
+    """Without UV Map and its Tile Size: active only where the mesh has no UV map."""
+    sub = col.column()
+    sub.active = obj.type == "MESH" and not obj.data.uv_layers
+    sub.prop(item, "no_uv_tiles")
+    if item.no_uv_tiles == "WORLD":
+        sub.prop(item, "tile_size")
+
+
 def _draw_texture_settings(col, obj, item):
     col.prop(item, "source")
     if item.source == "FILE":
@@ -53,6 +62,7 @@ def _draw_texture_settings(col, obj, item):
         col.prop(item, "feature_thickness")
         col.prop(item, "texture_size")
     col.prop(item, "tiling")
+    _draw_no_uv_tiles(col, obj, item)
     col.prop(item, "follow_texture")
     col.prop(item, "resolution")
     col.prop(item, "depth_steps")

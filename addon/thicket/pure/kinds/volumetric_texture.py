@@ -91,13 +91,38 @@ def placed_textures(item: S.VolumetricTexture):
     return textures
 
 
+#: The automatic Tile Size (World-Size Tiles, tile_size 0) as a fraction of the base's
+#: bounding-box diagonal: a closed, roundish surface of diagonal D has an area near D²,
+#: so about 32² = 1000 tiles: the tile count of a one-tile-per-face mesh of 1000 faces,
+#: the size the library's patterns were tuned on (the demo's bunny has 3k faces).
+AUTO_TILE_FRACTION = 1 / 32
+
+
+def auto_tile_size(base: MeshArrays) -> float:
+    """The automatic Tile Size of `base`: `AUTO_TILE_FRACTION` of its bounding-box diagonal."""
+    v = np.asarray(base.vertices, dtype=np.float64)
+    diagonal = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) if len(v) else 0.0
+    return diagonal * AUTO_TILE_FRACTION if diagonal > 0 else 1.0
+
+
+def world_tile_size(shell: ShellContext, item: S.VolumetricTexture):
+    """The tile size the item's coordinates are generated at, or None where they are
+    not (the base has a UV map, or the item keeps one tile per face)."""
+    if shell.base.uvs is not None or item.no_uv_tiles != "world":
+        return None
+    return float(item.tile_size) if item.tile_size > 0 else auto_tile_size(shell.base)
+
+
 def texture_settings(shell: ShellContext, item: S.VolumetricTexture, weights):
     """What the bake, its estimate and the renderers take besides the shell and the
     textures: one argument list, so a preview shows what the bake makes (UVs, tiling,
     region, holes, cutter, moved region). `weights`: per-vertex region, holes and
-    move arrays (or None) by name."""
+    move arrays (or None) by name. `world_tile_size`: the tile size of generated
+    world-size UVs (None: the base's own UVs, or one tile per face)."""
+    tile = world_tile_size(shell, item)
     return dict(
-        uvs=shell.base.uvs,
+        uvs=shell.base.uvs if tile is None else shell.world_size(tile)[1],
+        world_tile_size=tile,
         tiling=float(item.tiling),
         resolution=int(item.resolution),
         depth_steps=int(item.depth_steps),
@@ -115,8 +140,27 @@ def native_shell(shell: ShellContext, textures, settings):
     `textures` and `settings` (`texture_settings`, plus a bake's budget): made from the
     shell's kind's `Shell` handle and the `Texture` handles (the base's UVs are its
     mesh's own), then estimated, baked or rendered as often as wanted (the renderers'
-    scene is made on its first frame and kept)."""
-    return shell.handle.textured(textures, **{key: value for key, value in settings.items() if key != "uvs"})
+    scene is made on its first frame and kept). With `world_tile_size`, the shell is
+    the same one over the base with generated world-size UVs."""
+    tile = settings.get("world_tile_size")
+    handle = shell.handle if tile is None else shell.world_size(tile)[0]
+    return handle.textured(textures, **{key: value for key, value in settings.items() if key not in ("uvs", "world_tile_size")})
+
+
+#: What a bake refused over the sample limit on a mesh without UVs adds to its message.
+WORLD_SIZE_HINT = (
+    "the mesh has no UV map, so each face is one whole tile: set Without UV Map to World-Size Tiles "
+    "(Volumetric Texture settings, or no_uv_tiles='WORLD' in scripts) for tiles of a world size instead"
+)
+
+
+def _pointing_at_world_size(error, shell: ShellContext, settings):
+    """`error` (a bake refused over the sample limit) with `WORLD_SIZE_HINT` where the
+    base has no UVs and its faces are tiles; otherwise `error` itself."""
+    tn = native.get()
+    if isinstance(error, tn.InvalidInput) and "over the limit" in str(error) and shell.base.uvs is None and settings.get("world_tile_size") is None:
+        return tn.InvalidInput(f"{error}; {WORLD_SIZE_HINT}")
+    return error
 
 
 def bake(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, progress=None):
@@ -129,21 +173,29 @@ def bake(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, pro
     # sees what the bake will (UVs, region, holes, cutter, moved region).
     settings = dict(texture_settings(shell, item, weights), triangle_budget=int(item.triangle_budget), max_triangles=int(item.max_triangles))
     textured = native_shell(shell, textures, settings)
-    if ask:
-        estimate = textured.estimate()
-        if estimate > item.confirm_above:
-            raise BakeNeedsConfirmation(item.label, estimate, item.confirm_above)
-    out = textured.bake(progress=progress)
+    try:
+        if ask:
+            estimate = textured.estimate()
+            if estimate > item.confirm_above:
+                raise BakeNeedsConfirmation(item.label, estimate, item.confirm_above)
+        out = textured.bake(progress=progress)
+    except native.get().ThicketError as error:
+        hinted = _pointing_at_world_size(error, shell, settings)
+        if hinted is error:
+            raise
+        raise hinted from error
     result = MeshArrays.from_native(out)
     result.normals = out["normals"]
     result.point_attributes = {TEXCOORD_ATTRIBUTE: out["texcoords"]}
     # Shaded like the base: each triangle takes the material of the face it grew from,
-    # and a UV map carries the base's UVs (the texture's (s, t) over Tiling), or each
-    # face's own tile where the base has no UV map.
+    # and a UV map carries the base's UVs (the texture's (s, t) over Tiling), the
+    # generated world-size UVs likewise, or each face's own tile where the base has no
+    # UV map.
     if base.material_index is not None:
         result.material_index = base.material_index[out["source_face"]]
     st = out["corner_texcoords"][:, :2]
-    result.uv_maps = {base.uv_name: st if base.uvs is None else st / np.float32(item.tiling)}
+    per_face = base.uvs is None and settings["world_tile_size"] is None
+    result.uv_maps = {base.uv_name: st if per_face else st / np.float32(item.tiling)}
     notes = []
     if out["per_face_tiles"]:
         notes.append("the mesh has no UV map: each face got its own texture tile")
@@ -152,6 +204,7 @@ def bake(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, pro
         notes.append(
             f"'{item.label}': the texture is finer than the bake lattice ({steps} steps per face edge) on many faces, so thin features may be lost; "
             "raise Sample Limit or lower Tiling or Texture Size"
+            + (", or set Without UV Map to World-Size Tiles (one tile per face makes as many tiles as faces)" if out["per_face_tiles"] else "")
         )
     return result, notes
 
