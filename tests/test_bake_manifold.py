@@ -151,6 +151,9 @@ def bake_and_check(base, side, pattern, variant, size=(12, 12, 8), resolution=6,
     count = len(out["corners"]) // 3
     assert count > 0, f"{pattern} {variant}: empty bake"
     assert count / 1.5 - 50 <= estimate <= count * 1.5 + 50, f"{pattern} {variant}: estimate {estimate}, baked {count}"
+    # The bake says when it stayed over its budget (beyond the cells' 5% tolerance).
+    assert out["over_budget"] == (count > 1.05 * settings["triangle_budget"]), f"{pattern} {variant}: {count}, {out['over_budget']}"
+    assert round(out["simplify_error"], 3) in (0.15, 1.0), out["simplify_error"]
     unsimplified = tn.estimate_bake(*args, **{**settings, "triangle_budget": 0})
     if unsimplified > 2 * settings["triangle_budget"]:
         assert count < 0.95 * unsimplified, f"{pattern} {variant}: {count} triangles, {unsimplified} unsimplified"

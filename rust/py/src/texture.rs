@@ -298,8 +298,10 @@ impl BakeInputs {
 /// texcoords (n,3) = (s, t, r), corner_texcoords (corners,3) = (s, t, r) of each
 /// corner in its own cell (UV seams and tile edges kept apart), source_face
 /// (triangles,) = the base face each triangle grew from, per_face_tiles,
-/// lattice_steps (per cell edge, across the shell) and texture_finer_than_lattice
-/// (thin features may be lost). `progress`: a callable given the share of cells baked
+/// lattice_steps (per cell edge, across the shell), texture_finer_than_lattice
+/// (thin features may be lost), over_budget (more triangles than triangle_budget: the
+/// simplification stopped at its largest error) and simplify_error (that error, in
+/// lattice steps). `progress`: a callable given the share of cells baked
 /// (0 to 1) about ten times a second; returning False cancels the bake (as does an
 /// exception from it, raised once the bake stops, or Ctrl-C), which then raises
 /// thicket_native.Cancelled (a ThicketError, message "cancelled").
@@ -343,6 +345,8 @@ pub(crate) fn baked_dict(py: Python<'_>, out: thicket_core::texture::BakedMesh) 
     d.set_item("per_face_tiles", out.per_face_tiles)?;
     d.set_item("lattice_steps", (out.lattice[0], out.lattice[1]))?;
     d.set_item("texture_finer_than_lattice", out.texture_finer_than_lattice)?;
+    d.set_item("over_budget", out.over_budget)?;
+    d.set_item("simplify_error", out.simplify_error)?;
     Ok(d)
 }
 

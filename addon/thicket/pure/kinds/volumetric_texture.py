@@ -206,6 +206,12 @@ def bake(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, pro
             "raise Sample Limit or lower Tiling or Texture Size"
             + (", or set Without UV Map to World-Size Tiles (one tile per face makes as many tiles as faces)" if out["per_face_tiles"] else "")
         )
+    if out.get("over_budget"):
+        count, error = len(out["source_face"]), out["simplify_error"]
+        notes.append(
+            f"'{item.label}': {count:,} triangles, over the Triangle Budget of {int(item.triangle_budget):,}: fewer would move the surface "
+            f"more than {error:g} lattice steps and lose the texture's silhouette; lower Tiling or Texture Size for a smaller bake"
+        )
     return result, notes
 
 

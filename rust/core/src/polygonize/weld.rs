@@ -19,7 +19,7 @@ pub fn edge_key(a: u64, b: u64) -> u128 {
 }
 
 /// One piece of a polygonized surface before the weld.
-#[derive(Default)]
+#[derive(Default, Clone)]
 pub struct Piece {
     /// Per vertex: its [`edge_key`] where another piece makes it too, else [`UNSHARED`].
     pub keys: Vec<u128>,

@@ -490,3 +490,28 @@ fn a_cell_whose_map_reverses_alone_is_wound_with_its_neighbours() {
     assert_eq!((r.misoriented_edges, r.boundary_edges, r.overused_edges), (0, 0, 0), "{r:?}");
     assert!(as_mesh(&b).signed_volume() > 0.0);
 }
+
+#[test]
+fn a_bake_over_its_budget_with_room_to_simplify_ends_within_it() {
+    // Weave (no thin features) on a small sphere, one tile per face, with a budget of a
+    // fifth of the lattice's triangles: the cells over their share after a quarter of a
+    // lattice step are simplified again with the larger errors; the result is within
+    // the budget (the cells' tolerance above their share), still a closed 2-manifold
+    // without pinched vertices or crossing pairs, and the estimate agrees. (At a tenth
+    // it ends at 0.15 of the lattice, 1.47 times the budget: locked rims.)
+    let mesh = tm::icosphere(1);
+    let s = shell(&mesh, 0.05);
+    let tex = layer(Generator::new(Pattern::Weave).generate([32, 32, 16]).unwrap());
+    let all = bake(&mesh, &s, &tex, &BakeParams { triangle_budget: 0, ..Default::default() }).unwrap().triangles.len();
+    let budget = all / 5;
+    let p = BakeParams { triangle_budget: budget, ..Default::default() };
+    let b = bake(&mesh, &s, &tex, &p).unwrap();
+    let made = b.triangles.len();
+    assert!(made as f64 <= budget as f64 * 1.1, "{made} triangles for a budget of {budget} (lattice: {all})");
+    assert!(!b.over_budget);
+    let check = crate::polygonize::SurfaceCheck::of(&b.positions, &b.triangles);
+    assert!(check.is_closed_manifold() && check.pinched_vertices == 0, "{check:?}");
+    assert_eq!(crate::hard_meshes::self_intersections(&as_mesh(&b)), 0);
+    let estimate = estimate_triangles(&mesh, &s, &tex, &p).unwrap() as f64;
+    assert!(estimate < made as f64 * 1.5 && estimate > made as f64 / 1.5, "estimate {estimate}, made {made}");
+}

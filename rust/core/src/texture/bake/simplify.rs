@@ -42,14 +42,16 @@ pub(super) fn simplify(piece: Piece, target: usize, error: f32) -> Piece {
     let before = Shape::of(&piece.tris, piece.pos.len());
     let mut kept: Vec<Vec<[u32; 3]>> = parts.tris.iter().map(|p| p.iter().map(|&t| piece.tris[t as usize]).collect()).collect();
     let mut redo: Vec<bool> = vec![true; kept.len()];
+    let mut simplified = vec![false; kept.len()];
     for _ in 0..ATTEMPTS {
         for (c, part) in kept.iter_mut().enumerate().filter(|(c, _)| redo[*c]) {
             *part = simplify_part(&piece, &parts.tris[c], &lock, share, error);
+            simplified[c] = true;
         }
         let fresh: Vec<bool> = kept.iter().zip(&redo).flat_map(|(p, &r)| std::iter::repeat_n(r, p.len())).collect();
         let tris = kept.concat();
         if tris.len() == piece.tris.len() {
-            break;
+            return piece;
         }
         let faulty = faults(&piece, &before, &tris, &fresh);
         if faulty.is_empty() {
@@ -65,6 +67,18 @@ pub(super) fn simplify(piece: Piece, target: usize, error: f32) -> Piece {
                 ring.of(w).iter().for_each(|&x| lock[x as usize] = true);
             }
         }
+    }
+    // Still faulty after every attempt: those parts as the lattice made them, the
+    // others simplified, where that has no fault (bubbles on a 320-face head: 22
+    // cells of 320 were kept whole, 516 k triangles for a share of 69 k).
+    for (c, part) in kept.iter_mut().enumerate().filter(|(c, _)| redo[*c]) {
+        *part = parts.tris[c].iter().map(|&t| piece.tris[t as usize]).collect();
+        simplified[c] = false;
+    }
+    let fresh: Vec<bool> = kept.iter().zip(&simplified).flat_map(|(p, &r)| std::iter::repeat_n(r, p.len())).collect();
+    let tris = kept.concat();
+    if tris.len() < piece.tris.len() && faults(&piece, &before, &tris, &fresh).is_empty() {
+        return compact(piece, tris);
     }
     piece
 }
