@@ -25,29 +25,44 @@ def reads_text(item) -> bool:
     return item.tree_text is not None and (item.kind == "SOLID_TEXTURE" or (item.kind == "VOLUMETRIC_TEXTURE" and item.source == "FIELD_JSON"))
 
 
-def readers(texts):
-    """The stack sources with an item reading one of `texts` (addresses)."""
-    return [obj for obj in bpy.data.objects if obj.type == "MESH" and any(reads_text(i) and i.tree_text.as_pointer() in texts for i in obj.thicket.items)]
+def _read_texts():
+    """The Texts some stack item reads, by address, with the sources reading each."""
+    read = {}
+    for obj in bpy.data.objects:
+        if obj.type == "MESH":
+            for item in obj.thicket.items:
+                if reads_text(item):
+                    text = item.tree_text
+                    sources = read.setdefault(text.as_pointer(), (text, []))[1]
+                    if obj not in sources:
+                        sources.append(obj)
+    return read
 
 
 def poll():
     """Schedules the stacks reading a Text edited since the last call (a Text seen
-    for the first time is only remembered) and returns them."""
-    current = {text.as_pointer(): hash(text.as_string()) for text in bpy.data.texts}
-    changed = {key for key, digest in current.items() if _seen.get(key, digest) != digest}
+    for the first time is only remembered) and returns them. Only Texts that a stack
+    reads are compared (scripts in other Texts cost nothing)."""
+    read = _read_texts()
+    current = {key: hash(text.as_string()) for key, (text, _) in read.items()}
+    changed = [key for key, digest in current.items() if _seen.get(key, digest) != digest]
     _seen.clear()
     _seen.update(current)
-    if not changed:
-        return []
-    sources = readers(changed)
+    sources = []
+    for key in changed:
+        sources.extend(obj for obj in read[key][1] if obj not in sources)
     for obj in sources:
         auto_update.schedule(obj)
     return sources
 
 
 def _tick():
-    if bpy.data.texts:
-        poll()
+    # An exception would unregister the timer for the rest of the session.
+    try:
+        if bpy.data.texts:
+            poll()
+    except Exception as exc:  # noqa: BLE001  (reported, never raised into Blender's loop)
+        print(f"Thicket: watching Texts failed: {exc}")
     return POLL_SECONDS
 
 

@@ -55,8 +55,8 @@ fn report(name: &str, ms: f64, positions: &[Vec3], triangles: &[[u32; 3]], tree:
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let arg = |name: &str| args.iter().position(|a| a == name).map(|i| args[i + 1].clone());
-    let runs: usize = arg("--runs").map_or(2, |r| r.parse().expect("--runs takes a count"));
+    let arg = |name: &str| args.iter().position(|a| a == name).map(|i| args.get(i + 1).expect("a value after the option").clone());
+    let runs: usize = arg("--runs").map_or(2, |r| r.parse().expect("--runs takes a count")).max(1);
     let depth: u8 = arg("--depth").map_or(8, |d| d.parse().expect("--depth takes a number"));
     let resolution = 1u32 << depth;
     let tree = FieldTree::from_json(TREE).expect("the sample tree is valid");

@@ -108,7 +108,7 @@ def auto_tile_size(base: MeshArrays) -> float:
 def world_tile_size(shell: ShellContext, item: S.VolumetricTexture):
     """The tile size the item's coordinates are generated at, or None where they are
     not (the base has a UV map, or the item keeps one tile per face)."""
-    if shell.base.uvs is not None or item.no_uv_tiles != "world":
+    if shell.base.uvs is not None or str(item.no_uv_tiles).lower() != "world":
         return None
     return float(item.tile_size) if item.tile_size > 0 else auto_tile_size(shell.base)
 

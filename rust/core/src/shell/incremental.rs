@@ -399,6 +399,12 @@ impl IncrementalShell {
             ring = next;
             depth += 1;
         }
+        // Every repaired director not reset is held, not only the ring just beyond:
+        // a defect between a reset director and one further out must not shorten the
+        // far one (a far change from a local edit).
+        for (v, h) in held.iter_mut().enumerate() {
+            *h = !reset[v] && repaired(v);
+        }
         for &v in &seeds {
             let v = v as usize;
             self.shell.base_offset[v] = raw.base_offset[v];

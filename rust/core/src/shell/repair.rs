@@ -175,7 +175,7 @@ impl Repair<'_> {
         let mut folded: Vec<u32> = found.inverted.iter().flat_map(|&c| checker.cells[c as usize].base()).copied().collect();
         folded.sort_unstable();
         let mut any = false;
-        for v in self.corners_to_shorten(found) {
+        for v in self.corners_to_shorten(found, &shell.achieved) {
             let folds = folded.binary_search(&v).is_ok();
             let v = v as usize;
             let length = shell.achieved[v];
@@ -250,17 +250,20 @@ impl Repair<'_> {
 
 impl Repair<'_> {
     /// The corners of every defect a repair round shortens, sorted, each once: all of
-    /// them, or where some are [`held`](Repair::held), the others (the held ones only
-    /// where a defect has no other corner).
-    fn corners_to_shorten(&self, found: &Findings) -> Vec<u32> {
+    /// them, or where some are [`held`](Repair::held), the others that still have
+    /// length (the held ones too where a defect has no such other corner: otherwise a
+    /// defect whose free corners are already at zero would stop the repair before its
+    /// final check).
+    fn corners_to_shorten(&self, found: &Findings, achieved: &[f32]) -> Vec<u32> {
         let checker = self.checker;
         let Some(held) = self.held else { return checker.defect_vertex_list(found) };
         let mut out = Vec::new();
         let mut add = |corners: &[&[u32]]| {
             let all = corners.iter().flat_map(|c| c.iter().copied());
-            match all.clone().all(|v| held[v as usize]) {
-                true => out.extend(all),
-                false => out.extend(all.filter(|&v| !held[v as usize])),
+            let free = |v: &u32| !held[*v as usize] && achieved[*v as usize] > 0.0;
+            match all.clone().any(|v| free(&v)) {
+                true => out.extend(all.filter(free)),
+                false => out.extend(all),
             }
         };
         for &(i, j) in &found.self_pairs {

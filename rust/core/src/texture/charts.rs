@@ -164,10 +164,14 @@ impl Charts {
             let projected = area.dot(normal);
             let stretch = if projected > 0.0 && world > 0.0 { (world / projected).sqrt() } else { 1.0 };
             let scale = inv * stretch;
+            // From the chart's first corner: (s, t) stay small, so f32 keeps them exact to
+            // far below a texel wherever the mesh lies (a scan at 5e5 units with a 1 cm
+            // tile would have a step of f32 wider than a tile).
+            let origin = p[mesh.face(list[0] as usize)[0] as usize].as_dvec3();
             for &f in list {
                 let range = mesh.face_corner_range(f as usize);
                 for (c, &vert) in range.zip(mesh.face(f as usize)) {
-                    let q = p[vert as usize].as_dvec3();
+                    let q = p[vert as usize].as_dvec3() - origin;
                     corner_st[c] = Vec2::new((q.dot(u) * scale) as f32, (q.dot(v) * scale) as f32);
                 }
             }

@@ -57,8 +57,10 @@ const LOOP_STEPS: usize = 1;
 const AHEAD_COS: f32 = 0.5;
 
 /// Per vertex, half the distance to the nearest other boundary vertex facing it
-/// ([`AHEAD_COS`]: each ahead of the other's extension), closer than `length(v)`
-/// and more than [`LOOP_STEPS`] steps away along the boundary; infinity where none.
+/// ([`AHEAD_COS`]: each ahead of the other's extension), closer than twice
+/// `length(v)` (where two facing extensions would overlap; a distance, so the same
+/// whichever way the mesh is turned) and more than [`LOOP_STEPS`] steps away along
+/// the boundary; infinity where none.
 /// A sheet's edges do not face each other's vertices (a corner's extension is
 /// diagonal, the edge's perpendicular to it): there the extension keeps its reach.
 ///
@@ -96,7 +98,8 @@ fn room_ahead(edges: &[(u32, u32)], p: &[Vec3], across: &[Vec3], length: &dyn Fn
         if dir == Vec3::ZERO || !(reach > 0.0) {
             continue;
         }
-        let (x, r) = (at(v), DVec3::splat(reach as f64));
+        // Facing extensions overlap once their rims are closer than the two reaches.
+        let (x, r) = (at(v), DVec3::splat(2.0 * reach as f64));
         let mut nearest = f32::INFINITY;
         let mut skip: Option<Vec<u32>> = None;
         tree.query(x - r, x + r, |k| {
@@ -105,6 +108,7 @@ fn room_ahead(edges: &[(u32, u32)], p: &[Vec3], across: &[Vec3], length: &dyn Fn
             let l = d.length();
             if w != v
                 && l < nearest
+                && l < 2.0 * reach
                 && d.dot(dir) > AHEAD_COS * l
                 && -d.dot(across[w as usize].normalize_or_zero()) > AHEAD_COS * l
                 && !skip.get_or_insert_with(|| near(v)).contains(&w)

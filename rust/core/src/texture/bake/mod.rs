@@ -381,7 +381,7 @@ impl Setup {
         let lattice = Lattice::new(mesh, cells, n);
         let effects = Effects::new(&lattice.tris, &lattice.st, params, shell, heights.len() - 1, mask_resolution(lattice.tris.len(), n));
         let bounds = textures.iter().map(|l| MaxPyramid::new(&l.texture)).collect();
-        let simplify_errors = simplify_errors(thin);
+        let simplify_errors = simplify_errors(thin, finer);
         let flips = cell_flips(mesh, shell, &lattice.tris, &lattice.faces);
         let margins = Margins::new(mesh, shell, &lattice.tris, &heights);
         Ok(Self {
@@ -404,7 +404,8 @@ impl Setup {
     fn with_block(self, mesh: &Mesh, block: u32) -> Self {
         let cells = TriangleCells { triangles: self.lattice.tris, st: self.lattice.st, faces: self.lattice.faces };
         let lattice = Lattice::new(mesh, cells, self.resolution * block);
-        Self { lattice, block, texture_finer_than_lattice: true, ..self }
+        // A step now spans several texels: only the first error keeps the silhouette.
+        Self { lattice, block, texture_finer_than_lattice: true, simplify_errors: &self.simplify_errors[..1], ..self }
     }
 
     fn field<'a>(&'a self, textures: &'a [TextureLayer]) -> Occupancy<'a> {
@@ -531,11 +532,12 @@ const SHARE_TOLERANCE: f64 = 0.05;
 
 /// The errors, in lattice steps, a cell's piece is simplified with in turn while it
 /// stays over its share of the budget.
-fn simplify_errors(thin: bool) -> &'static [f32] {
-    if thin {
-        &[THIN_SIMPLIFY_ERROR]
-    } else {
-        &SIMPLIFY_ERRORS
+fn simplify_errors(thin: bool, finer: bool) -> &'static [f32] {
+    match (thin, finer) {
+        (true, _) => &[THIN_SIMPLIFY_ERROR],
+        // A step spans more than a texel: the further errors could erase features.
+        (false, true) => &SIMPLIFY_ERRORS[..1],
+        (false, false) => &SIMPLIFY_ERRORS,
     }
 }
 
