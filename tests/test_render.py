@@ -10,6 +10,7 @@ from conftest import add
 
 import thicket_native as tn
 from thicket import api
+from thicket.pure.kinds.volumetric_texture import native_settings
 from thicket.render import camera, preview
 
 
@@ -214,7 +215,7 @@ def test_live_preview_keeps_one_native_handle_until_the_content_changes(scene, t
     setup = render_setup_of(sphere)
     base, shell = setup.shell.base, setup.shell
     args = (base.vertices, base.face_sizes, base.corners, shell.base_offset, shell.directors, setup.textures, view, projection, 40, 30)
-    np.testing.assert_array_equal(frames[0], tn.render_shell(*args, method="reference", **setup.settings)["rgba"])
+    np.testing.assert_array_equal(frames[0], tn.render_shell(*args, method="reference", **native_settings(setup.settings))["rgba"])
     sphere.thicket.items[-1].tiling = 2.0  # the content changed: a new handle
     changed, rebuilt = overlay._prepared(sphere)
     assert changed != key and rebuilt is not handle and isinstance(rebuilt, tn.TexturedShell)

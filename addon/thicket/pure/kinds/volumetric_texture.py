@@ -135,6 +135,12 @@ def texture_settings(shell: ShellContext, item: S.VolumetricTexture, weights):
     )
 
 
+def native_settings(settings):
+    """`texture_settings` as the array functions take them (`thicket_native.bake_texture`,
+    `estimate_bake`, `render_shell`): the UVs already generated, without their tile size."""
+    return {key: value for key, value in settings.items() if key != "world_tile_size"}
+
+
 def native_shell(shell: ShellContext, textures, settings):
     """The native handle (`thicket_native.TexturedShell`) of `shell` with the placed
     `textures` and `settings` (`texture_settings`, plus a bake's budget): made from the
@@ -144,7 +150,7 @@ def native_shell(shell: ShellContext, textures, settings):
     the same one over the base with generated world-size UVs."""
     tile = settings.get("world_tile_size")
     handle = shell.handle if tile is None else shell.world_size(tile)[0]
-    return handle.textured(textures, **{key: value for key, value in settings.items() if key not in ("uvs", "world_tile_size")})
+    return handle.textured(textures, **{key: value for key, value in native_settings(settings).items() if key != "uvs"})
 
 
 #: What a bake refused over the sample limit on a mesh without UVs adds to its message.
