@@ -60,7 +60,7 @@ def test_a_huge_resolution_is_refused_at_once_with_the_estimate_and_the_limit():
     before = max_rss_mb()
     start = time.perf_counter()
     with pytest.raises(
-        tn.InvalidInput,
+        tn.OverLimit,
         match=r"resolution 2048 \(.* cells\) would make about .* vertices and .* quads and need about .* GB at its peak, over the memory limit of 4.00 GB: use about \d+ cells or fewer",
     ):
         tn.field_mesh(text, resolution=2048)
@@ -68,7 +68,7 @@ def test_a_huge_resolution_is_refused_at_once_with_the_estimate_and_the_limit():
     assert elapsed < 2.0, f"refusing took {elapsed:.2f} s"
     assert max_rss_mb() - before < 100, "the refusal allocated"
     # The marching prisms' planes alone pass a small limit; the resolution it proposes fits.
-    with pytest.raises(tn.InvalidInput, match="over the memory limit of 0.05 GB"):
+    with pytest.raises(tn.OverLimit, match="over the memory limit of 0.05 GB"):
         tn.field_mesh(json.dumps(SPHERE), resolution=512, adaptive=False, max_bytes=50e6)
     small = tn.field_mesh_estimate(json.dumps(SPHERE), resolution=512, max_bytes=50e6)
     fit = small["resolution_within"]

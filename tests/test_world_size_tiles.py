@@ -76,9 +76,17 @@ def test_world_size_uvs_of_the_native_mesh(bunny):
     assert abs(signed.sum() * tile**2 / world - 1) < 0.02
     # Deterministic; a bad tile size is refused.
     np.testing.assert_array_equal(mesh.world_size_uvs(tile)["uvs"], uvs)
+    # The same UVs as a mesh of their own, the positions and faces unchanged.
+    assert mesh.uvs is None
+    mapped = mesh.with_world_size_uvs(tile)
+    np.testing.assert_array_equal(mapped.uvs, uvs)
+    np.testing.assert_array_equal(mapped.arrays()["corners"], mesh.arrays()["corners"])
+    np.testing.assert_array_equal(mapped.arrays()["vertices"], bunny.vertices)
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(tn.InvalidInput, match="tile size"):
             mesh.world_size_uvs(bad)
+        with pytest.raises(tn.InvalidInput, match="tile size"):
+            mesh.with_world_size_uvs(bad)
 
 
 def test_a_dense_scan_bakes_world_size_tiles_closed_and_estimated(scene, bunny):
@@ -134,14 +142,14 @@ def test_the_stack_setting_reaches_the_bake_and_the_refusal_points_at_it(scene):
     item.tile_size = 0.0
     item.resolution = 2  # at 1 step per face edge, one whole tile per face samples nothing
     item.max_triangles = 1000
-    with pytest.raises(tn.InvalidInput) as refused:
+    with pytest.raises(tn.OverLimit) as refused:
         api.regenerate(obj)
     assert WORLD_SIZE_HINT not in str(refused.value)
     item.no_uv_tiles = "FACE"
     before = len(obj.thicket.result.data.polygons)
-    with pytest.raises(tn.InvalidInput) as refused:
+    with pytest.raises(tn.OverLimit) as refused:  # an InvalidInput, told apart by kind
         api.regenerate(obj)
-    assert WORLD_SIZE_HINT in str(refused.value)
+    assert WORLD_SIZE_HINT in str(refused.value) and isinstance(refused.value, tn.InvalidInput)
     assert len(obj.thicket.result.data.polygons) == before  # the previous result stays
     item.resolution = 1
     item.max_triangles = 2 * auto

@@ -153,7 +153,8 @@ def add_volumetric_texture(obj, pattern="chain_mail", shell_thickness=0.05, side
     stack, after a Shell item of `shell_thickness` (relative) that is added first when
     the stack has no shell yet; regenerates and returns the result object.
     Without a UV map, `no_uv_tiles="WORLD"` generates world-size coordinates, one
-    tile every `tile_size` world units (0: 1/32 of the bounding-box diagonal);
+    tile every `tile_size` units of the object's own (unscaled) coordinates,
+    like the shell's thickness (0: 1/32 of the bounding-box diagonal);
     "FACE" (the default) makes each face one tile.
     `field_tree_json`: the texture from a field tree instead of `pattern` (README,
     Volumetric Texture from a field tree): JSON text, a dict, a Blender Text holding

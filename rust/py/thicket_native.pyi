@@ -30,6 +30,9 @@ class ThicketError(ValueError):
 class InvalidInput(ThicketError):
     """A mesh, array or setting Thicket cannot use; the message says which."""
 
+class OverLimit(InvalidInput):
+    """Work whose estimated output would pass a limit (Sample Limit, memory limit)."""
+
 class FileError(ThicketError):
     """A file or folder that cannot be read or written; the message names it."""
 
@@ -207,6 +210,9 @@ class Mesh:
     def arrays(self) -> dict[str, Any]: ...
     def vertex_normals(self) -> Floats: ...
     def world_size_uvs(self, tile_size: float) -> dict[str, Any]: ...
+    def with_world_size_uvs(self, tile_size: float) -> Mesh: ...
+    @property
+    def uvs(self) -> Floats | None: ...
     def shell(
         self, thickness: float, side: str = "exterior", relative: bool = False, factors: Floats | None = None, p: float = 3.0, progress: Progress = None
     ) -> Shell: ...

@@ -57,7 +57,7 @@ class VolumetricTexture(_Item):
     pattern: "chain_mail", "weave", "rivets", "grass", "fur" or "bubbles" (chapter 3);
     (s, t) come from the active UV map times `tiling`; without UVs, `no_uv_tiles`
     says how: "face" (one tile per face) or "world" (generated charts, one tile every
-    `tile_size` world units along the surface, 0: `auto_tile_size` of the base; the
+    `tile_size` units of the mesh's own coordinates along the surface, 0: `auto_tile_size` of the base; the
     generated coordinates stand in for the UV map, so `tiling` still multiplies them),
     r runs along the shell's directors. resolution: lattice steps per base edge;
     depth_steps: lattice steps across the shell. vertex_group: where the texture exists (elsewhere a

@@ -27,15 +27,13 @@ class ShellContext:
         self.generated = {}  # tile size -> (Shell handle over the base with world-size UVs, the UVs)
 
     def world_size(self, tile_size):
-        """The same shell over its base with generated world-size UVs (`Mesh.world_size_uvs`:
-        one tile every `tile_size` world units), and those UVs: made once per tile size,
-        so the bake, its estimate and the previews share one handle."""
+        """The same shell over its base with generated world-size UVs (`Mesh.with_world_size_uvs`:
+        one tile every `tile_size` units along the surface), and those UVs: made once per
+        tile size, so the bake, its estimate and the previews share one handle."""
         found = self.generated.get(tile_size)
         if found is None:
-            tn, base = native.get(), self.base
-            uvs = self.handle.mesh.world_size_uvs(tile_size)["uvs"]
-            mesh = tn.Mesh(np.ascontiguousarray(base.vertices, dtype=np.float32), base.face_sizes, base.corners, uvs)
-            found = self.generated[tile_size] = (tn.Shell(mesh, self.base_offset, self.directors), uvs)
+            mesh = self.handle.mesh.with_world_size_uvs(tile_size)
+            found = self.generated[tile_size] = (native.get().Shell(mesh, self.base_offset, self.directors), mesh.uvs)
         return found
 
 

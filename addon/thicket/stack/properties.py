@@ -131,7 +131,7 @@ class ThicketItem(bpy.types.PropertyGroup):
     )
     tile_size: FloatProperty(
         name="Tile Size",
-        description="World length of one texture tile with World-Size Tiles (0: automatic, 1/32 of the base's bounding-box diagonal)",
+        description="Length of one texture tile along the surface with World-Size Tiles, in the object's own units like Thickness (the object's scale is not applied; 0: automatic, 1/32 of the base's bounding-box diagonal)",
         min=0.0,
         default=0.0,
         subtype="DISTANCE",

@@ -26,16 +26,17 @@ def reads_text(item) -> bool:
 
 
 def _read_texts():
-    """The Texts some stack item reads, by address, with the sources reading each."""
+    """The Texts some stack item reads, by address, with the sources reading each.
+    Only Texts with a real user are looked at, and only the objects Blender's own
+    `user_map` names as their users: nothing walks the scene's objects."""
+    used = [text for text in bpy.data.texts if text.users > int(text.use_fake_user)]
+    if not used:
+        return {}
     read = {}
-    for obj in bpy.data.objects:
-        if obj.type == "MESH":
-            for item in obj.thicket.items:
-                if reads_text(item):
-                    text = item.tree_text
-                    sources = read.setdefault(text.as_pointer(), (text, []))[1]
-                    if obj not in sources:
-                        sources.append(obj)
+    for text, users in bpy.data.user_map(subset=used, value_types={"OBJECT"}).items():
+        for obj in users:
+            if obj.type == "MESH" and any(reads_text(item) and item.tree_text == text for item in obj.thicket.items):
+                read.setdefault(text.as_pointer(), (text, []))[1].append(obj)
     return read
 
 
@@ -59,8 +60,7 @@ def poll():
 def _tick():
     # An exception would unregister the timer for the rest of the session.
     try:
-        if bpy.data.texts:
-            poll()
+        poll()
     except Exception as exc:  # noqa: BLE001  (reported, never raised into Blender's loop)
         print(f"Thicket: watching Texts failed: {exc}")
     return POLL_SECONDS

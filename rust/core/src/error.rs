@@ -12,6 +12,11 @@ pub enum Error {
     NonFinite { index: usize, value: [f32; 3] },
     #[error("invalid parameter: {0}")]
     InvalidParameter(String),
+    /// Work refused because its estimated output (triangles, samples or memory) would
+    /// pass a limit the caller set; the message names the estimate, the limit and what
+    /// to change. A kind of its own so callers can offer a remedy without reading text.
+    #[error("{0}")]
+    OverLimit(String),
     /// A texture file or folder that cannot be read or written; `path` names it.
     #[error("{path}: {message}")]
     File { path: String, message: String },

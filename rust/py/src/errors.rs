@@ -12,6 +12,13 @@ pyo3::create_exception!(
     "A mesh, array or setting Thicket cannot use (empty, non-finite, out of range, wrong shape); the message says which."
 );
 
+pyo3::create_exception!(
+    thicket_native,
+    OverLimit,
+    InvalidInput,
+    "Work refused because its estimated output would pass a limit (Sample Limit, memory limit); the message names the estimate, the limit and what to change."
+);
+
 pyo3::create_exception!(thicket_native, FileError, ThicketError, "A file or folder that cannot be read or written; the message names it.");
 
 pyo3::create_exception!(
@@ -38,6 +45,7 @@ pub fn to_py(e: thicket_core::Error) -> PyErr {
         E::Cancelled => Cancelled::new_err(message),
         E::Device(_) => DeviceError::new_err(message),
         E::File { .. } => FileError::new_err(message),
+        E::OverLimit(_) => OverLimit::new_err(message),
         E::EmptyMesh | E::InvalidMesh(_) | E::NonFinite { .. } | E::InvalidParameter(_) => InvalidInput::new_err(message),
     }
 }

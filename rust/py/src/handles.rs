@@ -84,6 +84,22 @@ impl Mesh {
         Ok(d)
     }
 
+    /// with_world_size_uvs(tile_size) -> Mesh
+    ///
+    /// This mesh with `world_size_uvs(tile_size)["uvs"]` as its UV map (the core's
+    /// `texture::with_world_size_uvs`), made without the arrays crossing into Python.
+    fn with_world_size_uvs(&self, py: Python<'_>, tile_size: f32) -> PyResult<Self> {
+        let mesh = self.inner.clone();
+        let inner = run_detached(py, move || thicket_core::texture::with_world_size_uvs(&mesh, tile_size))?;
+        Ok(Self { inner: Arc::new(inner) })
+    }
+
+    /// uvs -> float32 (corners, 2) or None: the mesh's UV map, one (s, t) per corner.
+    #[getter]
+    fn uvs<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, numpy::PyArray2<f32>>>> {
+        self.inner.uvs().map(|uvs| arrays::vec2_array(py, uvs.to_vec())).transpose()
+    }
+
     /// vertex_normals() -> float32 (n, 3)
     ///
     /// Unit vertex normals as Blender computes them (the core's `mesh::vertex_normals`):

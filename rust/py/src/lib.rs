@@ -3,7 +3,7 @@
 //! Only type and error adaptation lives here: numpy arrays in (float32 positions,
 //! int32/uint32 indices, read without copying when contiguous), numpy arrays out (Rust
 //! vectors handed over without copying), core errors as `ThicketError` subclasses
-//! (`InvalidInput`, `FileError`, `DeviceError`, `Cancelled`), Rust panics caught and
+//! (`InvalidInput` and its `OverLimit`, `FileError`, `DeviceError`, `Cancelled`), Rust panics caught and
 //! reported as `InternalError` so Blender never goes down. Heavy work runs
 //! with the GIL released.
 
@@ -29,6 +29,7 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("ThicketError", m.py().get_type::<errors::ThicketError>())?;
     m.add("InvalidInput", m.py().get_type::<errors::InvalidInput>())?;
+    m.add("OverLimit", m.py().get_type::<errors::OverLimit>())?;
     m.add("FileError", m.py().get_type::<errors::FileError>())?;
     m.add("DeviceError", m.py().get_type::<errors::DeviceError>())?;
     m.add("Cancelled", m.py().get_type::<errors::Cancelled>())?;

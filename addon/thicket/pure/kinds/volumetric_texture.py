@@ -164,8 +164,8 @@ def _pointing_at_world_size(error, shell: ShellContext, settings):
     """`error` (a bake refused over the sample limit) with `WORLD_SIZE_HINT` where the
     base has no UVs and its faces are tiles; otherwise `error` itself."""
     tn = native.get()
-    if isinstance(error, tn.InvalidInput) and "over the limit" in str(error) and shell.base.uvs is None and settings.get("world_tile_size") is None:
-        return tn.InvalidInput(f"{error}; {WORLD_SIZE_HINT}")
+    if isinstance(error, tn.OverLimit) and shell.base.uvs is None and settings.get("world_tile_size") is None:
+        return tn.OverLimit(f"{error}; {WORLD_SIZE_HINT}")
     return error
 
 

@@ -182,7 +182,7 @@ fn gigabytes(bytes: u64) -> String {
 /// The error of a build stopped at the memory limit `limit`; `what` says what it had
 /// seen.
 pub(crate) fn over_limit(limit: u64, what: &str) -> Error {
-    Error::InvalidParameter(format!("the field mesh would pass the memory limit of {} ({what}, more than the estimate saw): use fewer cells", gigabytes(limit)))
+    Error::OverLimit(format!("the field mesh would pass the memory limit of {} ({what}, more than the estimate saw): use fewer cells", gigabytes(limit)))
 }
 
 impl Estimate {
@@ -210,7 +210,7 @@ impl Estimate {
             Mesher::Dual => (self.faces, "quads"),
             Mesher::Grid => (self.faces, "triangles"),
         };
-        Err(Error::InvalidParameter(format!(
+        Err(Error::OverLimit(format!(
             "resolution {} ({}x{}x{} cells) would make about {} vertices and {} {what} and need about {} at its peak, over the memory limit of {}: use about {} cells or fewer",
             self.resolution,
             self.cells.x,

@@ -88,6 +88,7 @@ fn a_build_past_the_limit_stops_with_the_limit_named() {
         let watch = Watch { progress: None, max_bytes: Some(max_bytes) };
         let start = Instant::now();
         let err = mesh_dual_watched(&t, &DualParams { bounds, resolution: 256 }, &watch).unwrap_err();
+        assert!(matches!(err, crate::Error::OverLimit(_)), "{err:?}");
         assert!(err.to_string().contains("the field mesh would pass the memory limit"), "{err}");
         assert!(start.elapsed().as_secs_f64() < 1.0);
         let err = mesh_field_watched(&t, &GridParams { bounds, resolution: 256, refine: true }, &watch).unwrap_err();

@@ -26,7 +26,7 @@ pub mod textured_shell;
 pub mod volume;
 
 pub use bake::{bake, BakeParams, BakedMesh};
-pub use charts::Charts;
+pub use charts::{with_world_size_uvs, Charts};
 pub use from_field::texture_from_field;
 pub use layer::TextureLayer;
 pub use mapping::{CellMap, TextureCoordinates, TriangleCells};

@@ -151,7 +151,9 @@ fn bad_bakes_are_errors() {
     // Over the limit even at `resolution` steps: the bake and its estimate refuse alike,
     // naming the count of the coarsest lattice, which the estimate at that lattice gives.
     let small = BakeParams { max_triangles: 100, ..Default::default() };
-    let err = bake(&mesh, &s, &tex, &small).unwrap_err().to_string();
+    let err = bake(&mesh, &s, &tex, &small).unwrap_err();
+    assert!(matches!(err, crate::Error::OverLimit(_)), "a refusal over the limit is its own kind: {err:?}");
+    let err = err.to_string();
     assert_eq!(estimate_triangles(&mesh, &s, &tex, &small).unwrap_err().to_string(), err);
     let count: usize = err.split("about ").nth(1).and_then(|r| r.split(' ').next()).and_then(|n| n.parse().ok()).unwrap_or(0);
     assert!(count > 100 && err.contains("limit of 100"), "{err}");

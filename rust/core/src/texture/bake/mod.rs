@@ -562,7 +562,7 @@ fn fitted_setup(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &
             return Ok((setup, sampled));
         }
         if setup.block == 1 {
-            return Err(Error::InvalidParameter(format!(
+            return Err(Error::OverLimit(format!(
                 "this bake would make about {sampled} triangles, over the limit of {}; lower the tiling, resolution or texture size, or raise the limit",
                 params.max_triangles
             )));
