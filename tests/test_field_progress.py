@@ -133,6 +133,29 @@ def test_live_regeneration_refused_by_the_estimate_keeps_the_mesh_and_says_why(s
     assert time.monotonic() - start < 5.0, "refused before meshing"
     assert "memory limit" in message and tree.status == message
     assert_unchanged(before, obj)
+
+
+def test_live_regeneration_in_the_interface_leaves_a_large_mesh_to_the_regenerate_button(scene):
+    """Live updates in the interface (`ask`) do not mesh a tree estimated above the
+    confirmation threshold: that would hold Blender for seconds on every node tweak.
+    The status says so with the estimate, the mesh stays; small trees regenerate."""
+    from thicket.pure.field_tree import CONFIRM_ABOVE
+
+    tree = node_tree(resolution=24)
+    obj = api.build_field_nodes_mesh(tree)
+    before = snapshot(obj)
+    tree.resolution = 1536  # a sphere: about 14 M triangles, within the memory limit
+    estimate = tree_estimate(tree)
+    assert estimate["fits"] and estimate["triangles"] > CONFIRM_ABOVE, estimate
+    start = time.monotonic()
+    message = live.regenerate_tree(tree, ask=True)
+    assert time.monotonic() - start < 5.0, "left before meshing"
+    assert message.startswith("Not regenerated live") and "Regenerate" in message and tree.status == message
+    assert f"{int(estimate['triangles']):,} triangles" in message
+    assert_unchanged(before, obj)
+    tree.resolution = 32  # small again: regenerated live, the status cleared
+    assert live.regenerate_tree(tree, ask=True) == "" and tree.status == ""
+    assert len(obj.data.vertices) > len(before[0]) and obj["thicket_field"]["resolution"] == 32
     tree.resolution = 32
     assert live.regenerate_tree(tree) == "" and tree.status == ""
     assert snapshot(obj)[3]["resolution"] == 32

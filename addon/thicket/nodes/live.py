@@ -82,11 +82,26 @@ def regenerate(obj, progress=None, max_bytes=None):
     return obj
 
 
-def regenerate_tree(tree):
+def waits_for_the_user(tree):
+    """The status of a tree too large to regenerate live (its estimate passes
+    `CONFIRM_ABOVE` triangles, as the Regenerate button would ask about), else ""."""
+    from ..pure.field_tree import CONFIRM_ABOVE, estimate_text, needs_confirmation
+    from .tree import tree_estimate
+
+    estimate = tree_estimate(tree)
+    if estimate is None or not needs_confirmation(estimate, CONFIRM_ABOVE):
+        return ""
+    return f"Not regenerated live: {estimate_text(estimate)}; press Regenerate to build it (with progress, Esc cancels)"
+
+
+def regenerate_tree(tree, ask=False):
     """Regenerates every Field Mesh of `tree`; the first error goes to
-    `tree.status` (empty on success), never raised."""
-    message = ""
-    for obj in linked_objects(tree):
+    `tree.status` (empty on success), never raised. `ask` (live updates in the
+    interface): a tree estimated above `CONFIRM_ABOVE` triangles is not meshed on
+    the spot, which would hold the interface for seconds; the status says so and
+    the meshes stay as they were, as a stack's large bake waits for Regenerate."""
+    message = waits_for_the_user(tree) if ask else ""
+    for obj in linked_objects(tree) if not message else ():
         try:
             regenerate(obj)
         except errors() as exc:
@@ -113,7 +128,7 @@ def _regenerate_tree(name: str) -> None:
     if tree is None or tree.bl_idname != TREE_IDNAME:
         return
     if linked_objects(tree):
-        regenerate_tree(tree)
+        regenerate_tree(tree, ask=not bpy.app.background)
     from ..stack import auto_update
 
     for obj in stack_users(tree):  # their stacks regenerate as on any other change
