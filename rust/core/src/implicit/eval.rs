@@ -244,9 +244,14 @@ impl Slot {
 
 /// Per-thread working memory of a run: the tape's stack and the n-ary operations'
 /// accumulators.
+///
+/// Its memory comes from a per-thread pool and goes back there when dropped: the
+/// polygonizer asks for values a block at a time, and a fresh stack of zeroed slots
+/// per call cost more than the tape itself. Nothing is read before it is written.
 pub(crate) struct Scratch {
     stack: Vec<Box<Slot>>,
-    work: Work,
+    /// Always `Some` until dropped (then back to the pool).
+    work: Option<Box<Work>>,
 }
 
 struct Work {
@@ -254,12 +259,46 @@ struct Work {
     top: [f64; BLOCK],
     arg: [usize; BLOCK],
     sum: [f64; BLOCK],
+    /// One child's `w_p` terms.
+    terms: [f64; BLOCK],
+    /// The block's points as coordinate arrays.
+    xyz: [[f64; BLOCK]; 3],
+}
+
+/// A stack and working memory, pooled.
+type Pooled = (Vec<Box<Slot>>, Box<Work>);
+
+thread_local! {
+    static POOL: std::cell::RefCell<Vec<Pooled>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 impl Scratch {
     pub fn new(tape: &Tape) -> Self {
-        let work = Work { acc: Slot::new(), top: [0.0; BLOCK], arg: [0; BLOCK], sum: [0.0; BLOCK] };
-        Scratch { stack: (0..tape.depth).map(|_| Slot::new()).collect(), work }
+        let (mut stack, work) = POOL.with(|p| p.borrow_mut().pop()).unwrap_or_else(|| {
+            (
+                Vec::new(),
+                Box::new(Work { acc: Slot::new(), top: [0.0; BLOCK], arg: [0; BLOCK], sum: [0.0; BLOCK], terms: [0.0; BLOCK], xyz: [[0.0; BLOCK]; 3] }),
+            )
+        });
+        while stack.len() < tape.depth {
+            stack.push(Slot::new());
+        }
+        Scratch { stack, work: Some(work) }
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if let Some(work) = self.work.take() {
+            let stack = std::mem::take(&mut self.stack);
+            // A few per thread at most (a thread holds one or two at once).
+            let _ = POOL.try_with(|p| {
+                let mut p = p.borrow_mut();
+                if p.len() < 4 {
+                    p.push((stack, work));
+                }
+            });
+        }
     }
 }
 
@@ -269,6 +308,12 @@ impl Tape {
     pub fn run<'s>(&self, points: &[DVec3], need: Need, s: &'s mut Scratch) -> &'s Slot {
         let n = points.len();
         debug_assert!(n <= BLOCK);
+        let work = s.work.as_deref_mut().expect("held until dropped");
+        for (j, p) in points.iter().enumerate() {
+            work.xyz[0][j] = p.x;
+            work.xyz[1][j] = p.y;
+            work.xyz[2][j] = p.z;
+        }
         let mut sp = 0;
         for inst in &self.insts {
             match inst {
@@ -283,10 +328,9 @@ impl Tape {
                             out.g[2][j] = g.z;
                         }
                     } else {
-                        // The same code; inlined, its unused gradient is optimized away.
-                        for (o, x) in out.f.iter_mut().zip(points) {
-                            *o = prim.eval(*x).0;
-                        }
+                        // The same values, over the coordinate arrays (vectorized).
+                        let [x, y, z] = &work.xyz;
+                        prim.values(&x[..n], &y[..n], &z[..n], &mut out.f[..n]);
                     }
                     out.id[..n].fill(*id);
                     if need.attributes {
@@ -343,12 +387,12 @@ impl Tape {
                 }
                 Inst::H(k) => {
                     sp -= k;
-                    h_block(&mut s.stack[sp..sp + k], n, need, &mut s.work);
+                    h_block(&mut s.stack[sp..sp + k], n, need, work);
                     sp += 1;
                 }
                 Inst::Wp { p, n: k, kind } => {
                     sp -= k;
-                    wp_block(&mut s.stack[sp..sp + k], n, *p, *kind, need, &mut s.work);
+                    wp_block(&mut s.stack[sp..sp + k], n, *p, *kind, need, work);
                     sp += 1;
                 }
                 Inst::Displace { amplitude, omega, tau } => {
@@ -444,6 +488,8 @@ fn h_block(slots: &mut [Box<Slot>], n: usize, need: Need, s: &mut Work) {
 }
 
 /// `outer · w_p(sign_i f_i)` over the `k` children into `slots[0]`, by log-sum-exp.
+/// Each child's terms `e^(p s_i f_i - max)` are formed in one vectorized loop
+/// ([`kernel::exp_nonpositive`]), then weigh its gradient and attributes.
 fn wp_block(slots: &mut [Box<Slot>], n: usize, p: f64, kind: WpKind, need: Need, s: &mut Work) {
     argmax(slots, n, |i| p * kind.sign(i), &mut s.top, &mut s.arg);
     let acc = &mut s.acc;
@@ -451,11 +497,30 @@ fn wp_block(slots: &mut [Box<Slot>], n: usize, p: f64, kind: WpKind, need: Need,
     clear(acc, n, need);
     for (i, slot) in slots.iter().enumerate() {
         let ps = p * kind.sign(i);
+        let (terms, sum, top, f) = (&mut s.terms[..n], &mut s.sum[..n], &s.top[..n], &slot.f[..n]);
         for j in 0..n {
-            let e = (ps * slot.f[j] - s.top[j]).exp();
-            s.sum[j] += e;
-            // The gradient takes the arguments' signs; the colours the bare weights.
-            accumulate(acc, slot, j, e * kind.sign(i) * kind.outer(), e, need);
+            let e = kernel::exp_nonpositive(ps * f[j] - top[j]);
+            terms[j] = e;
+            sum[j] += e;
+        }
+        // The gradient takes the arguments' signs; the colours the bare weights.
+        let sign = kind.sign(i) * kind.outer();
+        if need.gradient {
+            for (ag, sg) in acc.g.iter_mut().zip(&slot.g) {
+                for j in 0..n {
+                    ag[j] += terms[j] * sign * sg[j];
+                }
+            }
+        }
+        if need.attributes {
+            for (ac, sc) in acc.c.iter_mut().zip(&slot.c) {
+                for j in 0..n {
+                    ac[j] += terms[j] * sc[j];
+                }
+            }
+            for ((at, e), st) in acc.t[..n].iter_mut().zip(terms.iter()).zip(&slot.t[..n]) {
+                *at += e * st;
+            }
         }
     }
     for j in 0..n {
