@@ -122,7 +122,10 @@ pub fn mesh_dual_watched<F: ScalarField + ?Sized>(field: &F, params: &DualParams
     let (mut vertices, mut quads) = (0u64, 0u64);
     for batch in live.chunks(BLOCKS_PER_LOOK) {
         watch.check()?;
-        let done: Vec<block::Block> = batch.par_iter().map(|&b| block::process(field, &lattice, b * lattice::BLOCK)).collect::<Result<_>>()?;
+        let origins: Vec<UVec3> = batch.iter().map(|&b| b * lattice::BLOCK).collect();
+        let shared = block::Shared::of(field, &lattice, &origins)?;
+        profile.evaluations += shared.evaluated();
+        let done: Vec<block::Block> = origins.par_iter().map(|&o| block::process(field, &lattice, o, &shared)).collect::<Result<_>>()?;
         vertices += done.iter().map(|b| b.qef.len() as u64).sum::<u64>();
         quads += done.iter().map(|b| b.edges.len() as u64).sum::<u64>();
         blocks.extend(done);
@@ -136,7 +139,7 @@ pub fn mesh_dual_watched<F: ScalarField + ?Sized>(field: &F, params: &DualParams
     }
     drop(live);
     profile.cells_ms = ms(start);
-    profile.evaluations = blocks.iter().map(|b| b.evaluations).sum();
+    profile.evaluations += blocks.iter().map(|b| b.evaluations).sum::<usize>();
     watch.check()?;
     let start = Instant::now();
     let mut offsets = Vec::with_capacity(blocks.len());

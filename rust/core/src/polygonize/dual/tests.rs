@@ -215,3 +215,29 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(SurfaceCheck::of(&m.positions, &m.triangles()).is_closed_manifold());
     assert_eq!(m.quads, mesh(&sphere, ok, 16).quads);
 }
+
+/// A batch's shared samples ([`block::Shared`], each lattice point evaluated once)
+/// against each block sampled alone ([`block::Samples::of`]): the same points, lattice
+/// coordinates and cut values, bit for bit, on every live block of issue 17's tree
+/// (batches of a few blocks and all at once).
+#[test]
+fn shared_samples_match_each_block_sampled_alone() {
+    let t = tree(crate::implicit::samples::SOFT_CSG_20);
+    let bounds = around(&t, 48, 2.0);
+    let lattice = lattice::Lattice::new(bounds, 48).unwrap();
+    let live = octree::live_blocks(&t, &lattice, &crate::polygonize::estimate::Watch::default()).unwrap();
+    assert!(live.len() > 50, "{} live blocks", live.len());
+    let origins: Vec<UVec3> = live.iter().map(|&b| b * BLOCK).collect();
+    for batch in [&origins[..], &origins[..7], &origins[origins.len() - 5..]] {
+        let shared = block::Shared::of(&t, &lattice, batch).unwrap();
+        let mut total = 0;
+        for &o in batch {
+            let (a, b) = (block::Samples::of(&t, &lattice, o).unwrap(), block::Samples::from_shared(&lattice, o, &shared));
+            assert_eq!((a.size, &a.points, &a.at), (b.size, &b.points, &b.at), "block at {o}");
+            assert!(a.values.iter().zip(&b.values).all(|(x, y)| x.to_bits() == y.to_bits()), "block at {o}: values differ");
+            total += a.points.len();
+        }
+        // Neighbours share their faces' points: fewer evaluated than sampled alone.
+        assert!(shared.evaluated() <= total && (batch.len() < 8 || shared.evaluated() < total), "{} of {total}", shared.evaluated());
+    }
+}
