@@ -347,7 +347,7 @@ def test_editing_a_tree_text_regenerates_the_stacks_that_read_it(scene):
     script.write("print('hello')")
     text_watch.poll()
     script.from_string("print('edited')")
-    assert text_watch.poll() == []
+    assert text_watch.poll() == [] and script.as_pointer() not in text_watch._seen
     text.use_fake_user = False
     text.from_string(striped(omega=2.0))
     assert text_watch.poll() == [cube]

@@ -209,7 +209,7 @@ def build_field_mesh(tree_json, name="Field Mesh", resolution=128, bounds=None, 
     the .blend) for `regenerate_field_mesh`. Bad JSON, p <= 0, NaN and the like, or a
     resolution out of range raise a ThicketError before anything is made, and so
     does a resolution whose estimate (`estimate_field_mesh`) passes `max_bytes`
-    (default 4 GB): an InvalidInput naming the estimate and the limit.
+    (default 4 GB): an OverLimit (an InvalidInput) naming the estimate and the limit.
     `progress`: see the module docs (a cancel makes nothing)."""
     from .fields import build_field_mesh as build
 

@@ -43,7 +43,7 @@ def estimate(prepared, max_bytes=None):
 def mesh_arrays(prepared, progress=None, max_bytes=None):
     """The mesh of a `prepare`d build, without Blender (a worker thread may run it):
     `progress` sees 0 to MESHING_SHARE; a cancel raises `Cancelled`, a build over
-    `max_bytes` (default 4 GB) raises `InvalidInput` before it starts."""
+    `max_bytes` (default 4 GB) raises `OverLimit` (an `InvalidInput`) before it starts."""
     _progress(progress, 0.0)
     scaled = None if progress is None else (lambda f: progress(MESHING_SHARE * min(max(float(f), 0.0), 1.0)))
     p = prepared

@@ -113,7 +113,7 @@ def field_mesh_arrays(tree, resolution=128, bounds=None, adaptive=True, progress
     returned, vertex normals from the field, and per-vertex colour (RGBA), texture
     value and primitive id as attributes (`attributes`, name -> (domain, type, values)).
     `progress` and `max_bytes`: as the core's (a cancel raises `Cancelled`, a build
-    estimated over the limit raises `InvalidInput` before anything big is made)."""
+    estimated over the limit raises `OverLimit`, an `InvalidInput`, before anything big is made)."""
     text = check_tree(tree)
     resolution, bounds = check_mesh_settings(resolution, bounds)
     out = native.get().field_mesh(text, bounds=bounds, resolution=resolution, adaptive=bool(adaptive), progress=progress, max_bytes=max_bytes)

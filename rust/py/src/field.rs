@@ -140,7 +140,7 @@ fn mesher(adaptive: bool) -> Mesher {
 /// the memory the build may take (None: 4 GB). A build whose estimate
 /// (`field_mesh_estimate`) passes it is refused before anything big is made, and one
 /// whose surface turns out finer than the estimate saw stops once it would pass it;
-/// both raise InvalidInput naming the estimate and the limit.
+/// both raise OverLimit (an InvalidInput) naming the estimate and the limit.
 ///
 /// Returns vertices (n, 3) float32, face_sizes and corners int32 (quads with
 /// adaptive=True, their better split along corners 0-2; triangles otherwise), normals

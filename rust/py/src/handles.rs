@@ -71,7 +71,7 @@ impl Mesh {
     ///
     /// Texture coordinates for a mesh without a UV map (the core's `texture::Charts`):
     /// faces grouped into charts that project flat without folding, one texture tile
-    /// every `tile_size` world units. `uvs` float32 (corners, 2), `chart_of_face`
+    /// every `tile_size` units of the mesh's coordinates along the surface. `uvs` float32 (corners, 2), `chart_of_face`
     /// int32 (faces,), `chart_count`. A tile size that is not a positive finite length
     /// raises `InvalidInput`.
     fn world_size_uvs<'py>(&self, py: Python<'py>, tile_size: f32) -> PyResult<Bound<'py, PyDict>> {

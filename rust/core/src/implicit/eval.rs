@@ -268,6 +268,9 @@ struct Work {
 /// A stack and working memory, pooled.
 type Pooled = (Vec<Box<Slot>>, Box<Work>);
 
+/// The deepest tape stack [`Scratch`] keeps for reuse (slots of [`BLOCK`] values).
+const POOLED_DEPTH: usize = 64;
+
 thread_local! {
     static POOL: std::cell::RefCell<Vec<Pooled>> = const { std::cell::RefCell::new(Vec::new()) };
 }
@@ -294,7 +297,9 @@ impl Drop for Scratch {
             // A few per thread at most (a thread holds one or two at once).
             let _ = POOL.try_with(|p| {
                 let mut p = p.borrow_mut();
-                if p.len() < 4 {
+                // A tape far deeper than usual does not pin its stack for the
+                // thread's life: only stacks of ordinary depth go back.
+                if p.len() < 4 && stack.len() <= POOLED_DEPTH {
                     p.push((stack, work));
                 }
             });

@@ -60,7 +60,7 @@ pub(crate) fn wp_value(p: f64, values: impl Iterator<Item = f64> + Clone) -> f64
 /// loop over a block of points vectorizes: `x = n ln 2 + r` with `|r| <= ln 2 / 2`
 /// (Cody and Waite's split of `ln 2`), `e^r` by its Taylor series to degree 13
 /// (remainder below 2e-16 relative), times `2^n` built in the exponent bits. Within
-/// 2 ulp of `f64::exp` (tested); below `-708` (where `e^x` is subnormal) it gives
+/// a relative `2 EPSILON` of `f64::exp` (tested); below `-708` (where `e^x` is subnormal) it gives
 /// `e^-708`, a term that cannot change a sum holding the largest term's 1. A NaN
 /// stays NaN.
 #[inline(always)]
@@ -69,6 +69,7 @@ pub(crate) fn exp_nonpositive(x: f64) -> f64 {
     const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     // 1.5 * 2^52: adding it rounds to an integer held in the low mantissa bits.
     const SHIFT: f64 = 6_755_399_441_055_744.0;
+    debug_assert!(!(x > 0.0), "exp_nonpositive({x}): a positive argument would overflow the exponent bits");
     let x = if x < -708.0 { -708.0 } else { x };
     let t = x * std::f64::consts::LOG2_E + SHIFT;
     let n = t - SHIFT;
@@ -180,7 +181,9 @@ impl Prim {
 
     /// Values only over a block of points given as coordinate arrays (`x`, `y`, `z` and
     /// `out` of one length): the same arithmetic as [`Prim::eval`] in the same order
-    /// (so the same values, bit for bit), written without branches per point so the
+    /// (so the same values, bit for bit, but for the sign of a zero and a NaN
+    /// coordinate, which `f64::max` may drop: points are checked finite before they
+    /// reach a tape), written without branches per point so the
     /// loop vectorizes; `h` of the box's six plane functions uses that at most one of
     /// `fi - ai` and `-fi - ai` is positive (`ai >= 0`): the larger is `|fi| - ai`.
     #[inline(always)]
@@ -300,7 +303,7 @@ mod tests {
         }
     }
 
-    /// The vectorized exponential against `f64::exp`: within 2 ulp down to `-708`, the
+    /// The vectorized exponential against `f64::exp`: within a relative `2 EPSILON` down to `-708`, the
     /// subnormal tail held at `e^-708` (far below a term of 1), NaN kept.
     #[test]
     fn exp_nonpositive_matches_std_exp() {

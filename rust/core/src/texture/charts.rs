@@ -17,7 +17,7 @@
 //!    triangle is within twice the cone (70 degrees) of the projection direction:
 //!    its projected area is positive (at least `cos 70° ≈ 0.34` of its area), so no
 //!    projection folds.
-//! 3. Scale: `(s, t)` in tiles of `tile_size` world units, the projection stretched
+//! 3. Scale: `(s, t)` in tiles of `tile_size` mesh units, the projection stretched
 //!    uniformly per chart so that the chart's area in tiles is its world area over
 //!    `tile_size²` (a tilted face would otherwise get smaller projected tiles, so
 //!    larger world tiles, than a face parallel to the plane).
@@ -69,11 +69,11 @@ impl PartialOrd for Candidate {
 
 impl Charts {
     /// Charts of `mesh` and the `(s, t)` of its corners, one tile every `tile_size`
-    /// world units along the surface. `tile_size` must be positive and finite.
+    /// mesh units along the surface. `tile_size` must be positive and finite.
     pub fn of(mesh: &Mesh, tile_size: f32) -> Result<Self> {
         mesh.require_faces()?;
         if !(tile_size.is_finite() && tile_size > 0.0) {
-            return Err(Error::InvalidParameter(format!("the tile size must be a positive world length, not {tile_size}")));
+            return Err(Error::InvalidParameter(format!("the tile size must be a positive length, not {tile_size}")));
         }
         let p = mesh.positions();
         let tri = Triangulation::of(mesh);

@@ -8,7 +8,7 @@
 //! - [`mapping`]: texture coordinates of the shell's cells (UVs times tiling, or one
 //!   tile per face) and the cell map between world and texture space.
 //! - [`charts`]: generated texture coordinates for meshes without a UV map: charts
-//!   projected flat, one tile every `tile_size` world units.
+//!   projected flat, one tile every `tile_size` mesh units.
 //! - [`layer`]: a texture placed in the shell with its `(s, t)` offset.
 //! - [`bake`]: the iso-surface polygonized over the whole shell as one crack-free mesh.
 //! - [`textured_shell`]: mesh, shell, textures and effects as one checked object, from
