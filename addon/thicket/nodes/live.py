@@ -85,11 +85,13 @@ def regenerate(obj, progress=None, max_bytes=None):
 def waits_for_the_user(tree):
     """The status of a tree too large to regenerate live (its estimate passes
     `CONFIRM_ABOVE` triangles, as the Regenerate button would ask about), else ""."""
-    from ..pure.field_tree import CONFIRM_ABOVE, estimate_text, needs_confirmation
-    from .tree import tree_estimate
+    from ..pure.field_tree import CONFIRM_ABOVE, estimate_text, field_mesh_estimate, needs_confirmation
 
-    estimate = tree_estimate(tree)
-    if estimate is None or not needs_confirmation(estimate, CONFIRM_ABOVE):
+    try:  # the sidebar's estimate (`tree.tree_estimate`), cached by the same call
+        estimate = field_mesh_estimate(tree_json(tree), tree.resolution, None, tree.adaptive)
+    except errors():
+        return ""  # not a valid tree: the regeneration reports why
+    if not needs_confirmation(estimate, CONFIRM_ABOVE):
         return ""
     return f"Not regenerated live: {estimate_text(estimate)}; press Regenerate to build it (with progress, Esc cancels)"
 
