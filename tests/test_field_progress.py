@@ -19,7 +19,7 @@ import thicket_native as tn
 from thicket import api, mesh_io
 from thicket.fields import field_mesh
 from thicket.nodes import live
-from thicket.nodes.tree import tree_estimate
+from thicket.nodes.live import tree_estimate
 from thicket.operators.field_mesh_add import THICKET_OT_field_mesh_add, watched_field_build
 from thicket.operators.field_mesh_regenerate import THICKET_OT_field_mesh_regenerate, regeneration_build
 from thicket.pure.field_tree import CONFIRM_ABOVE, estimate_text, needs_confirmation
@@ -279,3 +279,26 @@ def test_esc_cancels_the_watched_build_and_changes_nothing(scene):
     prepared, label, write = regeneration_build(obj, "Regenerate Field Mesh")
     watch = watched_field_build(prepared, label, lambda kind, message: reports.append((kind, message)), write)
     assert run_modal(watch) == {"FINISHED"} and obj["thicket_field"]["resolution"] == 200
+
+
+def test_regenerate_rebuilds_every_field_mesh_of_the_tree_and_estimates_within_stored_bounds(scene):
+    tree = node_tree(resolution=24)
+    tree.auto_update = False  # the tree changes without live regeneration, as a large tree would
+    first, second = api.build_field_nodes_mesh(tree, name="First"), api.build_field_nodes_mesh(tree, name="Second")
+    tree.resolution = 40
+    prepared, label, write = regeneration_build(first, "Regenerate Field Mesh")
+    assert run_modal(watched_field_build(prepared, label, lambda *report: None, write)) == {"FINISHED"}
+    # Both follow the tree, the second with the same mesh, and the tree's status is clear.
+    assert first["thicket_field"]["resolution"] == second["thicket_field"]["resolution"] == 40
+    np.testing.assert_array_equal(mesh_io.read_mesh(first.data).corners, mesh_io.read_mesh(second.data).corners)
+    assert tree.status == ""
+    # The sidebar's (and the live limit's) estimate meshes within the first Field Mesh's
+    # stored bounds: in a box eight times as wide the cells are too, and the sphere
+    # gets far fewer triangles, as the regeneration then makes.
+    whole = tree_estimate(tree)["triangles"]
+    side = 8 * float(np.ptp(mesh_io.read_mesh(first.data).vertices, axis=0).max())
+    first["thicket_field"]["bounds"] = [-side / 2] * 3 + [side / 2] * 3
+    guess = tree_estimate(tree)["triangles"]
+    live.regenerate(first)
+    real = triangles(first)
+    assert guess < whole / 8 and real / 1.5 <= guess <= real * 1.5, (guess, whole, real)

@@ -7,7 +7,7 @@ was and keeps the message on the tree (`status`, shown in the editor's sidebar).
 import bpy
 from bpy.app.handlers import persistent
 
-from ..fields.field_mesh import build_field_mesh, field_settings, regenerate_field_mesh
+from ..fields.field_mesh import build_field_mesh, estimate, field_settings, prepare, prepare_regeneration, regenerate_field_mesh
 from ..pure import native
 from ..pure.field_nodes import TREE_IDNAME
 from ..stack.debounce import Debounced
@@ -82,18 +82,35 @@ def regenerate(obj, progress=None, max_bytes=None):
     return obj
 
 
+def tree_estimate(tree):
+    """The core's estimate of meshing `tree` at its settings, within the stored
+    bounds of its first Field Mesh (the tree's own bound when it has none); None
+    when the graph is not a valid tree (its status says why). Cached by tree,
+    settings and bounds (`pure.field_tree.field_mesh_estimate`): the sidebar asks
+    on every redraw."""
+    linked = linked_objects(tree)
+    try:
+        if linked:
+            prepared = prepare_regeneration(linked[0], tree_json(tree), tree.resolution, tree.adaptive)[0]
+        else:
+            prepared = prepare(tree_json(tree), tree.resolution, None, tree.adaptive)
+        return estimate(prepared)
+    except errors():
+        return None
+
+
+NOT_LIVE = "Not regenerated live"
+
+
 def waits_for_the_user(tree):
     """The status of a tree too large to regenerate live (its estimate passes
     `CONFIRM_ABOVE` triangles, as the Regenerate button would ask about), else ""."""
-    from ..pure.field_tree import CONFIRM_ABOVE, estimate_text, field_mesh_estimate, needs_confirmation
+    from ..pure.field_tree import CONFIRM_ABOVE, estimate_text, needs_confirmation
 
-    try:  # the sidebar's estimate (`tree.tree_estimate`), cached by the same call
-        estimate = field_mesh_estimate(tree_json(tree), tree.resolution, None, tree.adaptive)
-    except errors():
-        return ""  # not a valid tree: the regeneration reports why
-    if not needs_confirmation(estimate, CONFIRM_ABOVE):
-        return ""
-    return f"Not regenerated live: {estimate_text(estimate)}; press Regenerate to build it (with progress, Esc cancels)"
+    guess = tree_estimate(tree)
+    if guess is None or not needs_confirmation(guess, CONFIRM_ABOVE):
+        return ""  # fits, or not a valid tree: the regeneration reports why
+    return f"{NOT_LIVE}: {estimate_text(guess)}; press Regenerate to build it (with progress, Esc cancels)"
 
 
 def regenerate_tree(tree, ask=False):

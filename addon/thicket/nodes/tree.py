@@ -384,20 +384,6 @@ def draw_add_menu(self, context):
         self.layout.menu(THICKET_MT_field_nodes_add.bl_idname)
 
 
-def tree_estimate(tree):
-    """The core's estimate of meshing `tree` at its settings (cached by tree and
-    resolution: `pure.field_tree.field_mesh_estimate`), None when the graph is not a
-    valid tree (its status says why)."""
-    from ..pure import native
-    from ..pure.field_tree import field_mesh_estimate
-    from .graph import tree_json
-
-    try:
-        return field_mesh_estimate(tree_json(tree), tree.resolution, None, tree.adaptive)
-    except (TypeError, KeyError, ValueError, RuntimeError, *native.error_types()):
-        return None
-
-
 class THICKET_PT_field_nodes(bpy.types.Panel):
     bl_space_type = "NODE_EDITOR"
     bl_region_type = "UI"
@@ -415,14 +401,16 @@ class THICKET_PT_field_nodes(bpy.types.Panel):
         layout.prop(tree, "resolution")
         layout.prop(tree, "adaptive")
         layout.prop(tree, "auto_update")
-        estimate = tree_estimate(tree)
+        from . import live
+
+        estimate = live.tree_estimate(tree)
         if estimate is not None:
             text = estimate_text(estimate)
             layout.label(text=text[:1].upper() + text[1:], icon="INFO" if estimate["fits"] else "ERROR")
         layout.operator("thicket.field_nodes_add", text="Add Field Mesh", icon="META_BALL")
         layout.operator("thicket.field_mesh_regenerate", text="Regenerate", icon="FILE_REFRESH")
         if tree.status:
-            layout.label(text=tree.status, icon="ERROR")
+            layout.label(text=tree.status, icon="INFO" if tree.status.startswith(live.NOT_LIVE) else "ERROR")
 
 
 CLASSES = (ThicketFieldTree, ThicketFieldSocket, *NODE_CLASSES, THICKET_MT_field_nodes_add, THICKET_PT_field_nodes)

@@ -44,10 +44,35 @@ class THICKET_OT_field_mesh_regenerate(FieldBuildOperator, bpy.types.Operator):
         return regeneration_build(obj, self.bl_label)
 
 
+def _follow(tree, done, prepared, arrays):
+    """The other Field Meshes of `tree` follow `done`, rebuilt from `prepared` into
+    `arrays`: those with the same settings take the same arrays, any other (stored
+    bounds of its own) is meshed again here. The tree's status clears, or names
+    the first that failed."""
+    from ..nodes import live
+    from ..nodes.graph import tree_json
+
+    message = ""
+    for other in live.linked_objects(tree):
+        if other == done:
+            continue
+        try:
+            own, source_text = field_mesh.prepare_regeneration(other, tree_json(tree), tree.resolution, tree.adaptive)
+            if own == prepared:
+                field_mesh.write_existing(other, own, arrays, source_text)
+            else:
+                live.regenerate(other)
+        except user_errors() as exc:
+            message = message or f"{other.name}: {error_text(exc)}"
+    if tree.status != message:
+        tree.status = message
+
+
 def regeneration_build(obj, label):
     """(prepared, label, write) rebuilding the Field Mesh `obj` in place: from its
-    node tree's current state when it is linked to one (its status follows), else
-    from its stored tree or Text."""
+    node tree's current state when it is linked to one (its status follows, and
+    so do the tree's other Field Meshes: `_follow`), else from its stored tree or
+    Text."""
     from ..nodes import live
     from ..nodes.graph import tree_json
     from ..stack.guard import suspended
@@ -72,8 +97,8 @@ def regeneration_build(obj, label):
         with suspended():
             field_mesh.write_existing(target, prepared, arrays, source_text)
             linked = live.node_tree_of(target)
-            if linked is not None and linked.status:
-                linked.status = ""
+            if linked is not None:
+                _follow(linked, target, prepared, arrays)
         return target
 
     return prepared, label, write

