@@ -199,3 +199,52 @@ def test_preview_bake_and_estimate_take_the_same_generated_uvs(scene):
     assert auto_tile_size(sphere) == pytest.approx(np.linalg.norm(np.ptp(sphere.vertices, axis=0)) / 32)
     auto = E.render_setup(sphere, [shell_item, S.VolumetricTexture(**{**texture.__dict__, "tile_size": 0.0})])
     assert auto.settings["world_tile_size"] == pytest.approx(auto_tile_size(sphere))
+
+
+def test_cycles_renders_the_world_size_bake_as_the_preview_shows_it(scene, tmp_path):
+    # Preview = bake for generated coordinates too: Cycles' silhouette of the baked
+    # chain mail (the add-on's defaults, World-Size Tiles on a sphere without a UV
+    # map) against the reference ray marcher from the same camera, close enough that
+    # the rings are pixels wide. Drawn with one tile per face instead, the preview
+    # would show other rings.
+    import math
+
+    from test_render import cycles_alpha, iou
+
+    from thicket.render import camera, preview
+
+    sphere = mesh_object("ball", *ico_sphere())
+    assert not sphere.data.uv_layers
+    api.add_volumetric_texture(sphere, "chain_mail", shell_thickness=0.06, no_uv_tiles="WORLD")
+    sphere.hide_render = True  # Cycles draws the bake (the result)
+    bpy.ops.object.camera_add(location=(0.0, -2.4, 0.5), rotation=(math.radians(80), 0.0, 0.0))
+    scene.camera = bpy.context.object
+    width, height = 160, 120
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
+    bpy.context.view_layer.update()
+    baked = cycles_alpha(scene, str(tmp_path / "cycles.png")) > 0.5
+    view, projection = camera.scene_camera(scene, bpy.context.evaluated_depsgraph_get(), sphere, width, height)
+
+    def drawn():
+        return preview.render_arrays(sphere, view, projection, width, height, method="reference")["rgba"][:, :, 3] > 0.5
+
+    world = drawn()
+    sphere.thicket.items[-1].no_uv_tiles = "FACE"
+    per_face = drawn()
+    assert 0.05 < baked.mean() < 0.95, "the shell fills part of the view"
+    score = iou(world, baked)
+    print(f"world-size IoU {score:.3f}, per-face preview against the same bake {iou(per_face, baked):.3f}")
+    assert score >= 0.9, f"IoU {score:.3f}"
+    assert iou(per_face, baked) < score - 0.05, "the preview follows the world-size coordinates"
+
+
+def ico_sphere(subdivisions=3):
+    """An icosphere's vertices and triangles (no UV map: `mesh_object` makes none)."""
+    import bmesh
+
+    bm = bmesh.new()
+    bmesh.ops.create_icosphere(bm, subdivisions=subdivisions, radius=1.0)
+    vertices = [tuple(v.co) for v in bm.verts]
+    triangles = [[v.index for v in f.verts] for f in bm.faces]
+    bm.free()
+    return vertices, triangles
