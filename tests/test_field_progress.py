@@ -302,3 +302,45 @@ def test_regenerate_rebuilds_every_field_mesh_of_the_tree_and_estimates_within_s
     live.regenerate(first)
     real = triangles(first)
     assert guess < whole / 8 and real / 1.5 <= guess <= real * 1.5, (guess, whole, real)
+
+
+def test_live_regeneration_meshes_on_a_worker_thread_and_writes_only_the_latest_state(scene):
+    from thicket.nodes import live_worker
+
+    tree = node_tree(resolution=24)
+    first, second = api.build_field_nodes_mesh(tree, name="First"), api.build_field_nodes_mesh(tree, name="Second")
+    before = snapshot(first)
+    # A slow state (about a second of meshing), then the user moves on: the first
+    # build is cancelled in flight and never written; the second is.
+    tree.resolution = 400
+    assert live.start_live(tree) == "" and live_worker.running(tree.name)
+    assert_unchanged(before, first)  # returned at once: the interface is not held
+    job = live_worker._builds[tree.name][0]
+    tree.resolution = 40
+    assert live.start_live(tree) == ""
+    job.join(60)
+    assert job.cancelled and live_worker.running(tree.name)
+    live_worker.wait()
+    assert not live_worker.running(tree.name) and tree.status == ""
+    assert first["thicket_field"]["resolution"] == second["thicket_field"]["resolution"] == 40
+    reference = api.build_field_mesh(tree_json_of(tree), resolution=40)
+    np.testing.assert_array_equal(mesh_io.read_mesh(first.data).corners, mesh_io.read_mesh(reference.data).corners)
+    np.testing.assert_array_equal(mesh_io.read_mesh(second.data).corners, mesh_io.read_mesh(reference.data).corners)
+    # An object deleted while its tree meshes is skipped; the other is written.
+    tree.resolution = 32
+    live.start_live(tree)
+    bpy.data.objects.remove(second)
+    live_worker.wait()
+    assert first["thicket_field"]["resolution"] == 32 and tree.status == ""
+    # A tree that cannot mesh says why and changes nothing, with nothing in flight.
+    kept = snapshot(first)
+    tree.nodes.remove(tree.nodes["Field Output"] if "Field Output" in tree.nodes else tree.nodes[1])
+    message = live.start_live(tree)
+    assert message and tree.status == message and not live_worker.running(tree.name)
+    assert_unchanged(kept, first)
+
+
+def tree_json_of(tree):
+    from thicket.nodes.graph import tree_json
+
+    return tree_json(tree)

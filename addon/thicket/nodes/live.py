@@ -1,7 +1,8 @@
 """Field Mesh objects linked to a node tree, regenerated live (debounced with the
 stack's debounce and re-entrancy guard: `stack.debounce.Debounced`,
 `stack.guard`) when a node value or a link changes (`schedule_tree`) or a handle
-object moves (`on_depsgraph_update`). A failed regeneration leaves the mesh as it
+object moves (`on_depsgraph_update`); in the interface the meshing runs on a
+worker thread (`start_live`, `live_worker`). A failed regeneration leaves the mesh as it
 was and keeps the message on the tree (`status`, shown in the editor's sidebar)."""
 
 import bpy
@@ -12,6 +13,7 @@ from ..pure import native
 from ..pure.field_nodes import TREE_IDNAME
 from ..stack.debounce import Debounced
 from ..stack.guard import busy, suspended
+from . import live_worker
 from .graph import tree_json
 
 #: The Field Mesh object's ID property pointing at its node tree.
@@ -131,6 +133,33 @@ def regenerate_tree(tree, ask=False):
     return message
 
 
+def start_live(tree) -> str:
+    """Regenerates `tree`'s Field Meshes without holding the interface: their
+    settings read here, the meshing on a worker thread, the meshes written by a
+    timer when done (`live_worker`); a newer change cancels it. Returns the tree's
+    status now: "" while it meshes, else why nothing was started (a tree too large
+    for live regeneration, or an error)."""
+    message, targets, distinct = waits_for_the_user(tree), [], []
+    if not message:
+        text = None
+        for obj in linked_objects(tree):
+            try:
+                text = tree_json(tree) if text is None else text
+                prepared, source = prepare_regeneration(obj, text, tree.resolution, tree.adaptive)
+            except errors() as exc:
+                message = message or f"{obj.name}: {exc}"
+                continue
+            if prepared not in distinct:
+                distinct.append(prepared)
+            targets.append((obj.name, None if source is None else source.name, distinct.index(prepared)))
+    if message or not targets:
+        live_worker.cancel(tree.name)
+        live_worker.set_status(tree, message)
+        return message
+    live_worker.start(tree, targets, distinct, lambda obj, shown: node_tree_of(obj) == shown)
+    return ""
+
+
 def schedule_tree(tree) -> None:
     """Asks for `tree`'s Field Meshes to regenerate soon (at once in background mode,
     where timers never run). Ignored until the add-on's handlers are registered:
@@ -147,7 +176,10 @@ def _regenerate_tree(name: str) -> None:
     if tree is None or tree.bl_idname != TREE_IDNAME:
         return
     if linked_objects(tree):
-        regenerate_tree(tree, ask=not bpy.app.background)
+        if bpy.app.background:
+            regenerate_tree(tree)  # scripts: at once (timers never run there)
+        else:
+            start_live(tree)
     from ..stack import auto_update
 
     for obj in stack_users(tree):  # their stacks regenerate as on any other change
@@ -190,22 +222,33 @@ def on_depsgraph_update(scene, depsgraph):
         schedule_tree(tree)
 
 
+@persistent
+def on_load_pre(*_args):
+    """A file is about to be loaded: live builds of the old file's trees are
+    dropped (the new file may hold trees and objects of the same names)."""
+    live_worker.cancel()
+
+
 _live = False
+_HANDLERS = ((bpy.app.handlers.depsgraph_update_post, on_depsgraph_update), (bpy.app.handlers.load_pre, on_load_pre))
 
 
 def register_handlers():
     global _live
-    if on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
-        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
+    for handlers, handler in _HANDLERS:
+        if handler not in handlers:
+            handlers.append(handler)
     _live = True
 
 
 def unregister_handlers():
     global _live
     _live = False
-    if on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
-        bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
+    live_worker.cancel()
+    for handlers, handler in _HANDLERS:
+        if handler in handlers:
+            handlers.remove(handler)
     _trees.pending.clear()
 
 
-__all__ = ["NODES_PROPERTY", "build", "regenerate", "regenerate_tree", "schedule_tree", "field_settings", "linked_objects", "node_tree_of"]
+__all__ = ["NODES_PROPERTY", "build", "regenerate", "regenerate_tree", "start_live", "schedule_tree", "field_settings", "linked_objects", "node_tree_of"]

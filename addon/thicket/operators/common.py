@@ -78,6 +78,10 @@ class Job:
     def done(self) -> bool:
         return not self._thread.is_alive()
 
+    def join(self, timeout=None):
+        """Waits for the work to end (at most `timeout` seconds)."""
+        self._thread.join(timeout)
+
     def _run(self):
         try:
             self._result = self._work(self)

@@ -73,11 +73,13 @@ def regeneration_build(obj, label):
     node tree's current state when it is linked to one (its status follows, and
     so do the tree's other Field Meshes: `_follow`), else from its stored tree or
     Text."""
-    from ..nodes import live
+    from ..nodes import live, live_worker
     from ..nodes.graph import tree_json
     from ..stack.guard import suspended
 
     tree = live.node_tree_of(obj)
+    if tree is not None:
+        live_worker.cancel(tree.name)  # a live build in flight would write an older state after this one
     try:
         if tree is not None:
             prepared, source_text = field_mesh.prepare_regeneration(obj, tree_json(tree), tree.resolution, tree.adaptive)
