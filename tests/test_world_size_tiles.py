@@ -203,9 +203,9 @@ def test_preview_bake_and_estimate_take_the_same_generated_uvs(scene):
 
 def test_cycles_renders_the_world_size_bake_as_the_preview_shows_it(scene, tmp_path):
     # Preview = bake for generated coordinates too: Cycles' silhouette of the baked
-    # chain mail (the add-on's defaults, World-Size Tiles on a sphere without a UV
-    # map) against the reference ray marcher from the same camera, close enough that
-    # the rings are pixels wide. Drawn with one tile per face instead, the preview
+    # chain mail (the add-on's defaults but the tile size, World-Size Tiles on a
+    # sphere without a UV map) against the reference ray marcher from the same
+    # camera, close enough that the rings are pixels wide (issue 15: IoU >= 0.95). Drawn with one tile per face instead, the preview
     # would show other rings.
     import math
 
@@ -215,11 +215,15 @@ def test_cycles_renders_the_world_size_bake_as_the_preview_shows_it(scene, tmp_p
 
     sphere = mesh_object("ball", *ico_sphere())
     assert not sphere.data.uv_layers
-    api.add_volumetric_texture(sphere, "chain_mail", shell_thickness=0.06, no_uv_tiles="WORLD")
+    # Tiles of 1/16 of the diagonal (twice the automatic size, a quarter of its bake).
+    api.add_volumetric_texture(sphere, "chain_mail", shell_thickness=0.06, no_uv_tiles="WORLD", tile_size=2 * math.sqrt(3) / 16)
     sphere.hide_render = True  # Cycles draws the bake (the result)
     bpy.ops.object.camera_add(location=(0.0, -2.4, 0.5), rotation=(math.radians(80), 0.0, 0.0))
     scene.camera = bpy.context.object
-    width, height = 160, 120
+    # Rings a few pixels wide: at 160 x 120 with the automatic tiles, anti-aliased
+    # Cycles and the point-sampled preview disagree on pixels the wires half cover
+    # (IoU 0.925 there, 0.962 at 480 x 360).
+    width, height = 320, 240
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
     bpy.context.view_layer.update()
     baked = cycles_alpha(scene, str(tmp_path / "cycles.png")) > 0.5
@@ -234,7 +238,7 @@ def test_cycles_renders_the_world_size_bake_as_the_preview_shows_it(scene, tmp_p
     assert 0.05 < baked.mean() < 0.95, "the shell fills part of the view"
     score = iou(world, baked)
     print(f"world-size IoU {score:.3f}, per-face preview against the same bake {iou(per_face, baked):.3f}")
-    assert score >= 0.9, f"IoU {score:.3f}"
+    assert score >= 0.95, f"IoU {score:.3f}"
     assert iou(per_face, baked) < score - 0.05, "the preview follows the world-size coordinates"
 
 
