@@ -10,7 +10,10 @@
 //! evaluations, contouring, attributes); and `polygonize::estimate`'s quads and peak
 //! memory beside the real ones, with its time.
 //!
-//! `cargo run --release -p thicket-core --example implicit_mesh_bench [-- --runs N --resolutions 128,256 --culled-only]`
+//! `--dual-only` (for profiling and instruction counts): dual contouring alone, its
+//! time, triangles, closed-manifold check and profile.
+//!
+//! `cargo run --release -p thicket-core --example implicit_mesh_bench [-- --runs N --resolutions 128,256 --culled-only --dual-only]`
 
 use std::time::Instant;
 use thicket_core::implicit::samples::SOFT_CSG_20 as TREE;
@@ -55,6 +58,27 @@ fn main() {
     for resolution in resolutions {
         let margin = 2.0 * (hi - lo).max_element() / resolution as f32;
         let params = GridParams { bounds: (lo - margin, hi + margin), resolution, refine: true };
+        if args.iter().any(|a| a == "--dual-only") {
+            let ((dual_min, dual_median), dual) = time(runs, || mesh_dual(&tree, &DualParams { bounds: params.bounds, resolution }).unwrap());
+            let tris = dual.triangles();
+            let p = dual.profile;
+            // A hash of the mesh's bits (positions, normals, quads, attributes): equal
+            // hashes across builds say the same mesh.
+            let bits = dual.positions.iter().chain(&dual.normals).flat_map(|v| v.to_array()).chain(dual.attributes.iter().copied()).map(f32::to_bits);
+            let hash =
+                bits.chain(dual.quads.iter().flatten().copied()).fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+            println!(
+                "resolution {resolution}: dual contouring min {dual_min:7.1} ms, median {dual_median:7.1} ms; {} triangles, closed manifold {}, mesh hash {hash:016x}; descent {:.1} ms, cells {:.1} ms ({} evaluations), contouring {:.1} ms, normals and attributes {:.1} ms",
+                tris.len(),
+                SurfaceCheck::of(&dual.positions, &tris).is_closed_manifold(),
+                p.descent_ms,
+                p.cells_ms,
+                p.evaluations,
+                p.contour_ms,
+                p.attributes_ms
+            );
+            continue;
+        }
         // `--culled-only` (for profiling): the unculled mesh is made once.
         let dense_runs = if args.iter().any(|a| a == "--culled-only") { 1 } else { runs };
         let ((dense_min, dense_median), dense) = time(dense_runs, || mesh_field(&Unculled(&tree), &params).unwrap());
