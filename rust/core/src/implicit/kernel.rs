@@ -2,7 +2,6 @@
 //! `h` of section 3, the log-sum-exp form of `w_p` (section 4), the texture function
 //! and the primitives compiled to their frames.
 
-use super::eval::BLOCK;
 use glam::DVec3;
 
 /// The n-ary `h[f1, ..., fn]` of section 3 with its gradient, from the values and
@@ -150,81 +149,142 @@ pub struct Prim {
     pub radius: f64,
 }
 
+/// Working memory of [`Prim::block`] for up to `L` points: each of the box's pairs of
+/// plane functions, its larger value and the sign of its gradient.
+#[derive(Clone)]
+pub(crate) struct Lanes<const L: usize> {
+    q: [[f64; L]; 3],
+    s: [[f64; L]; 3],
+}
+
+impl<const L: usize> Lanes<L> {
+    pub fn new() -> Self {
+        Lanes { q: [[0.0; L]; 3], s: [[0.0; L]; 3] }
+    }
+}
+
 impl Prim {
-    /// Value and gradient at `x`.
-    #[inline(always)]
+    /// Value and gradient at `x`: the block kernel ([`Prim::block`]) on one point.
+    #[inline]
     pub fn eval(&self, x: DVec3) -> (f64, DVec3) {
-        let d = x - self.center;
-        let [a0, a1, a2] = self.axes;
-        match self.kind {
-            PrimKind::Plane => (a0.dot(d), a0),
-            PrimKind::Sphere => {
-                let l = d.length();
-                // At the centre the gradient is any unit vector: the first axis.
-                (l - self.radius, if l > 0.0 { d / l } else { a0 })
-            }
-            PrimKind::Cuboid => {
-                let f = [a0.dot(d), a1.dot(d), a2.dot(d)];
-                let [h0, h1, h2] = self.half;
-                let (v, g) = h([f[0] - h0, -f[0] - h0, f[1] - h1, -f[1] - h1, f[2] - h2, -f[2] - h2], [a0, -a0, a1, -a1, a2, -a2]);
-                (v - self.radius, g)
-            }
-            PrimKind::Torus => {
-                let f = [a0.dot(d), a1.dot(d), a2.dot(d)];
-                let (g, n) = h([f[0], -f[0], f[1], -f[1]], [a0, -a0, a1, -a1]);
-                let major = self.half[0];
-                let (v, grad) = h([g - major, -g + major, f[2], -f[2]], [n, -n, a2, -a2]);
-                (v - self.radius, grad)
-            }
-        }
+        let (mut f, mut g) = ([0.0], [[0.0]; 3]);
+        let [gx, gy, gz] = &mut g;
+        self.block::<true, 1>(&[x.x], &[x.y], &[x.z], &mut f, [gx, gy, gz], &mut Lanes::new());
+        (f[0], DVec3::new(g[0][0], g[1][0], g[2][0]))
     }
 
-    /// Values only over a block of points given as coordinate arrays (`x`, `y`, `z` and
-    /// `out` of one length): the same arithmetic as [`Prim::eval`] in the same order
-    /// (so the same values, bit for bit, but for the sign of a zero and a NaN
-    /// coordinate, which `f64::max` may drop: points are checked finite before they
-    /// reach a tape), written without branches per point so the
-    /// loop vectorizes; `h` of the box's six plane functions uses that at most one of
-    /// `fi - ai` and `-fi - ai` is positive (`ai >= 0`): the larger is `|fi| - ai`.
+    /// The one kernel of the primitives: values, and with `GRADIENT` the analytic
+    /// gradients, over a block of points given as coordinate arrays (`x`, `y`, `z`,
+    /// `f` and each of `g` of one length, at most `L`), structure of arrays.
+    /// Every lane runs the same arithmetic whichever the mode and the block's length,
+    /// so a value is the same bit for bit with or without its gradient and alone or in
+    /// a block. Written without branches per point (choices are selects), so the loops
+    /// vectorize.
+    ///
+    /// The box's `h` of its six plane functions (section 3) uses that at most one of
+    /// `fi - ai` and `-fi - ai` is positive (`ai >= 0`): the larger is `|fi| - ai`,
+    /// and the pair's gradient is `+ni` where `fi - ai >= -fi - ai` (the first of the
+    /// pair on a tie, as the n-ary `h` takes it), else `-ni`. Its value is the same, bit
+    /// for bit, as [`h`] of the six (tested), its gradient too but for the sign of a
+    /// zero.
+    ///
+    /// `tmp` is working memory for up to `L` points (`L >= f.len()`), kept by the caller
+    /// so that no call clears it.
     #[inline(always)]
-    pub(crate) fn values(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [f64]) {
+    pub(crate) fn block<const GRADIENT: bool, const L: usize>(&self, x: &[f64], y: &[f64], z: &[f64], f: &mut [f64], g: [&mut [f64]; 3], tmp: &mut Lanes<L>) {
         let c = self.center;
         let r = self.radius;
-        let n = out.len();
-        assert!(n <= BLOCK, "a block at most");
+        let n = f.len();
+        assert!(n <= L, "{L} points at most");
         let (x, y, z) = (&x[..n], &y[..n], &z[..n]);
+        let [gx, gy, gz] = g;
+        let (gx, gy, gz) = if GRADIENT { (&mut gx[..n], &mut gy[..n], &mut gz[..n]) } else { (&mut [][..], &mut [][..], &mut [][..]) };
+        let [a0, a1, a2] = self.axes;
         match self.kind {
+            PrimKind::Plane => {
+                for j in 0..n {
+                    let (dx, dy, dz) = (x[j] - c.x, y[j] - c.y, z[j] - c.z);
+                    f[j] = a0.x * dx + a0.y * dy + a0.z * dz;
+                }
+                if GRADIENT {
+                    gx.fill(a0.x);
+                    gy.fill(a0.y);
+                    gz.fill(a0.z);
+                }
+            }
             PrimKind::Sphere => {
                 for j in 0..n {
                     let (dx, dy, dz) = (x[j] - c.x, y[j] - c.y, z[j] - c.z);
-                    out[j] = (dx * dx + dy * dy + dz * dz).sqrt() - r;
+                    let l = (dx * dx + dy * dy + dz * dz).sqrt();
+                    f[j] = l - r;
+                    if GRADIENT {
+                        // At the centre the gradient is any unit vector: the first axis.
+                        let inside = l > 0.0;
+                        let (ux, uy, uz) = (dx / l, dy / l, dz / l);
+                        gx[j] = if inside { ux } else { a0.x };
+                        gy[j] = if inside { uy } else { a0.y };
+                        gz[j] = if inside { uz } else { a0.z };
+                    }
                 }
             }
             PrimKind::Cuboid => {
-                let [a0, a1, a2] = self.axes;
                 let [h0, h1, h2] = self.half;
                 // Two passes, so that the second's divisions are made for every point
                 // and its choice is a select: in one loop the compiler branches there
-                // and the loop stays scalar.
-                let mut q = [[0.0; BLOCK]; 3];
+                // and the loop stays scalar. The first: each pair's larger value
+                // `|fi| - ai` and the sign of its gradient.
+                let Lanes { q, s } = tmp;
                 for j in 0..n {
                     let (dx, dy, dz) = (x[j] - c.x, y[j] - c.y, z[j] - c.z);
-                    q[0][j] = (a0.x * dx + a0.y * dy + a0.z * dz).abs() - h0;
-                    q[1][j] = (a1.x * dx + a1.y * dy + a1.z * dz).abs() - h1;
-                    q[2][j] = (a2.x * dx + a2.y * dy + a2.z * dz).abs() - h2;
+                    let fs = [a0.x * dx + a0.y * dy + a0.z * dz, a1.x * dx + a1.y * dy + a1.z * dz, a2.x * dx + a2.y * dy + a2.z * dz];
+                    for (i, (fi, hi)) in fs.into_iter().zip([h0, h1, h2]).enumerate() {
+                        q[i][j] = fi.abs() - hi;
+                        if GRADIENT {
+                            s[i][j] = if fi - hi >= -fi - hi { 1.0 } else { -1.0 };
+                        }
+                    }
                 }
-                let [q0, q1, q2] = &q;
+                let [q0, q1, q2] = &*q;
+                let [s0, s1, s2] = &*s;
                 for j in 0..n {
-                    let m = q0[j].max(q1[j]).max(q2[j]);
+                    // The largest (the first of equals) and its gradient `±ni`.
+                    let (mut m, mut st, mut at) = (q0[j], s0[j], a0);
+                    if GRADIENT {
+                        (st, at) = if q1[j] > m { (s1[j], a1) } else { (st, at) };
+                    }
+                    m = if q1[j] > m { q1[j] } else { m };
+                    if GRADIENT {
+                        (st, at) = if q2[j] > m { (s2[j], a2) } else { (st, at) };
+                    }
+                    m = if q2[j] > m { q2[j] } else { m };
                     let (p0, p1, p2) = (q0[j].max(0.0) / m, q1[j].max(0.0) / m, q2[j].max(0.0) / m);
                     let len = (p0 * p0 + p1 * p1 + p2 * p2).sqrt();
-                    let v = m * len;
-                    out[j] = if m > 0.0 { v } else { m } - r;
+                    let outside = m > 0.0;
+                    f[j] = if outside { m * len } else { m } - r;
+                    if GRADIENT {
+                        // `Σ fi⁺ ∇fi / h` outside (in the n-ary `h`'s order, from a
+                        // positive zero, so zeros keep its signs too); inside the
+                        // largest's gradient.
+                        let sum = |a: [f64; 3]| ((0.0 + p0 * (s0[j] * a[0])) + p1 * (s1[j] * a[1])) + p2 * (s2[j] * a[2]);
+                        let (ox, oy, oz) = (sum([a0.x, a1.x, a2.x]) / len, sum([a0.y, a1.y, a2.y]) / len, sum([a0.z, a1.z, a2.z]) / len);
+                        gx[j] = if outside { ox } else { st * at.x };
+                        gy[j] = if outside { oy } else { st * at.y };
+                        gz[j] = if outside { oz } else { st * at.z };
+                    }
                 }
             }
-            PrimKind::Plane | PrimKind::Torus => {
+            PrimKind::Torus => {
+                // Nested `h`s with branches: point by point.
+                let major = self.half[0];
                 for j in 0..n {
-                    out[j] = self.eval(DVec3::new(x[j], y[j], z[j])).0;
+                    let d = DVec3::new(x[j], y[j], z[j]) - c;
+                    let fs = [a0.dot(d), a1.dot(d), a2.dot(d)];
+                    let (gv, gn) = h([fs[0], -fs[0], fs[1], -fs[1]], [a0, -a0, a1, -a1]);
+                    let (v, grad) = h([gv - major, -gv + major, fs[2], -fs[2]], [gn, -gn, a2, -a2]);
+                    f[j] = v - r;
+                    if GRADIENT {
+                        (gx[j], gy[j], gz[j]) = (grad.x, grad.y, grad.z);
+                    }
                 }
             }
         }
@@ -281,6 +341,7 @@ impl Prim {
 
 #[cfg(test)]
 mod tests {
+    use super::super::eval::BLOCK;
     use super::*;
 
     #[test]
@@ -321,14 +382,47 @@ mod tests {
         assert!(exp_nonpositive(f64::NAN).is_nan());
     }
 
-    /// The block loop of values ([`Prim::values`]) against [`Prim::eval`] point by
-    /// point, bit for bit, for every kind: random frames, sizes (zero included) and
-    /// points, with points on the frame's planes and at the centre.
+    /// Each kind's function as the paper writes it, point by point with branches: the
+    /// reference the block kernel is held to.
+    fn reference(prim: &Prim, x: DVec3) -> (f64, DVec3) {
+        let d = x - prim.center;
+        let [a0, a1, a2] = prim.axes;
+        let f = [a0.dot(d), a1.dot(d), a2.dot(d)];
+        let [h0, h1, h2] = prim.half;
+        match prim.kind {
+            PrimKind::Plane => (f[0], a0),
+            PrimKind::Sphere => {
+                let l = d.length();
+                (l - prim.radius, if l > 0.0 { d / l } else { a0 })
+            }
+            PrimKind::Cuboid => {
+                let (v, g) = h([f[0] - h0, -f[0] - h0, f[1] - h1, -f[1] - h1, f[2] - h2, -f[2] - h2], [a0, -a0, a1, -a1, a2, -a2]);
+                (v - prim.radius, g)
+            }
+            PrimKind::Torus => {
+                let (g, n) = h([f[0], -f[0], f[1], -f[1]], [a0, -a0, a1, -a1]);
+                let (v, grad) = h([g - h0, -g + h0, f[2], -f[2]], [n, -n, a2, -a2]);
+                (v - prim.radius, grad)
+            }
+        }
+    }
+
+    /// Equal bits, or both zero (the sign of a zero aside).
+    fn same(a: f64, b: f64) -> bool {
+        a.to_bits() == b.to_bits() || (a == 0.0 && b == 0.0)
+    }
+
+    /// The block kernel ([`Prim::block`]) with and without gradients, and on one point
+    /// ([`Prim::eval`]), against the branching reference (the n-ary `h` of the six
+    /// plane functions for the box) bit for bit but for the sign of a zero, for every
+    /// kind: random frames, sizes (zero included) and points, with points at the centre,
+    /// on the frame's planes, on a face and on ties between two faces, in blocks of
+    /// every length.
     #[test]
-    fn block_values_match_eval_bit_for_bit() {
+    fn block_kernel_matches_the_reference_bit_for_bit() {
         let mut rng = crate::test_rng::Rng(0xb10c_4a1e);
         let mut r = || rng.uniform();
-        for case in 0..400 {
+        for case in 0..800 {
             let kind = [PrimKind::Sphere, PrimKind::Cuboid, PrimKind::Plane, PrimKind::Torus][case % 4];
             let q = glam::DQuat::from_xyzw(r() - 0.5, r() - 0.5, r() - 0.5, r() - 0.5).normalize();
             let m = glam::DMat3::from_quat(q);
@@ -336,17 +430,32 @@ mod tests {
             let size = |x: f64| if case % 5 == 0 { 0.0 } else { x };
             let prim =
                 Prim { kind, center, axes: [m.x_axis, m.y_axis, m.z_axis], half: [size(r()), size(r() * 0.5), size(r() * 0.2)], radius: size(r() * 0.1) };
-            let mut points: Vec<DVec3> = (0..61).map(|_| DVec3::new(2.0 * r() - 1.0, 2.0 * r() - 1.0, 2.0 * r() - 1.0)).collect();
-            points.push(center);
-            points.push(center + prim.axes[1] * 0.3);
-            points.push(center + prim.axes[0] * prim.half[0]);
+            let len = 1 + case % BLOCK;
+            let mut points: Vec<DVec3> = (0..len).map(|_| DVec3::new(2.0 * r() - 1.0, 2.0 * r() - 1.0, 2.0 * r() - 1.0)).collect();
+            let [a0, a1, a2] = prim.axes;
+            let [h0, h1, _] = prim.half;
+            let special = [center, center + a1 * 0.3, center + a0 * h0, center - a0 * h0 + a2 * 0.01, center + a0 * (h0 + 0.2) + a1 * (h1 + 0.2)];
+            for (p, s) in points.iter_mut().zip(special) {
+                *p = s;
+            }
             let (x, y, z): (Vec<f64>, Vec<f64>, Vec<f64>) =
                 (points.iter().map(|p| p.x).collect(), points.iter().map(|p| p.y).collect(), points.iter().map(|p| p.z).collect());
-            let mut out = vec![0.0; points.len()];
-            prim.values(&x, &y, &z, &mut out);
-            for (p, v) in points.iter().zip(&out) {
-                let want = prim.eval(*p).0;
-                assert!(v.to_bits() == want.to_bits() || (*v == 0.0 && want == 0.0), "{kind:?} at {p}: {v} vs {want}");
+            let mut values = vec![0.0; len];
+            let mut none = [[0.0; 0]; 3];
+            let [n0, n1, n2] = &mut none;
+            let mut lanes = Lanes::<BLOCK>::new();
+            prim.block::<false, BLOCK>(&x, &y, &z, &mut values, [n0, n1, n2], &mut lanes);
+            let (mut f, mut g) = (vec![0.0; len], [vec![0.0; len], vec![0.0; len], vec![0.0; len]]);
+            let [g0, g1, g2] = &mut g;
+            prim.block::<true, BLOCK>(&x, &y, &z, &mut f, [g0, g1, g2], &mut lanes);
+            for (j, p) in points.iter().enumerate() {
+                let (want, want_g) = reference(&prim, *p);
+                let (one, one_g) = prim.eval(*p);
+                let got_g = DVec3::new(g[0][j], g[1][j], g[2][j]);
+                assert!(same(values[j], want) && same(f[j], want) && same(one, want), "{kind:?} at {p}: {} / {} / {one} vs {want}", values[j], f[j]);
+                for a in 0..3 {
+                    assert!(same(got_g[a], want_g[a]) && same(one_g[a], want_g[a]), "{kind:?} at {p}: gradient {got_g} / {one_g} vs {want_g}");
+                }
             }
         }
     }

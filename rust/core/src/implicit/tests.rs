@@ -625,10 +625,18 @@ fn bad_ramps_are_refused_naming_the_node_and_field() {
     assert!(FieldTree::from_json(&text).unwrap_err().to_string().contains("unknown field \"ramp\""));
 }
 
+/// Every node type: the block loops (values, gradients and attributes in blocks of
+/// 64 and parallel chunks) against one point at a time, at many random points.
 #[test]
 fn batches_equal_single_samples_across_blocks_and_chunks() {
     let mut rng = Rng(8);
-    let t = tree(&catalogue()[16]);
+    for doc in catalogue() {
+        batch_equals_single_samples(&tree(&doc), &mut rng);
+    }
+    batch_equals_single_samples(&FieldTree::from_json(super::samples::SOFT_CSG_20).unwrap(), &mut rng);
+}
+
+fn batch_equals_single_samples(t: &FieldTree, rng: &mut Rng) {
     let points: Vec<Vec3> = (0..2500).map(|_| rng.vec(1.5).as_vec3()).collect();
     let e = t.evaluate(&points);
     let mut values = vec![0.0; points.len()];
@@ -903,4 +911,49 @@ fn the_public_tape_is_the_evaluators_post_order() {
             assert!((v - tree(&alone).sample(x).value).abs() < 1e-12, "{p:?}");
         }
     }
+}
+
+/// The tape compiled for AVX2 against the baseline build, bit for bit (values,
+/// gradients, colours, textures, ids; values alone too), for every node type and the
+/// benchmark tree, in blocks of every length. Where the CPU has no AVX2 there is one
+/// path and nothing to compare: the test says so on its output.
+#[test]
+fn the_avx2_tape_equals_the_baseline_bit_for_bit() {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        use super::eval::{Need, Scratch, BLOCK};
+        let mut rng = Rng(0xa5c2);
+        let mut trees: Vec<FieldTree> = catalogue().iter().map(tree).collect();
+        trees.push(FieldTree::from_json(super::samples::SOFT_CSG_20).unwrap());
+        let mut compared = 0;
+        for t in &trees {
+            for len in [1, 7, 33, BLOCK] {
+                let points: Vec<DVec3> = (0..len).map(|_| rng.vec(1.5)).collect();
+                for need in [Need::ALL, Need::VALUE, Need::GRADIENT] {
+                    let (mut a, mut b) = (Scratch::new(&t.tape), Scratch::new(&t.tape));
+                    let portable = t.tape.run_portable(&points, need, &mut a);
+                    // SAFETY: the CPU has AVX2, checked above.
+                    let wide = unsafe { t.tape.run_avx2(&points, need, &mut b) };
+                    for j in 0..len {
+                        let bits = |s: &super::eval::Slot| {
+                            let mut v = vec![s.f[j].to_bits(), u64::from(s.id[j])];
+                            if need.gradient {
+                                v.extend(s.g.iter().map(|g| g[j].to_bits()));
+                            }
+                            if need.attributes {
+                                v.extend(s.c.iter().map(|c| c[j].to_bits()));
+                                v.push(s.t[j].to_bits());
+                            }
+                            v
+                        };
+                        assert_eq!(bits(portable), bits(wide), "{} at {}", t.to_json(), points[j]);
+                        compared += 1;
+                    }
+                }
+            }
+        }
+        assert!(compared > 1000, "{compared}");
+        return;
+    }
+    println!("no AVX2 on this CPU: one path only");
 }
