@@ -66,7 +66,9 @@ pub(super) struct Samples {
 
 impl Samples {
     /// The block's lattice points sampled as one batch; a field that is not a number
-    /// at one is an error.
+    /// at one is an error. (The mesher and the count sample through [`Shared`]; this is
+    /// the tests' reference.)
+    #[cfg(test)]
     pub fn of<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, origin: UVec3) -> Result<Self> {
         let size = (lattice.cells - origin).min(UVec3::splat(BLOCK));
         let n = size + 1;

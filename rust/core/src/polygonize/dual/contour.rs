@@ -11,7 +11,6 @@ use super::lattice::BLOCK;
 use crate::{Error, Result};
 use glam::{UVec3, Vec3};
 use rayon::prelude::*;
-use std::collections::HashMap;
 
 /// A quad (counter-clockwise seen from outside) and the crossing's gradient.
 pub(super) type Quad = ([u32; 4], Vec3);
@@ -23,10 +22,14 @@ const FALLBACK_ROUNDS: usize = 4;
 /// The quads of every block's owned edges, in block order; `offsets[b]` is block `b`'s
 /// first vertex.
 pub(super) fn quads(blocks: &[Block], offsets: &[u32]) -> Result<Vec<Quad>> {
-    let index: HashMap<UVec3, u32> = blocks.iter().enumerate().map(|(i, b)| (b.origin / BLOCK, i as u32)).collect();
+    // Blocks by their position (`z`, `y`, `x`), sorted: a binary search finds a cell's
+    // block (the default hash map's SipHash cost more than the search).
+    let key = |b: UVec3| [b.z, b.y, b.x];
+    let mut index: Vec<([u32; 3], u32)> = blocks.iter().enumerate().map(|(i, b)| (key(b.origin / BLOCK), i as u32)).collect();
+    index.sort_unstable();
     let table = cases();
     let vertex = |cell: UVec3, e: usize| -> Option<u32> {
-        let b = *index.get(&(cell / BLOCK))? as usize;
+        let b = index[index.binary_search_by_key(&key(cell / BLOCK), |&(k, _)| k).ok()?].1 as usize;
         let local = cell_index(cell % BLOCK);
         let first = blocks[b].first[local];
         let piece = table[blocks[b].config[local] as usize].piece[e];

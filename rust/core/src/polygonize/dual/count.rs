@@ -1,11 +1,12 @@
 //! The sign-changing lattice edges of a resolution counted without meshing: the
 //! interval-culled descent's blocks ([`super::octree`]) sampled as the mesher samples
-//! them, their crossings counted per edge direction. What
+//! them (in its batches, on the lattice points they share: [`Shared`]), their crossings counted per edge direction. What
 //! [`crate::polygonize::estimate`] scales to a finer lattice.
 
-use super::block::Samples;
+use super::block::{Samples, Shared};
 use super::lattice::{Lattice, BLOCK};
 use super::octree::live_blocks;
+use super::BLOCKS_PER_LOOK;
 use crate::field::ScalarField;
 use crate::polygonize::estimate::Watch;
 use crate::Result;
@@ -37,11 +38,14 @@ impl Crossings {
 pub fn count_crossings<F: ScalarField + ?Sized>(field: &F, bounds: (Vec3, Vec3), resolution: u32, watch: &Watch<'_>) -> Result<Crossings> {
     let lattice = Lattice::new(bounds, resolution)?;
     let live = live_blocks(field, &lattice, watch)?;
-    let per_block = live
-        .par_iter()
-        .map(|&b| -> Result<[u64; 4]> {
-            watch.check()?;
-            let s = Samples::of(field, &lattice, b * BLOCK)?;
+    let mut per_block = Vec::with_capacity(live.len());
+    // In the mesher's batches, each batch's lattice points evaluated once ([`Shared`]).
+    for batch in live.chunks(BLOCKS_PER_LOOK) {
+        watch.check()?;
+        let origins: Vec<UVec3> = batch.iter().map(|&b| b * BLOCK).collect();
+        let shared = Shared::of(field, &lattice, &origins)?;
+        per_block.par_extend(origins.par_iter().map(|&origin| {
+            let s = Samples::from_shared(&lattice, origin, &shared);
             let inside = |p: UVec3| s.values[s.index(p)] <= 0.0;
             let mut edges = [0u64; 4];
             for z in 0..s.size.z {
@@ -55,9 +59,9 @@ pub fn count_crossings<F: ScalarField + ?Sized>(field: &F, bounds: (Vec3, Vec3),
                     }
                 }
             }
-            Ok(edges)
-        })
-        .collect::<Result<Vec<_>>>()?;
+            edges
+        }));
+    }
     let mut edges = [0u64; 4];
     for e in per_block {
         for (sum, n) in edges.iter_mut().zip(e) {
