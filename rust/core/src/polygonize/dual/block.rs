@@ -2,7 +2,8 @@
 //! blocks of its batch, each shared point once: [`Shared`]),
 //! each sign-changing edge's crossing found once on the field (Illinois regula falsi)
 //! with the analytic gradient there, and one vertex per piece of every cell
-//! ([`super::cases`]) placed by its [`Qef`] (Ju et al. 2002, section 2.3).
+//! ([`super::cases`]) placed by its [`Qef`] (Ju et al. 2002, section 2.3). A batch's
+//! crossings, gradients and vertex projections go to the field together ([`process`]).
 
 use super::cases::{cases, ends, NONE};
 use super::lattice::{Lattice, BLOCK};
@@ -46,8 +47,6 @@ pub(super) struct Block {
     /// Per vertex: its cell.
     pub cell: Vec<UVec3>,
     pub edges: Vec<OwnedEdge>,
-    /// Field evaluations made (values and gradients, per point).
-    pub evaluations: usize,
 }
 
 pub(super) fn cell_index(local: UVec3) -> usize {
@@ -106,7 +105,7 @@ impl Samples {
         for z in 0..n.z {
             for y in 0..n.y {
                 // A row's keys are consecutive: one search per row.
-                let row = shared.find(shared.key(origin + UVec3::new(0, y, z)));
+                let row = shared.find(origin + UVec3::new(0, y, z));
                 for x in 0..n.x {
                     let g = origin + UVec3::new(x, y, z);
                     let p = lattice.point(g);
@@ -129,31 +128,75 @@ impl Samples {
 /// The field's values at the lattice points of a batch of blocks, each point
 /// evaluated once: a block alone samples its `(BLOCK + 1)³` points, and neighbouring
 /// live blocks share the points of the faces between them (about a third of the
-/// samples on issue 17's tree). Sorted by their key (`x` fastest), so a block's rows
-/// are runs of consecutive keys.
+/// samples on issue 17's tree). In key order (`x` fastest), so a block's rows are
+/// runs of consecutive keys.
+///
+/// The octree gives a batch's blocks depth first, so they mostly fill a small box of
+/// the lattice: there the points are marked on a dense grid over that box, which lists
+/// them in key order and finds a row by its index; a batch spread wider is sorted.
 pub(super) struct Shared {
     /// Lattice points along x and y (for the keys).
     n: UVec3,
     keys: Vec<u64>,
     values: Vec<f32>,
+    /// The dense grid: its lowest lattice point, its points per side, and per point
+    /// its index among `keys` (`u32::MAX` where not one of the batch's).
+    dense: Option<(UVec3, UVec3, Vec<u32>)>,
 }
+
+/// A dense grid at most this many times the points it marks (the batch's points
+/// counted with repeats): not from a paper, a scan of a few bytes per entry against
+/// a sort of the keys.
+const DENSE_RATIO: usize = 8;
 
 impl Shared {
     /// The lattice points of the blocks at `origins` (in cells), evaluated in parallel
     /// batches; a field that is not a number at one is an error.
     pub fn of<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, origins: &[UVec3]) -> Result<Self> {
-        let mut shared = Self { n: lattice.cells + 1, keys: Vec::new(), values: Vec::new() };
-        for &origin in origins {
-            let size = (lattice.cells - origin).min(UVec3::splat(BLOCK));
-            for z in 0..=size.z {
-                for y in 0..=size.y {
-                    let row = shared.key(origin + UVec3::new(0, y, z));
-                    shared.keys.extend(row..=row + u64::from(size.x));
+        let mut shared = Self { n: lattice.cells + 1, keys: Vec::new(), values: Vec::new(), dense: None };
+        let size = |origin: UVec3| (lattice.cells - origin).min(UVec3::splat(BLOCK));
+        let lo = origins.iter().fold(UVec3::MAX, |m, &o| m.min(o));
+        let hi = origins.iter().fold(UVec3::ZERO, |m, &o| m.max(o + size(o)));
+        let repeats: usize = origins.iter().map(|&o| ((size(o) + 1).as_u64vec3().element_product()) as usize).sum();
+        let side = (hi + 1).saturating_sub(lo);
+        let volume = side.as_u64vec3().element_product();
+        if !origins.is_empty() && volume <= (DENSE_RATIO * repeats) as u64 {
+            let local = |g: UVec3| ((g.x - lo.x) + side.x * ((g.y - lo.y) + side.y * (g.z - lo.z))) as usize;
+            let mut index = vec![u32::MAX; volume as usize];
+            for &origin in origins {
+                let size = size(origin);
+                for z in 0..=size.z {
+                    for y in 0..=size.y {
+                        let row = local(origin + UVec3::new(0, y, z));
+                        index[row..=row + size.x as usize].fill(0);
+                    }
                 }
             }
+            for z in 0..side.z {
+                for y in 0..side.y {
+                    for x in 0..side.x {
+                        let i = (x + side.x * (y + side.y * z)) as usize;
+                        if index[i] == 0 {
+                            index[i] = shared.keys.len() as u32;
+                            shared.keys.push(shared.key(lo + UVec3::new(x, y, z)));
+                        }
+                    }
+                }
+            }
+            shared.dense = Some((lo, side, index));
+        } else {
+            for &origin in origins {
+                let size = size(origin);
+                for z in 0..=size.z {
+                    for y in 0..=size.y {
+                        let row = shared.key(origin + UVec3::new(0, y, z));
+                        shared.keys.extend(row..=row + u64::from(size.x));
+                    }
+                }
+            }
+            shared.keys.par_sort_unstable();
+            shared.keys.dedup();
         }
-        shared.keys.par_sort_unstable();
-        shared.keys.dedup();
         let points: Vec<Vec3> = shared.keys.iter().map(|&k| lattice.point(shared.at(k))).collect();
         shared.values = vec![0.0; points.len()];
         const CHUNK: usize = 4096;
@@ -162,6 +205,12 @@ impl Shared {
             return Err(Error::InvalidParameter(format!("the field is not a number at {}", points[i])));
         }
         Ok(shared)
+    }
+
+    /// Whether the batch was listed on a dense grid (else sorted).
+    #[cfg(test)]
+    pub fn is_dense(&self) -> bool {
+        self.dense.is_some()
     }
 
     /// Points evaluated.
@@ -178,61 +227,106 @@ impl Shared {
         UVec3::new((key % nx) as u32, (key / nx % ny) as u32, (key / (nx * ny)) as u32)
     }
 
-    fn find(&self, key: u64) -> usize {
-        self.keys.binary_search(&key).expect("a batch's blocks' points are all evaluated")
+    /// The index of lattice point `g`, one of the batch's.
+    fn find(&self, g: UVec3) -> usize {
+        match &self.dense {
+            Some((lo, side, index)) => {
+                let l = g - *lo;
+                let i = index[(l.x + side.x * (l.y + side.y * l.z)) as usize];
+                assert!(i != u32::MAX, "a batch's blocks' points are all evaluated");
+                i as usize
+            }
+            None => self.keys.binary_search(&self.key(g)).expect("a batch's blocks' points are all evaluated"),
+        }
     }
 }
 
-/// Samples and contours the block at `origin` (in cells), its lattice points' values
-/// taken from `shared` (the evaluations it reports leave them out).
-pub(super) fn process<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, origin: UVec3, shared: &Shared) -> Result<Block> {
+/// One block's cells and crossings, before the batch refines the crossings.
+struct Found {
+    block: Block,
+    size: UVec3,
+    /// Cells with a surface.
+    active: Vec<UVec3>,
+    /// Per lattice point and axis (`point * 3 + axis`): its crossing among the block's.
+    slot: Vec<u32>,
+    /// Per crossing: its edge's ends, whether each lies on the box's faces, and the
+    /// first guess.
+    ends: Vec<(Vec3, Vec3)>,
+    on_face: Vec<(bool, bool)>,
+    guesses: Vec<Crossing>,
+}
+
+/// The block at `origin`: corner signs per cell and one crossing per sign-changing
+/// edge, from the lattice samples in `shared`.
+fn find(lattice: &Lattice, origin: UVec3, shared: &Shared) -> Found {
     let Samples { size, points, at, values } = Samples::from_shared(lattice, origin, shared);
     let n = size + 1;
     let point_index = |p: UVec3| (p.x + n.x * (p.y + n.y * p.z)) as usize;
     let count = (n.x * n.y * n.z) as usize;
-    let mut evaluations = 0;
     let table = cases();
-    let mut block = Block { origin, first: vec![u32::MAX; CELLS], config: vec![0; CELLS], ..Default::default() };
-    // Crossings, one per sign-changing edge of the block's lattice (slot: point * 3 + axis).
-    let mut slot = vec![u32::MAX; count * 3];
-    let mut crossings: Vec<(usize, usize, Crossing)> = Vec::new();
-    let mut active: Vec<UVec3> = Vec::new();
+    let block = Block { origin, first: vec![u32::MAX; CELLS], config: vec![0; CELLS], ..Default::default() };
+    let mut found = Found { block, size, active: Vec::new(), slot: vec![u32::MAX; count * 3], ends: Vec::new(), on_face: Vec::new(), guesses: Vec::new() };
     for z in 0..size.z {
         for y in 0..size.y {
             for x in 0..size.x {
                 let cell = UVec3::new(x, y, z);
                 let corner = |c: usize| cell + UVec3::new(c as u32 & 1, c as u32 >> 1 & 1, c as u32 >> 2 & 1);
                 let config = (0..8).fold(0u8, |m, c| m | (u8::from(values[point_index(corner(c))] <= 0.0) << c));
-                block.config[cell_index(cell)] = config;
+                found.block.config[cell_index(cell)] = config;
                 if config == 0 || config == 255 {
                     continue;
                 }
-                active.push(cell);
+                found.active.push(cell);
                 for e in (0..12).filter(|&e| table[config as usize].piece[e] != NONE) {
                     let (a, b) = ends(e);
                     let (pa, pb) = (point_index(corner(a)), point_index(corner(b)));
                     let s = pa * 3 + e / 4;
-                    if slot[s] == u32::MAX {
-                        slot[s] = crossings.len() as u32;
-                        crossings.push((pa, pb, Crossing::new(values[pa], values[pb], 0.0)));
+                    if found.slot[s] == u32::MAX {
+                        found.slot[s] = found.guesses.len() as u32;
+                        found.ends.push((points[pa], points[pb]));
+                        found.on_face.push((lattice.on_face(at[pa]), lattice.on_face(at[pb])));
+                        found.guesses.push(Crossing::new(values[pa], values[pb], 0.0));
                     }
                 }
             }
         }
     }
-    if active.is_empty() {
-        return Ok(block);
+    found
+}
+
+/// Samples and contours the blocks at `origins` (in cells), their lattice points'
+/// values taken from `shared`. Each block's crossings are found alone; then the
+/// batch's crossings are refined, their gradients taken and its vertices pulled onto
+/// the surface together, so the evaluator gets full blocks of points rather than a
+/// few per block (each crossing and vertex is still computed alone: the same results).
+/// Returns the blocks and the evaluations made (the lattice points' left out).
+pub(super) fn process<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, origins: &[UVec3], shared: &Shared) -> (Vec<Block>, usize) {
+    let mut found: Vec<Found> = origins.par_iter().map(|&o| find(lattice, o, shared)).collect();
+    let mut evaluations = 0;
+    // Every crossing of the batch, block after block.
+    let mut offsets = Vec::with_capacity(found.len());
+    let mut total = 0;
+    for f in &found {
+        offsets.push(total);
+        total += f.guesses.len();
+    }
+    let mut guesses: Vec<Crossing> = Vec::with_capacity(total);
+    let mut edge_ends: Vec<(Vec3, Vec3)> = Vec::with_capacity(total);
+    let mut on_face: Vec<(bool, bool)> = Vec::with_capacity(total);
+    for f in &mut found {
+        guesses.append(&mut f.guesses);
+        edge_ends.append(&mut f.ends);
+        on_face.append(&mut f.on_face);
     }
     // Refine every crossing on the cut field, one batch per step.
-    let mut guesses: Vec<Crossing> = crossings.iter().map(|c| c.2).collect();
-    let along = |c: usize, t: f32| points[crossings[c].0].lerp(points[crossings[c].1], t);
+    let along = |c: usize, t: f32| edge_ends[c].0.lerp(edge_ends[c].1, t);
     evaluations += refine_crossings(field, &mut guesses, along, |f, p| lattice.cut(f, p), REFINE_TOLERANCE * lattice.step.min_element());
     let mut places: Vec<Vec3> = guesses.iter().enumerate().map(|(c, g)| along(c, g.result())).collect();
     let mut normals = vec![Vec3::ZERO; places.len()];
     field.gradients(&places, &mut normals);
     evaluations += places.len();
     // Where an edge reaches the box's faces, the box may have made the crossing.
-    let near: Vec<usize> = (0..crossings.len()).filter(|&c| lattice.on_face(at[crossings[c].0]) || lattice.on_face(at[crossings[c].1])).collect();
+    let near: Vec<usize> = (0..total).filter(|&c| on_face[c].0 || on_face[c].1).collect();
     if !near.is_empty() {
         let near_points: Vec<Vec3> = near.iter().map(|&c| places[c]).collect();
         let mut f = vec![0.0; near.len()];
@@ -242,41 +336,64 @@ pub(super) fn process<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, ori
             if d >= f {
                 // The box made it: on the face itself, at the edge's end there.
                 normals[c] = face;
-                let (a, b) = (crossings[c].0, crossings[c].1);
-                places[c] = if lattice.on_face(at[b]) { points[b] } else { points[a] };
+                places[c] = if on_face[c].1 { edge_ends[c].1 } else { edge_ends[c].0 };
             }
         }
     }
     for g in &mut normals {
         *g = if g.is_finite() { g.normalize_or_zero() } else { Vec3::ZERO };
     }
-    // One vertex per piece.
-    for cell in active {
-        let config = block.config[cell_index(cell)];
-        let case = &table[config as usize];
-        block.first[cell_index(cell)] = block.qef.len() as u32;
-        let mut qefs = [Qef::default(); 4];
-        let corner = |c: usize| cell + UVec3::new(c as u32 & 1, c as u32 >> 1 & 1, c as u32 >> 2 & 1);
-        for e in (0..12).filter(|&e| case.piece[e] != NONE) {
-            let c = slot[point_index(corner(ends(e).0)) * 3 + e / 4] as usize;
-            qefs[case.piece[e] as usize].add(places[c], normals[c]);
-        }
-        let (lo, hi) = (lattice.point(origin + cell), lattice.point(origin + cell + 1));
-        for q in &qefs[..case.pieces as usize] {
-            block.qef.push(q.solve(lo, hi));
-            block.mass.push(q.mass_point());
-            block.cell.push(origin + cell);
-        }
-        // The edges from the cell's lowest corner are the block's to contour.
-        for axis in 0..3 {
-            let e = axis * 4;
-            if case.piece[e] != NONE {
-                let c = slot[point_index(cell) * 3 + axis] as usize;
-                block.edges.push(OwnedEdge { from: origin + cell, axis: axis as u8, from_inside: config & 1 == 1, normal: normals[c] });
+    // One vertex per piece, block by block.
+    let mut blocks: Vec<Block> = found
+        .into_par_iter()
+        .zip(offsets)
+        .map(|(f, offset)| {
+            let Found { mut block, size, active, slot, .. } = f;
+            let n = size + 1;
+            let point_index = |p: UVec3| (p.x + n.x * (p.y + n.y * p.z)) as usize;
+            let table = cases();
+            let origin = block.origin;
+            for cell in active {
+                let config = block.config[cell_index(cell)];
+                let case = &table[config as usize];
+                block.first[cell_index(cell)] = block.qef.len() as u32;
+                let mut qefs = [Qef::default(); 4];
+                let corner = |c: usize| cell + UVec3::new(c as u32 & 1, c as u32 >> 1 & 1, c as u32 >> 2 & 1);
+                for e in (0..12).filter(|&e| case.piece[e] != NONE) {
+                    let c = offset + slot[point_index(corner(ends(e).0)) * 3 + e / 4] as usize;
+                    qefs[case.piece[e] as usize].add(places[c], normals[c]);
+                }
+                let (lo, hi) = (lattice.point(origin + cell), lattice.point(origin + cell + 1));
+                for q in &qefs[..case.pieces as usize] {
+                    block.qef.push(q.solve(lo, hi));
+                    block.mass.push(q.mass_point());
+                    block.cell.push(origin + cell);
+                }
+                // The edges from the cell's lowest corner are the block's to contour.
+                for axis in 0..3 {
+                    let e = axis * 4;
+                    if case.piece[e] != NONE {
+                        let c = offset + slot[point_index(cell) * 3 + axis] as usize;
+                        block.edges.push(OwnedEdge { from: origin + cell, axis: axis as u8, from_inside: config & 1 == 1, normal: normals[c] });
+                    }
+                }
             }
+            block
+        })
+        .collect();
+    // Vertices far off the surface pulled onto it, the batch's together.
+    let (mut qef, mut cell, mut mass) = (Vec::new(), Vec::new(), Vec::new());
+    for b in &blocks {
+        qef.extend_from_slice(&b.qef);
+        cell.extend_from_slice(&b.cell);
+        mass.extend_from_slice(&b.mass);
+    }
+    evaluations += project(field, lattice, &mut qef, &cell, Some(&mass));
+    let mut moved = qef.into_iter();
+    for b in &mut blocks {
+        for q in &mut b.qef {
+            *q = moved.next().expect("as many as the blocks hold");
         }
     }
-    evaluations += project(field, lattice, &mut block.qef, &block.cell, Some(&block.mass));
-    block.evaluations = evaluations;
-    Ok(block)
+    (blocks, evaluations)
 }

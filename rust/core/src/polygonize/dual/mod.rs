@@ -17,7 +17,8 @@
 //!   [`crate::polygonize::estimate`].
 //!
 //! The output does not depend on the number of threads: blocks come in a fixed order
-//! and each is computed alone.
+//! and each crossing and vertex is computed alone (a batch's go to the field together,
+//! each point evaluated on its own).
 
 mod block;
 mod cases;
@@ -125,7 +126,8 @@ pub fn mesh_dual_watched<F: ScalarField + ?Sized>(field: &F, params: &DualParams
         let origins: Vec<UVec3> = batch.iter().map(|&b| b * lattice::BLOCK).collect();
         let shared = block::Shared::of(field, &lattice, &origins)?;
         profile.evaluations += shared.evaluated();
-        let done: Vec<block::Block> = origins.par_iter().map(|&o| block::process(field, &lattice, o, &shared)).collect::<Result<_>>()?;
+        let (done, evaluations) = block::process(field, &lattice, &origins, &shared);
+        profile.evaluations += evaluations;
         vertices += done.iter().map(|b| b.qef.len() as u64).sum::<u64>();
         quads += done.iter().map(|b| b.edges.len() as u64).sum::<u64>();
         blocks.extend(done);
@@ -139,7 +141,6 @@ pub fn mesh_dual_watched<F: ScalarField + ?Sized>(field: &F, params: &DualParams
     }
     drop(live);
     profile.cells_ms = ms(start);
-    profile.evaluations += blocks.iter().map(|b| b.evaluations).sum::<usize>();
     watch.check()?;
     let start = Instant::now();
     let mut offsets = Vec::with_capacity(blocks.len());

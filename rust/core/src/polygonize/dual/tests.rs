@@ -219,7 +219,8 @@ fn bad_input_is_an_error_not_a_panic() {
 /// A batch's shared samples ([`block::Shared`], each lattice point evaluated once)
 /// against each block sampled alone ([`block::Samples::of`]): the same points, lattice
 /// coordinates and cut values, bit for bit, on every live block of issue 17's tree
-/// (batches of a few blocks and all at once).
+/// (batches of a few blocks, all at once, and two far apart: listed on a dense grid
+/// and sorted).
 #[test]
 fn shared_samples_match_each_block_sampled_alone() {
     let t = tree(crate::implicit::samples::SOFT_CSG_20);
@@ -228,8 +229,11 @@ fn shared_samples_match_each_block_sampled_alone() {
     let live = octree::live_blocks(&t, &lattice, &crate::polygonize::estimate::Watch::default()).unwrap();
     assert!(live.len() > 50, "{} live blocks", live.len());
     let origins: Vec<UVec3> = live.iter().map(|&b| b * BLOCK).collect();
-    for batch in [&origins[..], &origins[..7], &origins[origins.len() - 5..]] {
+    let apart = [origins[0], origins[origins.len() - 1]];
+    let mut modes = Vec::new();
+    for batch in [&origins[..], &origins[..7], &origins[origins.len() - 5..], &apart[..]] {
         let shared = block::Shared::of(&t, &lattice, batch).unwrap();
+        modes.push(shared.is_dense());
         let mut total = 0;
         for &o in batch {
             let (a, b) = (block::Samples::of(&t, &lattice, o).unwrap(), block::Samples::from_shared(&lattice, o, &shared));
@@ -240,4 +244,6 @@ fn shared_samples_match_each_block_sampled_alone() {
         // Neighbours share their faces' points: fewer evaluated than sampled alone.
         assert!(shared.evaluated() <= total && (batch.len() < 8 || shared.evaluated() < total), "{} of {total}", shared.evaluated());
     }
+    // Both listings met: the small batches dense, the two far apart sorted.
+    assert_eq!(&modes[1..], &[true, true, false], "{modes:?}");
 }
