@@ -49,9 +49,11 @@ fn main() {
             println!("{side:?} {:.0}%: {seconds:.3} s", 100.0 * fraction);
             continue;
         }
+        let start = Instant::now();
         let r = shell_report(&mesh, &shell);
+        let checked = start.elapsed().as_secs_f64();
         println!(
-            "{side:?} {:.0}%: {seconds:.3} s; defects (self, base, inverted) {:?}; ratio min {:.3} mean {:.3}; compressed {}",
+            "{side:?} {:.0}%: {seconds:.3} s, report (the exact check and normal room) {checked:.3} s; defects (self, base, inverted) {:?}; ratio min {:.3} mean {:.3}; compressed {}",
             100.0 * fraction,
             (r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells),
             r.min_ratio,
