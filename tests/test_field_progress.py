@@ -85,7 +85,7 @@ def test_the_node_editor_shows_the_estimate_of_its_tree(scene):
     tree.resolution = 128  # a finer tree: a larger estimate (cached per tree and resolution)
     finer = tree_estimate(tree)
     assert finer["triangles"] > 2 * guess["triangles"] and tree_estimate(tree) is finer
-    tree.nodes.remove(tree.nodes["Field Output"] if "Field Output" in tree.nodes else tree.nodes[1])
+    remove_output(tree)
     assert tree_estimate(tree) is None  # no output: no tree to estimate (the status says why)
 
 
@@ -311,21 +311,31 @@ def test_live_regeneration_meshes_on_a_worker_thread_and_writes_only_the_latest_
     first, second = api.build_field_nodes_mesh(tree, name="First"), api.build_field_nodes_mesh(tree, name="Second")
     before = snapshot(first)
     # A slow state (about a second of meshing), then the user moves on: the first
-    # build is cancelled in flight and never written; the second is.
+    # build is cancelled in flight (the core stops) and never written; the second is.
     tree.resolution = 400
-    assert live.start_live(tree) == "" and live_worker.running(tree.name)
+    assert live.start_live(tree) == "" and live_worker.running(tree)
     assert_unchanged(before, first)  # returned at once: the interface is not held
-    job = live_worker._builds[tree.name][0]
+    job = live_worker._builds[tree.session_uid].job
     tree.resolution = 40
     assert live.start_live(tree) == ""
     job.join(60)
-    assert job.cancelled and live_worker.running(tree.name)
+    assert isinstance(job._error, tn.Cancelled), "the core stopped meshing the older state"
+    assert live_worker.running(tree)
+    tree.name = "Renamed"  # known by session_uid: a rename mid-build changes nothing
     live_worker.wait()
-    assert not live_worker.running(tree.name) and tree.status == ""
+    assert not live_worker.running(tree) and tree.status == ""
     assert first["thicket_field"]["resolution"] == second["thicket_field"]["resolution"] == 40
     reference = api.build_field_mesh(tree_json_of(tree), resolution=40)
     np.testing.assert_array_equal(mesh_io.read_mesh(first.data).corners, mesh_io.read_mesh(reference.data).corners)
     np.testing.assert_array_equal(mesh_io.read_mesh(second.data).corners, mesh_io.read_mesh(reference.data).corners)
+    # A tree that reads otherwise when the build ends (an undo, which schedules
+    # nothing) keeps its meshes: the result of the older state is dropped.
+    kept = snapshot(first)
+    tree.resolution = 32
+    live.start_live(tree)
+    tree.resolution = 40
+    live_worker.wait()
+    assert_unchanged(kept, first)
     # An object deleted while its tree meshes is skipped; the other is written.
     tree.resolution = 32
     live.start_live(tree)
@@ -334,10 +344,14 @@ def test_live_regeneration_meshes_on_a_worker_thread_and_writes_only_the_latest_
     assert first["thicket_field"]["resolution"] == 32 and tree.status == ""
     # A tree that cannot mesh says why and changes nothing, with nothing in flight.
     kept = snapshot(first)
-    tree.nodes.remove(tree.nodes["Field Output"] if "Field Output" in tree.nodes else tree.nodes[1])
+    remove_output(tree)
     message = live.start_live(tree)
-    assert message and tree.status == message and not live_worker.running(tree.name)
+    assert message and tree.status == message and not live_worker.running(tree)
     assert_unchanged(kept, first)
+
+
+def remove_output(tree):
+    tree.nodes.remove(next(node for node in tree.nodes if node.bl_idname == "ThicketNodeOutput"))
 
 
 def tree_json_of(tree):

@@ -116,11 +116,11 @@ def waits_for_the_user(tree):
 
 
 def regenerate_tree(tree, ask=False):
-    """Regenerates every Field Mesh of `tree`; the first error goes to
-    `tree.status` (empty on success), never raised. `ask` (live updates in the
-    interface): a tree estimated above `CONFIRM_ABOVE` triangles is not meshed on
-    the spot, which would hold the interface for seconds; the status says so and
-    the meshes stay as they were, as a stack's large bake waits for Regenerate."""
+    """Regenerates every Field Mesh of `tree` at once (background scripts' live
+    regeneration; the interface's is `start_live`); the first error goes to
+    `tree.status` (empty on success), never raised. `ask`: a tree estimated above
+    `CONFIRM_ABOVE` triangles is not meshed, the status says so and the meshes stay
+    as they were, as a stack's large bake waits for Regenerate."""
     message = waits_for_the_user(tree) if ask else ""
     for obj in linked_objects(tree) if not message else ():
         try:
@@ -133,30 +133,48 @@ def regenerate_tree(tree, ask=False):
     return message
 
 
+def tree_state(tree):
+    """What a live build reads of `tree`: its JSON and mesh settings (None when it
+    is not a valid tree now)."""
+    try:
+        return tree_json(tree), tree.resolution, tree.adaptive
+    except errors():
+        return None
+
+
 def start_live(tree) -> str:
     """Regenerates `tree`'s Field Meshes without holding the interface: their
     settings read here, the meshing on a worker thread, the meshes written by a
     timer when done (`live_worker`); a newer change cancels it. Returns the tree's
-    status now: "" while it meshes, else why nothing was started (a tree too large
-    for live regeneration, or an error)."""
-    message, targets, distinct = waits_for_the_user(tree), [], []
-    if not message:
-        text = None
-        for obj in linked_objects(tree):
-            try:
-                text = tree_json(tree) if text is None else text
-                prepared, source = prepare_regeneration(obj, text, tree.resolution, tree.adaptive)
-            except errors() as exc:
-                message = message or f"{obj.name}: {exc}"
-                continue
+    status now: "" while it meshes, else why nothing was started: a tree too large
+    for live regeneration (any of its Field Meshes estimated above
+    `CONFIRM_ABOVE` triangles), or an error (an object that cannot be read is left
+    out and named in the status once the others are written)."""
+    from ..pure.field_tree import CONFIRM_ABOVE, estimate_text, needs_confirmation
+
+    message, targets, distinct = "", [], []
+    try:
+        text = tree_json(tree)
+    except errors() as exc:
+        message = str(exc)
+    for obj in linked_objects(tree) if not message else ():
+        try:
+            prepared = prepare_regeneration(obj, text, tree.resolution, tree.adaptive)[0]
             if prepared not in distinct:
+                guess = estimate(prepared)
+                if needs_confirmation(guess, CONFIRM_ABOVE):
+                    targets, message = [], f"{NOT_LIVE}: {estimate_text(guess)}; press Regenerate to build it (with progress, Esc cancels)"
+                    break
                 distinct.append(prepared)
-            targets.append((obj.name, None if source is None else source.name, distinct.index(prepared)))
-    if message or not targets:
-        live_worker.cancel(tree.name)
+        except errors() as exc:
+            message = message or f"{obj.name}: {exc}"
+            continue
+        targets.append((obj.session_uid, distinct.index(prepared)))
+    if not targets:
+        live_worker.cancel(tree)
         live_worker.set_status(tree, message)
         return message
-    live_worker.start(tree, targets, distinct, lambda obj, shown: node_tree_of(obj) == shown)
+    live_worker.start(tree, targets, distinct, tree_state, lambda obj, shown: node_tree_of(obj) == shown, note=message)
     return ""
 
 
@@ -224,13 +242,27 @@ def on_depsgraph_update(scene, depsgraph):
 
 @persistent
 def on_load_pre(*_args):
-    """A file is about to be loaded: live builds of the old file's trees are
-    dropped (the new file may hold trees and objects of the same names)."""
+    """A file is about to be loaded: live builds and regenerations waiting for the
+    debounce of the old file's trees are dropped."""
+    live_worker.cancel()
+    _trees.pending.clear()
+
+
+@persistent
+def on_undo_pre(*_args):
+    """An undo or redo is about to restore the file: builds in flight read the
+    state it leaves, so they are dropped (the restored meshes match the restored
+    trees)."""
     live_worker.cancel()
 
 
 _live = False
-_HANDLERS = ((bpy.app.handlers.depsgraph_update_post, on_depsgraph_update), (bpy.app.handlers.load_pre, on_load_pre))
+_HANDLERS = (
+    (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
+    (bpy.app.handlers.load_pre, on_load_pre),
+    (bpy.app.handlers.undo_pre, on_undo_pre),
+    (bpy.app.handlers.redo_pre, on_undo_pre),
+)
 
 
 def register_handlers():

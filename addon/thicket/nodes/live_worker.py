@@ -9,7 +9,9 @@ the same tree cancels the build in flight (the core stops at its next progress
 check) and its result is dropped, so only the latest state is written. Errors go to
 the tree's status and leave the meshes as they were, as a synchronous
 regeneration does; a tree estimated too large to mesh live waits for Regenerate
-(`live.waits_for_the_user`)."""
+(`live.start_live`). An undo or redo, a file load and Regenerate drop the builds in
+flight, and a result is written only while the tree still reads as it did when its
+build started."""
 
 import bpy
 
@@ -20,73 +22,94 @@ from ..stack.guard import suspended
 #: How often the main thread looks for finished builds (seconds).
 POLL_SECONDS = 0.05
 
-#: Builds in flight by tree name: (job, targets, the distinct prepared settings,
-#: `still_shows(obj, tree)`); a target is (object name, its Text's name or None,
-#: index into the distinct settings).
+
+class _Build:
+    """A tree's build in flight. Trees and objects are known by `session_uid`
+    (renaming one mid-build changes nothing); `state(tree)` is what the build read
+    from the tree (its JSON and settings): a result is written only while the tree
+    still reads the same (an undo, or a change nothing scheduled, drops it)."""
+
+    def __init__(self, tree, targets, distinct, state, still_shows, note):
+        self.tree_uid, self.targets, self.distinct = tree.session_uid, targets, distinct
+        self.state, self.read, self.still_shows, self.note = state, state(tree), still_shows, note
+
+        def work(job):
+            return [field_mesh.mesh_arrays(p, job.progress) for p in distinct]
+
+        self.job = Job(work)
+
+
+#: Builds in flight by their tree's session_uid.
 _builds: dict = {}
 
 
-def start(tree, targets, distinct, still_shows) -> None:
+def start(tree, targets, distinct, state, still_shows, note="") -> None:
     """Meshes each of `distinct` (`fields.field_mesh.prepare`d settings) on a worker
-    thread for the Field Meshes `targets` of `tree` (see `_builds`), cancelling the
-    build of `tree` in flight; `still_shows(obj, tree)` tells at writing time
-    whether an object still shows the tree (it may have been relinked)."""
-    cancel(tree.name)
-
-    def work(job):
-        return [field_mesh.mesh_arrays(p, job.progress) for p in distinct]
-
-    _builds[tree.name] = (Job(work).start(), targets, distinct, still_shows)
+    thread for `targets`, (object session_uid, index into `distinct`) pairs of
+    Field Meshes of `tree`, cancelling the build of `tree` in flight. When done,
+    the timer writes each mesh whose object `still_shows(obj, tree)`, if
+    `state(tree)` has not changed since; `note` (an error met while reading the
+    targets) is the tree's status then, or the first error of the writes."""
+    cancel(tree)
+    build = _Build(tree, targets, distinct, state, still_shows, note)
+    _builds[build.tree_uid] = build
+    build.job.start()
     if not bpy.app.timers.is_registered(poll):
         bpy.app.timers.register(poll, first_interval=POLL_SECONDS)
 
 
-def cancel(name=None) -> None:
-    """Cancels the build of the tree named `name` in flight (every build for None);
-    its result is never written."""
-    for key in list(_builds) if name is None else [name]:
+def cancel(tree=None) -> None:
+    """Cancels the build of `tree` in flight (every build for None); its result is
+    never written."""
+    for key in list(_builds) if tree is None else [tree.session_uid]:
         build = _builds.pop(key, None)
         if build is not None:
-            build[0].cancel()
+            build.job.cancel()
 
 
-def running(name) -> bool:
-    return name in _builds
+def running(tree) -> bool:
+    return tree.session_uid in _builds
+
+
+def _by_uid(collection, uid):
+    return next((item for item in collection if item.session_uid == uid), None)
 
 
 def poll():
     """Writes the builds that are done (main thread); the timer's next interval, or
-    None once nothing is in flight."""
-    for name, (job, targets, distinct, still_shows) in list(_builds.items()):
-        if not job.done:
+    None once nothing is in flight. One build's failure never strands the others."""
+    for uid, build in list(_builds.items()):
+        if not build.job.done:
             continue
-        del _builds[name]
-        tree = bpy.data.node_groups.get(name)
+        del _builds[uid]
+        tree = _by_uid(bpy.data.node_groups, uid)
         if tree is None:
-            continue  # the tree went (a file was loaded, or it was deleted)
+            continue  # the tree went (deleted, or another file loaded)
         try:
-            arrays = job.outcome()
+            arrays = build.job.outcome()
+            if build.state(tree) != build.read:
+                continue  # the tree changed since (an undo): its meshes stay as they are
+            set_status(tree, _write(tree, build, arrays) or build.note)
         except cancel_errors():
             continue
-        except user_errors() as exc:
+        except Exception as exc:  # noqa: BLE001 - a timer that raises is unregistered by Blender
             set_status(tree, error_text(exc))
-            continue
-        set_status(tree, _write(tree, targets, distinct, arrays, still_shows))
     return POLL_SECONDS if _builds else None
 
 
-def _write(tree, targets, distinct, arrays, still_shows) -> str:
+def _write(tree, build, arrays) -> str:
     message = ""
     with suspended():
-        for obj_name, text_name, index in targets:
-            obj = bpy.data.objects.get(obj_name)
-            if obj is None or not still_shows(obj, tree):
+        for obj_uid, index in build.targets:
+            obj = _by_uid(bpy.data.objects, obj_uid)
+            if obj is None or not build.still_shows(obj, tree):
                 continue  # deleted or relinked while it meshed
-            source = bpy.data.texts.get(text_name) if text_name is not None else None
+            source = obj.get(field_mesh.TEXT_PROPERTY)
+            source = source if isinstance(source, bpy.types.Text) else None
             try:
-                field_mesh.write_existing(obj, distinct[index], arrays[index], source)
+                field_mesh.write_existing(obj, build.distinct[index], arrays[index], source)
             except user_errors() as exc:
-                message = message or f"{obj_name}: {error_text(exc)}"
+                message = message or f"{obj.name}: {error_text(exc)}"
     return message
 
 
@@ -100,7 +123,7 @@ def wait(timeout=60.0) -> None:
     """Waits for every build in flight and writes them (tests and scripts that
     started a live build by hand)."""
     for build in list(_builds.values()):
-        build[0].join(timeout)
+        build.job.join(timeout)
     poll()
 
 

@@ -46,13 +46,14 @@ class THICKET_OT_field_mesh_regenerate(FieldBuildOperator, bpy.types.Operator):
 
 def _follow(tree, done, prepared, arrays):
     """The other Field Meshes of `tree` follow `done`, rebuilt from `prepared` into
-    `arrays`: those with the same settings take the same arrays, any other (stored
-    bounds of its own) is meshed again here. The tree's status clears, or names
-    the first that failed."""
-    from ..nodes import live
+    `arrays`: those with the same settings take the same arrays; any other (stored
+    bounds of its own) is meshed again, in the interface on the live worker
+    (`nodes.live_worker`, written when done), in background scripts here. The
+    tree's status clears, or names the first that failed."""
+    from ..nodes import live, live_worker
     from ..nodes.graph import tree_json
 
-    message = ""
+    message, targets, distinct = "", [], []
     for other in live.linked_objects(tree):
         if other == done:
             continue
@@ -60,10 +61,16 @@ def _follow(tree, done, prepared, arrays):
             own, source_text = field_mesh.prepare_regeneration(other, tree_json(tree), tree.resolution, tree.adaptive)
             if own == prepared:
                 field_mesh.write_existing(other, own, arrays, source_text)
-            else:
+            elif bpy.app.background:
                 live.regenerate(other)
+            else:
+                distinct.append(own)
+                targets.append((other.session_uid, len(distinct) - 1))
         except user_errors() as exc:
             message = message or f"{other.name}: {error_text(exc)}"
+    live_worker.cancel(tree)  # a live build in flight read an older state than this one
+    if targets:
+        live_worker.start(tree, targets, distinct, live.tree_state, lambda obj, shown: live.node_tree_of(obj) == shown, note=message)
     if tree.status != message:
         tree.status = message
 
@@ -73,13 +80,11 @@ def regeneration_build(obj, label):
     node tree's current state when it is linked to one (its status follows, and
     so do the tree's other Field Meshes: `_follow`), else from its stored tree or
     Text."""
-    from ..nodes import live, live_worker
+    from ..nodes import live
     from ..nodes.graph import tree_json
     from ..stack.guard import suspended
 
     tree = live.node_tree_of(obj)
-    if tree is not None:
-        live_worker.cancel(tree.name)  # a live build in flight would write an older state after this one
     try:
         if tree is not None:
             prepared, source_text = field_mesh.prepare_regeneration(obj, tree_json(tree), tree.resolution, tree.adaptive)

@@ -331,9 +331,13 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
 /// crossing the base, and of two skin items crossing each other only the later
 /// group (when both moved, either alone may fit; if the crossing stays, the next
 /// check blames the other). Also returns, sorted, the groups blamed for a defect
-/// that moves no other live group.
+/// that touches no other group of the batch, live or undone: a crossing with an
+/// undone group's corner may go once that group moves on its retry, so it does not
+/// refuse the live group for good.
 fn blame(checker: &Checker, found: &super::defects::Findings, saved: &[Saved], live: &[usize]) -> (Vec<usize>, Vec<usize>) {
-    let mut owner: Vec<(u32, usize)> = live.iter().flat_map(|&g| saved[g].iter().map(move |s| (s.0, g))).collect();
+    let mut is_live = vec![false; saved.len()];
+    live.iter().for_each(|&g| is_live[g] = true);
+    let mut owner: Vec<(u32, usize)> = (0..saved.len()).flat_map(|g| saved[g].iter().map(move |s| (s.0, g))).collect();
     owner.sort_unstable();
     let groups = |vertices: &[u32]| -> Vec<usize> {
         let mut g: Vec<usize> =
@@ -347,9 +351,10 @@ fn blame(checker: &Checker, found: &super::defects::Findings, saved: &[Saved], l
         if let [g] = groups[..] {
             alone.push(g);
         }
+        let live_groups = groups.into_iter().filter(|&g| is_live[g]);
         match all {
-            true => blamed.extend(groups),
-            false => blamed.extend(groups.last()),
+            true => blamed.extend(live_groups),
+            false => blamed.extend(live_groups.last()),
         }
     };
     for &(i, j) in &found.self_pairs {
