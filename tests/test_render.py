@@ -44,6 +44,20 @@ def cycles_alpha(scene, path):
     return pixels.reshape(h, w, 4)[::-1, :, 3]  # row 0 at the top
 
 
+def cycles_and_view(scene, tmp_path, obj, location, rotation, size):
+    """A new camera at `location` with Euler `rotation` (radians) made the scene's,
+    at `size` (width, height) pixels: Cycles' silhouette from it (alpha > 0.5), and
+    the view and projection matrices of `obj`'s preview from the same camera."""
+    bpy.ops.object.camera_add(location=location, rotation=rotation)
+    scene.camera = bpy.context.object
+    width, height = size
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
+    bpy.context.view_layer.update()
+    baked = cycles_alpha(scene, str(tmp_path / "cycles.png")) > 0.5
+    view, projection = camera.scene_camera(scene, bpy.context.evaluated_depsgraph_get(), obj, width, height)
+    return baked, view, projection
+
+
 def iou(a, b):
     return np.logical_and(a, b).sum() / max(1, np.logical_or(a, b).sum())
 
@@ -102,13 +116,8 @@ def test_the_preview_shows_holes_regions_and_cutters_as_cycles_shows_the_bake(sc
             item.vertex_group = "lower"  # the texture below, the base slab above
     api.regenerate(sphere)
     sphere.hide_render = True
-    bpy.ops.object.camera_add(location=(0.4, -6.0, 1.2), rotation=(math.radians(80), 0.0, math.radians(4)))
-    scene.camera = bpy.context.object
     width, height = 128, 96
-    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
-    bpy.context.view_layer.update()
-    baked = cycles_alpha(scene, str(tmp_path / "cycles.png")) > 0.5
-    view, projection = camera.scene_camera(scene, bpy.context.evaluated_depsgraph_get(), sphere, width, height)
+    baked, view, projection = cycles_and_view(scene, tmp_path, sphere, (0.4, -6.0, 1.2), (math.radians(80), 0.0, math.radians(4)), (width, height))
     out = preview.render_arrays(sphere, view, projection, width, height)
     ours = out["rgba"][:, :, 3] > 0.5
     # The GPU slice renderer draws every effect (a cutter too), with nothing to say.

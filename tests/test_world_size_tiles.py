@@ -209,25 +209,20 @@ def test_cycles_renders_the_world_size_bake_as_the_preview_shows_it(scene, tmp_p
     # would show other rings.
     import math
 
-    from test_render import cycles_alpha, iou
+    from test_render import cycles_and_view, iou
 
-    from thicket.render import camera, preview
+    from thicket.render import preview
 
     sphere = mesh_object("ball", *ico_sphere())
     assert not sphere.data.uv_layers
     # Tiles of 1/16 of the diagonal (twice the automatic size, a quarter of its bake).
     api.add_volumetric_texture(sphere, "chain_mail", shell_thickness=0.06, no_uv_tiles="WORLD", tile_size=2 * math.sqrt(3) / 16)
     sphere.hide_render = True  # Cycles draws the bake (the result)
-    bpy.ops.object.camera_add(location=(0.0, -2.4, 0.5), rotation=(math.radians(80), 0.0, 0.0))
-    scene.camera = bpy.context.object
     # Rings a few pixels wide: at 160 x 120 with the automatic tiles, anti-aliased
     # Cycles and the point-sampled preview disagree on pixels the wires half cover
     # (IoU 0.925 there, 0.962 at 480 x 360).
     width, height = 320, 240
-    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
-    bpy.context.view_layer.update()
-    baked = cycles_alpha(scene, str(tmp_path / "cycles.png")) > 0.5
-    view, projection = camera.scene_camera(scene, bpy.context.evaluated_depsgraph_get(), sphere, width, height)
+    baked, view, projection = cycles_and_view(scene, tmp_path, sphere, (0.0, -2.4, 0.5), (math.radians(80), 0.0, 0.0), (width, height))
 
     def drawn():
         return preview.render_arrays(sphere, view, projection, width, height, method="reference")["rgba"][:, :, 3] > 0.5
