@@ -351,10 +351,10 @@ fn blame(checker: &Checker, found: &super::defects::Findings, saved: &[Saved], l
         if let [g] = groups[..] {
             alone.push(g);
         }
-        let live_groups = groups.into_iter().filter(|&g| is_live[g]);
+        let mut live_groups = groups.into_iter().filter(|&g| is_live[g]);
         match all {
             true => blamed.extend(live_groups),
-            false => blamed.extend(live_groups.last()),
+            false => blamed.extend(live_groups.next_back()),
         }
     };
     for &(i, j) in &found.self_pairs {
