@@ -104,15 +104,22 @@ def tree_estimate(tree):
 NOT_LIVE = "Not regenerated live"
 
 
+def _not_live(guess) -> str:
+    """The status of a tree whose estimate `guess` is too large to mesh live."""
+    from ..pure.field_tree import estimate_text
+
+    return f"{NOT_LIVE}: {estimate_text(guess)}; press Regenerate to build it (with progress, Esc cancels)"
+
+
 def waits_for_the_user(tree):
     """The status of a tree too large to regenerate live (its estimate passes
     `CONFIRM_ABOVE` triangles, as the Regenerate button would ask about), else ""."""
-    from ..pure.field_tree import CONFIRM_ABOVE, estimate_text, needs_confirmation
+    from ..pure.field_tree import CONFIRM_ABOVE, needs_confirmation
 
     guess = tree_estimate(tree)
     if guess is None or not needs_confirmation(guess, CONFIRM_ABOVE):
         return ""  # fits, or not a valid tree: the regeneration reports why
-    return f"{NOT_LIVE}: {estimate_text(guess)}; press Regenerate to build it (with progress, Esc cancels)"
+    return _not_live(guess)
 
 
 def regenerate_tree(tree, ask=False):
@@ -150,7 +157,7 @@ def start_live(tree) -> str:
     for live regeneration (any of its Field Meshes estimated above
     `CONFIRM_ABOVE` triangles), or an error (an object that cannot be read is left
     out and named in the status once the others are written)."""
-    from ..pure.field_tree import CONFIRM_ABOVE, estimate_text, needs_confirmation
+    from ..pure.field_tree import CONFIRM_ABOVE, needs_confirmation
 
     message, targets, distinct = "", [], []
     try:
@@ -163,7 +170,7 @@ def start_live(tree) -> str:
             if prepared not in distinct:
                 guess = estimate(prepared)
                 if needs_confirmation(guess, CONFIRM_ABOVE):
-                    targets, message = [], f"{NOT_LIVE}: {estimate_text(guess)}; press Regenerate to build it (with progress, Esc cancels)"
+                    targets, message = [], _not_live(guess)
                     break
                 distinct.append(prepared)
         except errors() as exc:
