@@ -149,22 +149,26 @@ def tree_state(tree):
         return None
 
 
-def start_live(tree) -> str:
+def start_live(tree, only=None, note="") -> str:
     """Regenerates `tree`'s Field Meshes without holding the interface: their
     settings read here, the meshing on a worker thread, the meshes written by a
     timer when done (`live_worker`); a newer change cancels it. Returns the tree's
     status now: "" while it meshes, else why nothing was started: a tree too large
     for live regeneration (any of its Field Meshes estimated above
     `CONFIRM_ABOVE` triangles), or an error (an object that cannot be read is left
-    out and named in the status once the others are written)."""
+    out and named in the status once the others are written). `only`: the
+    session_uids of the Field Meshes to build (all for None); `note`: an earlier
+    error for the status."""
     from ..pure.field_tree import CONFIRM_ABOVE, needs_confirmation
 
-    message, targets, distinct = "", [], []
+    message, targets, distinct = note, [], []
     try:
         text = tree_json(tree)
     except errors() as exc:
-        message = str(exc)
-    for obj in linked_objects(tree) if not message else ():
+        message, text = message or str(exc), None
+    for obj in linked_objects(tree) if text is not None else ():
+        if only is not None and obj.session_uid not in only:
+            continue
         try:
             prepared = prepare_regeneration(obj, text, tree.resolution, tree.adaptive)[0]
             if prepared not in distinct:

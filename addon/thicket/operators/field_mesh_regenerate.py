@@ -53,7 +53,7 @@ def _follow(tree, done, prepared, arrays):
     from ..nodes import live, live_worker
     from ..nodes.graph import tree_json
 
-    message, targets, distinct = "", [], []
+    message, rest = "", set()
     for other in live.linked_objects(tree):
         if other == done:
             continue
@@ -64,14 +64,13 @@ def _follow(tree, done, prepared, arrays):
             elif bpy.app.background:
                 live.regenerate(other)
             else:
-                distinct.append(own)
-                targets.append((other.session_uid, len(distinct) - 1))
+                rest.add(other.session_uid)
         except user_errors() as exc:
             message = message or f"{other.name}: {error_text(exc)}"
     live_worker.cancel(tree)  # a live build in flight read an older state than this one
-    if targets:
-        live_worker.start(tree, targets, distinct, live.tree_state, lambda obj, shown: live.node_tree_of(obj) == shown, note=message)
-    if tree.status != message:
+    if rest:
+        live.start_live(tree, only=rest, note=message)
+    elif tree.status != message:
         tree.status = message
 
 
