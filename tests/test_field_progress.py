@@ -161,6 +161,28 @@ def test_live_regeneration_in_the_interface_leaves_a_large_mesh_to_the_regenerat
     assert len(obj.data.vertices) > len(before[0]) and obj["thicket_field"]["resolution"] == 32
 
 
+def test_the_live_gate_looks_at_every_field_mesh_of_the_tree(scene):
+    """A tree whose first Field Mesh fits (its stored bounds are eight times as
+    wide, so its cells are too) but whose second is estimated above the threshold
+    waits for Regenerate, in scripts (`regenerate_tree(ask=True)`) as in the
+    interface (`start_live`): one gate, every mesh."""
+    tree = node_tree(resolution=24)
+    tree.auto_update = False
+    wide, own = api.build_field_nodes_mesh(tree, name="A wide"), api.build_field_nodes_mesh(tree, name="B own")
+    side = 8 * float(np.ptp(mesh_io.read_mesh(wide.data).vertices, axis=0).max())
+    wide["thicket_field"]["bounds"] = [-side / 2] * 3 + [side / 2] * 3
+    before = snapshot(wide), snapshot(own)
+    tree.resolution = 800  # the sphere in its own bound: about 3.8 M triangles
+    assert tree_estimate(tree)["triangles"] < CONFIRM_ABOVE  # the first mesh's bounds fit
+    for regenerate in (lambda: live.regenerate_tree(tree, ask=True), lambda: live.start_live(tree)):
+        start = time.monotonic()
+        message = regenerate()
+        assert time.monotonic() - start < 5.0, "left before meshing"
+        assert message.startswith("Not regenerated live") and tree.status == message, message
+        assert_unchanged(before[0], wide)
+        assert_unchanged(before[1], own)
+
+
 def increasing_to_one(seen):
     assert seen and seen[0] == 0.0 and seen[-1] == 1.0, seen
     assert all(b >= a for a, b in zip(seen, seen[1:])), seen

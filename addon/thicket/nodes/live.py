@@ -111,24 +111,14 @@ def _not_live(guess) -> str:
     return f"{NOT_LIVE}: {estimate_text(guess)}; press Regenerate to build it (with progress, Esc cancels)"
 
 
-def waits_for_the_user(tree):
-    """The status of a tree too large to regenerate live (its estimate passes
-    `CONFIRM_ABOVE` triangles, as the Regenerate button would ask about), else ""."""
-    from ..pure.field_tree import CONFIRM_ABOVE, needs_confirmation
-
-    guess = tree_estimate(tree)
-    if guess is None or not needs_confirmation(guess, CONFIRM_ABOVE):
-        return ""  # fits, or not a valid tree: the regeneration reports why
-    return _not_live(guess)
-
-
 def regenerate_tree(tree, ask=False):
     """Regenerates every Field Mesh of `tree` at once (background scripts' live
     regeneration; the interface's is `start_live`); the first error goes to
-    `tree.status` (empty on success), never raised. `ask`: a tree estimated above
-    `CONFIRM_ABOVE` triangles is not meshed, the status says so and the meshes stay
-    as they were, as a stack's large bake waits for Regenerate."""
-    message = waits_for_the_user(tree) if ask else ""
+    `tree.status` (empty on success), never raised. `ask`: with the live gate of
+    `start_live` (any Field Mesh estimated above `CONFIRM_ABOVE` triangles) nothing
+    is meshed, the status says so and the meshes stay as they were, as a stack's
+    large bake waits for Regenerate."""
+    message = _plan(tree)[3] if ask else ""
     for obj in linked_objects(tree) if not message else ():
         try:
             regenerate(obj)
@@ -149,24 +139,22 @@ def tree_state(tree):
         return None
 
 
-def start_live(tree, only=None, note="") -> str:
-    """Regenerates `tree`'s Field Meshes without holding the interface: their
-    settings read here, the meshing on a worker thread, the meshes written by a
-    timer when done (`live_worker`); a newer change cancels it. Returns the tree's
-    status now: "" while it meshes, else why nothing was started: a tree too large
-    for live regeneration (any of its Field Meshes estimated above
-    `CONFIRM_ABOVE` triangles), or an error (an object that cannot be read is left
-    out and named in the status once the others are written). `only`: the
-    session_uids of the Field Meshes to build (all for None); `note`: an earlier
-    error for the status."""
+def _plan(tree, only=None, note=""):
+    """What a live regeneration of `tree` builds: `(message, targets, distinct,
+    too_large)`. `distinct`: the prepared builds with different settings;
+    `targets`: `(session_uid, index into distinct)` per Field Mesh (those in `only`
+    when given); `message`: the first error or `note`; `too_large`: the status of a
+    tree one of whose Field Meshes is estimated above `CONFIRM_ABOVE` triangles
+    (then nothing is targeted), else "". The one gate of `start_live` and
+    `regenerate_tree(ask=True)`."""
     from ..pure.field_tree import CONFIRM_ABOVE, needs_confirmation
 
     message, targets, distinct = note, [], []
     try:
         text = tree_json(tree)
     except errors() as exc:
-        message, text = message or str(exc), None
-    for obj in linked_objects(tree) if text is not None else ():
+        return message or str(exc), [], [], ""
+    for obj in linked_objects(tree):
         if only is not None and obj.session_uid not in only:
             continue
         try:
@@ -174,13 +162,26 @@ def start_live(tree, only=None, note="") -> str:
             if prepared not in distinct:
                 guess = estimate(prepared)
                 if needs_confirmation(guess, CONFIRM_ABOVE):
-                    targets, message = [], _not_live(guess)
-                    break
+                    too_large = _not_live(guess)
+                    return too_large, [], [], too_large
                 distinct.append(prepared)
         except errors() as exc:
             message = message or f"{obj.name}: {exc}"
             continue
         targets.append((obj.session_uid, distinct.index(prepared)))
+    return message, targets, distinct, ""
+
+
+def start_live(tree, only=None, note="") -> str:
+    """Regenerates `tree`'s Field Meshes without holding the interface: their
+    settings read here, the meshing on a worker thread, the meshes written by a
+    timer when done (`live_worker`); a newer change cancels it. Returns the tree's
+    status now: "" while it meshes, else why nothing was started: a tree too large
+    for live regeneration (`_plan`'s gate), or an error (an object that cannot be
+    read is left out and named in the status once the others are written).
+    `only`: the session_uids of the Field Meshes to build (all for None); `note`:
+    an earlier error for the status."""
+    message, targets, distinct, _too_large = _plan(tree, only, note)
     if not targets:
         live_worker.cancel(tree)
         live_worker.set_status(tree, message)
