@@ -7,12 +7,14 @@ mod reorder;
 mod topology;
 mod triangulate;
 mod validate;
+mod weld;
 
 pub use normals::{vertex_normal, vertex_normals};
 pub use reorder::morton_codes;
 pub use topology::{boundary_edges, face_windings, parts_of, vertex_parts, EdgeMap, EdgeUses, Incidence, Parts, Windings};
 pub use triangulate::{face_triangles, newell_normal, Triangulation};
 pub use validate::MeshReport;
+pub use weld::Weld;
 
 use crate::{Error, Result};
 use glam::{Vec2, Vec3};

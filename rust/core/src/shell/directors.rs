@@ -184,6 +184,46 @@ impl Shell {
         }
     }
 
+    /// The shell of a mesh welded by `weld` ([`Mesh::weld_coincident`]), given back
+    /// to the original vertices: coincident vertices share their welded vertex's
+    /// director, thickness and target (the least asked for among them).
+    pub fn expanded(self, weld: &crate::mesh::Weld) -> Self {
+        let Shell { side, base_offset, directors, achieved, target, check } = self;
+        Shell {
+            side,
+            base_offset: weld.expand(&base_offset),
+            directors: weld.expand(&directors),
+            achieved: weld.expand(&achieved),
+            target: weld.expand(&target),
+            check,
+        }
+    }
+
+    /// The shell on a mesh welded by `weld`, where coincident vertices have one
+    /// director and base offset (as [`Shell::expanded`] gives them), else `None`.
+    pub fn welded(&self, weld: &crate::mesh::Weld) -> Option<Self> {
+        let n = weld.mesh.vertex_count();
+        let mut first = vec![u32::MAX; n];
+        for (v, &w) in weld.of.iter().enumerate() {
+            let lead = &mut first[w as usize];
+            if *lead == u32::MAX {
+                *lead = v as u32;
+            } else if (self.directors[v], self.base_offset[v]) != (self.directors[*lead as usize], self.base_offset[*lead as usize]) {
+                return None;
+            }
+        }
+        let pick = |values: &[Vec3]| first.iter().map(|&v| if v == u32::MAX { Vec3::ZERO } else { values[v as usize] }).collect();
+        let achieved: Vec<f32> = first.iter().map(|&v| if v == u32::MAX { 0.0 } else { self.achieved[v as usize] }).collect();
+        Some(Shell {
+            side: self.side,
+            base_offset: pick(&self.base_offset),
+            directors: pick(&self.directors),
+            achieved,
+            target: weld.least(&self.target),
+            check: self.check,
+        })
+    }
+
     /// Position of layer `r` of vertex `v`.
     pub fn point(&self, positions: &[Vec3], v: usize, r: f32) -> Vec3 {
         positions[v] + self.base_offset[v] + self.directors[v] * r
@@ -469,6 +509,10 @@ pub fn build_shell(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPar
 /// next round and the restore at its next batch, with [`Error::Cancelled`].
 pub fn build_shell_watched(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellParams, progress: Option<&Progress>) -> Result<Shell> {
     check_inputs(mesh, thickness, params)?;
+    if let Some(weld) = mesh.weld_coincident() {
+        // Split seams are one surface: built welded, given back to every copy.
+        return Ok(build_shell_watched(&weld.mesh, &weld.least(thickness), side, params, progress)?.expanded(&weld));
+    }
     let (sorted, order) = mesh.spatially_ordered();
     let thickness: Vec<f32> = order.iter().map(|&v| thickness[v as usize]).collect();
     Ok(build_in_order(&sorted, &thickness, side, params, progress)?.renumbered(&order))

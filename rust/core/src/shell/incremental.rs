@@ -22,7 +22,7 @@ use super::intersect::{tri_box, TriBvh};
 use super::lp_distance::{extension_faces, PatchTree};
 use super::repair::Repair;
 use super::{Shell, ShellParams, Side, Thickness};
-use crate::mesh::{face_triangles, vertex_normal};
+use crate::mesh::{face_triangles, vertex_normal, Weld};
 use crate::progress::Progress;
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
@@ -63,15 +63,16 @@ pub struct UpdateStats {
     pub rebuilt: bool,
 }
 
-/// A shell kept up to date while its base mesh is edited.
-pub struct IncrementalShell {
+/// The updated shell of a mesh without coincident vertices (the welded mesh of an
+/// [`IncrementalShell`] whose base has split seams).
+struct Tracked {
     mesh: Mesh,
     thickness: Vec<f32>,
     lengths: Vec<f32>,
     side: Side,
     params: ShellParams,
     /// Bound on the relative field change a kept trajectory may see (module docs).
-    pub tolerance: f64,
+    tolerance: f64,
     tracer: Tracer,
     /// First triangle of each face (and the total at the end).
     face_tris: Vec<u32>,
@@ -87,14 +88,12 @@ pub struct IncrementalShell {
     outer_bvh: Option<TriBvh>,
 }
 
-impl IncrementalShell {
-    pub fn new(mesh: Mesh, thickness: Vec<f32>, side: Side, params: ShellParams) -> Result<Self> {
+impl Tracked {
+    fn new(mesh: Mesh, thickness: Vec<f32>, side: Side, params: ShellParams) -> Result<Self> {
         Self::new_watched(mesh, thickness, side, params, None)
     }
 
-    /// [`IncrementalShell::new`] watched through `progress`, as
-    /// [`build_shell_watched`](super::directors::build_shell_watched).
-    pub fn new_watched(mesh: Mesh, thickness: Vec<f32>, side: Side, params: ShellParams, progress: Option<&Progress>) -> Result<Self> {
+    fn new_watched(mesh: Mesh, thickness: Vec<f32>, side: Side, params: ShellParams, progress: Option<&Progress>) -> Result<Self> {
         check_inputs(&mesh, &thickness, &params)?;
         let (steps, settle) = watched_steps(mesh.vertex_count(), params.repair_rounds > 0 && mesh.vertex_count() > 0);
         progress.inspect(|p| p.start(steps));
@@ -147,48 +146,13 @@ impl IncrementalShell {
         })
     }
 
-    pub fn shell(&self) -> &Shell {
-        &self.shell
-    }
-    pub fn mesh(&self) -> &Mesh {
-        &self.mesh
-    }
-    pub fn thickness(&self) -> &[f32] {
-        &self.thickness
-    }
-    /// The directors as traced, before the repair pass shortened any.
-    pub fn traced_directors(&self) -> Vec<Vec3> {
+    fn traced_directors(&self) -> Vec<Vec3> {
         assemble(&self.mesh, &self.thickness, self.side, &self.traces).directors
     }
 
-    /// Moves vertices to new positions and updates the shell; returns how many
-    /// directors were traced again.
-    pub fn move_vertices(&mut self, moved: &[(u32, Vec3)]) -> Result<usize> {
-        let mut positions = self.mesh.positions().to_vec();
-        for &(v, p) in moved {
-            *positions.get_mut(v as usize).ok_or_else(|| Error::InvalidParameter(format!("vertex {v} does not exist")))? = p;
-        }
-        let thickness = self.thickness.clone();
-        Ok(self.update(&positions, &thickness)?.retraced)
-    }
-
-    /// Brings the shell to new vertex positions and target thickness (same vertex
-    /// count and faces): only what changed is recomputed.
-    pub fn update(&mut self, positions: &[Vec3], thickness: &[f32]) -> Result<UpdateStats> {
+    /// [`IncrementalShell::update`] on this mesh's vertices (checked there).
+    fn update(&mut self, positions: &[Vec3], thickness: &[f32]) -> Result<UpdateStats> {
         let n = self.mesh.vertex_count();
-        if positions.len() != n || thickness.len() != n {
-            return Err(Error::InvalidParameter(format!(
-                "{} positions and {} thickness values given for a shell of {n} vertices",
-                positions.len(),
-                thickness.len()
-            )));
-        }
-        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(Error::NonFinite { index: i, value: positions[i].to_array() });
-        }
-        if let Some(i) = thickness.iter().position(|t| !t.is_finite()) {
-            return Err(Error::InvalidParameter(format!("thickness of vertex {i} is not finite")));
-        }
         let moved: Vec<u32> = (0..n as u32).filter(|&v| positions[v as usize] != self.mesh.positions()[v as usize]).collect();
         let thicker: Vec<u32> = (0..n as u32).filter(|&v| thickness[v as usize] != self.thickness[v as usize]).collect();
         let changed = moved.iter().chain(&thicker).collect::<std::collections::BTreeSet<_>>().len();
@@ -243,18 +207,6 @@ impl IncrementalShell {
         };
         self.shell.check = repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
         Ok(UpdateStats { changed, retraced: dirty.len(), kept, resettled, rebuilt: false })
-    }
-
-    /// [`update`](Self::update) with the thickness given by its rule (and per-vertex
-    /// factors), resolved on the new positions: relative thickness follows the
-    /// edited mesh's size.
-    pub fn update_with(&mut self, positions: &[Vec3], rule: &Thickness, factors: Option<&[f32]>) -> Result<UpdateStats> {
-        let n = self.mesh.vertex_count();
-        if positions.len() != n {
-            return Err(Error::InvalidParameter(format!("{} positions given for a shell of {n} vertices", positions.len())));
-        }
-        let thickness = rule.per_vertex_at(&self.mesh, positions, factors)?;
-        self.update(positions, &thickness)
     }
 
     /// The faces around moved vertices, and the vertices of those faces, whose normal
@@ -450,6 +402,123 @@ impl IncrementalShell {
         self.tolerance = tolerance;
         let n = self.mesh.vertex_count();
         Ok(UpdateStats { changed, retraced: n, kept: 0, resettled: n, rebuilt: true })
+    }
+}
+
+/// A shell kept up to date while its base mesh is edited. A base with split seams
+/// (vertices at one position, [`Mesh::weld_coincident`]) is tracked welded, as
+/// [`build_shell`](super::build_shell) builds it; an edit that pulls welded vertices
+/// apart rebuilds it with the new seams.
+pub struct IncrementalShell {
+    tracked: Tracked,
+    seams: Option<Seams>,
+    /// Bound on the relative field change a kept trajectory may see (module docs).
+    pub tolerance: f64,
+}
+
+/// The base as given, beside its welded copy in [`Tracked`].
+struct Seams {
+    weld: Weld,
+    mesh: Mesh,
+    thickness: Vec<f32>,
+    /// The tracked shell given back to every original vertex.
+    shell: Shell,
+}
+
+impl IncrementalShell {
+    pub fn new(mesh: Mesh, thickness: Vec<f32>, side: Side, params: ShellParams) -> Result<Self> {
+        Self::new_watched(mesh, thickness, side, params, None)
+    }
+
+    /// [`IncrementalShell::new`] watched through `progress`, as
+    /// [`build_shell_watched`](super::directors::build_shell_watched).
+    pub fn new_watched(mesh: Mesh, thickness: Vec<f32>, side: Side, params: ShellParams, progress: Option<&Progress>) -> Result<Self> {
+        check_inputs(&mesh, &thickness, &params)?;
+        let Some(weld) = mesh.weld_coincident() else {
+            let tracked = Tracked::new_watched(mesh, thickness, side, params, progress)?;
+            return Ok(Self { tracked, seams: None, tolerance: DEFAULT_TOLERANCE });
+        };
+        let tracked = Tracked::new_watched(weld.mesh.clone(), weld.least(&thickness), side, params, progress)?;
+        let shell = tracked.shell.clone().expanded(&weld);
+        Ok(Self { tracked, seams: Some(Seams { weld, mesh, thickness, shell }), tolerance: DEFAULT_TOLERANCE })
+    }
+
+    pub fn shell(&self) -> &Shell {
+        self.seams.as_ref().map_or(&self.tracked.shell, |s| &s.shell)
+    }
+    pub fn mesh(&self) -> &Mesh {
+        self.seams.as_ref().map_or(&self.tracked.mesh, |s| &s.mesh)
+    }
+    pub fn thickness(&self) -> &[f32] {
+        self.seams.as_ref().map_or(&self.tracked.thickness, |s| &s.thickness)
+    }
+    /// The directors as traced, before the repair pass shortened any.
+    pub fn traced_directors(&self) -> Vec<Vec3> {
+        let traced = self.tracked.traced_directors();
+        self.seams.as_ref().map_or(traced.clone(), |s| s.weld.expand(&traced))
+    }
+
+    /// Moves vertices to new positions and updates the shell; returns how many
+    /// directors were traced again.
+    pub fn move_vertices(&mut self, moved: &[(u32, Vec3)]) -> Result<usize> {
+        let mut positions = self.mesh().positions().to_vec();
+        for &(v, p) in moved {
+            *positions.get_mut(v as usize).ok_or_else(|| Error::InvalidParameter(format!("vertex {v} does not exist")))? = p;
+        }
+        let thickness = self.thickness().to_vec();
+        Ok(self.update(&positions, &thickness)?.retraced)
+    }
+
+    /// Brings the shell to new vertex positions and target thickness (same vertex
+    /// count and faces): only what changed is recomputed.
+    pub fn update(&mut self, positions: &[Vec3], thickness: &[f32]) -> Result<UpdateStats> {
+        let n = self.mesh().vertex_count();
+        if positions.len() != n || thickness.len() != n {
+            return Err(Error::InvalidParameter(format!(
+                "{} positions and {} thickness values given for a shell of {n} vertices",
+                positions.len(),
+                thickness.len()
+            )));
+        }
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(Error::NonFinite { index: i, value: positions[i].to_array() });
+        }
+        if let Some(i) = thickness.iter().position(|t| !t.is_finite()) {
+            return Err(Error::InvalidParameter(format!("thickness of vertex {i} is not finite")));
+        }
+        self.tracked.tolerance = self.tolerance;
+        let Some(seams) = self.seams.as_mut() else {
+            return self.tracked.update(positions, thickness);
+        };
+        let Some(welded) = seams.weld.positions(positions) else {
+            // Welded vertices pulled apart (or the seams otherwise changed): new seams.
+            let changed = (0..n).filter(|&v| positions[v] != seams.mesh.positions()[v] || thickness[v] != seams.thickness[v]).count();
+            let mut mesh = seams.mesh.clone();
+            (0..n).try_for_each(|v| mesh.set_position(v, positions[v]))?;
+            let (side, params, tolerance) = (self.tracked.side, self.tracked.params.clone(), self.tolerance);
+            *self = Self::new(mesh, thickness.to_vec(), side, params)?;
+            self.tolerance = tolerance;
+            return Ok(UpdateStats { changed, retraced: n, kept: 0, resettled: n, rebuilt: true });
+        };
+        let changed = (0..n).filter(|&v| positions[v] != seams.mesh.positions()[v] || thickness[v] != seams.thickness[v]).count();
+        // Traced, kept and resettled count directors (a seam's copies share one).
+        let stats = UpdateStats { changed, ..self.tracked.update(&welded, &seams.weld.least(thickness))? };
+        (0..n).try_for_each(|v| seams.mesh.set_position(v, positions[v]))?;
+        seams.thickness.copy_from_slice(thickness);
+        seams.shell = self.tracked.shell.clone().expanded(&seams.weld);
+        Ok(stats)
+    }
+
+    /// [`update`](Self::update) with the thickness given by its rule (and per-vertex
+    /// factors), resolved on the new positions: relative thickness follows the
+    /// edited mesh's size.
+    pub fn update_with(&mut self, positions: &[Vec3], rule: &Thickness, factors: Option<&[f32]>) -> Result<UpdateStats> {
+        let n = self.mesh().vertex_count();
+        if positions.len() != n {
+            return Err(Error::InvalidParameter(format!("{} positions given for a shell of {n} vertices", positions.len())));
+        }
+        let thickness = rule.per_vertex_at(self.mesh(), positions, factors)?;
+        self.update(positions, &thickness)
     }
 }
 

@@ -33,3 +33,5 @@ pub use repair::ShellCheck;
 pub use thickness::{Thickness, ThicknessMode};
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_split_seams;

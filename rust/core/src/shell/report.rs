@@ -135,8 +135,14 @@ impl<'a> NormalRoom<'a> {
     }
 }
 
-/// Counts what is wrong with `shell` and how much thickness it kept.
+/// Counts what is wrong with `shell` and how much thickness it kept. On a base with
+/// split seams whose copies share their directors (as shells built here do), on the
+/// welded mesh ([`Mesh::weld_coincident`]): a seam is not a crossing, and its
+/// vertices count once.
 pub fn shell_report(mesh: &Mesh, shell: &Shell) -> ShellReport {
+    if let Some((weld, welded)) = mesh.weld_coincident().and_then(|weld| shell.welded(&weld).map(|s| (weld, s))) {
+        return shell_report(&weld.mesh, &welded);
+    }
     let checker = Checker::new(mesh);
     let f = checker.find(mesh, shell, None, Some(&checker.outer_tree(mesh, shell, None)));
     let mut compressed = 0;
