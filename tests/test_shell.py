@@ -241,3 +241,22 @@ def test_shell_item_follows_source_edits_incrementally(scene):
     # may have been given back their length in one and not the other.
     assert np.median(differs) < 1e-4 * diag and np.count_nonzero(differs > 0.01 * diag) <= 3, np.sort(differs)[-5:] / diag
     assert np.abs(live - mesh_io.read_mesh(head.data).vertices).max() > 0.04 * diag  # a shell, not the base
+
+
+@pytest.mark.parametrize("kind", ["SHELL", "OFFSET_SHELL"])
+def test_a_base_with_edges_of_three_faces_is_told_it_cannot_be_a_closed_manifold(scene, kind):
+    cube = add("cube")
+    api.add_thick_surface(cube, kind=kind, thickness=0.05, output="SOLID")
+    assert "more than two faces" not in cube.thicket.last_note, cube.thicket.last_note
+    # A fin on one of the cube's edges: that edge is used by three faces.
+    mesh = cube.data
+    fin = mesh.vertices[mesh.edges[0].vertices[0]].co, mesh.vertices[mesh.edges[0].vertices[1]].co
+    finned = bpy.data.meshes.new("finned")
+    points = [v.co.copy() for v in mesh.vertices] + [fin[1] * 2.0, fin[0] * 2.0]
+    faces = [list(p.vertices) for p in mesh.polygons] + [[*mesh.edges[0].vertices, len(points) - 2, len(points) - 1]]
+    finned.from_pydata(points, [], faces)
+    cube.data = finned
+    api.regenerate(cube)
+    assert "1 edge of the mesh used by more than two faces" in cube.thicket.last_note, cube.thicket.last_note
+    a = mesh_io.read_mesh(finned)
+    assert tn.mesh_report(a.vertices, a.face_sizes, a.corners)["non_manifold_edges"] == 1

@@ -85,6 +85,18 @@ def field_shell(mesh: MeshArrays, item: S.FieldShell, factors, progress=None):
     return (*_shell_result(out, mesh), out)
 
 
+def non_manifold_note(label, mesh: MeshArrays):
+    """A note when edges of the shell's base are used by more than two faces: along
+    them no shell (nor a bake in it) can be a closed 2-manifold; "" otherwise."""
+    count = native.get().mesh_report(mesh.vertices, mesh.face_sizes, mesh.corners)["non_manifold_edges"]
+    if not count:
+        return ""
+    return (
+        f"'{label}': {count:,} {'edge' if count == 1 else 'edges'} of the mesh used by more than two faces, so the result is not a closed 2-manifold there "
+        "(Select > Select All by Trait > Non Manifold shows them)"
+    )
+
+
 def shell_step(build):
     """A shell kind's step: `build(mesh, item, factors, progress)` on the current mesh
     gives the shell's mesh, each vertex's provenance and the native output."""
@@ -94,6 +106,9 @@ def shell_step(build):
         base, base_origin = state.current, state.origin
         state.current, provenance, out = build(base, item, factors, progress)
         state.shell = ShellContext(base, out, base_origin)
+        note = non_manifold_note(item.label, base)
+        if note:
+            state.notes.append(note)
         if "check" in out:
             state.summaries.append(shell_summary(item.label, out))
         state.origin = base_origin[provenance]
