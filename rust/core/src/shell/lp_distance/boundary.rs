@@ -33,7 +33,8 @@ pub fn extension_faces(edges: &[(u32, u32)], p: &[Vec3], normals: &[Vec3], reach
         reach[v].abs() * miter
     };
     let room = room_ahead(edges, p, &across, &length);
-    let ext = |v: usize| -> DVec3 { (p[v] + across[v].normalize_or_zero() * length(v).min(room[v])).as_dvec3() };
+    let size = loop_size(edges, p);
+    let ext = |v: usize| -> DVec3 { (p[v] + across[v].normalize_or_zero() * length(v).min(room[v]).min(size[v])).as_dvec3() };
     let mut tris = Vec::with_capacity(2 * edges.len());
     for &(a, b) in edges {
         let (a, b) = (a as usize, b as usize);
@@ -43,6 +44,44 @@ pub fn extension_faces(edges: &[(u32, u32)], p: &[Vec3], normals: &[Vec3], reach
         tris.push([pb, qa, qb]);
     }
     tris
+}
+
+/// Per vertex, the radius of a circle as long as its boundary loop (perimeter over
+/// 2 pi; infinity off the boundary). An extension reaches no further than that
+/// ([`extension_faces`]): a hole whose rims do not face each other ([`room_ahead`]:
+/// a scan's eye socket or mouth, sunk into the surface, or a narrow tube's end)
+/// used to keep extensions of the full reach, up to 3 times the thickness at its
+/// corners (the miter), many times the hole's size, lying along the surface beside
+/// it. The field needs the surface continued about as far as the hole is wide
+/// (4.3.2); a sheet's outer boundary, longer than the thickness, is not capped.
+/// Loops are the connected components of the boundary edges, so only boundary
+/// positions enter (an edit away from the boundary leaves them as they were).
+fn loop_size(edges: &[(u32, u32)], p: &[Vec3]) -> Vec<f32> {
+    let mut root: Vec<u32> = (0..p.len() as u32).collect();
+    fn find(root: &mut [u32], mut v: u32) -> u32 {
+        while root[v as usize] != v {
+            root[v as usize] = root[root[v as usize] as usize];
+            v = root[v as usize];
+        }
+        v
+    }
+    for &(a, b) in edges {
+        let (ra, rb) = (find(&mut root, a), find(&mut root, b));
+        root[ra.max(rb) as usize] = ra.min(rb);
+    }
+    let mut perimeter = vec![0.0f64; p.len()];
+    for &(a, b) in edges {
+        let r = find(&mut root, a);
+        perimeter[r as usize] += p[a as usize].distance(p[b as usize]) as f64;
+    }
+    let mut size = vec![f32::INFINITY; p.len()];
+    for &(a, b) in edges {
+        for v in [a, b] {
+            let r = find(&mut root, v);
+            size[v as usize] = (perimeter[r as usize] / std::f64::consts::TAU) as f32;
+        }
+    }
+    size
 }
 
 /// Boundary vertices this many steps apart along their boundary loop or closer do
@@ -145,6 +184,49 @@ mod tests {
         let renumber = |v: u32| used.binary_search(&v).unwrap() as u32;
         let tris: Vec<[u32; 3]> = keep.iter().map(|t| t.map(renumber)).collect();
         Mesh::from_triangles(used.iter().map(|&v| p[v as usize]).collect(), &tris).unwrap()
+    }
+
+    /// An open tube, `n` vertices around (radius 1) and `rows` rows of edges along z.
+    fn tube(n: u32, rows: u32, length: f32) -> Mesh {
+        let at = |i: u32, j: u32| (i % n) + j * n;
+        let angle = |i: u32| std::f32::consts::TAU * i as f32 / n as f32;
+        let p: Vec<Vec3> = (0..=rows).flat_map(|j| (0..n).map(move |i| Vec3::new(angle(i).cos(), angle(i).sin(), length * j as f32 / rows as f32))).collect();
+        let tris: Vec<[u32; 3]> = (0..rows)
+            .flat_map(|j| (0..n).flat_map(move |i| [[at(i, j), at(i + 1, j), at(i + 1, j + 1)], [at(i, j), at(i + 1, j + 1), at(i, j + 1)]]))
+            .collect();
+        Mesh::from_triangles(p, &tris).unwrap()
+    }
+
+    /// Issue 14 (the ogre scan's eye sockets: rims that do not face each other kept
+    /// extensions of the full reach, up to 3 times the thickness, beside holes far
+    /// smaller than that). A narrow tube's rims continue the tube and face nothing:
+    /// their extensions reach at most the radius of the rim loop (perimeter over 2 pi),
+    /// where they used to reach the full thickness, 6 times the tube's radius; a wide
+    /// tube's rims keep the full reach; the narrow tube's shell is clean.
+    #[test]
+    fn extensions_of_a_hole_facing_nothing_are_capped_by_its_size() {
+        let narrow = Mesh::from_triangles(
+            tube(24, 40, 2.0).positions().iter().map(|q| Vec3::new(0.05 * q.x, 0.05 * q.y, q.z)).collect(),
+            &tube(24, 40, 2.0).triangulate().triangles,
+        )
+        .unwrap();
+        let perimeter: f32 =
+            boundary_edges(&narrow).iter().map(|&(a, b)| narrow.positions()[a as usize].distance(narrow.positions()[b as usize])).sum::<f32>() / 2.0;
+        let size = perimeter / std::f32::consts::TAU;
+        let reach = 0.15 * narrow.bbox_diagonal();
+        assert!(reach > 5.0 * size, "the tube must be narrower than the extension: {size} {reach}");
+        let lengths = extension_lengths(&narrow, reach);
+        assert!(lengths.iter().all(|&l| l > 0.5 * size && l <= size * (1.0 + 1e-4)), "extensions longer than the rim's radius {size}: {lengths:?}");
+
+        let wide = tube(24, 4, 2.0);
+        let reach = 0.15 * wide.bbox_diagonal();
+        assert!(extension_lengths(&wide, reach).iter().all(|&l| l >= reach * (1.0 - 1e-5)), "a wide rim keeps its reach {reach}");
+
+        let t = Thickness::relative(0.1).per_vertex(&narrow, None).unwrap();
+        let shell = build_shell(&narrow, &t, Side::Exterior, &ShellParams::default()).unwrap();
+        let r = shell_report(&narrow, &shell);
+        assert!(shell.check.clean, "{r:?}");
+        assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{r:?}");
     }
 
     /// How far each boundary vertex's extension reaches (its far corner's distance).
