@@ -342,8 +342,11 @@ impl Tape {
         self.run_body(points, need, s)
     }
 
-    /// [`Tape::run`] compiled for AVX2 (the same body: everything it calls in its loops
-    /// is inlined into it, so compiled with the feature).
+    /// [`Tape::run`] compiled for AVX2 (the same body: the primitives, `h`, `w_p`
+    /// with its exponentials and logarithm, and the texture function are inlined into
+    /// it, so compiled with the feature; `cos` and `sin` of `displace` and `fractal` stay
+    /// calls into the system library, and so does [`ramp_color`], made per point only
+    /// where attributes are asked for).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline(never)]
@@ -567,23 +570,32 @@ fn wp_block(slots: &mut [Box<Slot>], n: usize, p: f64, kind: WpKind, need: Need,
             }
         }
     }
+    // The dominant children's ids first (a gather from other slots), then loops over
+    // slot 0 alone, which vectorize ([`kernel::ln`] included).
     for j in 0..n {
-        let id = slots[s.arg[j]].id[j];
-        let out = &mut slots[0];
-        let sum = s.sum[j];
-        out.f[j] = kind.outer() * (s.top[j] + sum.ln()) / p;
-        if need.gradient {
-            for a in 0..3 {
-                out.g[a][j] = acc.g[a][j] / sum;
+        slots[0].id[j] = slots[s.arg[j]].id[j];
+    }
+    let out = &mut slots[0];
+    let (sum, top, f) = (&s.sum[..n], &s.top[..n], &mut out.f[..n]);
+    for j in 0..n {
+        f[j] = kind.outer() * (top[j] + kernel::ln(sum[j])) / p;
+    }
+    if need.gradient {
+        for (og, ag) in out.g.iter_mut().zip(&acc.g) {
+            for j in 0..n {
+                og[j] = ag[j] / sum[j];
             }
         }
-        if need.attributes {
-            for a in 0..4 {
-                out.c[a][j] = acc.c[a][j] / sum;
+    }
+    if need.attributes {
+        for (oc, ac) in out.c.iter_mut().zip(&acc.c) {
+            for j in 0..n {
+                oc[j] = ac[j] / sum[j];
             }
-            out.t[j] = acc.t[j] / sum;
         }
-        out.id[j] = id;
+        for ((ot, at), sum) in out.t[..n].iter_mut().zip(&acc.t[..n]).zip(sum) {
+            *ot = at / sum;
+        }
     }
 }
 
