@@ -25,49 +25,55 @@ pub struct Weld {
 
 impl Mesh {
     /// The mesh with vertices at bit-equal positions welded, or `None` when no two
-    /// vertices share a position (the common case costs a sort, no copy).
+    /// vertices share a position (the common case costs a sort, no copy). Only seams
+    /// are welded: a group of copies whose welding would use an edge more than twice
+    /// or twice the same way (windings that disagree across the seam), or put two
+    /// faces on one set of vertices (a double-sided export, a mesh copied onto
+    /// itself), stays split, as given.
     pub fn weld_coincident(&self) -> Option<Weld> {
         let key = |p: Vec3| p.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() }); // -0.0 is 0.0
         let mut order: Vec<u32> = (0..self.vertex_count() as u32).collect();
         order.par_sort_unstable_by_key(|&v| (key(self.positions[v as usize]), v));
-        let mut first = vec![u32::MAX; self.vertex_count()];
+        // `lead[v]`: the lowest index at `v`'s position (the first of its group in the sort).
+        let mut lead: Vec<u32> = (0..self.vertex_count() as u32).collect();
         let mut any = false;
         for pair in order.windows(2) {
             let (a, b) = (pair[0] as usize, pair[1] as usize);
             if key(self.positions[a]) == key(self.positions[b]) {
-                first[b] = if first[a] == u32::MAX { a as u32 } else { first[a] };
+                lead[b] = lead[a];
                 any = true;
             }
         }
         if !any {
             return None;
         }
-        // Welded vertices keep the order of their first original vertex.
+        let faulty = self.weld_faults(&lead);
+        let mut welded = false;
+        for v in 0..lead.len() {
+            if faulty[lead[v] as usize] {
+                lead[v] = v as u32;
+            }
+            welded |= lead[v] != v as u32;
+        }
+        if !welded {
+            return None;
+        }
+        // Welded vertices keep the order of their lead.
         let mut of = vec![0u32; self.vertex_count()];
         let mut positions = Vec::new();
         for v in 0..self.vertex_count() {
-            // A group's first vertex in the sort has its lowest index: `first` points back.
-            of[v] = if first[v] == u32::MAX {
+            of[v] = if lead[v] == v as u32 {
                 positions.push(self.positions[v]);
                 (positions.len() - 1) as u32
             } else {
-                of[first[v] as usize]
+                of[lead[v] as usize]
             };
         }
         let mut sizes = Vec::with_capacity(self.face_count());
         let mut corners = Vec::with_capacity(self.corners.len());
         let mut face = Vec::new();
         for f in self.faces() {
-            face.clear();
-            face.extend(f.iter().map(|&v| of[v as usize]));
-            face.dedup();
-            while face.len() > 1 && face.first() == face.last() {
-                face.pop();
-            }
-            let mut sorted = face.clone();
-            sorted.sort_unstable();
-            sorted.dedup();
-            if face.len() >= 3 && sorted.len() == face.len() {
+            if welded_face(f, &of, &mut face) {
                 sizes.push(face.len() as u32);
                 corners.extend_from_slice(&face);
             }
@@ -75,6 +81,47 @@ impl Mesh {
         let mesh = Mesh::new(positions, &sizes, corners, None).expect("welding keeps indices in range and faces of 3 or more corners");
         Some(Weld { mesh, of })
     }
+}
+
+impl Mesh {
+    /// Per lead vertex, whether welding every group to its lead (`lead`, see
+    /// [`Mesh::weld_coincident`]) would make an edge at it used more than twice or
+    /// twice the same way, or a face on the same vertices as another.
+    fn weld_faults(&self, lead: &[u32]) -> Vec<bool> {
+        let mut faulty = vec![false; lead.len()];
+        let (mut edges, mut sets, mut face) = (Vec::new(), Vec::new(), Vec::new());
+        for f in self.faces() {
+            if welded_face(f, lead, &mut face) {
+                edges.extend((0..face.len()).map(|i| (face[i], face[(i + 1) % face.len()])));
+                let mut set = face.clone();
+                set.sort_unstable();
+                sets.push(set);
+            }
+        }
+        edges.par_sort_unstable_by_key(|&(a, b)| (a.min(b), a.max(b), a));
+        for run in edges.chunk_by(|x, y| (x.0.min(x.1), x.0.max(x.1)) == (y.0.min(y.1), y.0.max(y.1))) {
+            if run.len() > 2 || run.windows(2).any(|w| w[0] == w[1]) {
+                run.iter().for_each(|&(a, b)| (faulty[a as usize], faulty[b as usize]) = (true, true));
+            }
+        }
+        sets.par_sort_unstable();
+        for run in sets.chunk_by(|x, y| x == y).filter(|run| run.len() > 1) {
+            run[0].iter().for_each(|&v| faulty[v as usize] = true);
+        }
+        faulty
+    }
+}
+
+/// Face `f`'s corners through `map` into `out`, repeats in a row dropped; false when
+/// fewer than three corners remain or one repeats apart (no area to speak of).
+fn welded_face(f: &[u32], map: &[u32], out: &mut Vec<u32>) -> bool {
+    out.clear();
+    out.extend(f.iter().map(|&v| map[v as usize]));
+    out.dedup();
+    while out.len() > 1 && out.first() == out.last() {
+        out.pop();
+    }
+    out.len() >= 3 && (0..out.len()).all(|i| !out[i + 1..].contains(&out[i]))
 }
 
 impl Weld {
@@ -153,7 +200,7 @@ mod tests {
         m.set_position(3, Vec3::new(0.0, 1.0, -0.0)).unwrap();
         let mut extra = m.positions().to_vec();
         extra.push(Vec3::ZERO);
-        let with_zero = Mesh::new(extra, &[4, 4, 3], vec![0, 1, 2, 3, 4, 5, 6, 7, 8, 1, 2], None).unwrap();
+        let with_zero = Mesh::new(extra, &[4, 4, 3], vec![0, 1, 2, 3, 4, 5, 6, 7, 8, 6, 5], None).unwrap();
         let weld = with_zero.weld_coincident().unwrap();
         assert_eq!(weld.of[8], weld.of[0], "-0.0 and 0.0 are one point");
     }
@@ -168,6 +215,27 @@ mod tests {
         let weld = mesh.weld_coincident().unwrap();
         assert_eq!(weld.mesh.face_sizes(), vec![3]);
         assert_eq!(weld.mesh.corners(), &[0, 1, 2]);
+    }
+
+    #[test]
+    fn copies_are_welded_only_where_they_make_a_seam() {
+        // A double-sided card: the back faces reversed, on their own copies.
+        let card = split_pair();
+        let n = card.vertex_count() as u32;
+        let mut positions = card.positions().to_vec();
+        positions.extend_from_slice(card.positions());
+        let mut corners = card.corners().to_vec();
+        corners.extend(card.corners().chunks(4).flat_map(|q| q.iter().rev().map(|&v| v + n).collect::<Vec<_>>()));
+        let two_sided = Mesh::new(positions, &[4; 4], corners, None).unwrap();
+        assert!(two_sided.weld_coincident().is_none(), "front and back would stack their faces: left as given");
+        // Windings that disagree across the seam: left split.
+        let flipped = Mesh::new(split_pair().positions().to_vec(), &[4, 4], vec![0, 1, 2, 3, 7, 6, 5, 4], None).unwrap();
+        assert!(flipped.weld_coincident().is_none());
+        // A third face on the seam's edge: an edge of three faces, left split.
+        let mut p = split_pair().positions().to_vec();
+        p.extend([Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 1.0), Vec3::new(1.0, 0.0, 1.0)]);
+        let fin = Mesh::new(p, &[4, 4, 4], vec![0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11], None).unwrap();
+        assert!(fin.weld_coincident().is_none());
     }
 
     #[test]

@@ -590,8 +590,9 @@ impl Checker {
     /// [`find`](Self::find)'s pairs the skin and base tests above leave out by
     /// topology: layer triangles of faces sharing exactly one base vertex `v` (they
     /// meet at `v`'s point of the layer), and a layer triangle with a base triangle
-    /// sharing only `v` where `v`'s director is zero (the shell pressed onto the base
-    /// there: they meet at the base point). Each such pair crossing away from the
+    /// sharing `v`, or an edge from `v` whose other end is not pressed, where `v`'s
+    /// director is zero (the shell pressed onto the base there: they meet at the base
+    /// point alone). Each such pair crossing away from the
     /// shared point is a skin pair (kind 0) or a skin/base pair (1), inherited (2)
     /// where the two base triangles themselves cross away from `v`; only the flagged
     /// triangles' pairs (by the lower triangle when both are flagged). With
@@ -646,16 +647,19 @@ impl Checker {
                 for &v in &self.tris[t as usize] {
                     for &u in self.tris_around.of(v as usize) {
                         let shared = self.tris[u as usize].iter().filter(|x| self.tris[t as usize].contains(x)).count();
-                        if u == t || shared != 1 || self.face_of[u as usize] == self.face_of[t as usize] {
+                        if u == t || shared == 0 || shared > 2 || self.face_of[u as usize] == self.face_of[t as usize] {
                             continue;
                         }
+                        // With an edge in common, the layer triangle meets the base one at
+                        // `v` alone where the edge's other end is not pressed too.
+                        let other = self.tris[t as usize].iter().copied().find(|&x| x != v && self.tris[u as usize].contains(&x));
                         let inherited = || away(&corners(t, v, None), &corners(u, v, None));
                         for &r in skins(shell.side) {
-                            if coincide(v, r) && away(&corners(t, v, Some(r)), &corners(u, v, None)) {
+                            if coincide(v, r) && other.is_none_or(|a| !coincide(a, r)) && away(&corners(t, v, Some(r)), &corners(u, v, None)) {
                                 hits.push((if inherited() { 2 } else { 1 }, layer_item(t, r), u));
                             }
                         }
-                        if !skins_too || (u < t && tri_flagged(u as usize)) {
+                        if shared != 1 || !skins_too || (u < t && tri_flagged(u as usize)) {
                             continue;
                         }
                         for &r in skins(shell.side) {

@@ -140,7 +140,11 @@ fn layered_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput, at: im
                 along.insert((face[i], face[j]), (f as u32, start + i as u32, start + j as u32));
             }
         }
+        let closed = welded_seam_edges(mesh, &at);
         for (a, b) in boundary_edges(mesh) {
+            if closed.as_ref().is_some_and(|closed| closed(a, b)) {
+                continue; // a split seam the layers close: no walls inside the solid
+            }
             let (f, ca, cb) = along.get(&(a, b)).copied().or_else(|| along.get(&(b, a)).map(|&(f, cb, ca)| (f, ca, cb))).unwrap_or((0, 0, 0));
             let (a, b) = (remap[a as usize], remap[b as usize]);
             let (quad, from) = if flip {
@@ -156,6 +160,28 @@ fn layered_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput, at: im
     }
     let mesh = Mesh::new(positions, &sizes, corners, None)?;
     Ok(ShellMesh { mesh, source_vertex, layer, source_corner, source_face })
+}
+
+/// For a base with split seams ([`Mesh::weld_coincident`]) whose copies share their
+/// layers' points (a shell built welded), whether a boundary edge of the base is a
+/// seam edge, interior once welded: its rim would be a wall inside the solid,
+/// doubled by its copy's facing the other way. `None` without such seams.
+fn welded_seam_edges(mesh: &Mesh, at: &impl Fn(usize, f32) -> Vec3) -> Option<impl Fn(u32, u32) -> bool> {
+    let weld = mesh.weld_coincident()?;
+    let mut lead = vec![u32::MAX; weld.mesh.vertex_count()];
+    for (v, &w) in weld.of.iter().enumerate() {
+        let first = &mut lead[w as usize];
+        if *first == u32::MAX {
+            *first = v as u32;
+        } else if [0.0, 1.0].iter().any(|&r| at(v, r) != at(*first as usize, r)) {
+            return None; // copies apart (an offset shell's own normals): rims close the gap
+        }
+    }
+    let open: std::collections::HashSet<(u32, u32)> = boundary_edges(&weld.mesh).into_iter().map(|(a, b)| (a.min(b), a.max(b))).collect();
+    Some(move |a: u32, b: u32| {
+        let (a, b) = (weld.of[a as usize], weld.of[b as usize]);
+        !open.contains(&(a.min(b), a.max(b)))
+    })
 }
 
 /// One volumetric cell of a shell: the slab over one base face (chapter 3.1, "each

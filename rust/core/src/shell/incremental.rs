@@ -455,7 +455,10 @@ impl IncrementalShell {
     /// The directors as traced, before the repair pass shortened any.
     pub fn traced_directors(&self) -> Vec<Vec3> {
         let traced = self.tracked.traced_directors();
-        self.seams.as_ref().map_or(traced.clone(), |s| s.weld.expand(&traced))
+        match &self.seams {
+            Some(s) => s.weld.expand(&traced),
+            None => traced,
+        }
     }
 
     /// Moves vertices to new positions and updates the shell; returns how many
@@ -487,23 +490,28 @@ impl IncrementalShell {
             return Err(Error::InvalidParameter(format!("thickness of vertex {i} is not finite")));
         }
         self.tracked.tolerance = self.tolerance;
+        let changed = (0..n).filter(|&v| positions[v] != self.mesh().positions()[v] || thickness[v] != self.thickness()[v]).count();
+        if changed == 0 {
+            return Ok(UpdateStats::default());
+        }
+        // The seams as `build_shell` would weld them now: copies pulled apart, or
+        // vertices moved onto others, make new seams, and the shell is built anew.
+        let mut edited = self.mesh().clone();
+        (0..n).filter(|&v| positions[v] != self.mesh().positions()[v]).try_for_each(|v| edited.set_position(v, positions[v]))?;
+        let weld = edited.weld_coincident();
+        if weld.as_ref().map(|w| &w.of) != self.seams.as_ref().map(|s| &s.weld.of) {
+            let (side, params, tolerance) = (self.tracked.side, self.tracked.params.clone(), self.tolerance);
+            *self = Self::new(edited, thickness.to_vec(), side, params)?;
+            self.tolerance = tolerance;
+            return Ok(UpdateStats { changed, retraced: n, kept: 0, resettled: n, rebuilt: true });
+        }
         let Some(seams) = self.seams.as_mut() else {
             return self.tracked.update(positions, thickness);
         };
-        let Some(welded) = seams.weld.positions(positions) else {
-            // Welded vertices pulled apart (or the seams otherwise changed): new seams.
-            let changed = (0..n).filter(|&v| positions[v] != seams.mesh.positions()[v] || thickness[v] != seams.thickness[v]).count();
-            let mut mesh = seams.mesh.clone();
-            (0..n).try_for_each(|v| mesh.set_position(v, positions[v]))?;
-            let (side, params, tolerance) = (self.tracked.side, self.tracked.params.clone(), self.tolerance);
-            *self = Self::new(mesh, thickness.to_vec(), side, params)?;
-            self.tolerance = tolerance;
-            return Ok(UpdateStats { changed, retraced: n, kept: 0, resettled: n, rebuilt: true });
-        };
-        let changed = (0..n).filter(|&v| positions[v] != seams.mesh.positions()[v] || thickness[v] != seams.thickness[v]).count();
+        let welded = seams.weld.positions(positions).expect("the same seams: copies share their positions");
         // Traced, kept and resettled count directors (a seam's copies share one).
         let stats = UpdateStats { changed, ..self.tracked.update(&welded, &seams.weld.least(thickness))? };
-        (0..n).try_for_each(|v| seams.mesh.set_position(v, positions[v]))?;
+        seams.mesh = edited;
         seams.thickness.copy_from_slice(thickness);
         seams.shell = self.tracked.shell.clone().expanded(&seams.weld);
         Ok(stats)

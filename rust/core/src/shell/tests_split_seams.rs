@@ -88,4 +88,31 @@ fn an_incremental_shell_keeps_its_seams_welded_and_rebuilds_when_they_part() {
     assert_eq!(inc.mesh().positions(), &moved[..]);
     let r = shell_report(inc.mesh(), inc.shell());
     assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{r:?}");
+    // Put back onto its partner: the seam closes again, as a fresh build welds it.
+    moved[copies[1]] = moved[copies[0]];
+    let stats = inc.update(&moved, &t).unwrap();
+    assert!(stats.rebuilt, "{stats:?}");
+    let mut closed = split.clone();
+    copies.iter().for_each(|&u| closed.set_position(u, moved[u]).unwrap());
+    let fresh = build_shell(&closed, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    let worst = inc.shell().directors.iter().zip(&fresh.directors).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max);
+    assert!(worst <= 0.05 * h, "worst {worst} against h {h}");
+    assert_eq!(inc.shell().directors[copies[0]], inc.shell().directors[copies[1]]);
+}
+
+#[test]
+fn a_solid_over_a_split_seam_has_no_walls_inside() {
+    let whole = tm::icosphere(3);
+    let split = split_at_equator(&whole);
+    let shell = build_shell(&split, &thickness(&split, 0.1), Side::Exterior, &ShellParams::default()).unwrap();
+    let solid = shell_geometry(&split, &shell, ShellOutput::Solid).unwrap();
+    let reference =
+        shell_geometry(&whole, &build_shell(&whole, &thickness(&whole, 0.1), Side::Exterior, &ShellParams::default()).unwrap(), ShellOutput::Solid).unwrap();
+    // The seam's rims (two coincident walls facing each other) are left out: the same
+    // faces as the unsplit sphere's solid, none of them a rim.
+    assert_eq!(solid.mesh.face_count(), reference.mesh.face_count());
+    assert_eq!(solid.mesh.face_count(), 2 * split.face_count());
+    // An offset shell's copies have their own normals: the rims close the crack.
+    let offset = build_geometry(&split, &normal_offset_directors(&split, &thickness(&split, 0.1)), ShellOutput::Solid).unwrap();
+    assert!(offset.mesh.face_count() > 2 * split.face_count());
 }
