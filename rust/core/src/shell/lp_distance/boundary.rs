@@ -5,6 +5,8 @@
 
 use glam::{DVec3, Vec3};
 
+use crate::mesh::parts_of;
+
 /// Extension triangles along the directed open-boundary `edges` (two per edge, in
 /// order; none for closed meshes). `normals` are unit vertex normals, `reach[v]` the
 /// extension length at vertex `v`.
@@ -59,28 +61,16 @@ pub fn extension_faces(edges: &[(u32, u32)], p: &[Vec3], normals: &[Vec3], reach
 /// Loops are the connected components of the boundary edges, so only boundary
 /// positions enter (an edit away from the boundary leaves them as they were).
 fn loop_size(edges: &[(u32, u32)], p: &[Vec3]) -> Vec<f32> {
-    let mut root: Vec<u32> = (0..p.len() as u32).collect();
-    fn find(root: &mut [u32], mut v: u32) -> u32 {
-        while root[v as usize] != v {
-            root[v as usize] = root[root[v as usize] as usize];
-            v = root[v as usize];
-        }
-        v
-    }
+    let pairs: Vec<[u32; 2]> = edges.iter().map(|&(a, b)| [a, b]).collect();
+    let loops = parts_of(p.len(), pairs.iter().map(|e| e.as_slice()));
+    let mut perimeter = vec![0.0f64; loops.count];
     for &(a, b) in edges {
-        let (ra, rb) = (find(&mut root, a), find(&mut root, b));
-        root[ra.max(rb) as usize] = ra.min(rb);
-    }
-    let mut perimeter = vec![0.0f64; p.len()];
-    for &(a, b) in edges {
-        let r = find(&mut root, a);
-        perimeter[r as usize] += p[a as usize].distance(p[b as usize]) as f64;
+        perimeter[loops.of[a as usize] as usize] += p[a as usize].distance(p[b as usize]) as f64;
     }
     let mut size = vec![f32::INFINITY; p.len()];
     for &(a, b) in edges {
         for v in [a, b] {
-            let r = find(&mut root, v);
-            size[v as usize] = (perimeter[r as usize] / std::f64::consts::TAU) as f32;
+            size[v as usize] = (perimeter[loops.of[v as usize] as usize] / std::f64::consts::TAU) as f32;
         }
     }
     size
