@@ -14,6 +14,7 @@ pub use reorder::morton_codes;
 pub use topology::{boundary_edges, face_windings, parts_of, vertex_parts, EdgeMap, EdgeUses, Incidence, Parts, Windings};
 pub use triangulate::{face_triangles, newell_normal, Triangulation};
 pub use validate::MeshReport;
+pub(crate) use weld::Crowding;
 pub use weld::Weld;
 
 use crate::{Error, Result};

@@ -10,6 +10,13 @@
 use super::Mesh;
 use glam::Vec3;
 use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// A position as welding compares it: its bits, -0.0 taken as 0.0 (equal keys, the
+/// same point).
+pub(crate) fn position_key(p: Vec3) -> [u32; 3] {
+    p.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() })
+}
 
 /// A mesh with its coincident vertices welded, and the way back.
 #[derive(Debug, Clone)]
@@ -31,7 +38,7 @@ impl Mesh {
     /// faces on one set of vertices (a double-sided export, a mesh copied onto
     /// itself), stays split, as given.
     pub fn weld_coincident(&self) -> Option<Weld> {
-        let key = |p: Vec3| p.to_array().map(|c| if c == 0.0 { 0 } else { c.to_bits() }); // -0.0 is 0.0
+        let key = position_key;
         let mut order: Vec<u32> = (0..self.vertex_count() as u32).collect();
         order.par_sort_unstable_by_key(|&v| (key(self.positions[v as usize]), v));
         // `lead[v]`: the lowest index at `v`'s position (the first of its group in the sort).
@@ -158,6 +165,71 @@ impl Weld {
     pub fn expand<T: Copy>(&self, values: &[T]) -> Vec<T> {
         self.of.iter().map(|&w| values[w as usize]).collect()
     }
+
+    /// Per welded vertex, its first original vertex (the lowest index at its position).
+    pub fn leads(&self) -> Vec<u32> {
+        let mut leads = vec![u32::MAX; self.mesh.vertex_count()];
+        for (v, &w) in self.of.iter().enumerate() {
+            if leads[w as usize] == u32::MAX {
+                leads[w as usize] = v as u32;
+            }
+        }
+        leads
+    }
+
+    /// Whether `same(v, lead)` holds for every original vertex `v` and the lead of its
+    /// welded vertex ([`Weld::leads`]): whether per-vertex values agree across seams.
+    pub fn copies_agree(&self, leads: &[u32], same: impl Fn(usize, usize) -> bool) -> bool {
+        self.of.iter().enumerate().all(|(v, &w)| same(v, leads[w as usize] as usize))
+    }
+}
+
+/// How many vertices lie at each position ([`position_key`]). Welding depends only
+/// on which vertices share a position, so an edit changes the seams only where a
+/// moved vertex shared its position before or shares its new one: that is read from
+/// the moved vertices alone, without sorting them all again.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Crowding {
+    count: HashMap<[u32; 3], u32>,
+}
+
+impl Crowding {
+    pub fn new(positions: &[Vec3]) -> Self {
+        let mut count = HashMap::with_capacity(positions.len());
+        positions.iter().for_each(|&p| *count.entry(position_key(p)).or_insert(0) += 1);
+        Self { count }
+    }
+
+    /// Whether every vertex moved `from -> to` (all of an edit's moves, each vertex
+    /// once) is alone at its position before and after the edit: then no seam is
+    /// made, parted or changed. False does not mean the seams changed (a seam moved
+    /// whole keeps its copies together), only that welding must look again.
+    pub fn moves_alone(&self, moves: &[(Vec3, Vec3)]) -> bool {
+        let before = |p: Vec3| self.count.get(&position_key(p)).copied().unwrap_or(0);
+        if moves.iter().any(|&(from, _)| before(from) != 1) {
+            return false;
+        }
+        let mut after: HashMap<[u32; 3], i64> = HashMap::with_capacity(2 * moves.len());
+        for &(from, to) in moves {
+            *after.entry(position_key(from)).or_insert(before(from) as i64) -= 1;
+            *after.entry(position_key(to)).or_insert(before(to) as i64) += 1;
+        }
+        moves.iter().all(|&(_, to)| after[&position_key(to)] == 1)
+    }
+
+    /// Takes an edit's moves (as [`Crowding::moves_alone`]) into the counts.
+    pub fn apply(&mut self, moves: &[(Vec3, Vec3)]) {
+        for &(from, to) in moves {
+            let key = position_key(from);
+            match self.count.get_mut(&key) {
+                Some(n) if *n > 1 => *n -= 1,
+                _ => {
+                    self.count.remove(&key);
+                }
+            }
+            *self.count.entry(position_key(to)).or_insert(0) += 1;
+        }
+    }
 }
 
 #[cfg(test)]
@@ -250,5 +322,46 @@ mod tests {
         assert!(weld.positions(&moved).is_none(), "a welded pair pulled apart");
         moved[4].z = 0.5;
         assert_eq!(weld.positions(&moved).unwrap()[1], Vec3::new(1.0, 0.0, 0.5));
+    }
+
+    #[test]
+    fn leads_are_each_groups_first_vertex_and_copies_agree_only_when_equal() {
+        let weld = split_pair().weld_coincident().unwrap();
+        assert_eq!(weld.leads(), vec![0, 1, 2, 3, 5, 6]);
+        let mut value = [0.0f32, 1.0, 2.0, 3.0, 1.0, 5.0, 6.0, 2.0];
+        assert!(weld.copies_agree(&weld.leads(), |v, lead| value[v] == value[lead]));
+        value[7] = 2.5;
+        assert!(!weld.copies_agree(&weld.leads(), |v, lead| value[v] == value[lead]));
+    }
+
+    /// `moves_alone` against its definition: every moved vertex alone at its
+    /// position before the edit, and after it, by brute force over all positions.
+    #[test]
+    fn crowding_sees_seams_made_parted_or_moved_from_the_moves_alone() {
+        let before = split_pair().positions().to_vec();
+        let crowding = Crowding::new(&before);
+        let alone = |p: &[Vec3], v: usize| p.iter().filter(|&&q| position_key(q) == position_key(p[v])).count() == 1;
+        let check = |edit: &[(usize, Vec3)]| {
+            let mut after = before.clone();
+            edit.iter().for_each(|&(v, p)| after[v] = p);
+            let moves: Vec<(Vec3, Vec3)> = edit.iter().map(|&(v, p)| (before[v], p)).collect();
+            let expected = edit.iter().all(|&(v, _)| alone(&before, v) && alone(&after, v));
+            assert_eq!(crowding.moves_alone(&moves), expected, "{edit:?}");
+            let mut applied = crowding.clone();
+            applied.apply(&moves);
+            let fresh = Crowding::new(&after);
+            assert_eq!(applied.count, fresh.count, "{edit:?}");
+            expected
+        };
+        let (far, z) = (Vec3::new(5.0, 5.0, 5.0), Vec3::Z);
+        assert!(check(&[(0, far)]), "a lone vertex moved into the open");
+        assert!(!check(&[(1, far)]), "a seam's copy pulled off");
+        assert!(!check(&[(1, before[1] + z), (4, before[4] + z)]), "a seam moved whole: welding looks again");
+        assert!(!check(&[(0, before[5])]), "a lone vertex moved onto another");
+        assert!(check(&[(0, before[5]), (5, far)]), "onto a position its owner left in the same edit");
+        assert!(check(&[(0, before[3]), (3, before[0])]), "two lone vertices swapped");
+        assert!(check(&[(0, Vec3::new(-0.0, 0.0, 0.0) + far), (3, far + Vec3::X)]));
+        assert!(!check(&[(0, far), (3, far)]), "two lone vertices moved onto one point");
+        assert!(!check(&[(0, Vec3::new(0.0, 0.0, -0.0)), (3, Vec3::new(-0.0, 0.0, 0.0))]), "-0.0 is 0.0");
     }
 }

@@ -202,18 +202,12 @@ impl Shell {
     /// The shell on a mesh welded by `weld`, where coincident vertices have one
     /// director and base offset (as [`Shell::expanded`] gives them), else `None`.
     pub fn welded(&self, weld: &crate::mesh::Weld) -> Option<Self> {
-        let n = weld.mesh.vertex_count();
-        let mut first = vec![u32::MAX; n];
-        for (v, &w) in weld.of.iter().enumerate() {
-            let lead = &mut first[w as usize];
-            if *lead == u32::MAX {
-                *lead = v as u32;
-            } else if (self.directors[v], self.base_offset[v]) != (self.directors[*lead as usize], self.base_offset[*lead as usize]) {
-                return None;
-            }
+        let leads = weld.leads();
+        if !weld.copies_agree(&leads, |v, lead| (self.directors[v], self.base_offset[v]) == (self.directors[lead], self.base_offset[lead])) {
+            return None;
         }
-        let pick = |values: &[Vec3]| first.iter().map(|&v| if v == u32::MAX { Vec3::ZERO } else { values[v as usize] }).collect();
-        let achieved: Vec<f32> = first.iter().map(|&v| if v == u32::MAX { 0.0 } else { self.achieved[v as usize] }).collect();
+        let pick = |values: &[Vec3]| leads.iter().map(|&v| values[v as usize]).collect();
+        let achieved: Vec<f32> = leads.iter().map(|&v| self.achieved[v as usize]).collect();
         Some(Shell {
             side: self.side,
             base_offset: pick(&self.base_offset),

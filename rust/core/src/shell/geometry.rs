@@ -168,14 +168,9 @@ fn layered_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput, at: im
 /// doubled by its copy's facing the other way. `None` without such seams.
 fn welded_seam_edges(mesh: &Mesh, at: &impl Fn(usize, f32) -> Vec3) -> Option<impl Fn(u32, u32) -> bool> {
     let weld = mesh.weld_coincident()?;
-    let mut lead = vec![u32::MAX; weld.mesh.vertex_count()];
-    for (v, &w) in weld.of.iter().enumerate() {
-        let first = &mut lead[w as usize];
-        if *first == u32::MAX {
-            *first = v as u32;
-        } else if [0.0, 1.0].iter().any(|&r| at(v, r) != at(*first as usize, r)) {
-            return None; // copies apart (an offset shell's own normals): rims close the gap
-        }
+    let leads = weld.leads();
+    if !weld.copies_agree(&leads, |v, lead| [0.0, 1.0].iter().all(|&r| at(v, r) == at(lead, r))) {
+        return None; // copies apart (an offset shell's own normals): rims close the gap
     }
     let open: std::collections::HashSet<(u32, u32)> = boundary_edges(&weld.mesh).into_iter().map(|(a, b)| (a.min(b), a.max(b))).collect();
     Some(move |a: u32, b: u32| {

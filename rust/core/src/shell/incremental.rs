@@ -22,7 +22,7 @@ use super::intersect::{tri_box, TriBvh};
 use super::lp_distance::{extension_faces, PatchTree};
 use super::repair::Repair;
 use super::{Shell, ShellParams, Side, Thickness};
-use crate::mesh::{face_triangles, vertex_normal, Weld};
+use crate::mesh::{face_triangles, vertex_normal, Crowding, Weld};
 use crate::progress::Progress;
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
@@ -63,6 +63,13 @@ pub struct UpdateStats {
     pub rebuilt: bool,
 }
 
+impl UpdateStats {
+    /// A rebuild of all `n` vertices after `changed` changed.
+    fn rebuilt(changed: usize, n: usize) -> Self {
+        Self { changed, retraced: n, kept: 0, resettled: n, rebuilt: true }
+    }
+}
+
 /// The updated shell of a mesh without coincident vertices (the welded mesh of an
 /// [`IncrementalShell`] whose base has split seams).
 struct Tracked {
@@ -71,8 +78,6 @@ struct Tracked {
     lengths: Vec<f32>,
     side: Side,
     params: ShellParams,
-    /// Bound on the relative field change a kept trajectory may see (module docs).
-    tolerance: f64,
     tracer: Tracer,
     /// First triangle of each face (and the total at the end).
     face_tris: Vec<u32>,
@@ -133,7 +138,6 @@ impl Tracked {
             lengths,
             side,
             params,
-            tolerance: DEFAULT_TOLERANCE,
             tracer,
             face_tris,
             on_boundary,
@@ -150,8 +154,9 @@ impl Tracked {
         assemble(&self.mesh, &self.thickness, self.side, &self.traces).directors
     }
 
-    /// [`IncrementalShell::update`] on this mesh's vertices (checked there).
-    fn update(&mut self, positions: &[Vec3], thickness: &[f32]) -> Result<UpdateStats> {
+    /// [`IncrementalShell::update`] on this mesh's vertices (checked there), keeping
+    /// trajectories within `tolerance` (module docs).
+    fn update(&mut self, positions: &[Vec3], thickness: &[f32], tolerance: f64) -> Result<UpdateStats> {
         let n = self.mesh.vertex_count();
         let moved: Vec<u32> = (0..n as u32).filter(|&v| positions[v as usize] != self.mesh.positions()[v as usize]).collect();
         let thicker: Vec<u32> = (0..n as u32).filter(|&v| thickness[v as usize] != self.thickness[v as usize]).collect();
@@ -174,7 +179,7 @@ impl Tracked {
         };
         let mut must = vec![false; n];
         around.iter().chain(&thicker).chain(&moved).for_each(|&u| must[u as usize] = true);
-        let (dirty, kept) = self.choose_retraced(&changes, &must);
+        let (dirty, kept) = self.choose_retraced(&changes, &must, tolerance);
         let fresh = trace_vertices(&self.tracer, &self.mesh, &self.lengths, self.side, &self.params, &dirty, None)?;
         for (&v, t) in dirty.iter().zip(fresh) {
             self.traces[v as usize] = t;
@@ -276,12 +281,12 @@ impl Tracked {
     /// The trajectories to trace again: the `must` ones, and those within reach of the
     /// change whose summed drift passes the tolerance (module docs). Returns them and
     /// how many within reach were kept.
-    fn choose_retraced(&mut self, changes: &[(usize, [DVec3; 3], [DVec3; 3])], must: &[bool]) -> (Vec<u32>, usize) {
+    fn choose_retraced(&mut self, changes: &[(usize, [DVec3; 3], [DVec3; 3])], must: &[bool], tolerance: f64) -> (Vec<u32>, usize) {
         let n = self.mesh.vertex_count();
         let pairs: Vec<_> = changes.iter().map(|(_, old, new)| (*old, *new)).collect();
         let mean_reach = self.params.support * self.lengths.iter().map(|&l| l as f64).sum::<f64>() / n as f64;
         let bound = ChangeBound::new(&pairs, (mean_reach / 10.0).max(f64::MIN_POSITIVE), self.params.p);
-        let (support, tolerance, lengths, drifted) = (self.params.support, self.tolerance, &self.lengths, &self.drifted);
+        let (support, lengths, drifted) = (self.params.support, &self.lengths, &self.drifted);
         // (vertex, its trajectories' drift so far with this update's, retrace?)
         let verdicts: Vec<(u32, f64, bool)> = (0..n as u32)
             .into_par_iter()
@@ -397,11 +402,8 @@ impl Tracked {
     }
 
     fn rebuild(&mut self, changed: usize) -> Result<UpdateStats> {
-        let tolerance = self.tolerance;
         *self = Self::new(self.mesh.clone(), self.thickness.clone(), self.side, self.params.clone())?;
-        self.tolerance = tolerance;
-        let n = self.mesh.vertex_count();
-        Ok(UpdateStats { changed, retraced: n, kept: 0, resettled: n, rebuilt: true })
+        Ok(UpdateStats::rebuilt(changed, self.mesh.vertex_count()))
     }
 }
 
@@ -412,6 +414,9 @@ impl Tracked {
 pub struct IncrementalShell {
     tracked: Tracked,
     seams: Option<Seams>,
+    /// Who shares a position with whom in the base as given: an edit that moves no
+    /// vertex onto or off a shared position keeps the seams, unsorted.
+    crowding: Crowding,
     /// Bound on the relative field change a kept trajectory may see (module docs).
     pub tolerance: f64,
 }
@@ -434,13 +439,14 @@ impl IncrementalShell {
     /// [`build_shell_watched`](super::directors::build_shell_watched).
     pub fn new_watched(mesh: Mesh, thickness: Vec<f32>, side: Side, params: ShellParams, progress: Option<&Progress>) -> Result<Self> {
         check_inputs(&mesh, &thickness, &params)?;
+        let crowding = Crowding::new(mesh.positions());
         let Some(weld) = mesh.weld_coincident() else {
             let tracked = Tracked::new_watched(mesh, thickness, side, params, progress)?;
-            return Ok(Self { tracked, seams: None, tolerance: DEFAULT_TOLERANCE });
+            return Ok(Self { tracked, seams: None, crowding, tolerance: DEFAULT_TOLERANCE });
         };
         let tracked = Tracked::new_watched(weld.mesh.clone(), weld.least(&thickness), side, params, progress)?;
         let shell = tracked.shell.clone().expanded(&weld);
-        Ok(Self { tracked, seams: Some(Seams { weld, mesh, thickness, shell }), tolerance: DEFAULT_TOLERANCE })
+        Ok(Self { tracked, seams: Some(Seams { weld, mesh, thickness, shell }), crowding, tolerance: DEFAULT_TOLERANCE })
     }
 
     pub fn shell(&self) -> &Shell {
@@ -489,31 +495,38 @@ impl IncrementalShell {
         if let Some(i) = thickness.iter().position(|t| !t.is_finite()) {
             return Err(Error::InvalidParameter(format!("thickness of vertex {i} is not finite")));
         }
-        self.tracked.tolerance = self.tolerance;
-        let changed = (0..n).filter(|&v| positions[v] != self.mesh().positions()[v] || thickness[v] != self.thickness()[v]).count();
+        let old = self.mesh().positions();
+        let moved: Vec<u32> = (0..n as u32).filter(|&v| positions[v as usize] != old[v as usize]).collect();
+        let changed = (0..n).filter(|&v| positions[v] != old[v] || thickness[v] != self.thickness()[v]).count();
         if changed == 0 {
             return Ok(UpdateStats::default());
         }
-        // The seams as `build_shell` would weld them now: copies pulled apart, or
-        // vertices moved onto others, make new seams, and the shell is built anew.
-        let mut edited = self.mesh().clone();
-        (0..n).filter(|&v| positions[v] != self.mesh().positions()[v]).try_for_each(|v| edited.set_position(v, positions[v]))?;
-        let weld = edited.weld_coincident();
-        if weld.as_ref().map(|w| &w.of) != self.seams.as_ref().map(|s| &s.weld.of) {
-            let (side, params, tolerance) = (self.tracked.side, self.tracked.params.clone(), self.tolerance);
-            *self = Self::new(edited, thickness.to_vec(), side, params)?;
-            self.tolerance = tolerance;
-            return Ok(UpdateStats { changed, retraced: n, kept: 0, resettled: n, rebuilt: true });
+        let moves: Vec<(Vec3, Vec3)> = moved.iter().map(|&v| (old[v as usize], positions[v as usize])).collect();
+        if !self.crowding.moves_alone(&moves) {
+            // The seams as `build_shell` would weld them now: copies pulled apart, or
+            // vertices moved onto others, make new seams, and the shell is built anew.
+            let mut edited = self.mesh().clone();
+            moved.iter().try_for_each(|&v| edited.set_position(v as usize, positions[v as usize]))?;
+            if edited.weld_coincident().map(|w| w.of) != self.seams.as_ref().map(|s| s.weld.of.clone()) {
+                let (side, params, tolerance) = (self.tracked.side, self.tracked.params.clone(), self.tolerance);
+                *self = Self::new(edited, thickness.to_vec(), side, params)?;
+                self.tolerance = tolerance;
+                return Ok(UpdateStats::rebuilt(changed, n));
+            }
         }
-        let Some(seams) = self.seams.as_mut() else {
-            return self.tracked.update(positions, thickness);
+        let stats = match self.seams.as_mut() {
+            None => self.tracked.update(positions, thickness, self.tolerance)?,
+            Some(seams) => {
+                let welded = seams.weld.positions(positions).expect("the same seams: copies share their positions");
+                // Traced, kept and resettled count directors (a seam's copies share one).
+                let stats = UpdateStats { changed, ..self.tracked.update(&welded, &seams.weld.least(thickness), self.tolerance)? };
+                moved.iter().try_for_each(|&v| seams.mesh.set_position(v as usize, positions[v as usize]))?;
+                seams.thickness.copy_from_slice(thickness);
+                seams.shell = self.tracked.shell.clone().expanded(&seams.weld);
+                stats
+            }
         };
-        let welded = seams.weld.positions(positions).expect("the same seams: copies share their positions");
-        // Traced, kept and resettled count directors (a seam's copies share one).
-        let stats = UpdateStats { changed, ..self.tracked.update(&welded, &seams.weld.least(thickness))? };
-        seams.mesh = edited;
-        seams.thickness.copy_from_slice(thickness);
-        seams.shell = self.tracked.shell.clone().expanded(&seams.weld);
+        self.crowding.apply(&moves);
         Ok(stats)
     }
 
