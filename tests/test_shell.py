@@ -260,3 +260,14 @@ def test_a_base_with_edges_of_three_faces_is_told_it_cannot_be_a_closed_manifold
     assert "1 edge of the mesh used by more than two faces" in cube.thicket.last_note, cube.thicket.last_note
     a = mesh_io.read_mesh(finned)
     assert tn.mesh_report(a.vertices, a.face_sizes, a.corners)["non_manifold_edges"] == 1
+    # The fin's face taken off, its two vertices kept: as many vertices, other faces
+    # (the count is remembered per topology, not per vertex count).
+    unfinned = bpy.data.meshes.new("unfinned")
+    unfinned.from_pydata(points, [], faces[:-1])
+    cube.data = unfinned
+    api.regenerate(cube)
+    assert "more than two faces" not in cube.thicket.last_note, cube.thicket.last_note
+    # And back: the finned topology's count comes back from memory, the same.
+    cube.data = finned
+    api.regenerate(cube)
+    assert "1 edge of the mesh used by more than two faces" in cube.thicket.last_note, cube.thicket.last_note

@@ -2,6 +2,8 @@
 thick surfaces chapter 4): each builds a shell on the current mesh and reports what
 its final check found."""
 
+import hashlib
+
 import numpy as np
 
 from .. import live_shells, native
@@ -85,10 +87,29 @@ def field_shell(mesh: MeshArrays, item: S.FieldShell, factors, progress=None):
     return (*_shell_result(out, mesh), out)
 
 
+#: Non-manifold edge counts of the last few base topologies (digest -> count): a
+#: live edit moves vertices, not faces, and counting anew cost 24-59 ms a step on a
+#: 44k-vertex mesh against under 1 ms for the digest.
+_non_manifold_counts: dict = {}
+_REMEMBERED_TOPOLOGIES = 8
+
+
+def non_manifold_edges(mesh: MeshArrays) -> int:
+    """Edges of `mesh` used by more than two faces (they depend on its faces alone)."""
+    digest = hashlib.blake2b(np.ascontiguousarray(mesh.face_sizes).tobytes(), digest_size=16)
+    digest.update(np.ascontiguousarray(mesh.corners).tobytes())
+    key = (len(mesh.vertices), digest.digest())
+    if key not in _non_manifold_counts:
+        if len(_non_manifold_counts) >= _REMEMBERED_TOPOLOGIES:
+            del _non_manifold_counts[next(iter(_non_manifold_counts))]
+        _non_manifold_counts[key] = native.get().mesh_report(mesh.vertices, mesh.face_sizes, mesh.corners)["non_manifold_edges"]
+    return _non_manifold_counts[key]
+
+
 def non_manifold_note(label, mesh: MeshArrays):
     """A note when edges of the shell's base are used by more than two faces: along
     them no shell (nor a bake in it) can be a closed 2-manifold; "" otherwise."""
-    count = native.get().mesh_report(mesh.vertices, mesh.face_sizes, mesh.corners)["non_manifold_edges"]
+    count = non_manifold_edges(mesh)
     if not count:
         return ""
     return (
