@@ -183,6 +183,25 @@ def test_the_live_gate_looks_at_every_field_mesh_of_the_tree(scene):
         assert_unchanged(before[1], own)
 
 
+def test_scripts_regenerate_each_distinct_setting_once_and_every_field_mesh(scene, monkeypatch):
+    """`regenerate_tree` meshes Field Meshes with the same stored bounds once and
+    writes that mesh into each; one with bounds of its own is meshed on its own."""
+    tree = node_tree(resolution=24)
+    tree.auto_update = False
+    a, b, wide = (api.build_field_nodes_mesh(tree, name=name) for name in ("A", "B", "Wide"))
+    side = 8 * float(np.ptp(mesh_io.read_mesh(wide.data).vertices, axis=0).max())
+    wide["thicket_field"]["bounds"] = [-side / 2] * 3 + [side / 2] * 3
+    meshed = []
+    real = live.mesh_arrays
+    monkeypatch.setattr(live, "mesh_arrays", lambda prepared, *args, **kw: meshed.append(prepared) or real(prepared, *args, **kw))
+    tree.resolution = 40
+    assert live.regenerate_tree(tree) == "" and tree.status == ""
+    assert len(meshed) == 2 and meshed[0] != meshed[1], meshed
+    assert a["thicket_field"]["resolution"] == b["thicket_field"]["resolution"] == wide["thicket_field"]["resolution"] == 40
+    np.testing.assert_array_equal(mesh_io.read_mesh(a.data).corners, mesh_io.read_mesh(b.data).corners)
+    assert triangles(wide) < triangles(a) / 8  # its own, wider cells
+
+
 def increasing_to_one(seen):
     assert seen and seen[0] == 0.0 and seen[-1] == 1.0, seen
     assert all(b >= a for a, b in zip(seen, seen[1:])), seen

@@ -8,7 +8,7 @@ was and keeps the message on the tree (`status`, shown in the editor's sidebar).
 import bpy
 from bpy.app.handlers import persistent
 
-from ..fields.field_mesh import build_field_mesh, estimate, field_settings, prepare, prepare_regeneration, regenerate_field_mesh
+from ..fields.field_mesh import build_field_mesh, estimate, field_settings, mesh_arrays, prepare, prepare_regeneration, regenerate_field_mesh
 from ..pure import native
 from ..pure.field_nodes import TREE_IDNAME
 from ..stack.debounce import Debounced
@@ -113,17 +113,22 @@ def _not_live(guess) -> str:
 
 def regenerate_tree(tree, ask=False):
     """Regenerates every Field Mesh of `tree` at once (background scripts' live
-    regeneration; the interface's is `start_live`); the first error goes to
-    `tree.status` (empty on success), never raised. `ask`: with the live gate of
-    `start_live` (any Field Mesh estimated above `CONFIRM_ABOVE` triangles) nothing
-    is meshed, the status says so and the meshes stay as they were, as a stack's
-    large bake waits for Regenerate."""
-    message = _plan(tree)[3] if ask else ""
-    for obj in linked_objects(tree) if not message else ():
+    regeneration; the interface's is `start_live`), meshing each distinct setting
+    once (Field Meshes with the same stored bounds share one mesh); the first error
+    goes to `tree.status` (empty on success), never raised. `ask`: with the live gate
+    of `start_live` (any Field Mesh estimated above `CONFIRM_ABOVE` triangles)
+    nothing is meshed, the status says so and the meshes stay as they were, as a
+    stack's large bake waits for Regenerate."""
+    message, targets, distinct = _plan(tree, gate=ask)
+    arrays = []
+    for index, prepared in enumerate(distinct):
         try:
-            regenerate(obj)
+            arrays.append(mesh_arrays(prepared))
         except errors() as exc:
-            message = message or f"{obj.name}: {exc}"
+            arrays.append(None)
+            first = next(obj for obj in linked_objects(tree) if (obj.session_uid, index) in targets)
+            message = message or f"{first.name}: {exc}"
+    message = live_worker.write_targets(tree, targets, distinct, arrays, lambda obj, shown: True) or message
     with suspended():
         if tree.status != message:
             tree.status = message
@@ -139,37 +144,36 @@ def tree_state(tree):
         return None
 
 
-def _plan(tree, only=None, note=""):
-    """What a live regeneration of `tree` builds: `(message, targets, distinct,
-    too_large)`. `distinct`: the prepared builds with different settings;
-    `targets`: `(session_uid, index into distinct)` per Field Mesh (those in `only`
-    when given); `message`: the first error or `note`; `too_large`: the status of a
-    tree one of whose Field Meshes is estimated above `CONFIRM_ABOVE` triangles
-    (then nothing is targeted), else "". The one gate of `start_live` and
-    `regenerate_tree(ask=True)`."""
+def _plan(tree, only=None, note="", gate=True):
+    """What a live regeneration of `tree` builds: `(message, targets, distinct)`.
+    `distinct`: the prepared builds with different settings; `targets`:
+    `(session_uid, index into distinct)` per Field Mesh (those in `only` when
+    given); `message`: the first error or `note`. `gate`: when one of the Field
+    Meshes is estimated above `CONFIRM_ABOVE` triangles nothing is targeted and the
+    message says the tree is too large to mesh live. The one gate of `start_live`
+    and `regenerate_tree(ask=True)`."""
     from ..pure.field_tree import CONFIRM_ABOVE, needs_confirmation
 
     message, targets, distinct = note, [], []
     try:
         text = tree_json(tree)
     except errors() as exc:
-        return message or str(exc), [], [], ""
+        return message or str(exc), [], []
     for obj in linked_objects(tree):
         if only is not None and obj.session_uid not in only:
             continue
         try:
             prepared = prepare_regeneration(obj, text, tree.resolution, tree.adaptive)[0]
             if prepared not in distinct:
-                guess = estimate(prepared)
-                if needs_confirmation(guess, CONFIRM_ABOVE):
-                    too_large = _not_live(guess)
-                    return too_large, [], [], too_large
+                guess = estimate(prepared) if gate else None
+                if guess is not None and needs_confirmation(guess, CONFIRM_ABOVE):
+                    return _not_live(guess), [], []
                 distinct.append(prepared)
         except errors() as exc:
             message = message or f"{obj.name}: {exc}"
             continue
         targets.append((obj.session_uid, distinct.index(prepared)))
-    return message, targets, distinct, ""
+    return message, targets, distinct
 
 
 def start_live(tree, only=None, note="") -> str:
@@ -181,7 +185,7 @@ def start_live(tree, only=None, note="") -> str:
     read is left out and named in the status once the others are written).
     `only`: the session_uids of the Field Meshes to build (all for None); `note`:
     an earlier error for the status."""
-    message, targets, distinct, _too_large = _plan(tree, only, note)
+    message, targets, distinct = _plan(tree, only, note)
     if not targets:
         live_worker.cancel(tree)
         live_worker.set_status(tree, message)

@@ -98,16 +98,23 @@ def poll():
 
 
 def _write(tree, build, arrays) -> str:
+    return write_targets(tree, build.targets, build.distinct, arrays, build.still_shows)
+
+
+def write_targets(tree, targets, distinct, arrays, still_shows) -> str:
+    """Writes `arrays[index]` (the mesh of `distinct[index]`) into each target
+    `(object session_uid, index)` that `still_shows(obj, tree)`; targets whose
+    arrays are None (their meshing failed) are skipped. Returns the first error."""
     message = ""
     with suspended():
-        for obj_uid, index in build.targets:
+        for obj_uid, index in targets:
             obj = _by_uid(bpy.data.objects, obj_uid)
-            if obj is None or not build.still_shows(obj, tree):
-                continue  # deleted or relinked while it meshed
+            if arrays[index] is None or obj is None or not still_shows(obj, tree):
+                continue  # not meshed, or deleted or relinked while it meshed
             source = obj.get(field_mesh.TEXT_PROPERTY)
             source = source if isinstance(source, bpy.types.Text) else None
             try:
-                field_mesh.write_existing(obj, build.distinct[index], arrays[index], source)
+                field_mesh.write_existing(obj, distinct[index], arrays[index], source)
             except user_errors() as exc:
                 message = message or f"{obj.name}: {error_text(exc)}"
     return message
@@ -127,4 +134,4 @@ def wait(timeout=60.0) -> None:
     poll()
 
 
-__all__ = ["POLL_SECONDS", "cancel", "poll", "running", "set_status", "start", "wait"]
+__all__ = ["POLL_SECONDS", "cancel", "poll", "running", "set_status", "start", "wait", "write_targets"]
