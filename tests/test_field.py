@@ -5,6 +5,9 @@ and bad trees, points, bounds and resolutions refused with ThicketErrors."""
 
 import json
 import math
+import pathlib
+import re
+import subprocess
 import time
 
 import bmesh
@@ -273,3 +276,46 @@ def test_resolutions_that_would_not_fit_in_memory_are_refused_at_once(resolution
 def test_resolutions_below_two_are_refused(resolution):
     with pytest.raises(tn.InvalidInput, match="at least 2"):
         tn.field_mesh(tree(sphere((0, 0, 0), 1)), resolution=resolution)
+
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+
+def test_field_mesh_is_the_cores_mesh_bit_for_bit_and_meshes_the_box_it_returns():
+    """field_mesh through the binding against thicket_core's mesh_dual on the same tree,
+    box and resolution (implicit_mesh_bench --dual-only: issue 17's 20-node tree in
+    its own bound grown by two cells): the same triangles and the same FNV-1a hash
+    over positions, normals, attributes and quads, so the Python call meshes what the
+    benchmark times and no more. Then the returned bounds, given back, mesh the same."""
+    source = (ROOT / "rust" / "core" / "src" / "implicit" / "samples.rs").read_text()
+    text = re.search(r'SOFT_CSG_20: &str = r#"(.*?)"#;', source, re.S).group(1)
+    args = ["cargo", "run", "--release", "-q", "-p", "thicket-core", "--example", "implicit_mesh_bench", "--"]
+    done = subprocess.run(args + ["--dual-only", "--runs", "1", "--resolutions", "48"], capture_output=True, text=True, timeout=1800, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    line = done.stdout.strip().splitlines()[-1]
+    core_triangles = int(re.search(r"(\d+) triangles", line).group(1))
+    core_hash = int(re.search(r"mesh hash ([0-9a-f]{16})", line).group(1), 16)
+
+    out = tn.field_mesh(text, resolution=48)
+    assert set(out["face_sizes"].tolist()) == {4}
+    assert 2 * len(out["face_sizes"]) == core_triangles
+    attributes = np.concatenate([out["colors"], out["texture"][:, None], out["primitive_id"][:, None].astype(np.float32)], axis=1)
+    words = np.concatenate(
+        [
+            np.ascontiguousarray(out["vertices"], np.float32).view(np.uint32).ravel(),
+            np.ascontiguousarray(out["normals"], np.float32).view(np.uint32).ravel(),
+            np.ascontiguousarray(attributes, np.float32).view(np.uint32).ravel(),
+            out["corners"].astype(np.uint32),
+        ]
+    )
+    h = 0xCBF29CE484222325
+    for w in words.tolist():
+        h = ((h ^ w) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
+    assert h == core_hash
+
+    lo, hi = out["bounds"]
+    assert all(a < b for a, b in zip(lo, hi))
+    again = tn.field_mesh(text, bounds=out["bounds"], resolution=48)
+    assert again["bounds"] == out["bounds"]
+    np.testing.assert_array_equal(again["vertices"], out["vertices"])
+    np.testing.assert_array_equal(again["corners"], out["corners"])

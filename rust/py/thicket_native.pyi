@@ -268,7 +268,8 @@ def field_mesh(
     tree_json: str, bounds: Bounds | None = None, resolution: int = 128, adaptive: bool = True, progress: Progress = None, max_bytes: float | None = None
 ) -> dict[str, Any]:
     """The tree's zero set, closed and manifold: adaptive=True quads by manifold dual contouring (sharp creases and corners), adaptive=False triangles by marching prisms on the grid.
-    Refused (InvalidInput) where its estimate passes max_bytes (None: 4 GB), stopped where it would pass it while meshing; progress as for the shell."""
+    Refused (InvalidInput) where its estimate passes max_bytes (None: 4 GB), stopped where it would pass it while meshing; progress as for the shell.
+    Returns vertices, face_sizes, corners, normals, colors, texture, primitive_id, cells and bounds (the box meshed: the given one or the tree's own grown by two cells)."""
 
 def field_mesh_estimate(
     tree_json: str, bounds: Bounds | None = None, resolution: int = 128, adaptive: bool = True, max_bytes: float | None = None

@@ -146,7 +146,9 @@ fn mesher(adaptive: bool) -> Mesher {
 /// adaptive=True, their better split along corners 0-2; triangles otherwise), normals
 /// (n, 3) (the field's unit gradient; the box face's normal where the box cut it),
 /// colors (n, 4) float32, texture (n,) float32 and primitive_id (n,) int32 per vertex
-/// (as field_eval gives them there), and cells (nx, ny, nz). Bad trees, bounds and
+/// (as field_eval gives them there), cells (nx, ny, nz) and bounds ((x0, y0, z0),
+/// (x1, y1, z1)), the box meshed (the given one, or the tree's own grown by two
+/// cells: what a dense grid of the same lattice needs). Bad trees, bounds and
 /// resolutions, and trees that are not a number where sampled, raise InvalidInput (a
 /// ThicketError) with a message saying what is wrong. The GIL is released while it
 /// meshes.
@@ -170,13 +172,17 @@ pub fn field_mesh<'py>(
         let bounds = mesh_box(&tree, bounds, resolution)?;
         check_fits(&tree, bounds, resolution, mesher(adaptive), max_bytes)?;
         let watch = Watch { progress, max_bytes: Some(max_bytes) };
-        Ok(if adaptive {
-            Meshed::Dual(mesh_dual_watched(&tree, &DualParams { bounds, resolution }, &watch)?)
-        } else {
-            Meshed::Grid(mesh_field_watched(&Unculled(&tree), &GridParams { bounds, resolution, refine: true }, &watch)?)
-        })
+        Ok((
+            if adaptive {
+                Meshed::Dual(mesh_dual_watched(&tree, &DualParams { bounds, resolution }, &watch)?)
+            } else {
+                Meshed::Grid(mesh_field_watched(&Unculled(&tree), &GridParams { bounds, resolution, refine: true }, &watch)?)
+            },
+            bounds,
+        ))
     })?;
-    match mesh {
+    let (mesh, (lo, hi)) = mesh;
+    let d = match mesh {
         Meshed::Dual(m) => {
             let count = m.quads.len();
             let faces = Faces { sizes: vec![4; count], corners: m.quads.into_iter().flatten().collect() };
@@ -187,7 +193,9 @@ pub fn field_mesh<'py>(
             let faces = Faces { sizes: vec![3; count], corners: m.triangles.into_iter().flatten().collect() };
             mesh_dict(py, faces, m.positions, m.normals, m.attributes, m.attribute_count, m.cells.to_array())
         }
-    }
+    }?;
+    d.set_item("bounds", (lo.to_array(), hi.to_array()))?;
+    Ok(d)
 }
 
 /// field_mesh_estimate(tree_json, bounds=None, resolution=128, adaptive=True,
