@@ -180,6 +180,17 @@ def test_over_budget_bakes_say_how_big_they_would_be(scene):
     assert api.result_of(sphere) is None
 
 
+def test_a_bake_over_its_budget_says_by_how_much(scene):
+    # A budget far below what the error allowed can reach: the bake stays over it and
+    # the stack's note names the count, the budget and the factor.
+    sphere = add("ico_sphere", subdivisions=2)
+    result = api.add_volumetric_texture(sphere, "weave", resolution=4, depth_steps=8, triangle_budget=100)
+    count = len(result.data.polygons)
+    assert count > 105
+    note = sphere.thicket.last_note
+    assert f"{count:,} triangles, {count / 100:.1f} times the Triangle Budget of 100" in note, note
+
+
 def test_region_vertex_group_limits_the_texture(scene):
     sphere = add("ico_sphere", subdivisions=3, radius=1.0)
     group = sphere.vertex_groups.new(name="top")
@@ -296,10 +307,14 @@ def test_large_bakes_wait_for_confirmation_in_the_interface(scene):
     sphere.thicket.auto_update = False
     item.resolution = 12
     item.confirm_above = 1000
+    item.triangle_budget = 500
     with pytest.raises(BakeNeedsConfirmation) as caught:
         api.regenerate(sphere, ask=True)
     assert caught.value.estimate > 1000 and f"{caught.value.estimate:,}" in str(caught.value)
+    # Over its Triangle Budget too: the question says by how much.
+    assert caught.value.budget == 500 and f"{caught.value.estimate / 500:.1f} times the Triangle Budget of 500" in str(caught.value)
     assert len(sphere.thicket.result.data.polygons) == before, "nothing baked before the OK"
+    item.triangle_budget = 1_000_000  # the finer lattice kept whole
     api.regenerate(sphere)  # scripts (and the dialog's OK) bake without asking
     assert len(sphere.thicket.result.data.polygons) > before
 

@@ -16,6 +16,7 @@ class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):
     bl_label = "Regenerate"
 
     estimate: bpy.props.IntProperty(options={"HIDDEN", "SKIP_SAVE"})
+    budget: bpy.props.IntProperty(options={"HIDDEN", "SKIP_SAVE"})
     confirmed: bpy.props.BoolProperty(options={"HIDDEN", "SKIP_SAVE"})
 
     def invoke(self, context, event):
@@ -30,6 +31,8 @@ class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):
 
     def draw(self, context):
         self.layout.label(text=f"This bake makes about {self.estimate:,} triangles.", icon="ERROR")
+        if self.budget and self.estimate > self.budget:
+            self.layout.label(text=f"That is {self.estimate / self.budget:.1f} times its Triangle Budget of {self.budget:,}.")
         self.layout.label(text="It may take a while and a lot of memory. Bake it?")
 
     def execute(self, context):
@@ -71,7 +74,7 @@ def watched_regeneration(context, obj, ask, report, fresh=True):
     def fail(exc):
         if isinstance(exc, BakeNeedsConfirmation):
             if bpy.context.window is not None:  # ask, then bake watched (see invoke)
-                bpy.ops.thicket.regenerate("INVOKE_DEFAULT", estimate=exc.estimate)
+                bpy.ops.thicket.regenerate("INVOKE_DEFAULT", estimate=exc.estimate, budget=exc.budget)
             return {"CANCELLED"}
         return _failed(bpy.data.objects.get(name), exc, report)
 

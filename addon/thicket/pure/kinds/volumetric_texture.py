@@ -77,9 +77,10 @@ def item_texture(item: S.VolumetricTexture):
 class BakeNeedsConfirmation(Exception):
     """A bake estimated above the item's `confirm_above`: the UI asks before baking."""
 
-    def __init__(self, label, estimate, limit):
-        super().__init__(f"'{label}' would make about {estimate:,} triangles (over {limit:,}): click Regenerate to confirm")
-        self.estimate = estimate
+    def __init__(self, label, estimate, limit, budget=0):
+        over = f", {estimate / budget:.1f} times the Triangle Budget of {budget:,}" if budget and estimate > budget else ""
+        super().__init__(f"'{label}' would make about {estimate:,} triangles (over {limit:,}{over}): click Regenerate to confirm")
+        self.estimate, self.budget = estimate, budget
 
 
 def placed_textures(item: S.VolumetricTexture):
@@ -184,7 +185,7 @@ def bake(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, pro
         if ask:
             estimate = textured.estimate()
             if estimate > item.confirm_above:
-                raise BakeNeedsConfirmation(item.label, estimate, item.confirm_above)
+                raise BakeNeedsConfirmation(item.label, estimate, item.confirm_above, int(item.triangle_budget))
         out = textured.bake(progress=progress)
     except native.get().ThicketError as error:
         hinted = _pointing_at_world_size(error, shell, settings)
@@ -214,10 +215,12 @@ def bake(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, pro
             + (", or set Without UV Map to World-Size Tiles (one tile per face makes as many tiles as faces)" if out["per_face_tiles"] else "")
         )
     if out.get("over_budget"):
-        count, error = len(out["source_face"]), out["simplify_error"]
+        count, error, budget = len(out["source_face"]), out["simplify_error"], int(item.triangle_budget)
         notes.append(
-            f"'{item.label}': {count:,} triangles, over the Triangle Budget of {int(item.triangle_budget):,}: fewer would move the surface "
-            f"more than {error:g} lattice steps and lose the texture's silhouette; lower Tiling or Texture Size for a smaller bake"
+            f"'{item.label}': {count:,} triangles, {count / budget:.1f} times the Triangle Budget of {budget:,}: fewer would move the surface "
+            f"more than {error:g} lattice steps and lose the texture's silhouette"
+            + (", and with one tile per face every face's rim stays as sampled (World-Size Tiles simplify across faces)" if out["per_face_tiles"] else "")
+            + "; lower Tiling or Texture Size for a smaller bake"
         )
     return result, notes
 
