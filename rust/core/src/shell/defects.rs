@@ -713,6 +713,18 @@ impl Checker {
             .collect()
     }
 
+    /// Whether the defect pair `(i, j)` still crosses in `shell`: skin items `i` and
+    /// `j` for a self pair, skin item `i` and base triangle `j` otherwise (the tests
+    /// [`find`](Self::find) applies away from a shared vertex; `false` for the pairs
+    /// only [`find_star`](Self::find_star) tests).
+    pub fn pair_crosses(&self, mesh: &Mesh, shell: &Shell, self_pair: bool, i: u32, j: u32) -> bool {
+        let mine = || self.skin_tri(mesh, shell, i);
+        match self_pair {
+            true => self.skins_cross(mesh, shell, i, mine, j),
+            false => self.skin_crosses_base(mesh, shell, i, mine, j),
+        }
+    }
+
     /// The vertices of every defect, sorted, each once.
     pub fn defect_vertex_list(&self, f: &Findings) -> Vec<u32> {
         let mut bad = Vec::new();

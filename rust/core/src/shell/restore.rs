@@ -125,6 +125,7 @@ pub(crate) fn restore(
     let before_partial = attempt.tried;
     let flat: Vec<u32> = short.iter().copied().filter(|&v| shell.achieved[v as usize] < FLAT * shell.target[v as usize]).collect();
     let mut refused = vec![false; shell.target.len()];
+    let flat_before: Vec<f32> = flat.iter().map(|&v| shell.achieved[v as usize]).collect();
     for &reach in PARTIAL.iter() {
         let mut tries: Vec<u32> =
             flat.iter().copied().filter(|&v| !refused[v as usize] && shell.achieved[v as usize] < reach * shell.target[v as usize]).collect();
@@ -142,6 +143,22 @@ pub(crate) fn restore(
             }
             tries = again.into_iter().map(|f| f.vertex).collect();
         }
+    }
+    // A vertex refused its first share beside neighbours that were still flat may
+    // fit once they have theirs (a cell with one long and one flat corner folds where
+    // two short ones do not): those still below it with a neighbour lifted since get
+    // one more try at it.
+    let mut lifted = vec![false; shell.target.len()];
+    flat.iter().zip(&flat_before).filter(|(v, b)| shell.achieved[**v as usize] > **b).for_each(|(v, _)| lifted[*v as usize] = true);
+    let mut last: Vec<u32> = flat
+        .iter()
+        .copied()
+        .filter(|&v| shell.achieved[v as usize] < PARTIAL[0] * shell.target[v as usize])
+        .filter(|&v| checker.cell_corners_around(v as usize).any(|w| lifted[w as usize]))
+        .collect();
+    last.sort_unstable_by_key(|&v| (code[v as usize], v));
+    if !last.is_empty() {
+        restored += attempt.run(shell, &room.shell, last, (0.0, 0, PARTIAL[0])).0;
     }
     Restored { kept: restored, tried: attempt.tried, partial: attempt.tried - before_partial }
 }
