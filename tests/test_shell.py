@@ -179,11 +179,15 @@ def test_incremental_shell_follows_an_edit_like_a_rebuild(scene):
     assert np.median(differs) < 5e-3 * h and np.percentile(differs, 90) < 0.03 * h
     assert np.count_nonzero(differs > 0.25 * h) <= 3, np.sort(differs)[-5:] / h
     # What the tolerance kept is invisible beside that: retracing everything within
-    # reach gives the same shell.
+    # reach gives the same shell, but where the repair shortens a director to a
+    # defect's crossing scale (found by steps of 0.9 and four bisections), a trace a
+    # hair different can land one step apart: a vertex or two, by about 1% (one was,
+    # by 1.2%, when the crossing scales came in).
     exact = tn.IncrementalShell(a.vertices, a.face_sizes, a.corners, 0.05, relative=True, tolerance=0.0)
     exact_stats = exact.update(moved)
     assert exact_stats["retraced"] > stats["retraced"]
-    assert np.abs(exact.result()["directors"] - after["directors"]).max() < 1e-3 * h
+    apart = np.linalg.norm(exact.result()["directors"] - after["directors"], axis=1)
+    assert np.count_nonzero(apart > 1e-3 * h) <= 2 and apart.max() < 0.03 * h, np.sort(apart)[-3:] / h
     assert np.abs(after["directors"] - before).max() > 1e-3 * h  # it did move
     np.testing.assert_array_equal(after["corners"], fresh["corners"])
     # Suzanne's eyes cross her head, so even a fresh shell has crossings there: the
