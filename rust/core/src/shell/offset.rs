@@ -1,8 +1,6 @@
 //! Offset Shell: directors by normal displacement, `d_i = t_i * n_i` with angle-weighted
 //! vertex normals. The baseline that the L_p-field shell is measured against (it folds
-//! over itself in concavities, chapter 4.1.1); Blender's Solidify "Simple" does the same,
-//! except along split seams (coincident vertex copies, as exports leave them), where
-//! Solidify tears the shell open and this offsets the welded surface.
+//! over itself in concavities, chapter 4.1.1); Blender's Solidify "Simple" does the same.
 
 use crate::mesh::vertex_normals;
 use crate::Mesh;
@@ -11,15 +9,8 @@ use rayon::prelude::*;
 
 /// One director per vertex: the unit vertex normal times that vertex's signed thickness.
 /// Vertices without a defined normal (loose, or only on zero-area faces) get a zero director.
-/// A base with split seams ([`Mesh::weld_coincident`]) is offset welded: each copy gets
-/// its welded vertex's normal and the least of the copies' thicknesses, so the copies
-/// stay together (each copy's own normal, from the faces on its side alone, opened a
-/// crack along every seam that a Solid's rims walled in).
 pub fn normal_offset_directors(mesh: &Mesh, thickness: &[f32]) -> Vec<Vec3> {
     assert_eq!(thickness.len(), mesh.vertex_count(), "one thickness per vertex");
-    if let Some(weld) = mesh.weld_coincident() {
-        return weld.expand(&normal_offset_directors(&weld.mesh, &weld.least(thickness)));
-    }
     let normals = vertex_normals(mesh);
     normals.par_iter().zip(thickness.par_iter()).map(|(n, t)| *n * *t).collect()
 }

@@ -112,28 +112,7 @@ fn a_solid_over_a_split_seam_has_no_walls_inside() {
     // faces as the unsplit sphere's solid, none of them a rim.
     assert_eq!(solid.mesh.face_count(), reference.mesh.face_count());
     assert_eq!(solid.mesh.face_count(), 2 * split.face_count());
-}
-
-#[test]
-fn an_offset_shell_keeps_a_split_seam_closed() {
-    let whole = tm::icosphere(3);
-    let split = split_at_equator(&whole);
-    let ours = normal_offset_directors(&split, &thickness(&split, 0.1));
-    let reference = normal_offset_directors(&whole, &thickness(&whole, 0.1));
-    // Each copy is offset as the unsplit sphere's vertex: the seam does not open.
-    for (v, p) in split.positions().iter().enumerate() {
-        let w = whole.positions().iter().position(|q| q == p).unwrap();
-        assert_eq!(ours[v], reference[w], "vertex {v}");
-    }
-    // So a Solid over it has no walls inside, as the unsplit sphere's.
-    let solid = build_geometry(&split, &ours, ShellOutput::Solid).unwrap();
-    assert_eq!(solid.mesh.face_count(), 2 * split.face_count());
-    // A thickness asked for differently on the two sides of the seam: the least.
-    let mut t = thickness(&split, 0.1);
-    let copy = whole.vertex_count(); // the first copy: its original lies below
-    let original = split.positions().iter().position(|p| *p == split.positions()[copy]).unwrap();
-    t[copy] *= 0.5;
-    let d = normal_offset_directors(&split, &t);
-    assert_eq!(d[copy], d[original]);
-    assert!((d[copy].length() - t[copy]).abs() < 1e-6 * t[original]);
+    // An offset shell's copies have their own normals: the rims close the crack.
+    let offset = build_geometry(&split, &normal_offset_directors(&split, &thickness(&split, 0.1)), ShellOutput::Solid).unwrap();
+    assert!(offset.mesh.face_count() > 2 * split.face_count());
 }
