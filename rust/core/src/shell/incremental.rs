@@ -126,6 +126,7 @@ impl Tracked {
             factor: REPAIR_FACTOR,
             cancel: progress,
             held: None,
+            scales: true,
         };
         shell.check = repair.settle(&mut outer_bvh, &mut shell, None);
         if let Some(p) = progress {
@@ -209,6 +210,7 @@ impl Tracked {
             factor: REPAIR_FACTOR,
             cancel: None,
             held: Some(&held),
+            scales: true,
         };
         self.shell.check = repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
         Ok(UpdateStats { changed, retraced: dirty.len(), kept, resettled, rebuilt: false })
@@ -507,7 +509,7 @@ impl IncrementalShell {
             // vertices moved onto others, make new seams, and the shell is built anew.
             let mut edited = self.mesh().clone();
             moved.iter().try_for_each(|&v| edited.set_position(v as usize, positions[v as usize]))?;
-            if edited.weld_coincident().map(|w| w.of) != self.seams.as_ref().map(|s| s.weld.of.clone()) {
+            if edited.weld_coincident().as_ref().map(|w| &w.of) != self.seams.as_ref().map(|s| &s.weld.of) {
                 let (side, params, tolerance) = (self.tracked.side, self.tracked.params.clone(), self.tolerance);
                 *self = Self::new(edited, thickness.to_vec(), side, params)?;
                 self.tolerance = tolerance;
@@ -515,19 +517,24 @@ impl IncrementalShell {
             }
         }
         let stats = match self.seams.as_mut() {
-            None => self.tracked.update(positions, thickness, self.tolerance)?,
+            None => self.tracked.update(positions, thickness, self.tolerance),
             Some(seams) => {
                 let welded = seams.weld.positions(positions).expect("the same seams: copies share their positions");
                 // Traced, kept and resettled count directors (a seam's copies share one).
-                let stats = UpdateStats { changed, ..self.tracked.update(&welded, &seams.weld.least(thickness), self.tolerance)? };
-                moved.iter().try_for_each(|&v| seams.mesh.set_position(v as usize, positions[v as usize]))?;
-                seams.thickness.copy_from_slice(thickness);
-                seams.shell = self.tracked.shell.clone().expanded(&seams.weld);
-                stats
+                self.tracked.update(&welded, &seams.weld.least(thickness), self.tolerance).and_then(|stats| {
+                    moved.iter().try_for_each(|&v| seams.mesh.set_position(v as usize, positions[v as usize]))?;
+                    seams.thickness.copy_from_slice(thickness);
+                    seams.shell = self.tracked.shell.clone().expanded(&seams.weld);
+                    Ok(UpdateStats { changed, ..stats })
+                })
             }
         };
-        self.crowding.apply(&moves);
-        Ok(stats)
+        match stats {
+            Ok(_) => self.crowding.apply(&moves),
+            // The tracked mesh may hold some of the new positions: counted anew.
+            Err(_) => self.crowding = Crowding::new(self.mesh().positions()),
+        }
+        stats
     }
 
     /// [`update`](Self::update) with the thickness given by its rule (and per-vertex

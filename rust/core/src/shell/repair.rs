@@ -70,8 +70,9 @@ pub struct ShellCheck {
     pub clean: bool,
 }
 
-/// Shrinks directors around defects by `factor` per round, for at most `rounds`
-/// rounds, then runs the final check until the shell is clean.
+/// Shrinks directors around defects, for at most `rounds` rounds, to each defect's
+/// crossing scale (by `factor` where none removes it), then runs the final check
+/// until the shell is clean.
 pub fn untangle(mesh: &Mesh, shell: &mut Shell, rounds: u32, factor: f32) -> ShellCheck {
     untangle_around(mesh, shell, rounds, factor, None)
 }
@@ -84,11 +85,11 @@ pub fn untangle_around(mesh: &Mesh, shell: &mut Shell, rounds: u32, factor: f32,
     }
     let checker = Checker::new(mesh);
     let normals = vertex_normals(mesh);
-    Repair { checker: &checker, mesh, normals: &normals, rounds, factor, cancel: None, held: None }.untangle(&mut None, shell, seeds)
+    Repair { checker: &checker, mesh, normals: &normals, rounds, factor, cancel: None, held: None, scales: true }.untangle(&mut None, shell, seeds)
 }
 
 /// What the repair and restore passes use besides the shell: the mesh, its defect
-/// checker and vertex normals, and the repair's rounds and per-round factor.
+/// checker and vertex normals, and the repair's rounds and fall-back factor.
 pub(crate) struct Repair<'a> {
     pub checker: &'a Checker,
     pub mesh: &'a Mesh,
@@ -103,6 +104,10 @@ pub(crate) struct Repair<'a> {
     /// has another corner to shorten: after a local edit, the repaired directors
     /// around the reset region keep the length their earlier repair gave them.
     pub held: Option<&'a [bool]>,
+    /// Whether repair rounds shorten each defect's corners to its crossing scale
+    /// ([`crossing_scale`]); false: by `factor` alone, as before the scales (kept to
+    /// measure one against the other).
+    pub scales: bool,
 }
 
 impl Repair<'_> {
@@ -273,8 +278,7 @@ impl Repair<'_> {
     fn crossing_scales(&self, found: &Findings, shell: &mut Shell, corners: &[u32]) -> Vec<Aim> {
         let (checker, mesh) = (self.checker, self.mesh);
         let mut aims = vec![Aim::Factor; corners.len()];
-        #[cfg(test)]
-        if tests::PLAIN.with(|p| p.get()) {
+        if !self.scales {
             return aims;
         }
         let mut seen = vec![false; corners.len()];
@@ -471,12 +475,6 @@ mod tests {
     use crate::shell::Side;
     use crate::testmeshes as tm;
 
-    thread_local! {
-        /// The repair rounds shorten by the plain factor alone (the repair before
-        /// the crossing scales), for comparison.
-        pub(super) static PLAIN: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
-    }
-
     /// Two unit spheres 0.05 apart with normal directors of length `length`: their
     /// outer layers cross wide around the gap.
     fn nearly_touching(length: f32) -> (Mesh, Shell) {
@@ -504,11 +502,12 @@ mod tests {
         let (mesh, traced) = nearly_touching(0.6);
         let before = shell_report(&mesh, &traced);
         assert!(before.outer_self_intersections > 50, "{before:?}");
+        let (checker, normals) = (Checker::new(&mesh), vertex_normals(&mesh));
         let run = |plain: bool| {
-            PLAIN.with(|p| p.set(plain));
             let mut shell = traced.clone();
-            let check = untangle(&mesh, &mut shell, 80, crate::shell::directors::REPAIR_FACTOR);
-            PLAIN.with(|p| p.set(false));
+            let factor = crate::shell::directors::REPAIR_FACTOR;
+            let repair = Repair { checker: &checker, mesh: &mesh, normals: &normals, rounds: 80, factor, cancel: None, held: None, scales: !plain };
+            let check = repair.untangle(&mut None, &mut shell, None);
             let r = shell_report(&mesh, &shell);
             assert!(check.clean, "plain {plain}: {check:?}");
             assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "plain {plain}: {r:?}");

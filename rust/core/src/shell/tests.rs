@@ -944,7 +944,7 @@ fn the_repair_and_the_restore_stop_on_a_cancel() {
     cancelled.cancel();
     for (cancel, name) in [(Some(&cancelled), "cancelled"), (None, "not cancelled")] {
         let mut shell = traced.clone();
-        let repair = Repair { checker: &checker, mesh: &mesh, normals: &normals, rounds: 80, factor: 0.92, cancel, held: None };
+        let repair = Repair { checker: &checker, mesh: &mesh, normals: &normals, rounds: 80, factor: 0.92, cancel, held: None, scales: true };
         let done = repair.settle(&mut None, &mut shell, None);
         if cancel.is_some() {
             assert!(!done.clean && done.rounds == 0 && shell.directors == traced.directors, "{name}: {done:?}");

@@ -100,6 +100,39 @@ fn an_incremental_shell_keeps_its_seams_welded_and_rebuilds_when_they_part() {
     assert_eq!(inc.shell().directors[copies[0]], inc.shell().directors[copies[1]]);
 }
 
+/// A vertex off the seam moved (each moved vertex alone at its position before and
+/// after: the seams are not looked at again), then one moved onto another vertex
+/// (a new coincidence: welding looks again and the shell is rebuilt welded there).
+#[test]
+fn an_incremental_shell_of_a_seamed_mesh_updates_lone_vertices_locally() {
+    let split = split_at_equator(&tm::icosphere(3));
+    let t = thickness(&split, 0.1);
+    let mut inc = IncrementalShell::new(split.clone(), t.clone(), Side::Exterior, ShellParams::default()).unwrap();
+    let lone = (0..split.vertex_count()).find(|&v| split.positions()[v].z > 0.5).unwrap();
+    let mut moved = split.positions().to_vec();
+    moved[lone] *= 1.05;
+    let stats = inc.update(&moved, &t).unwrap();
+    assert!(!stats.rebuilt && stats.changed == 1, "{stats:?}");
+    assert_eq!(inc.mesh().positions(), &moved[..]);
+    let mut edited = split.clone();
+    edited.set_position(lone, moved[lone]).unwrap();
+    let fresh = build_shell(&edited, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    let h = 0.1 * split.bbox_diagonal();
+    let worst = inc.shell().directors.iter().zip(&fresh.directors).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max);
+    assert!(worst <= 0.05 * h, "worst {worst} against h {h}");
+    for v in 0..split.vertex_count() {
+        let w = (0..split.vertex_count()).find(|&u| split.positions()[u] == split.positions()[v]).unwrap();
+        assert_eq!(inc.shell().directors[v], inc.shell().directors[w], "seam copies {w} and {v} share their director");
+    }
+    // Onto a neighbour's position: a new coincidence, so the seams are welded anew,
+    // as a fresh build would weld them (or leave them split where that would fault).
+    let other = (0..split.vertex_count()).find(|&v| v != lone && split.positions()[v].z > 0.5).unwrap();
+    moved[lone] = moved[other];
+    let stats = inc.update(&moved, &t).unwrap();
+    assert!(stats.rebuilt, "{stats:?}");
+    assert_eq!(inc.mesh().positions(), &moved[..]);
+}
+
 #[test]
 fn a_solid_over_a_split_seam_has_no_walls_inside() {
     let whole = tm::icosphere(3);
