@@ -271,7 +271,7 @@ def test_a_base_with_edges_of_three_faces_is_told_it_cannot_be_a_closed_manifold
     cube.data = unfinned
     api.regenerate(cube)
     assert "more than two faces" not in cube.thicket.last_note, cube.thicket.last_note
-    # And back: the finned topology's count comes back from memory, the same.
+    # And back to the fin: counted for the topology it is, not the last one seen.
     cube.data = finned
     api.regenerate(cube)
     assert "1 edge of the mesh used by more than two faces" in cube.thicket.last_note, cube.thicket.last_note

@@ -128,7 +128,8 @@ def regenerate_tree(tree, ask=False):
             arrays.append(None)
             first = next(obj for obj in linked_objects(tree) if (obj.session_uid, index) in targets)
             message = message or f"{first.name}: {exc}"
-    message = live_worker.write_targets(tree, targets, distinct, arrays, lambda obj, shown: True) or message
+    written = live_worker.write_targets(tree, targets, distinct, arrays, lambda obj, tree: True)
+    message = message or written
     with suspended():
         if tree.status != message:
             tree.status = message
