@@ -531,16 +531,7 @@ fn build_in_order(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPara
     let (tracer, traces) = traced?;
     let mut shell = assemble(mesh, thickness, side, &traces);
     if let Some(checker) = checker {
-        let repair = Repair {
-            checker: &checker,
-            mesh,
-            normals: &tracer.normals,
-            rounds: params.repair_rounds,
-            factor: REPAIR_FACTOR,
-            cancel: progress,
-            held: None,
-            scales: true,
-        };
+        let repair = Repair::for_build(&checker, mesh, &tracer.normals, params.repair_rounds, progress);
         shell.check = repair.settle(&mut None, &mut shell, None);
     }
     if let Some(p) = progress {

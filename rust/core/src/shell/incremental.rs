@@ -16,7 +16,7 @@
 //! starts from the retraced directors.
 
 use super::defects::Checker;
-use super::directors::{assemble, check_inputs, min_edge_at, side_lengths, trace_vertices, watched_steps, Trace, Tracer, REPAIR_FACTOR, TRACE_SAMPLES};
+use super::directors::{assemble, check_inputs, min_edge_at, side_lengths, trace_vertices, watched_steps, Trace, Tracer, TRACE_SAMPLES};
 use super::influence::ChangeBound;
 use super::intersect::{tri_box, TriBvh};
 use super::lp_distance::{extension_faces, PatchTree};
@@ -118,16 +118,7 @@ impl Tracked {
         let mut shell = assemble(&mesh, &thickness, side, &traces);
         let checker = Checker::new(&mesh);
         let mut outer_bvh = None;
-        let repair = Repair {
-            checker: &checker,
-            mesh: &mesh,
-            normals: &tracer.normals,
-            rounds: params.repair_rounds,
-            factor: REPAIR_FACTOR,
-            cancel: progress,
-            held: None,
-            scales: true,
-        };
+        let repair = Repair::for_build(&checker, &mesh, &tracer.normals, params.repair_rounds, progress);
         shell.check = repair.settle(&mut outer_bvh, &mut shell, None);
         if let Some(p) = progress {
             p.check()?;
@@ -202,16 +193,7 @@ impl Tracked {
         // change: those cells are checked again.
         let reach = self.shell.base_offset.iter().zip(&self.shell.directors).map(|(b, d)| (b.length() + d.length()) as f64).fold(0.0, f64::max);
         seeds.extend(self.checker.cells_near_probes(&self.mesh, &moved, &flipped, reach));
-        let repair = Repair {
-            checker: &self.checker,
-            mesh: &self.mesh,
-            normals: &self.tracer.normals,
-            rounds: self.params.repair_rounds,
-            factor: REPAIR_FACTOR,
-            cancel: None,
-            held: Some(&held),
-            scales: true,
-        };
+        let repair = Repair { held: Some(&held), ..Repair::for_build(&self.checker, &self.mesh, &self.tracer.normals, self.params.repair_rounds, None) };
         self.shell.check = repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
         Ok(UpdateStats { changed, retraced: dirty.len(), kept, resettled, rebuilt: false })
     }

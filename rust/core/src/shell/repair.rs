@@ -110,6 +110,15 @@ pub(crate) struct Repair<'a> {
     pub scales: bool,
 }
 
+impl<'a> Repair<'a> {
+    /// A build's repair: `rounds` rounds at the crossing scales (by
+    /// [`REPAIR_FACTOR`](super::directors::REPAIR_FACTOR) where none removes a
+    /// defect), no director held, cancelled through `cancel`.
+    pub fn for_build(checker: &'a Checker, mesh: &'a Mesh, normals: &'a [Vec3], rounds: u32, cancel: Option<&'a crate::progress::Progress>) -> Self {
+        Repair { checker, mesh, normals, rounds, factor: super::directors::REPAIR_FACTOR, cancel, held: None, scales: true }
+    }
+}
+
 impl Repair<'_> {
     /// Whether the caller cancelled.
     pub fn cancelled(&self) -> bool {
