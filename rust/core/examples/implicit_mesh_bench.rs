@@ -13,8 +13,13 @@
 //! `--dual-only` (for profiling and instruction counts): dual contouring alone, its
 //! time, triangles, closed-manifold check and profile.
 //!
-//! `cargo run --release -p thicket-core --example implicit_mesh_bench [-- --runs N --resolutions 128,256 --culled-only --dual-only]`
+//! `--bounds x0,y0,z0,x1,y1,z1`: mesh that box (grown by two cells, as the tree's own
+//! bound is) in place of the tree's bound, e.g. an older bound's box to time both
+//! boxes with one build.
+//!
+//! `cargo run --release -p thicket-core --example implicit_mesh_bench [-- --runs N --resolutions 128,256 --bounds x0,y0,z0,x1,y1,z1 --culled-only --dual-only]`
 
+use glam::Vec3;
 use std::time::Instant;
 use thicket_core::implicit::samples::SOFT_CSG_20 as TREE;
 use thicket_core::implicit::FieldTree;
@@ -53,7 +58,14 @@ fn main() {
     let runs: usize = arg("--runs").map_or(5, |r| r.parse().unwrap());
     let resolutions: Vec<u32> = arg("--resolutions").map_or(vec![128, 256], |r| r.split(',').map(|s| s.parse().unwrap()).collect());
     let tree = FieldTree::from_json(TREE).unwrap();
-    let (lo, hi) = tree.bounds().unwrap();
+    let (lo, hi) = match arg("--bounds") {
+        Some(b) => {
+            let c: Vec<f32> = b.split(',').map(|s| s.parse().unwrap()).collect();
+            assert_eq!(c.len(), 6, "--bounds takes six numbers");
+            (Vec3::new(c[0], c[1], c[2]), Vec3::new(c[3], c[4], c[5]))
+        }
+        None => tree.bounds().unwrap(),
+    };
     println!("{} threads; a soft-CSG tree of 20 nodes, {} primitives; bounds {lo} to {hi}", rayon::current_num_threads(), tree.primitive_count());
     for resolution in resolutions {
         let margin = 2.0 * (hi - lo).max_element() / resolution as f32;

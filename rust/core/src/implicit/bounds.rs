@@ -8,7 +8,7 @@
 //! | h | `sqrt(Σ Li²)` (the bound used for any `h` node: `|∇h|` is 1 on orthogonal unit-gradient inputs, as the built-in skeletons use it, but the bound cannot know that) | `[h(lows), h(highs)]`: `h` is non-decreasing in every argument | the children's boxes intersected (`h >= max fi`) |
 //! | max, intersection_wp | `max Li` (`w_p`'s gradient is a convex combination) | `[op(lows), op(highs)]`, monotone | the children's boxes intersected (`w_p >= max`) |
 //! | min | `max Li` | monotone | the children's boxes' union |
-//! | union_wp | `max Li` | monotone | the union grown by `ln(n) / p` (`-w_p(-f) >= min f - ln(n)/p`) |
+//! | union_wp | `max Li` | monotone | per face, `w_p` of the children's reaches (each child's own box grown by its own slack: [`soft_union_box`]) |
 //! | difference_wp | `max Li` | non-decreasing in `f1`, non-increasing in `f2` | the first child's (`w_p(f1, -f2) >= f1`) |
 //! | displace | `L0 + |a| omega L1` | `f0`'s plus `a (cos + 1)` over `omega [f1] + tau` | `a >= 0`: the shape's; else grown by `2|a|` |
 //! | fractal | `L0 + Σ |a_j| omega_j L1` | per term as displace | grown by `Σ 2 max(-a_j, 0)` |
@@ -166,22 +166,17 @@ impl Tape {
                     let solid = c.iter().fold(None, |acc, e| meet(acc, e.solid));
                     Extent { support, solid }
                 }
-                Inst::Min(k) | Inst::Wp { n: k, kind: WpKind::Union, .. } => {
+                Inst::Min(k) => {
                     let c = drain(&mut stack, *k);
-                    let slack = match inst {
-                        Inst::Wp { p, .. } => (*k as f64).ln() / p,
-                        _ => 0.0,
-                    };
                     // Bounded only where every child is.
-                    let supports = c.iter().map(|e| e.support).collect::<Option<Vec<_>>>();
-                    let support = supports.and_then(|v| v.into_iter().reduce(|(a, sa), (b, sb)| (a.union(b), sa.max(sb)))).map(|(b, s)| (b, s + slack));
-                    let solid = if slack == 0.0 {
-                        c.iter().map(|e| e.solid).collect::<Option<Vec<_>>>().and_then(|v| v.into_iter().reduce(Aabb::union))
-                    } else {
-                        support.map(|(b, s)| b.grown(s))
-                    };
+                    let support = c.iter().map(|e| e.support).collect::<Option<Vec<_>>>().map(|s| union_support(&s, 0.0));
+                    let solid = c.iter().map(|e| e.solid).collect::<Option<Vec<_>>>().and_then(|v| v.into_iter().reduce(Aabb::union));
                     Extent { support, solid }
                 }
+                Inst::Wp { p, n: k, kind: WpKind::Union } => match c_supports(drain(&mut stack, *k)) {
+                    Some(s) => Extent { support: Some(union_support(&s, (*k as f64).ln() / p)), solid: Some(soft_union_box(&s, *p)) },
+                    None => Extent { support: None, solid: None },
+                },
                 Inst::Wp { n, .. } => {
                     // difference: w_p(f1, -f2) >= f1.
                     drain(&mut stack, *n)[0]
@@ -199,6 +194,56 @@ impl Tape {
         }
         stack[0].solid
     }
+}
+
+/// The children's supports, `None` where one is unbounded.
+fn c_supports(c: Vec<Extent>) -> Option<Vec<(Aabb, f64)>> {
+    c.iter().map(|e| e.support).collect()
+}
+
+/// The support of a union whose value is at least `min fi - extra` (`min`: 0;
+/// `union_wp`: `ln(n) / p`): each child's box grown by its slack above the least,
+/// `m`, their union `B`, and the slack `m + extra`. Outside `B`, every
+/// `fi >= d(x, Bi) - si >= d(x, Bi ⊕ (si - m)) - m >= d(x, B) - m` (a box grown as a box
+/// holds the box grown as a ball, whose distance is `d(x, Bi) - (si - m)`), so the
+/// union is at least `d(x, B) - m - extra`.
+fn union_support(s: &[(Aabb, f64)], extra: f64) -> (Aabb, f64) {
+    let m = s.iter().map(|(_, si)| *si).fold(f64::INFINITY, f64::min);
+    let b = s.iter().map(|(b, si)| b.grown(si - m)).reduce(Aabb::union).expect("at least one child");
+    (b, m + extra)
+}
+
+/// The box of the soft union `g = -w_p(-f1, ..., -fn)` (Akleman and Chen, section 4,
+/// "Approximate Set Operations": `w_p(f1, f2) = log(e^(p f1) + e^(p f2)) / p` and
+/// `V(-w_p(-f1, -f2)) ≈ V(f1) ∪ V(f2)`, here over n arguments) from its children's
+/// supports `fi(x) >= d(x, Bi) - si` outside `Bi`, face by face and each child by its
+/// own reach. The upper `x` face: on the half-space `x >= X` with `X >= hi_i` for every
+/// `i`, every point lies outside every `Bi` and `d(x, Bi) >= X - hi_i`, so
+/// `fi >= X - t_i` with `t_i = hi_i + si` (how far child `i` can reach). `-w_p(-·)` is
+/// non-decreasing in every argument, so there
+/// `g >= -w_p(t_1 - X, ..., t_n - X) = X - w_p(t_1, ..., t_n)`, positive once
+/// `X > w_p(t)`: the soft union has no point beyond `X = max(w_p(t), max hi_i)`. The
+/// lower faces alike with `t_i = -(lo_i - si)`.
+///
+/// `w_p(t)` lies between `max t_i` and `max t_i + ln(n) / p`: a child that reaches
+/// `δ_i` less far than the farthest adds `ln(1 + e^(-p δ_i)) / p` at most, so a face
+/// the farthest child reaches alone moves out by little, and only children reaching
+/// about as far move it by up to `ln(n) / p` (the old rule grew every child's box by
+/// the largest slack and `ln(n) / p`). A margin of `1e-12 (1 + |X|)` covers the
+/// rounding of the log-sum-exp.
+fn soft_union_box(s: &[(Aabb, f64)], p: f64) -> Aabb {
+    // A face from each child's (reach, box face).
+    let face = |faces: Vec<(f64, f64)>| {
+        let x = kernel::wp_value(p, faces.iter().map(|f| f.0));
+        let x = faces.iter().map(|f| f.1).fold(x, f64::max);
+        x + 1e-12 * (1.0 + x.abs())
+    };
+    let (mut lo, mut hi) = (DVec3::ZERO, DVec3::ZERO);
+    for a in 0..3 {
+        hi[a] = face(s.iter().map(|(b, si)| (b.hi[a] + si, b.hi[a])).collect());
+        lo[a] = -face(s.iter().map(|(b, si)| (si - b.lo[a], -b.lo[a])).collect());
+    }
+    Aabb { lo, hi }
 }
 
 /// `f0 + Σ a_j (cos + 1) >= f0 + Σ min(2 a_j, 0)`.

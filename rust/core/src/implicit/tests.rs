@@ -473,6 +473,138 @@ fn the_solid_lies_inside_its_box() {
     assert!((b.hi - DVec3::new(0.0, 0.0, 0.1) - want).abs().max_element() < 1e-12);
 }
 
+/// Points just outside a box and in a shell around it: on a grid of every face at
+/// offsets from a hair to 0.3, and at random in the box grown by 0.6.
+fn points_outside(b: Aabb, rng: &mut Rng) -> Vec<DVec3> {
+    let mut out = Vec::new();
+    let size = b.hi - b.lo;
+    for a in 0..3 {
+        let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+        for side in [-1.0, 1.0] {
+            for offset in [1e-9, 1e-3, 0.01, 0.04, 0.1, 0.3] {
+                for i in 0..=16 {
+                    for j in 0..=16 {
+                        let mut x = b.lo;
+                        x[a] = if side > 0.0 { b.hi[a] + offset } else { b.lo[a] - offset };
+                        x[u] += size[u] * f64::from(i) / 16.0;
+                        x[v] += size[v] * f64::from(j) / 16.0;
+                        out.push(x);
+                    }
+                }
+            }
+        }
+    }
+    let g = b.grown(0.6);
+    while out.len() < 6 * 6 * 289 + 2000 {
+        let x = g.lo + (g.hi - g.lo) * DVec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+        if !(x.cmpge(b.lo).all() && x.cmple(b.hi).all()) {
+            out.push(x);
+        }
+    }
+    out
+}
+
+/// A soft union of 2 to 12 random leaves (some cut, intersected or in a nested soft
+/// union), with small `p` too: the unions whose blend reaches furthest past their
+/// children (up to `ln(n) / p`).
+fn random_soft_union(rng: &mut Rng) -> Value {
+    let n = 2 + rng.pick(11);
+    let kids: Vec<Value> = (0..n)
+        .map(|_| match rng.pick(6) {
+            0 => json!({"op": "difference_wp", "p": rng.range(1.0, 20.0), "children": [random_leaf(rng), random_leaf(rng)]}),
+            1 => json!({"op": "intersection_wp", "p": rng.range(1.0, 20.0), "children": [random_leaf(rng), random_leaf(rng)]}),
+            2 => json!({"op": "union_wp", "p": rng.range(1.0, 20.0), "children": [random_leaf(rng), random_leaf(rng), random_leaf(rng)]}),
+            3 => json!({"op": "offset", "amount": rng.range(-0.05, 0.1), "child": random_leaf(rng)}),
+            _ => random_leaf(rng),
+        })
+        .collect();
+    json!({"op": "union_wp", "p": if rng.uniform() < 0.3 { rng.range(0.5, 3.0) } else { rng.range(3.0, 30.0) }, "children": kids})
+}
+
+#[test]
+fn soft_unions_have_no_surface_outside_their_box() {
+    let mut rng = Rng(0x50f7_b0dd);
+    let (mut bulging, mut trees) = (0, 0);
+    for _ in 0..60 {
+        let doc = if rng.uniform() < 0.7 { random_soft_union(&mut rng) } else { random_soft_tree(&mut rng, 3) };
+        let t = tree(&doc);
+        let Some(b) = t.solid_box() else { continue };
+        trees += 1;
+        let points = points_outside(b, &mut rng);
+        let e = t.evaluate(&points.iter().map(|p| p.as_vec3()).collect::<Vec<_>>());
+        for (x, v) in points.iter().zip(&e.values) {
+            // The batch's single precision first, then the exact value where it is near 0.
+            assert!(*v > 1e-4 || t.sample(*x).value > 0.0, "{x} is in the solid, outside {b:?}: {doc}");
+        }
+        // The blend reaches past the farthest child: a box without it (each face at
+        // the farthest child's reach) would miss surface. Counted so the test shows
+        // the bound is not met by luck.
+        if doc["op"] == "union_wp" {
+            let p = doc["p"].as_f64().unwrap();
+            let kids: Vec<FieldTree> = doc["children"].as_array().unwrap().iter().map(tree).collect();
+            let reach = kids.iter().map(|k| k.solid_box().unwrap()).reduce(Aabb::union).unwrap();
+            let pushed = (0..3).any(|a| {
+                b.hi[a] > reach.hi[a] + 0.01 / p && {
+                    let mut x = (b.lo + b.hi) * 0.5;
+                    (0..200).any(|_| {
+                        x = b.lo + (b.hi - b.lo) * DVec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+                        x[a] = reach.hi[a] + 1e-3;
+                        t.sample(x).value <= 0.0
+                    })
+                }
+            });
+            bulging += usize::from(pushed);
+        }
+    }
+    assert!(trees >= 50, "{trees}");
+    assert!(bulging >= 5, "only {bulging} unions had surface beyond their children's boxes");
+}
+
+#[test]
+fn a_soft_union_box_is_exact_for_concentric_spheres_and_reaches_each_child() {
+    // Two equal concentric spheres: g = |x| - r - ln(2)/p exactly, the box's faces at
+    // w_p(r, r) = r + ln(2)/p, the true extent.
+    let (r, p) = (0.5, 4.0);
+    let s = json!({"op": "sphere", "center": [0, 0, 0], "radius": r});
+    let b = tree(&json!({"op": "union_wp", "p": p, "children": [s, s]})).solid_box().unwrap();
+    let want = r + 2f64.ln() / p;
+    assert!((b.hi - DVec3::splat(want)).abs().max_element() < 1e-9 && (b.lo + DVec3::splat(want)).abs().max_element() < 1e-9, "{b:?}");
+    // A small sphere far from a large one: the large one's faces move out by
+    // ln(1 + e^(-p δ))/p, far less than the old rule's largest radius plus ln(2)/p.
+    let big = json!({"op": "sphere", "center": [0, 0, 0], "radius": 1});
+    let small = json!({"op": "sphere", "center": [3, 0, 0], "radius": 0.1});
+    let b = tree(&json!({"op": "union_wp", "p": 8, "children": [big, small]})).solid_box().unwrap();
+    let near = |got: f64, want: f64| (got - want).abs() < 1e-9;
+    // y and z: the big sphere reaches 1, the small one 0.1: δ = 0.9.
+    assert!(near(b.hi.y, 1.0 + (1.0 + (-8.0 * 0.9f64).exp()).ln() / 8.0), "{b:?}");
+    assert!(near(b.lo.y, -b.hi.y) && near(b.hi.z, b.hi.y));
+    // x: the small sphere reaches 3.1 on the high side (2.1 past the big one), the big
+    // one -1 on the low side (3.9 past the small one).
+    assert!(near(b.hi.x, 3.1 + (1.0 + (-8.0 * 2.1f64).exp()).ln() / 8.0), "{b:?}");
+    assert!(near(b.lo.x, -1.0 - (1.0 + (-8.0 * 3.9f64).exp()).ln() / 8.0), "{b:?}");
+    // The old rule: both children's boxes grown by the larger radius, 1, and ln(2)/8.
+    assert!(b.hi.y < 1.0 + 2f64.ln() / 8.0 - 0.08 && b.hi.x < 4.0, "{b:?}");
+}
+
+#[test]
+fn the_benchmark_trees_box_is_near_its_surface() {
+    let t = FieldTree::from_json(samples::SOFT_CSG_20).unwrap();
+    let b = t.solid_box().unwrap();
+    // The solid's points on a lattice of 97³ over its box grown by 0.2: all inside the
+    // box, and their box (at most the solid's) at least 0.8x the bound along each axis.
+    let g = b.grown(0.2);
+    let n = 97;
+    let points: Vec<Vec3> = (0..n * n * n)
+        .map(|i| (g.lo + (g.hi - g.lo) * DVec3::new((i % n) as f64, (i / n % n) as f64, (i / n / n) as f64) / (n - 1) as f64).as_vec3())
+        .collect();
+    let values = t.evaluate(&points).values;
+    let inside: Vec<DVec3> = points.iter().zip(&values).filter(|(_, v)| **v <= 0.0).map(|(p, _)| p.as_dvec3()).collect();
+    let (lo, hi) = inside.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    assert!(lo.cmpge(b.lo).all() && hi.cmple(b.hi).all(), "{lo} {hi} outside {b:?}");
+    let ratio = (b.hi - b.lo) / (hi - lo);
+    assert!(ratio.max_element() <= 1.25, "the bound {b:?} is {ratio} the solid's [{lo}, {hi}]");
+}
+
 #[test]
 fn colours_ids_and_textures_follow_the_weights() {
     let red = json!({"op": "sphere", "center": [-1, 0, 0], "radius": 0.5, "color": [1, 0, 0, 1]});
