@@ -34,4 +34,6 @@ pub use thickness::{Thickness, ThicknessMode};
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_find_star;
+#[cfg(test)]
 mod tests_split_seams;

@@ -1,0 +1,275 @@
+//! [`Checker::find_star`]'s own tests (issue 14): the pairs of triangles meeting at
+//! one base vertex that the tree tests skip by topology. Hand-set directors on small
+//! meshes where only `find_star` sees the crossing (and a shell a little off that
+//! does not cross), and its pairs against every pair of triangles of the star
+//! topology tested whole, on generated meshes with random directors.
+
+use super::defects::{skins, Checker};
+use super::intersect::triangles_intersect;
+use super::report::{normal_shape, shell_report};
+use super::*;
+use crate::test_rng::Rng;
+use crate::{hard_meshes, testmeshes as tm, Mesh};
+use glam::{DVec3, Vec3};
+
+/// A fan of `k` triangles around vertex 0 at the origin, at the bottom of a valley
+/// along x: rim vertex `1 + i` at angle 2πi/k, raised `c |sin|` (facing up, into the
+/// valley). Open: every rim edge is a boundary edge (walls of no height where both
+/// ends are pressed).
+fn valley_fan(k: u32, c: f32) -> Mesh {
+    let mut p = vec![Vec3::ZERO];
+    p.extend((0..k).map(|i| {
+        let a = i as f32 * std::f32::consts::TAU / k as f32;
+        Vec3::new(a.cos(), a.sin(), c * a.sin().abs())
+    }));
+    let t: Vec<[u32; 3]> = (0..k).map(|i| [0, 1 + i, 1 + (i + 1) % k]).collect();
+    Mesh::from_triangles(p, &t).unwrap()
+}
+
+/// What the checks find in `shell`: `find_star`'s pairs (kind, item, other), and of
+/// the whole search ([`Checker::find`], every element) the skin and skin/base pairs
+/// that `find_star` did not give (the tree tests'), inverted and enclosing cells.
+struct Found {
+    star: Vec<(u8, u32, u32)>,
+    others: Vec<(u32, u32)>,
+    inverted: usize,
+    enclosing: usize,
+}
+
+fn found(mesh: &Mesh, shell: &Shell) -> Found {
+    let c = Checker::new(mesh);
+    let tree = c.outer_tree(mesh, shell, None);
+    let f = c.find(mesh, shell, None, Some(&tree));
+    let mut star = c.find_star(mesh, shell, None, true);
+    star.sort_unstable();
+    let mut others = Vec::new();
+    for (k, mut all) in [(0u8, f.self_pairs), (1, f.base_pairs)] {
+        all.sort_unstable();
+        let mut mine: Vec<(u32, u32)> = star.iter().filter(|h| h.0 == k).map(|h| (h.1, h.2)).collect();
+        mine.sort_unstable();
+        // Every pair find_star gives is among the whole search's; the rest is the trees'.
+        for pair in all {
+            match mine.binary_search(&pair) {
+                Ok(at) => _ = mine.remove(at),
+                Err(_) => others.push(pair),
+            }
+        }
+        assert!(mine.is_empty(), "kind {k}: find_star pairs missing from find: {mine:?}");
+    }
+    Found { star, others, inverted: f.inverted.len(), enclosing: f.enclosing.len() }
+}
+
+/// The layer triangle of base triangle `t` at `r` and base triangle `u` (f64).
+fn layer_and_base(mesh: &Mesh, shell: &Shell, t: [u32; 3], r: f32, u: [u32; 3]) -> ([DVec3; 3], [DVec3; 3]) {
+    let p = mesh.positions();
+    (t.map(|v| shell.point(p, v as usize, r).as_dvec3()), u.map(|v| p[v as usize].as_dvec3()))
+}
+
+/// The repair (its rounds, then its final check) leaves `shell` clean, shortening
+/// the crossing's directors, and every check agrees.
+fn repaired_clean(mesh: &Mesh, shell: &Shell, lifted: &[usize]) {
+    let mut fixed = shell.clone();
+    let check = repair::untangle(mesh, &mut fixed, ShellParams::default().repair_rounds, directors::REPAIR_FACTOR);
+    let after = found(mesh, &fixed);
+    let r = shell_report(mesh, &fixed);
+    assert!(check.clean && after.star.iter().all(|h| h.0 == 2) && after.others.is_empty() && after.inverted == 0, "{check:?}, {:?}", after.star);
+    assert_eq!((r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells), (0, 0, 0), "{r:?}");
+    assert!(lifted.iter().any(|&v| fixed.achieved[v] < shell.achieved[v]), "the repair must shorten the crossing's directors: {check:?}");
+}
+
+/// A pressed vertex (zero director) at the bottom of a valley: one lifted rim vertex
+/// swings its layer triangle across the valley, through a base triangle of the same
+/// star that shares only the pressed vertex with it. The tree tests skip the pair
+/// (they share a vertex whose layer point is its base point), the cells are not
+/// inverted, and the crossing leaves the base triangle through its far edge, a
+/// boundary edge with a wall of no height: only `find_star` can see it. The same
+/// director a little shorter crosses nothing, and nothing is found.
+#[test]
+fn a_layer_triangle_through_a_base_triangle_at_a_pressed_vertex_is_found_by_the_star_alone() {
+    let mesh = valley_fan(5, 2.16);
+    let checker = Checker::new(&mesh);
+    let (t, u) = (1u32, 4u32); // [0, 2, 3] and [0, 5, 1]: only vertex 0 in common
+    assert_eq!((checker.tris[t as usize], checker.tris[u as usize]), ([0, 2, 3], [0, 5, 1]));
+    let shell_with = |d: Vec3| {
+        let mut directors = vec![Vec3::ZERO; 6];
+        directors[2] = d;
+        Shell::from_directors(vec![Vec3::ZERO; 6], directors)
+    };
+    let crossing = shell_with(Vec3::new(0.43, -1.96, -0.4));
+    let (layer, base) = layer_and_base(&mesh, &crossing, [0, 2, 3], 1.0, [0, 5, 1]);
+    assert!(triangles_intersect(&layer, &base), "the layer triangle must cross the base triangle");
+    let f = found(&mesh, &crossing);
+    assert!(f.star.contains(&(1, t, u)), "find_star must give (layer {t}, base {u}): {:?}", f.star);
+    assert!(f.star.iter().all(|h| h.0 < 2), "nothing is inherited (the base does not cross itself): {:?}", f.star);
+    assert!(f.others.is_empty() && f.inverted == 0 && f.enclosing == 0, "only find_star may see it: {:?}, {} inverted", f.others, f.inverted);
+    // A little shorter, or turned a little up, the layer stays above the valley's far flank.
+    for near in [Vec3::new(0.43, -1.96, -0.4) * 0.5, Vec3::new(0.43, -1.96, 0.4)] {
+        let (layer, base) = layer_and_base(&mesh, &shell_with(near), [0, 2, 3], 1.0, [0, 5, 1]);
+        assert!(!triangles_intersect(&layer, &base), "{near}: must not cross");
+        let f = found(&mesh, &shell_with(near));
+        assert!(f.star.is_empty() && f.others.is_empty() && f.inverted == 0, "{near}: nothing to find: {:?} {:?}", f.star, f.others);
+    }
+    repaired_clean(&mesh, &crossing, &[2]);
+}
+
+/// Two icospheres passing through each other: a base that crosses itself, so that
+/// some star pairs are inherited.
+fn overlapping_spheres() -> Mesh {
+    let a = tm::icosphere(2);
+    let n = a.vertex_count() as u32;
+    let tris = a.triangulate().triangles;
+    let mut p = a.positions().to_vec();
+    p.extend(a.positions().iter().map(|q| *q + Vec3::new(0.7, 0.2, 0.1)));
+    let all: Vec<[u32; 3]> = tris.iter().copied().chain(tris.iter().map(|t| t.map(|v| v + n))).collect();
+    Mesh::from_triangles(p, &all).unwrap()
+}
+
+/// A fan around vertex 0 whose last triangle stands through its first: base
+/// triangles sharing one vertex that cross each other (the star pairs over them are
+/// inherited).
+fn crossed_fan() -> Mesh {
+    let p = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.5, 0.5, 1.0], [0.5, 0.5, -1.0]];
+    Mesh::from_triangles(p.iter().map(|&q| Vec3::from_array(q)).collect(), &[[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 5]]).unwrap()
+}
+
+/// Random directors: along the normal, tilted by up to `tilt`, short (1-3% of the
+/// diagonal) or long (10-40%), a third of them zero.
+fn random_shell(mesh: &Mesh, side: Side, tilt: f64, rng: &mut Rng) -> Shell {
+    let normals = crate::mesh::vertex_normals(mesh);
+    let diag = mesh.bbox_diagonal() as f64;
+    let d: Vec<Vec3> = normals
+        .iter()
+        .map(|n| {
+            if rng.uniform() < 0.33 {
+                return Vec3::ZERO;
+            }
+            let length = if rng.uniform() < 0.5 { rng.range(0.01, 0.03) } else { rng.range(0.1, 0.4) } * diag;
+            let direction = (n.as_dvec3() * side.orientation() as f64 + rng.unit() * tilt).normalize_or_zero();
+            (direction * length).as_vec3()
+        })
+        .collect();
+    // normal_shape turns an interior director inwards: given the outward one.
+    let (base_offset, directors) = d.iter().map(|&d| normal_shape(side, d * side.orientation())).unzip();
+    Shell { side, ..Shell::from_directors(base_offset, directors) }
+}
+
+/// `find_star`'s pairs by brute force: every ordered pair of triangles of different
+/// faces, each pair of layers (and layer and base) tested whole with
+/// [`triangles_intersect`] (two triangles meeting at a corner cross away from it
+/// exactly when an opposite segment crosses the other, which is what `find_star`
+/// tests; its directors are zero or far above the "coincide" tolerance here, so a
+/// layer point coincides with its base point exactly when equal). Skin pairs: the
+/// triangles share exactly one vertex; skin/base pairs: they share one vertex, or an
+/// edge with exactly one end, and that vertex's layer point is its base point.
+/// Inherited (kind 2) where the two base triangles cross.
+fn brute_star(c: &Checker, mesh: &Mesh, shell: &Shell) -> Vec<((u8, u32, u32), bool)> {
+    let p = mesh.positions();
+    let n = c.tris.len() as u32;
+    let layers = skins(shell.side);
+    let item = |t: u32, r: f32| if r == 1.0 { t } else { c.items(shell.side) as u32 - n + t };
+    let at = |t: u32, r: Option<f32>| c.tris[t as usize].map(|v| r.map_or(p[v as usize], |r| shell.point(p, v as usize, r)).as_dvec3());
+    let pressed = |v: u32, r: f32| {
+        let (x, y) = (shell.point(p, v as usize, r), p[v as usize]);
+        assert!(x == y || (x - y).length() > 1e-3 * mesh.bbox_diagonal(), "directors are zero or far from it");
+        x == y
+    };
+    let mut hits = Vec::new();
+    for t in 0..n {
+        for u in (0..n).filter(|&u| c.face_of[u as usize] != c.face_of[t as usize]) {
+            let shared: Vec<u32> = c.tris[t as usize].iter().copied().filter(|v| c.tris[u as usize].contains(v)).collect();
+            if shared.is_empty() || shared.len() == 3 {
+                continue;
+            }
+            let kind = |k: u8| if triangles_intersect(&at(t, None), &at(u, None)) { 2 } else { k };
+            for &r in layers {
+                let one_end = shared.iter().filter(|&&v| pressed(v, r)).count() == 1;
+                if one_end && triangles_intersect(&at(t, Some(r)), &at(u, None)) {
+                    hits.push(((kind(1), item(t, r), u), false));
+                }
+                for &r2 in layers.iter().filter(|_| shared.len() == 1 && t < u) {
+                    if triangles_intersect(&at(t, Some(r)), &at(u, Some(r2))) {
+                        hits.push(((kind(0), item(t, r), item(u, r2)), true));
+                    }
+                }
+            }
+        }
+    }
+    hits
+}
+
+/// `find_star`'s hits over the flagged triangles (all for `None`) split into skin
+/// pairs, their two items in ascending order (which triangle's side finds a pair
+/// depends on which are flagged), and skin/base pairs (those it gives without the
+/// skin pairs), each sorted.
+fn star_split(c: &Checker, mesh: &Mesh, shell: &Shell, dirty: Option<&defects::Dirty>) -> (Vec<(u8, u32, u32)>, Vec<(u8, u32, u32)>) {
+    let mut base = c.find_star(mesh, shell, dirty, false);
+    base.sort_unstable();
+    let (mut skin, mut left) = (Vec::new(), base.clone());
+    for h in c.find_star(mesh, shell, dirty, true) {
+        match left.binary_search(&h) {
+            Ok(at) => _ = left.remove(at),
+            Err(_) => skin.push((h.0, h.1.min(h.2), h.1.max(h.2))),
+        }
+    }
+    assert!(left.is_empty(), "the skin/base pairs come with the skin pairs too: {left:?}");
+    skin.sort_unstable();
+    (skin, base)
+}
+
+/// The brute force's hits `keep`s, split as [`star_split`]'s.
+fn brute_split(hits: &[((u8, u32, u32), bool)], keep: impl Fn(u32, u32, bool) -> bool) -> (Vec<(u8, u32, u32)>, Vec<(u8, u32, u32)>) {
+    let pick = |skin: bool| {
+        let mut v: Vec<_> = hits
+            .iter()
+            .filter(|&&((_, i, j), s)| s == skin && keep(i, j, s))
+            .map(|&((k, i, j), _)| if skin { (k, i.min(j), i.max(j)) } else { (k, i, j) })
+            .collect();
+        v.sort_unstable();
+        v
+    };
+    (pick(true), pick(false))
+}
+
+/// `find_star` gives exactly the brute-force pairs on generated meshes (closed,
+/// quads with both splits, open with walls, a base that crosses itself; exterior,
+/// interior and envelope) with random directors, short, long and zero; and with a
+/// random quarter of the vertices flagged, exactly those of them whose moving
+/// triangles are flagged (a skin pair with either triangle flagged, a skin/base pair
+/// with its layer triangle flagged), each once.
+#[test]
+fn find_star_gives_the_pairs_of_a_brute_force_search() {
+    let cases = [
+        ("icosphere", tm::icosphere(2), Side::Exterior, 0.6),
+        ("comb", tm::comb(1), Side::Interior, 0.8),
+        ("saddle", tm::saddle(8), Side::Envelope, 0.8),
+        ("hand", hard_meshes::hand(), Side::Exterior, 0.5),
+        ("overlapping spheres", overlapping_spheres(), Side::Envelope, 0.5),
+        ("crossed fan", crossed_fan(), Side::Exterior, 0.3),
+    ];
+    let mut rng = Rng(0x5eed);
+    let mut totals = [0usize; 3];
+    let mut edge_pairs = 0;
+    for (name, mesh, side, tilt) in cases {
+        let c = Checker::new(&mesh);
+        let rounds = if mesh.vertex_count() < 10 { 30 } else { 3 };
+        for round in 0..rounds {
+            let shell = random_shell(&mesh, side, tilt, &mut rng);
+            let brute = brute_star(&c, &mesh, &shell);
+            let found = star_split(&c, &mesh, &shell, None);
+            assert_eq!(found, brute_split(&brute, |_, _, _| true), "{name} {side:?} round {round}");
+            for &((k, i, j), skin) in &brute {
+                totals[k as usize] += 1;
+                let shared = || c.tris[c.item_tri(i) as usize].iter().filter(|v| c.tris[j as usize].contains(v)).count();
+                edge_pairs += (!skin && shared() == 2) as usize;
+            }
+            // Flagged: the elements around a random quarter of the vertices.
+            let mut dirty = c.clean();
+            c.mark_anew((0..mesh.vertex_count() as u32).filter(|_| rng.uniform() < 0.25), &mut dirty);
+            let layer_flagged = |i: u32| dirty.tris[c.item_tri(i) as usize];
+            let wanted = brute_split(&brute, |i, j, skin| layer_flagged(i) || (skin && layer_flagged(j)));
+            assert_eq!(star_split(&c, &mesh, &shell, Some(&dirty)), wanted, "{name} {side:?} round {round}: flagged");
+        }
+    }
+    eprintln!("star pairs: skin {}, skin/base {}, inherited {}; over a shared edge {edge_pairs}", totals[0], totals[1], totals[2]);
+    assert!(totals[0] > 100 && totals[1] > 100 && totals[2] > 0 && edge_pairs > 10, "every kind of pair must occur: {totals:?}, {edge_pairs}");
+}
