@@ -197,11 +197,14 @@ fn brute_star(c: &Checker, mesh: &Mesh, shell: &Shell) -> Vec<((u8, u32, u32), b
     hits
 }
 
+/// Hits (kind, item, other), sorted.
+type Hits = Vec<(u8, u32, u32)>;
+
 /// `find_star`'s hits over the flagged triangles (all for `None`) split into skin
 /// pairs, their two items in ascending order (which triangle's side finds a pair
 /// depends on which are flagged), and skin/base pairs (those it gives without the
 /// skin pairs), each sorted.
-fn star_split(c: &Checker, mesh: &Mesh, shell: &Shell, dirty: Option<&defects::Dirty>) -> (Vec<(u8, u32, u32)>, Vec<(u8, u32, u32)>) {
+fn star_split(c: &Checker, mesh: &Mesh, shell: &Shell, dirty: Option<&defects::Dirty>) -> (Hits, Hits) {
     let mut base = c.find_star(mesh, shell, dirty, false);
     base.sort_unstable();
     let (mut skin, mut left) = (Vec::new(), base.clone());
@@ -217,7 +220,7 @@ fn star_split(c: &Checker, mesh: &Mesh, shell: &Shell, dirty: Option<&defects::D
 }
 
 /// The brute force's hits `keep`s, split as [`star_split`]'s.
-fn brute_split(hits: &[((u8, u32, u32), bool)], keep: impl Fn(u32, u32, bool) -> bool) -> (Vec<(u8, u32, u32)>, Vec<(u8, u32, u32)>) {
+fn brute_split(hits: &[((u8, u32, u32), bool)], keep: impl Fn(u32, u32, bool) -> bool) -> (Hits, Hits) {
     let pick = |skin: bool| {
         let mut v: Vec<_> = hits
             .iter()
