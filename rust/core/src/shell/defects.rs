@@ -638,7 +638,11 @@ impl Checker {
                 }
             })
         };
-        let away = |a: &[DVec3; 3], b: &[DVec3; 3]| segment_crosses_triangle(a[1], a[2], b) || segment_crosses_triangle(b[1], b[2], a);
+        // Each exact test behind a box test: the two triangles' boxes always meet (at
+        // the shared corner), a segment's and a triangle's mostly not.
+        let away = |a: &[DVec3; 3], b: &[DVec3; 3]| {
+            (boxes_meet(a[1], a[2], b) && segment_crosses_triangle(a[1], a[2], b)) || (boxes_meet(b[1], b[2], a) && segment_crosses_triangle(b[1], b[2], a))
+        };
         let coincide = |v: u32, r: f32| (shell.point(p, v as usize, r).as_dvec3() - p[v as usize].as_dvec3()).length() <= 1e-6 * self.diag;
         tri_list
             .par_iter()
@@ -742,6 +746,16 @@ impl Checker {
         bad.dedup();
         bad
     }
+}
+
+/// Whether the boxes of segment `p q` and of triangle `t` meet, as closed intervals
+/// ([`Checker::find_star`]'s prefilter). Exact: min and max do not round, and a point
+/// where the segment crosses the triangle lies in both boxes, so no crossing is
+/// skipped, also where the boxes only touch (at a shared corner).
+#[inline]
+fn boxes_meet(p: DVec3, q: DVec3, t: &[DVec3; 3]) -> bool {
+    let (lo, hi) = tri_box(t);
+    p.min(q).cmple(hi).all() && p.max(q).cmpge(lo).all()
 }
 
 fn shares(a: &[u32], b: &[u32]) -> bool {
