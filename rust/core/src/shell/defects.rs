@@ -7,7 +7,23 @@
 //! swallows another part of the mesh, a boundary of one crosses a boundary of the
 //! other, or one part lies wholly inside the other's cells (a card floating in
 //! another card's shell, a pebble inside a wall's) — the enclosure test, one point
-//! per connected part. One search serves the report (every
+//! per connected part. Why that is enough: the cells are the images of one
+//! continuous map `F(p, r) = x(p) + r d(p)` of the base times `[0, 1]` (base offsets
+//! aside), whose Jacobian the inverted-cell test keeps non-negative. For such a map
+//! the number of preimages of a point off the image of the boundary (the base or an
+//! envelope's inner layer, the outer layer, the side walls) is its degree, the
+//! winding number of that image around the point (Lipman, "Bijective mappings of
+//! meshes with boundary and the degree in mesh processing", SIAM J. Imaging Sci.
+//! 2014; Aigerman and Lipman, "Injective and bounded distortion mappings in 3D",
+//! SIGGRAPH 2013). So two cells overlap in a volume only where that image crosses
+//! itself, or where the surfaces of one connected part lie wholly inside another
+//! part's cells (nested, their winding numbers add up without a crossing). The pair
+//! tests keep the image from crossing itself: triangles with no base vertex in
+//! common in tree joins, triangles meeting at one vertex in
+//! [`Checker::find_star`], while triangles meeting along a whole edge cannot cross
+//! (their planes meet in that edge's line). The enclosure test covers the nesting: a
+//! part wholly inside a cell crosses nothing but has its probe point there, and a
+//! part partly inside crosses a skin. One search serves the report (every
 //! element, once) and the repair pass (only the elements around directors it just
 //! shortened, round after round, on a refitted BVH).
 //!
@@ -612,11 +628,23 @@ impl Checker {
     /// cells of faces with no vertex in common that overlapped as maps all sat at
     /// vertices with a zero director, where outer triangles sharing only that vertex
     /// (72 pairs) or an outer and a base triangle (64) crossed each other away from
-    /// it. With these pairs tested too, no two cells overlap in a volume. Pairs of
-    /// triangles sharing an edge are the fold test's. A crossing tested here is one
-    /// of the segments opposite the shared corner crossing the other triangle
+    /// it. With these pairs tested too, no two cells overlap in a volume (the module
+    /// docs: the enclosure test covers a part nested without crossing). Triangles
+    /// sharing an edge at the same points cannot cross (their planes meet in the
+    /// edge's line); a fold there is the inverted-cell test's. A crossing tested here
+    /// is one of the segments opposite the shared corner crossing the other triangle
     /// properly: two triangles meeting at a corner cross elsewhere only so, short of
-    /// an edge or triangle lying in the other's plane.
+    /// an edge or triangle lying in the other's plane. The crossing runs from the
+    /// corner to an opposite edge, and on, through the triangle beyond that edge,
+    /// into a pair the trees test, unless that triangle shares a vertex with the
+    /// other one too (small stars), or the edge is a boundary edge whose wall has no
+    /// height: such crossings only this search finds (`tests_find_star`).
+    ///
+    /// Not tested here nor by the trees (pairs meeting at a vertex or an edge at
+    /// different points, or of one face): a side wall and a triangle meeting at one of
+    /// its ends, an envelope's inner and outer layer triangles over faces sharing an
+    /// edge, and two triangles of one face of five or more corners meeting at a
+    /// vertex.
     pub(crate) fn find_star(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, skins_too: bool) -> Vec<(u8, u32, u32)> {
         let p = mesh.positions();
         let tri_flagged = |i: usize| dirty.is_none_or(|d| d.tris[i]);
