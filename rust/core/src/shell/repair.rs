@@ -37,6 +37,7 @@ use super::Shell;
 use crate::mesh::vertex_normals;
 use crate::Mesh;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// A folded director shorter than this share of its target, pointing away from its
 /// side's normal, turns to the normal. The constants of the repair and its final
@@ -195,7 +196,7 @@ impl Repair<'_> {
         let mut folded: Vec<u32> = found.inverted.iter().flat_map(|&c| checker.cells[c as usize].base()).copied().collect();
         folded.sort_unstable();
         let corners = self.corners_to_shorten(found, &shell.achieved);
-        let aims = self.crossing_scales(found, shell, &corners);
+        let aims = self.crossing_scales(found, shell, &corners, None);
         let mut any = false;
         for (v, aim) in corners.into_iter().zip(aims) {
             let folds = folded.binary_search(&v).is_ok();
@@ -284,18 +285,62 @@ impl Repair<'_> {
     /// corners at which the defect is gone ([`crossing_scale`]); the plain factor
     /// where a defect of it does not vanish so (an enclosure, a pair of triangles
     /// sharing a vertex) or does not reappear when re-tested.
-    fn crossing_scales(&self, found: &Findings, shell: &mut Shell, corners: &[u32]) -> Vec<Aim> {
+    ///
+    /// The defects are measured in `chunk`s on copies of the shell, in parallel (by
+    /// default, chunks where there are [`PARALLEL_DEFECTS`], else one after another
+    /// on `shell`): each test gives its shell back unchanged, so the aims are the same
+    /// whatever the chunks and threads.
+    fn crossing_scales(&self, found: &Findings, shell: &mut Shell, corners: &[u32], chunk: Option<usize>) -> Vec<Aim> {
         let (checker, mesh) = (self.checker, self.mesh);
         let mut aims = vec![Aim::Factor; corners.len()];
         if !self.scales {
             return aims;
         }
+        // Each defect's corners and scale, then the least per corner.
+        let defects: Vec<Defect> = (found.self_pairs.iter().map(|&(i, j)| Defect::Pair(true, i, j)))
+            .chain(found.base_pairs.iter().map(|&(i, j)| Defect::Pair(false, i, j)))
+            .chain(found.inverted.iter().map(|&c| Defect::Inverted(c)))
+            .chain(found.enclosing.iter().map(|&c| Defect::Enclosing(c)))
+            .collect();
+        let p = mesh.positions();
+        let measure = |shell: &mut Shell, d: &Defect| -> (Vec<u32>, Option<f32>) {
+            match *d {
+                Defect::Pair(self_pair, i, j) => {
+                    let all: &[&[u32]] = if self_pair { &[checker.item_vertices(i), checker.item_vertices(j)] } else { &[checker.item_vertices(i)] };
+                    let mine = self.mine(all, &shell.achieved, corners);
+                    let test = |s: &Shell| checker.pair_crosses(mesh, s, self_pair, i, j);
+                    let gamma = if self_pair { SELF_DAMPING } else { 1.0 };
+                    let scale = crossing_scale(shell, &mine, &test).map(|s| s.powf(gamma));
+                    (mine, scale)
+                }
+                Defect::Inverted(c) => {
+                    let cell = &checker.cells[c as usize];
+                    let mine = self.mine(&[cell.base()], &shell.achieved, corners);
+                    let scale = crossing_scale(shell, &mine, &|s: &Shell| cell.is_inverted(p, s));
+                    (mine, scale)
+                }
+                Defect::Enclosing(c) => (self.mine(&[checker.cells[c as usize].base()], &shell.achieved, corners), None),
+            }
+        };
+        let chunk =
+            chunk.or_else(|| (defects.len() >= PARALLEL_DEFECTS).then(|| defects.len().div_ceil(4 * rayon::current_num_threads()).max(PARALLEL_DEFECTS / 4)));
+        let measured: Vec<(Vec<u32>, Option<f32>)> = match chunk {
+            None => defects.iter().map(|d| measure(shell, d)).collect(),
+            Some(chunk) => {
+                let view: &Shell = shell;
+                defects
+                    .par_chunks(chunk)
+                    .flat_map_iter(|part| {
+                        let mut copy = view.clone();
+                        part.iter().map(|d| measure(&mut copy, d)).collect::<Vec<_>>()
+                    })
+                    .collect()
+            }
+        };
         let mut seen = vec![false; corners.len()];
         let mut fallback = vec![false; corners.len()];
         let mut best = vec![1.0f32; corners.len()];
-        let mut visit = |shell: &mut Shell, all: &[&[u32]], test: &dyn Fn(&Shell) -> bool, bisect: bool, gamma: f32| {
-            let mine: Vec<u32> = self.defect_corners(all, &shell.achieved).filter(|v| corners.binary_search(v).is_ok()).collect();
-            let scale = if bisect { crossing_scale(shell, &mine, test).map(|s| s.powf(gamma)) } else { None };
+        for (mine, scale) in measured {
             for v in mine {
                 let k = corners.binary_search(&v).unwrap();
                 match scale {
@@ -306,20 +351,6 @@ impl Repair<'_> {
                     None => fallback[k] = true,
                 }
             }
-        };
-        let p = mesh.positions();
-        for &(i, j) in &found.self_pairs {
-            visit(shell, &[checker.item_vertices(i), checker.item_vertices(j)], &|s: &Shell| checker.pair_crosses(mesh, s, true, i, j), true, SELF_DAMPING);
-        }
-        for &(i, j) in &found.base_pairs {
-            visit(shell, &[checker.item_vertices(i)], &|s: &Shell| checker.pair_crosses(mesh, s, false, i, j), true, 1.0);
-        }
-        for &c in &found.inverted {
-            let cell = &checker.cells[c as usize];
-            visit(shell, &[cell.base()], &|s: &Shell| cell.is_inverted(p, s), true, 1.0);
-        }
-        for &c in &found.enclosing {
-            visit(shell, &[checker.cells[c as usize].base()], &|_: &Shell| true, false, 1.0);
         }
         for k in 0..corners.len() {
             aims[k] = match (seen[k], fallback[k]) {
@@ -329,6 +360,11 @@ impl Repair<'_> {
             };
         }
         aims
+    }
+
+    /// Those of [`defect_corners`](Self::defect_corners) among `corners` (sorted).
+    fn mine(&self, all: &[&[u32]], achieved: &[f32], corners: &[u32]) -> Vec<u32> {
+        self.defect_corners(all, achieved).filter(|v| corners.binary_search(v).is_ok()).collect()
     }
 
     /// The corners a repair round shortens of a defect whose corners are `all`: see
@@ -375,9 +411,25 @@ impl Repair<'_> {
     }
 }
 
+/// A defect as [`Repair::crossing_scales`] measures it: a skin pair (true) or a
+/// skin/base pair (false) of items, an inverted cell, a cell enclosing a probe.
+#[derive(Debug, Clone, Copy)]
+enum Defect {
+    Pair(bool, u32, u32),
+    Inverted(u32),
+    Enclosing(u32),
+}
+
+/// Fewer defects than this are measured on the shell itself, one after another;
+/// more, in chunks on copies of it (at least a quarter of this many per copy, four
+/// chunks per thread). Issue 14: on a sculpt that crosses itself (beast, 32k
+/// vertices, exterior 10%) the first repair rounds measure 10^5-10^6 skin pairs,
+/// each up to ~30 exact tests, a tenth of the build on one core.
+const PARALLEL_DEFECTS: usize = 256;
+
 /// What shortens a corner in a repair round: the scale its defects ask for, that
 /// and the plain factor (whichever is less), or the plain factor alone.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 enum Aim {
     Scale(f32),
     Both(f32),
@@ -504,6 +556,28 @@ mod tests {
             check: Default::default(),
         };
         (mesh, shell)
+    }
+
+    /// The crossing scales measured in parallel chunks on copies of the shell are
+    /// those of one pass over the defects, and the shell is given back unchanged.
+    #[test]
+    fn crossing_scales_in_parallel_chunks_equal_one_pass() {
+        let (mesh, mut shell) = nearly_touching(0.6);
+        let (checker, normals) = (Checker::new(&mesh), vertex_normals(&mesh));
+        let factor = crate::shell::directors::REPAIR_FACTOR;
+        let repair = Repair { checker: &checker, mesh: &mesh, normals: &normals, rounds: 80, factor, cancel: None, held: None, scales: true };
+        let found = checker.find(&mesh, &shell, None, Some(&checker.outer_tree(&mesh, &shell, None)));
+        let defects = found.self_pairs.len() + found.base_pairs.len() + found.inverted.len() + found.enclosing.len();
+        assert!(defects > 40, "{found:?}");
+        let corners = repair.corners_to_shorten(&found, &shell.achieved);
+        let before = shell.clone();
+        let one_pass = repair.crossing_scales(&found, &mut shell, &corners, None);
+        assert!(one_pass.iter().any(|a| matches!(a, Aim::Scale(s) if *s < 0.9)), "{one_pass:?}");
+        for chunk in [1, 7, usize::MAX] {
+            let chunked = repair.crossing_scales(&found, &mut shell, &corners, Some(chunk));
+            assert_eq!(chunked, one_pass, "chunks of {chunk}");
+        }
+        assert_eq!((shell.directors, shell.base_offset), (before.directors, before.base_offset));
     }
 
     #[test]
