@@ -508,6 +508,68 @@ impl Checker {
         Findings { self_pairs: pairs(0), base_pairs: pairs(1), inverted, enclosing, inherited: hits.iter().filter(|h| h.0 == 2).count() }
     }
 
+    /// [`find`](Self::find) after directors were set back to a shape in which the
+    /// shell was clean, while others (`moved`, per vertex) keep a shape checked
+    /// with them: `back` flags the triangles and cells around the directors set
+    /// back. Only what the two may have made is looked at: a skin triangle of `back`
+    /// with no moved corner against the skin triangles over a moved corner (tree
+    /// pairs and [`find_star`](Self::find_star)'s), and in full (as `find` does) the
+    /// triangles and cells of `back` with corners of both. Every other pair and cell
+    /// of `back` is as it was in the clean shell, and every pair or cell of the
+    /// moved corners without a director set back was checked with them. The
+    /// restore's checks after undoing tries ([`super::restore`]) look at a fraction
+    /// of what `find` on `back` would.
+    pub fn find_against(&self, mesh: &Mesh, shell: &Shell, back: &Dirty, moved: &[bool], outer_tree: &TriBvh) -> Findings {
+        let tri_moved = |t: u32| self.tris[t as usize].iter().any(|&v| moved[v as usize]);
+        let (mixed_tris, back_only): (Vec<u32>, Vec<u32>) = back.tri_list.iter().partition(|&&t| tri_moved(t));
+        let mut mixed = self.clean();
+        for &t in &mixed_tris {
+            mixed.tris[t as usize] = true;
+        }
+        mixed.tri_list = mixed_tris;
+        for &c in &back.cell_list {
+            if self.cells[c as usize].base().iter().any(|&v| moved[v as usize]) {
+                mixed.cells[c as usize] = true;
+                mixed.cell_list.push(c);
+            }
+        }
+        let mut found = self.find(mesh, shell, Some(&mixed), Some(outer_tree));
+        // The triangles around directors set back alone: against the moved ones.
+        let hits: Vec<(u8, u32, u32)> = back_only
+            .par_iter()
+            .flat_map_iter(|&t| self.items_of(t, shell.side).map(move |i| (t, i)))
+            .flat_map_iter(|(t, i)| {
+                let mine = self.skin_tri(mesh, shell, i);
+                let (lo, hi) = tri_box(&mine);
+                let mut hits = Vec::new();
+                outer_tree.query(lo, hi, |j| {
+                    let u = self.item_tri(j);
+                    // A triangle of `back` with a moved corner was checked in full above.
+                    if !back.tris[u as usize] && tri_moved(u) && self.skins_cross(mesh, shell, i, || mine, j) {
+                        hits.push((if self.inherited(t, u) { 2 } else { 0 }, i, j));
+                    }
+                });
+                hits
+            })
+            .collect();
+        let mut only = self.clean();
+        for &t in &back_only {
+            only.tris[t as usize] = true;
+        }
+        only.tri_list = back_only;
+        // Star pairs with an unmoved neighbour are as they were: only those with a
+        // moved one can be found.
+        let star = self.find_star(mesh, shell, Some(&only), true);
+        for (kind, i, j) in hits.into_iter().chain(star) {
+            match kind {
+                0 => found.self_pairs.push((i, j)),
+                1 => found.base_pairs.push((i, j)),
+                _ => found.inherited += 1,
+            }
+        }
+        found
+    }
+
     /// Those of `cells` that enclose the probe point of another connected part. A
     /// part wholly inside another's shell crosses none of its skins; with the
     /// crossings, this bounds the shell's volume (module docs). Only the flagged cells

@@ -322,8 +322,13 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
     let mut outcome = vec![Outcome::Kept; saved.len()];
     checker.mark_anew(vertices(&live).into_iter(), dirty);
     refit(checker, outer, mesh, shell, dirty);
+    // The directors of the live groups (moved and not undone), after the first check.
+    let mut moved: Option<Vec<bool>> = None;
     while !(dirty.cell_list.is_empty() && dirty.tri_list.is_empty()) {
-        let found = checker.find(mesh, shell, Some(dirty), Some(outer));
+        let found = match &moved {
+            None => checker.find(mesh, shell, Some(dirty), Some(outer)),
+            Some(moved) => checker.find_against(mesh, shell, dirty, moved, outer),
+        };
         let (blamed, alone) = blame(checker, &found, saved, &live);
         let (failed, kept): (Vec<usize>, Vec<usize>) = live.iter().partition(|&&g| blamed.binary_search(&g).is_ok());
         if failed.is_empty() {
@@ -335,10 +340,15 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
         }
         checker.mark_anew(vertices(&failed).into_iter(), dirty);
         refit(checker, outer, mesh, shell, dirty);
+        let moved = moved.get_or_insert_with(|| vec![false; shell.target.len()]);
+        vertices(&failed).into_iter().for_each(|v| moved[v as usize] = false);
+        vertices(&kept).into_iter().for_each(|v| moved[v as usize] = true);
         live = kept;
         // Only what touches an undone director is checked again: a defect of the
         // live groups alone was in this check's findings, and blamed on a group
-        // moving one of its corners, which is undone.
+        // moving one of its corners, which is undone. Of that, only what also
+        // touches a live director ([`Checker::find_against`]): the undone ones are
+        // back where the shell was clean.
     }
     outcome
 }
@@ -457,5 +467,68 @@ mod tests {
             assert!(f.is_clean(), "{what}");
             assert!((0..mesh.vertex_count()).all(|v| shell.achieved[v] >= before.achieved[v]), "{what}");
         }
+    }
+
+    /// The restore's checks after undoing tries look only at what the undone
+    /// directors and the live ones may have made together
+    /// ([`Checker::find_against`]): on two spheres nearly touching, with directors
+    /// of one side lengthened (live) and others lengthened then set back to the
+    /// clean flat shell (some of them on triangles with live corners), it finds
+    /// exactly the defects a full search of the set-back region finds.
+    #[test]
+    fn the_check_after_undoing_finds_what_a_full_search_of_the_undone_finds() {
+        let ball = icosphere(3);
+        let n = ball.vertex_count() as u32;
+        let mut p: Vec<Vec3> = ball.positions().iter().map(|q| *q - Vec3::X * 1.025).collect();
+        p.extend(ball.positions().iter().map(|q| *q + Vec3::X * 1.025));
+        let tris = ball.triangulate().triangles;
+        let all: Vec<[u32; 3]> = tris.iter().copied().chain(tris.iter().map(|t| t.map(|v| v + n))).collect();
+        let mesh = Mesh::from_triangles(p.clone(), &all).unwrap();
+        let (checker, normals) = (Checker::new(&mesh), crate::mesh::vertex_normals(&mesh));
+        let m = mesh.vertex_count();
+        // The flat shell (clean: zero thickness always is).
+        let mut shell = Shell {
+            side: Side::Exterior,
+            base_offset: vec![Vec3::ZERO; m],
+            directors: vec![Vec3::ZERO; m],
+            achieved: vec![0.0; m],
+            target: vec![0.6; m],
+            check: Default::default(),
+        };
+        let tree = checker.outer_tree(&mesh, &shell, None);
+        assert!(checker.find(&mesh, &shell, None, Some(&tree)).is_clean());
+        // Live: the left sphere's side facing the gap; set back: the right sphere's,
+        // and every third vertex of the left one nearest the gap (amid live ones).
+        let among = |v: usize| p[v].x < 0.0 && p[v].x > -0.25 && v % 3 == 0;
+        let live: Vec<bool> = (0..m).map(|v| p[v].x < 0.0 && p[v].x > -0.4 && !among(v)).collect();
+        let back: Vec<u32> = (0..m as u32).filter(|&v| (p[v as usize].x > 0.0 && p[v as usize].x < 0.6) || among(v as usize)).collect();
+        for v in (0..m).filter(|&v| live[v]) {
+            set(&mut shell, v, (Vec3::ZERO, normals[v] * 0.6), 0.6);
+        }
+        let tree = checker.outer_tree(&mesh, &shell, None);
+        let mut dirty = checker.clean();
+        checker.mark_anew(back.iter().copied(), &mut dirty);
+        let mixed = dirty.tri_list.iter().filter(|&&t| checker.tris[t as usize].iter().any(|&v| live[v as usize])).count();
+        assert!(mixed > 10 && mixed < dirty.tri_list.len() / 2, "{mixed} of {} set-back triangles have live corners", dirty.tri_list.len());
+        let sorted = |f: super::super::defects::Findings| {
+            let mut selfs: Vec<(u32, u32)> = f.self_pairs.iter().map(|&(i, j)| (i.min(j), i.max(j))).collect();
+            let (mut base, mut cells) = (f.base_pairs.clone(), [f.inverted.clone(), f.enclosing.clone()]);
+            selfs.sort_unstable();
+            selfs.dedup();
+            base.sort_unstable();
+            base.dedup();
+            cells.iter_mut().for_each(|c| c.sort_unstable());
+            (selfs, base, cells)
+        };
+        let full = sorted(checker.find(&mesh, &shell, Some(&dirty), Some(&tree)));
+        let against = sorted(checker.find_against(&mesh, &shell, &dirty, &live, &tree));
+        // Both ways of looking are needed: pairs of a set-back triangle with live
+        // corners (checked in full) and of one without (against the live ones).
+        let has_live = |i: u32| checker.tris[checker.item_tri(i) as usize].iter().any(|&v| live[v as usize]);
+        let set_back = |i: u32| dirty.tris[checker.item_tri(i) as usize];
+        let mixed_pairs = full.0.iter().filter(|&&(i, j)| [i, j].iter().any(|&k| set_back(k) && has_live(k))).count();
+        let back_only_pairs = full.0.iter().filter(|&&(i, j)| [i, j].iter().any(|&k| set_back(k) && !has_live(k))).count();
+        assert!(mixed_pairs > 0 && back_only_pairs > 20, "{mixed_pairs} pairs with live corners, {back_only_pairs} without: {full:?}");
+        assert_eq!(full, against);
     }
 }
