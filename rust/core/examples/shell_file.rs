@@ -53,12 +53,14 @@ fn main() {
         let r = shell_report(&mesh, &shell);
         let checked = start.elapsed().as_secs_f64();
         println!(
-            "{side:?} {:.0}%: {seconds:.3} s, report (the exact check and normal room) {checked:.3} s; defects (self, base, inverted) {:?}; ratio min {:.3} mean {:.3}; compressed {}",
+            "{side:?} {:.0}%: {seconds:.3} s, report (the exact check and normal room) {checked:.3} s; defects (self, base, inverted) {:?}; ratio min {:.3} mean {:.3}; compressed {}; room along the normal: {} vertices, {:.3} of them at 95%",
             100.0 * fraction,
             (r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells),
             r.min_ratio,
             r.mean_ratio,
-            r.compressed_vertices
+            r.compressed_vertices,
+            r.normal_valid_vertices,
+            r.normal_valid_at_95
         );
     }
 }
