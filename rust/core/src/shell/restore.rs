@@ -499,7 +499,7 @@ mod tests {
         assert!(checker.find(&mesh, &shell, None, Some(&tree)).is_clean());
         // Live: the left sphere's side facing the gap; set back: the right sphere's,
         // and every third vertex of the left one nearest the gap (amid live ones).
-        let among = |v: usize| p[v].x < 0.0 && p[v].x > -0.25 && v % 3 == 0;
+        let among = |v: usize| p[v].x < 0.0 && p[v].x > -0.25 && v.is_multiple_of(3);
         let live: Vec<bool> = (0..m).map(|v| p[v].x < 0.0 && p[v].x > -0.4 && !among(v)).collect();
         let back: Vec<u32> = (0..m as u32).filter(|&v| (p[v as usize].x > 0.0 && p[v as usize].x < 0.6) || among(v as usize)).collect();
         for v in (0..m).filter(|&v| live[v]) {
