@@ -105,7 +105,13 @@ def marching_cubes_mesh(tree, lo, hi, resolution):
     z), triangles, and the seconds of the evaluation and of marching cubes."""
     h = float((hi - lo).max()) / resolution
     cells = np.ceil((hi - lo) / h - 1e-6).astype(int)
-    step = np.full(3, h, np.float32)
+    return lattice_marching_cubes(tree, lo, np.full(3, h, np.float32), cells)
+
+
+def lattice_marching_cubes(tree, lo, step, cells):
+    """field_eval's lattice of `cells` + 1 points from `lo` by `step` (x, y, z), cut
+    by the box as field_mesh cuts the solid, and marching cubes: world vertices (x, y,
+    z), triangles, and the seconds of the evaluation and of marching cubes."""
     start = time.perf_counter()
     grid = dense_values(tree, lo, step, cells + 1)
     eval_s = time.perf_counter() - start
@@ -113,7 +119,7 @@ def marching_cubes_mesh(tree, lo, hi, resolution):
     for face in (grid[0], grid[-1], grid[:, 0], grid[:, -1], grid[:, :, 0], grid[:, :, -1]):
         np.maximum(face, 1e-3, out=face)
     start = time.perf_counter()
-    verts, faces, _, _ = marching_cubes(grid, level=0.0, spacing=(h, h, h))
+    verts, faces, _, _ = marching_cubes(grid, level=0.0, spacing=(float(step[2]), float(step[1]), float(step[0])))
     mc_s = time.perf_counter() - start
     return verts[:, ::-1] + lo, faces, eval_s, mc_s
 
@@ -169,22 +175,15 @@ def compare(tree, bounds, resolution, runs, label):
     cells = np.array(ours["cells"])
     lo, hi = (np.array(corner, np.float32) for corner in ours["bounds"])
     step = ((hi - lo) / cells).astype(np.float32)
-    start = time.perf_counter()
-    grid = dense_values(tree, lo, step, cells + 1)
-    eval_s = time.perf_counter() - start
-    # Outside at the box's faces, as field_mesh cuts the solid by the box.
-    for face in (grid[0], grid[-1], grid[:, 0], grid[:, -1], grid[:, :, 0], grid[:, :, -1]):
-        np.maximum(face, 1e-3, out=face)
-    start = time.perf_counter()
-    verts, faces, _, _ = marching_cubes(grid, level=0.0, spacing=(float(step[2]), float(step[1]), float(step[0])))
-    mc_s = time.perf_counter() - start
+    verts, faces, eval_s, mc_s = lattice_marching_cubes(tree, lo, step, cells)
     peer_s = eval_s + mc_s
+    points = int(np.prod(cells + 1))
     ours_tris = int(np.sum(ours["face_sizes"] - 2))
     box = tuple(tuple(round(float(c), 3) for c in corner) for corner in (lo, hi))
     print(f"{label}: box {box}, cells {tuple(int(c) for c in cells)}")
     print(f"  thicket field_mesh (dual contouring, culled):  {ours_s * 1e3:8.1f} ms (best of {runs}), {ours_tris} triangles")
     print(
-        f"  field_eval dense grid + skimage marching_cubes: {peer_s * 1e3:8.1f} ms (eval {eval_s * 1e3:.1f} ms of {grid.size} points, marching cubes {mc_s * 1e3:.1f} ms), {len(faces)} triangles"
+        f"  field_eval dense grid + skimage marching_cubes: {peer_s * 1e3:8.1f} ms (eval {eval_s * 1e3:.1f} ms of {points} points, marching cubes {mc_s * 1e3:.1f} ms), {len(faces)} triangles"
     )
     print(
         f"  ratio: skimage's time {peer_s / ours_s:.2f}x ours; our triangles {ours_tris / len(faces):.2f}x marching cubes'; {len(verts)} vs {len(ours['vertices'])} vertices"

@@ -540,16 +540,8 @@ impl Checker {
             .flat_map_iter(|&t| self.items_of(t, shell.side).map(move |i| (t, i)))
             .flat_map_iter(|(t, i)| {
                 let mine = self.skin_tri(mesh, shell, i);
-                let (lo, hi) = tri_box(&mine);
-                let mut hits = Vec::new();
-                outer_tree.query(lo, hi, |j| {
-                    let u = self.item_tri(j);
-                    // A triangle of `back` with a moved corner was checked in full above.
-                    if !back.tris[u as usize] && tri_moved(u) && self.skins_cross(mesh, shell, i, || mine, j) {
-                        hits.push((if self.inherited(t, u) { 2 } else { 0 }, i, j));
-                    }
-                });
-                hits
+                // A triangle of `back` with a moved corner was checked in full above.
+                self.skin_pairs(mesh, shell, (t, i), &mine, outer_tree, |_, u| !back.tris[u as usize] && tri_moved(u))
             })
             .collect();
         let mut only = self.clean();
@@ -773,6 +765,29 @@ impl Checker {
             .collect()
     }
 
+    /// The skin items of `tree` crossing skin item `i` (of base triangle `t`, corners
+    /// `mine`) that `keep(item, its base triangle)` lets through, as defect triples
+    /// (2: inherited, 0: not).
+    fn skin_pairs(
+        &self,
+        mesh: &Mesh,
+        shell: &Shell,
+        (t, i): (u32, u32),
+        mine: &[DVec3; 3],
+        tree: &TriBvh,
+        keep: impl Fn(u32, u32) -> bool,
+    ) -> Vec<(u8, u32, u32)> {
+        let (lo, hi) = tri_box(mine);
+        let mut hits = Vec::new();
+        tree.query(lo, hi, |j| {
+            let u = self.item_tri(j);
+            if keep(j, u) && self.skins_cross(mesh, shell, i, || *mine, j) {
+                hits.push((if self.inherited(t, u) { 2 } else { 0 }, i, j));
+            }
+        });
+        hits
+    }
+
     /// [`find`](Self::find)'s pairs, one query per flagged skin triangle.
     fn find_around(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, outer_tree: Option<&TriBvh>) -> Vec<(u8, u32, u32)> {
         let tri_flagged = |i: usize| dirty.is_none_or(|d| d.tris[i]);
@@ -786,17 +801,11 @@ impl Checker {
             .flat_map_iter(|(t, i)| {
                 let mine = self.skin_tri(mesh, shell, i);
                 let (lo, hi) = tri_box(&mine);
-                let mut hits = Vec::new();
-                if let Some(tree) = outer_tree {
-                    tree.query(lo, hi, |j| {
-                        let u = self.item_tri(j);
-                        // Each pair once: by the lower item, unless only the higher is flagged.
-                        let first = j > i || !tri_flagged(u as usize);
-                        if first && self.skins_cross(mesh, shell, i, || mine, j) {
-                            hits.push((if self.inherited(t, u) { 2 } else { 0 }, i, j));
-                        }
-                    });
-                }
+                let mut hits = match outer_tree {
+                    // Each pair once: by the lower item, unless only the higher is flagged.
+                    Some(tree) => self.skin_pairs(mesh, shell, (t, i), &mine, tree, |j, u| j > i || !tri_flagged(u as usize)),
+                    None => Vec::new(),
+                };
                 self.base_bvh.query(lo, hi, |j| {
                     if self.skin_crosses_base(mesh, shell, i, || mine, j) {
                         hits.push((if self.inherited(t, j) { 2 } else { 1 }, i, j));
