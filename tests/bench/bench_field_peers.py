@@ -158,7 +158,8 @@ def equal_error(tree, ours, resolution):
             slope = -2.0
         slope = min(slope, -0.5)
         next_n = int(round(n * (ours_err["mean"] / err["mean"]) ** (1 / slope)))
-        next_n = max(16, min(next_n, 4 * resolution))
+        # At most twice our resolution: a 512^3 lattice is 0.5 GB of float32 already.
+        next_n = max(16, min(next_n, 2 * resolution))
         if next_n == n or any(t[0] == next_n for t in tried):
             break
         n = next_n
