@@ -274,10 +274,74 @@ impl Trace {
 
 /// The triangles the field integrates: the mesh's, then the artificial faces along
 /// its open `boundary` edges (4.3.2).
-fn integration_triangles(mesh: &Mesh, normals: &[Vec3], reach: &[f32], boundary: &[(u32, u32)]) -> Vec<[DVec3; 3]> {
-    let mut tris = super::lp_distance::mesh_triangles(mesh);
-    tris.extend(extension_faces(boundary, mesh.positions(), normals, reach));
-    tris
+/// Also the longest edge of each one's pieces for the patch tree ([`piece_sizes`]).
+fn integration_triangles(mesh: &Mesh, normals: &[Vec3], reach: &[f32], boundary: &[(u32, u32)]) -> (Vec<[DVec3; 3]>, Vec<f64>) {
+    let p = mesh.positions();
+    let split = mesh.triangulate();
+    let mut tris: Vec<[DVec3; 3]> = split.triangles.iter().map(|t| t.map(|i| p[i as usize].as_dvec3())).collect();
+    tris.extend(extension_faces(boundary, p, normals, reach));
+    let sizes = piece_sizes(reach, &tris, split.triangles.len());
+    (tris, sizes)
+}
+
+/// The longest edge of the pieces the field integrates, as a share of the typical
+/// thickness: triangles longer than this are split for the patch tree
+/// ([`PatchTree::build_refined`]). Not from the thesis, whose meshes are finer than
+/// their shells; chosen on CAD parts from STL files (long slivers across whole
+/// faces), where the tree otherwise integrated most triangles exactly at every
+/// evaluation (a 3.7k-vertex part took 40 s) and the localization (4.3.1) weighed
+/// each sliver by a centroid far from most of its area. A quarter of the thickness
+/// gave the same shells on 15 CAD parts and 6 scans, no faster, and a Barnes-Hut
+/// error twice as large on a fine plane (2.3 degrees off the normal against 1.3).
+const FIELD_PIECE: f32 = 1.0;
+
+/// The pieces may add at most this many times the triangles (the split's length
+/// doubles until they fit): memory stays proportional to the mesh.
+pub(crate) const FIELD_PIECES_BUDGET: usize = 8;
+
+/// A triangle is split only when it is a sliver: its height under its longest edge
+/// is less than this share of that edge. Fat triangles larger than the thickness
+/// (open cards a few thicknesses wide) kept their shells as unsplit; split, the
+/// localization moved enough to squeeze some interior cells to a sixth of a target
+/// they had room for, and to stack compressed cells whose bakes crossed.
+const SLIVER: f64 = 0.25;
+
+/// The longest edge of the field's pieces: [`FIELD_PIECE`] times the median
+/// thickness `reach`, rounded down to a power of two (infinite: none given).
+///
+/// One size from the median, rounded, so that the pieces do not follow the
+/// thickness: painting it, or moving a few vertices, leaves every piece where it was
+/// and the incremental update (7.1) refits the tree instead of building it anew
+/// (sized per face, every thickness edit split its faces otherwise, and the field
+/// changed beyond what the edit's triangles bound).
+pub(crate) fn piece_size(reach: &[f32]) -> f64 {
+    let mut r: Vec<f32> = reach.iter().copied().filter(|r| r.is_finite() && *r > 0.0).collect();
+    if r.is_empty() {
+        return f64::INFINITY;
+    }
+    let mid = r.len() / 2;
+    let median = *r.select_nth_unstable_by(mid, f32::total_cmp).1;
+    (FIELD_PIECE as f64 * median as f64).log2().floor().exp2()
+}
+
+/// The longest edge of `t`'s pieces: `size` for a [`SLIVER`] longer than it,
+/// infinite (not split) otherwise.
+pub(crate) fn piece_max_edge(t: &[DVec3; 3], size: f64) -> f64 {
+    let longest = (0..3).map(|k| (t[(k + 1) % 3] - t[k]).length_squared()).fold(0.0, f64::max);
+    let twice_area = (t[1] - t[0]).cross(t[2] - t[0]).length();
+    // height = twice_area / longest < SLIVER longest
+    if longest > size * size && twice_area < SLIVER * longest {
+        size
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// [`piece_max_edge`] of each of `tris`: the mesh's first `mesh_triangles`, then the
+/// extension faces (4.3.2), not split (they are as long as the thickness).
+pub(crate) fn piece_sizes(reach: &[f32], tris: &[[DVec3; 3]], mesh_triangles: usize) -> Vec<f64> {
+    let size = piece_size(reach);
+    tris.iter().enumerate().map(|(i, t)| if i < mesh_triangles { piece_max_edge(t, size) } else { f64::INFINITY }).collect()
 }
 
 /// Shortest edge at `v` among its `faces` (the first step of its trajectory).
@@ -305,8 +369,8 @@ impl Tracer {
     pub fn new(mesh: &Mesh, reach: &[f32], params: &ShellParams) -> (Self, Vec<[DVec3; 3]>) {
         let normals = vertex_normals(mesh);
         let boundary = if params.boundary_faces { boundary_edges(mesh) } else { Vec::new() };
-        let tris = integration_triangles(mesh, &normals, reach, &boundary);
-        let tree = PatchTree::build(&tris);
+        let (tris, sizes) = integration_triangles(mesh, &normals, reach, &boundary);
+        let tree = PatchTree::build_refined(&tris, &sizes, tris.len() * FIELD_PIECES_BUDGET);
         let faces_around = Incidence::faces(mesh);
         let min_edge = (0..mesh.vertex_count()).map(|v| min_edge_at(mesh, v as u32, faces_around.of(v))).collect();
         let kernel = Kernel::new(params.p, params.theta);

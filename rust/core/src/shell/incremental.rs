@@ -16,7 +16,10 @@
 //! starts from the retraced directors.
 
 use super::defects::Checker;
-use super::directors::{assemble, check_inputs, min_edge_at, side_lengths, trace_vertices, watched_steps, Trace, Tracer, TRACE_SAMPLES};
+use super::directors::{
+    assemble, check_inputs, min_edge_at, piece_max_edge, piece_size, piece_sizes, side_lengths, trace_vertices, watched_steps, Trace, Tracer,
+    FIELD_PIECES_BUDGET, TRACE_SAMPLES,
+};
 use super::influence::ChangeBound;
 use super::intersect::{tri_box, TriBvh};
 use super::lp_distance::{extension_faces, PatchTree};
@@ -252,12 +255,26 @@ impl Tracked {
         }
         let changes: Vec<(usize, [DVec3; 3], [DVec3; 3])> =
             changes.into_iter().filter(|(i, t)| self.tris[*i] != *t).map(|(i, t)| (i, self.tris[i], t)).collect();
+        // The pieces the field integrates are sized by the median thickness
+        // (`piece_size`) and split only slivers: where an edit moves the median past a
+        // power of two, or turns a triangle into a sliver or back, so that it splits
+        // into other pieces, the field changes beyond what the moved triangles bound,
+        // and the shell is rebuilt.
+        let base_count = *self.face_tris.last().unwrap_or(&0) as usize;
+        let size = piece_size(&self.lengths);
+        let mut sizes = piece_sizes(&self.lengths, &self.tris, base_count);
+        for &(i, _, t) in changes.iter().filter(|c| c.0 < base_count) {
+            sizes[i] = piece_max_edge(&t, size);
+        }
+        if !self.tracer.tree.adopt_sizes(&self.tris, &sizes) {
+            return None;
+        }
         for &(i, _, t) in &changes {
             self.tris[i] = t;
         }
         let moved_tris: Vec<_> = changes.iter().map(|&(i, _, t)| (i, t)).collect();
         if !self.tracer.tree.refit_triangles(&moved_tris) {
-            self.tracer.tree = PatchTree::build(&self.tris);
+            self.tracer.tree = PatchTree::build_refined(&self.tris, &sizes, self.tris.len() * FIELD_PIECES_BUDGET);
         }
         Some((changes, retriangulated))
     }

@@ -1,5 +1,6 @@
 //! End-to-end shell tests on generated meshes (chapter 4 behaviour).
 
+use super::directors::{side_lengths, Tracer};
 use super::report::shell_report;
 use super::*;
 use crate::testmeshes as tm;
@@ -1003,4 +1004,71 @@ fn outer_triangles_crossing_at_a_pressed_vertex_are_found_and_repaired() {
     }
     eprintln!("{with_star} shells with crossings at a pressed vertex, {only_star} of them found by nothing else");
     assert!(with_star >= 5, "{with_star}");
+}
+
+/// A closed cylinder as CAD parts come from STL files: each cap a fan of slivers
+/// from one rim vertex, the side one tall quad per segment.
+fn sliver_cylinder(n: u32) -> Mesh {
+    let ring = |z: f32| {
+        (0..n).map(move |k| {
+            let a = std::f32::consts::TAU * k as f32 / n as f32;
+            Vec3::new(a.cos(), a.sin(), z)
+        })
+    };
+    let positions: Vec<Vec3> = ring(0.0).chain(ring(1.5)).collect();
+    let (mut sizes, mut corners) = (Vec::new(), Vec::new());
+    for k in 1..n - 1 {
+        corners.extend([0, k + 1, k]); // bottom, facing down
+        corners.extend([n, n + k, n + k + 1]); // top, facing up
+        sizes.extend([3, 3]);
+    }
+    for k in 0..n {
+        let j = (k + 1) % n;
+        corners.extend([k, j, n + j, n + k]);
+        sizes.push(4);
+    }
+    Mesh::new(positions, &sizes, corners, None).expect("valid cylinder")
+}
+
+#[test]
+fn sliver_cylinder_is_clean_and_its_field_integrates_pieces() {
+    let m = sliver_cylinder(48);
+    assert_clean("sliver cylinder", &m);
+    // Its slivers are far longer than the thickness: the field splits them.
+    let t = Thickness::relative(0.1).per_vertex(&m, None).unwrap();
+    let lengths = side_lengths(&t, Side::Exterior);
+    let (tracer, tris) = Tracer::new(&m, &lengths, &ShellParams::default());
+    assert!(tracer.tree.piece_count() > 2 * tris.len(), "{} pieces of {} triangles", tracer.tree.piece_count(), tris.len());
+}
+
+#[test]
+fn only_slivers_longer_than_the_piece_size_are_split() {
+    use super::directors::piece_max_edge;
+    use glam::DVec3;
+    let tri = |h: f64, l: f64| [DVec3::ZERO, DVec3::new(l, 0.0, 0.0), DVec3::new(0.5 * l, h, 0.0)];
+    assert_eq!(piece_max_edge(&tri(0.1, 4.0), 0.5), 0.5); // a sliver 8 pieces long
+    assert_eq!(piece_max_edge(&tri(3.0, 4.0), 0.5), f64::INFINITY); // fat: kept whole
+    assert_eq!(piece_max_edge(&tri(0.01, 0.4), 0.5), f64::INFINITY); // shorter than a piece
+    assert_eq!(piece_max_edge(&tri(0.1, 4.0), f64::INFINITY), f64::INFINITY);
+}
+
+#[test]
+fn incremental_update_of_a_sliver_part_refits_its_pieces_and_matches_a_rebuild() {
+    // Moving a few vertices and painting the thickness of two leaves every piece
+    // where it was (one size from the median thickness): the tree is refitted, not
+    // rebuilt, and the directors are a rebuild's.
+    let mesh = sliver_cylinder(48);
+    let diag = mesh.bbox_diagonal();
+    let mut t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+    let params = ShellParams { theta: 0.0, ..Default::default() };
+    let mut inc = incremental::IncrementalShell::new(mesh.clone(), t.clone(), Side::Exterior, params.clone()).unwrap();
+    inc.tolerance = 0.0;
+    let moved = bumped(&mesh, 5, 0.005 * diag, 0.1 * diag);
+    t[7] *= 1.3;
+    t[60] *= 0.7;
+    let stats = inc.update(&moved, &t).unwrap();
+    assert!(!stats.rebuilt && stats.retraced > 0, "{stats:?}");
+    let edited = with_positions(&mesh, moved);
+    let err = worst(&inc.traced_directors(), &traced(&edited, &t, Side::Exterior, &params));
+    assert!(err <= 1e-4 * t[0], "worst {err}");
 }

@@ -141,10 +141,19 @@ pub struct PatchTree {
     tri_centroid: Vec<DVec3>,
     tri_radius: Vec<f64>,
     tri_second: Vec<Sym>,
-    /// Original index of each stored triangle, and the stored place of each original
-    /// one (`u32::MAX`: dropped as degenerate).
+    /// Original index of each stored piece, and the stored place of each piece
+    /// (`u32::MAX`: dropped as degenerate).
     order: Vec<u32>,
     place: Vec<u32>,
+    /// The pieces each given triangle was split into ([`PatchTree::build_refined`]):
+    /// triangle `i` is pieces `first[i]..first[i + 1]`, each piece its corners'
+    /// barycentric coordinates in the triangle (so a refit moves them with it).
+    first: Vec<u32>,
+    pieces: Vec<[DVec3; 3]>,
+    /// The longest edge each triangle's pieces may have, as asked (infinite: not
+    /// split), and the factor the budget multiplied them by.
+    asked: Vec<f64>,
+    scale: f64,
     /// Leaf of each stored triangle and parent of each node, for [`refit_triangles`].
     ///
     /// [`refit_triangles`]: PatchTree::refit_triangles
@@ -164,9 +173,145 @@ pub(crate) fn tri_props(t: &[DVec3; 3]) -> (f64, DVec3, f64) {
     (area, c, r)
 }
 
+/// Splits `t` by longest-edge bisection until no edge is longer than `max_edge` (or
+/// `depth` runs out), pushing each piece as barycentric corners in `t`. A sliver
+/// becomes a row of pieces (linear in its length), a fat triangle a grid (quadratic).
+fn bisect(t: &[DVec3; 3], bary: [DVec3; 3], max_edge: f64, depth: u32, out: &mut Vec<[DVec3; 3]>) {
+    let at = |b: DVec3| t[0] * b.x + t[1] * b.y + t[2] * b.z;
+    let q = bary.map(at);
+    let edge = |k: usize| (q[(k + 1) % 3] - q[k]).length_squared();
+    // Ties (equilateral triangles) go by the edges' end points, so the pieces do not
+    // depend on which corner a triangulation lists first.
+    let ends = |k: usize| {
+        let (a, b) = (q[k].to_array(), q[(k + 1) % 3].to_array());
+        let lex = |a: &[f64; 3], b: &[f64; 3]| a.iter().zip(b).map(|(x, y)| x.total_cmp(y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal);
+        if lex(&a, &b).is_le() {
+            (a, b)
+        } else {
+            (b, a)
+        }
+    };
+    let k = (0..3)
+        .max_by(|&a, &b| {
+            let (ea, eb) = (ends(a), ends(b));
+            let lex = |a: &[f64; 3], b: &[f64; 3]| a.iter().zip(b).map(|(x, y)| x.total_cmp(y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal);
+            edge(a).total_cmp(&edge(b)).then_with(|| lex(&ea.0, &eb.0)).then_with(|| lex(&ea.1, &eb.1))
+        })
+        .unwrap_or(0);
+    if depth == 0 || edge(k) <= max_edge * max_edge || edge(k).is_nan() {
+        out.push(bary);
+        return;
+    }
+    // Corners k, k+1 (the longest edge) and the one opposite; both halves keep the
+    // triangle's orientation.
+    let (a, b, c) = (bary[k], bary[(k + 1) % 3], bary[(k + 2) % 3]);
+    let m = 0.5 * (a + b);
+    bisect(t, [a, m, c], max_edge, depth - 1, out);
+    bisect(t, [m, b, c], max_edge, depth - 1, out);
+}
+
+/// Most halvings of one triangle (2^20 pieces at most; a budget applies first).
+const MAX_DEPTH: u32 = 20;
+
+/// `t` turned to start at its lexicographically least corner (the same triangle,
+/// the same orientation), so its pieces do not depend on which corner a
+/// triangulation lists first: a rounding apart, near-equal edges would split
+/// differently.
+fn canonical(t: &[DVec3; 3]) -> [DVec3; 3] {
+    let lex = |a: DVec3, b: DVec3| a.to_array().iter().zip(b.to_array()).map(|(x, y)| x.total_cmp(&y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal);
+    let k = (0..3).min_by(|&a, &b| lex(t[a], t[b])).unwrap_or(0);
+    [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+}
+
+/// `t`'s pieces (barycentric in [`canonical`]`(t)`) no longer than `max_edge` (not
+/// split when it is infinite, zero or NaN).
+fn split_into(t: &[DVec3; 3], max_edge: f64, out: &mut Vec<[DVec3; 3]>) {
+    let split = max_edge > 0.0 && max_edge.is_finite();
+    bisect(&canonical(t), [DVec3::X, DVec3::Y, DVec3::Z], max_edge, if split { MAX_DEPTH } else { 0 }, out);
+}
+
+/// The corners of a piece (barycentric `b`) of triangle `t`.
+fn piece_of(t: &[DVec3; 3], b: &[DVec3; 3]) -> [DVec3; 3] {
+    let t = canonical(t);
+    b.map(|b| t[0] * b.x + t[1] * b.y + t[2] * b.z)
+}
+
 impl PatchTree {
     /// Builds the tree; zero-area triangles are dropped (they contribute nothing).
     pub fn build(tris: &[[DVec3; 3]]) -> Self {
+        Self::build_refined(tris, &vec![f64::INFINITY; tris.len()], 0)
+    }
+
+    /// Builds the tree over `tris`, each split into pieces no longer than its
+    /// `max_edge` (by longest-edge bisection), all doubled until at most `budget`
+    /// pieces more than the triangles are made. The integral over a triangle is the sum
+    /// over its pieces, so this changes no exact value; it lets the Barnes-Hut walk
+    /// (4.4.2) accept the far parts of triangles much larger than the distance at
+    /// which the field is evaluated (a CAD part's STL: long slivers spanning a whole
+    /// face, every one opened and integrated exactly at every evaluation near it),
+    /// and the localization (4.3.1), which weighs a patch by its centroid's
+    /// distance, sees where a large triangle's area actually lies.
+    pub fn build_refined(tris: &[[DVec3; 3]], max_edge: &[f64], budget: usize) -> Self {
+        assert_eq!(tris.len(), max_edge.len(), "one piece size per triangle");
+        let mut scale = 1.0;
+        let (mut first, mut pieces) = (Vec::with_capacity(tris.len() + 1), Vec::with_capacity(tris.len()));
+        loop {
+            first.clear();
+            pieces.clear();
+            for (t, &e) in tris.iter().zip(max_edge) {
+                first.push(pieces.len() as u32);
+                if pieces.len() > tris.len() + budget {
+                    break;
+                }
+                split_into(t, e * scale, &mut pieces);
+            }
+            if pieces.len() <= tris.len() + budget || scale > 1e12 {
+                break;
+            }
+            scale *= 2.0;
+        }
+        first.push(pieces.len() as u32);
+        let split: Vec<[DVec3; 3]> =
+            (0..tris.len()).flat_map(|i| pieces[first[i] as usize..first[i + 1] as usize].iter().map(move |b| piece_of(&tris[i], b))).collect();
+        let mut tree = Self::build_pieces(&split);
+        (tree.first, tree.pieces, tree.asked, tree.scale) = (first, pieces, max_edge.to_vec(), scale);
+        tree
+    }
+
+    /// The longest edge of each triangle's pieces asked for when this tree was built
+    /// (before its budget doubled them).
+    pub fn asked_max_edges(&self) -> &[f64] {
+        &self.asked
+    }
+
+    /// Takes `max_edge` as the sizes asked for `tris` (the triangles as last given)
+    /// where they split into the same pieces as before; false, changing nothing,
+    /// where one would split into others (build anew then).
+    pub fn adopt_sizes(&mut self, tris: &[[DVec3; 3]], max_edge: &[f64]) -> bool {
+        if max_edge.len() != self.asked.len() || tris.len() != self.asked.len() {
+            return false;
+        }
+        let mut split = Vec::new();
+        for (i, (t, &e)) in tris.iter().zip(max_edge).enumerate() {
+            if e.to_bits() == self.asked[i].to_bits() {
+                continue;
+            }
+            split.clear();
+            split_into(t, e * self.scale, &mut split);
+            if split[..] != self.pieces[self.first[i] as usize..self.first[i + 1] as usize] {
+                return false;
+            }
+        }
+        self.asked.copy_from_slice(max_edge);
+        true
+    }
+
+    /// Pieces stored (triangles after [`build_refined`](Self::build_refined)'s split).
+    pub fn piece_count(&self) -> usize {
+        self.pieces.len()
+    }
+
+    fn build_pieces(tris: &[[DVec3; 3]]) -> Self {
         let mut idx: Vec<u32> = Vec::with_capacity(tris.len());
         let mut props = Vec::with_capacity(tris.len());
         for (i, t) in tris.iter().enumerate() {
@@ -202,15 +347,33 @@ impl PatchTree {
 
     /// Moves some triangles (original indices, as given to [`build`]) and refits the
     /// nodes above them only. Returns false, changing nothing, when one of them was
-    /// left out of the tree as degenerate and now has an area: rebuild then.
+    /// left out of the tree as degenerate and now has an area, or now splits into
+    /// other pieces: rebuild then.
     ///
     /// [`build`]: PatchTree::build
     pub fn refit_triangles(&mut self, moved: &[(usize, [DVec3; 3])]) -> bool {
-        if moved.iter().any(|(i, t)| self.place[*i] == u32::MAX && tri_props(t).0 > 0.0) {
+        // A moved triangle splits into the same pieces, or the tree is built again
+        // (so a refit makes what a build would).
+        let mut split = Vec::new();
+        for (i, t) in moved {
+            split.clear();
+            split_into(t, self.asked[*i] * self.scale, &mut split);
+            if split[..] != self.pieces[self.first[*i] as usize..self.first[*i + 1] as usize] {
+                return false;
+            }
+        }
+        let moved: Vec<(usize, [DVec3; 3])> = moved
+            .iter()
+            .flat_map(|(i, t)| {
+                let range = self.first[*i] as usize..self.first[*i + 1] as usize;
+                range.clone().zip(self.pieces[range].iter().map(|b| piece_of(t, b)))
+            })
+            .collect();
+        if moved.iter().any(|(k, piece)| self.place[*k] == u32::MAX && tri_props(piece).0 > 0.0) {
             return false;
         }
         let mut nodes: Vec<u32> = Vec::with_capacity(moved.len());
-        for (i, t) in moved {
+        for (i, t) in &moved {
             let k = self.place[*i];
             if k == u32::MAX {
                 continue;
@@ -260,7 +423,16 @@ impl PatchTree {
             2
         };
         let mid = idx.len() / 2;
-        idx.select_nth_unstable_by(mid, |&a, &b| props[a as usize].1[axis].total_cmp(&props[b as usize].1[axis]));
+        // Ties (the pieces of a split triangle often share a coordinate) go by the
+        // rest of the centroid, area and size: the tree does not depend on the order
+        // the triangles came in (a build in spatial order equals one in mesh order).
+        let key = |i: u32| {
+            let (area, c, r) = props[i as usize];
+            [c[axis], c[(axis + 1) % 3], c[(axis + 2) % 3], area, r]
+        };
+        idx.select_nth_unstable_by(mid, |&a, &b| {
+            key(a).iter().zip(key(b)).map(|(x, y)| x.total_cmp(&y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal)
+        });
         let (l, r) = idx.split_at_mut(mid);
         self.split(l, props, first);
         let right = self.split(r, props, first + mid);
@@ -559,5 +731,64 @@ mod tests {
         assert!(tree.refit_triangles(&[(5, [c, c, c])]));
         let e = tree.eval(DVec3::new(1.5, 1.5, 0.5), f64::INFINITY, DVec3::Z, &Kernel::new(3.0, 0.0));
         assert!(e.value.is_finite() && e.push.is_finite());
+    }
+
+    /// A fan of slivers (a CAD face from an STL file: every triangle from one corner
+    /// across the face), then one of them moved.
+    fn fan(n: usize, lift: f64) -> Vec<[DVec3; 3]> {
+        let apex = DVec3::new(0.0, 0.0, 0.0);
+        let rim = |k: usize| DVec3::new(10.0, k as f64 * 10.0 / n as f64, lift * (k % 3) as f64);
+        (0..n).map(|k| [apex, rim(k), rim(k + 1)]).collect()
+    }
+
+    /// Splitting changes no exact value (the integral over a triangle is the sum over
+    /// its pieces), keeps within the piece size and the budget, and a refit moves the
+    /// pieces with their triangle.
+    #[test]
+    fn refined_tree_integrates_the_same_surface_in_pieces_within_its_budget() {
+        let tris = fan(40, 0.05);
+        let exact = Kernel::new(3.0, 0.0);
+        let whole = PatchTree::build(&tris);
+        let split = PatchTree::build_refined(&tris, &[1.0; 40], 40 * 100);
+        assert!(split.piece_count() > 8 * tris.len() && split.piece_count() <= tris.len() + 40 * 100, "{}", split.piece_count());
+        assert_eq!((split.scale, split.asked_max_edges()), (1.0, &[1.0; 40][..]));
+        assert!(split.tris.iter().all(|t| (0..3).all(|k| (t[(k + 1) % 3] - t[k]).length() <= 1.0 + 1e-12)));
+        assert!((split.total_area() - whole.total_area()).abs() <= 1e-9 * whole.total_area());
+        let check = |a: &PatchTree, b: &PatchTree| {
+            for x in [DVec3::new(3.0, 4.0, 1.0), DVec3::new(9.5, 2.2, -0.3), DVec3::new(0.2, 0.1, 0.05), DVec3::new(12.0, 11.0, 2.0)] {
+                let (a, b) = (a.eval(x, f64::INFINITY, DVec3::Z, &exact), b.eval(x, f64::INFINITY, DVec3::Z, &exact));
+                assert!((a.push - b.push).length() <= 1e-8 * b.push.length() && (a.value - b.value).abs() <= 1e-8 * b.value, "{a:?} vs {b:?}");
+            }
+        };
+        check(&split, &whole);
+        // A tight budget doubles the piece size until the pieces fit.
+        let capped = PatchTree::build_refined(&tris, &[1.0; 40], 200);
+        assert!(capped.scale > 1.0 && capped.piece_count() <= tris.len() + 200, "{} pieces at {}", capped.piece_count(), capped.scale);
+        check(&capped, &whole);
+        // Moving a sliver a little moves its pieces: the same field as the moved
+        // triangles whole. Moved so far that it splits otherwise, it asks for a build.
+        let mut moved = tris.clone();
+        moved[7][2] += DVec3::new(0.0, 0.0, 0.01);
+        let mut refit = split.clone();
+        assert!(refit.refit_triangles(&[(7, moved[7])]));
+        check(&refit, &PatchTree::build(&moved));
+        moved[7][2] += DVec3::new(0.5, -0.2, 1.5);
+        assert!(!refit.refit_triangles(&[(7, moved[7])]));
+    }
+
+    /// The far pieces of a split sliver are accepted as patches by the Barnes-Hut
+    /// walk (their moments are the pieces', not the sliver's): the approximated field
+    /// stays within 2% of the exact one near the fan's apex and away from it.
+    #[test]
+    fn refined_tree_keeps_the_approximation_close_to_exact() {
+        let tris = fan(60, 0.02);
+        let exact = Kernel::new(3.0, 0.0);
+        let fast = Kernel::new(3.0, 0.65);
+        let split = PatchTree::build_refined(&tris, &[0.5; 60], 60 * 256);
+        for x in [DVec3::new(1.0, 0.5, 0.8), DVec3::new(8.0, 3.0, 0.4), DVec3::new(5.0, 9.0, -1.0)] {
+            let (a, b) = (split.eval(x, f64::INFINITY, DVec3::Z, &fast), split.eval(x, f64::INFINITY, DVec3::Z, &exact));
+            let angle = a.push.angle_between(b.push);
+            assert!(angle < 0.02 && (a.value - b.value).abs() < 0.02 * b.value, "at {x}: {a:?} vs {b:?} ({angle} rad)");
+        }
     }
 }
