@@ -24,6 +24,7 @@
 mod bounds;
 pub mod cutter;
 pub mod effects;
+mod hierarchy;
 mod lattice;
 mod occupancy;
 mod polygonize;
@@ -45,6 +46,7 @@ use lattice::Lattice;
 use occupancy::Occupancy;
 use polygonize::{Cells, Margins, Scratch};
 use rayon::prelude::*;
+use std::collections::HashMap;
 
 /// Bake settings.
 #[derive(Debug, Clone)]
@@ -450,6 +452,18 @@ pub(super) fn cell_flips(mesh: &Mesh, shell: &Shell, triangles: &[[u32; 3]], fac
 /// Lattice samples the estimate may take: tens of milliseconds, far below a bake.
 const ESTIMATE_SAMPLES: usize = 4_000_000;
 
+/// Patches of neighbouring cells, at least, that the estimate of a bake over its budget
+/// after the cell pass simplifies as the bake's [`hierarchy`] does ([`Setup::patches`]).
+const PATCHES: usize = 2;
+
+/// The cell pass on some cells: their simplified pieces, and for each the triangles
+/// its lattice made and how far its simplification moved it (world units).
+struct CellPass {
+    pieces: Vec<Piece>,
+    made: Vec<usize>,
+    moved: Vec<f32>,
+}
+
 /// What a bake makes, estimated on a sample of its cells spread evenly over the mesh
 /// (so UV scales and weights vary as they do in the bake) and scaled to all cells.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -477,19 +491,126 @@ impl Setup {
     }
 
     /// Both counts of [`Estimate`]: the sampled cells polygonized, then simplified as
-    /// the bake simplifies them.
+    /// the bake simplifies them; where that leaves the bake over `budget`, the
+    /// hierarchy's further share ([`Setup::hierarchy_share`]).
     fn estimate(&self, mesh: &Mesh, shell: &Shell, cells: &Cells, budget: usize) -> Estimate {
         let (count, picked) = self.picked(cells);
         if picked == 0 {
             return Estimate { sampled: 0, triangles: 0 };
         }
-        let pieces: Vec<(usize, Piece)> =
-            (0..picked).into_par_iter().map_init(Scratch::default, |s, p| (p * count / picked, cells.polygonize(s, p * count / picked))).collect();
+        let chosen: Vec<usize> = (0..picked).map(|p| p * count / picked).collect();
+        let pieces: Vec<Piece> = chosen.par_iter().map_init(Scratch::default, |s, &t| cells.polygonize(s, t)).collect();
         let scale = |made: usize| (made as f64 * count as f64 / picked as f64).ceil() as usize;
-        let sampled = scale(pieces.iter().map(|(_, p)| p.tris.len()).sum());
+        let sampled = scale(pieces.iter().map(|p| p.tris.len()).sum());
         let share = share_of(budget, sampled);
-        let kept = pieces.into_par_iter().map(|(t, piece)| self.simplified(mesh, shell, t, piece, share, usize::MAX).0.tris.len()).sum();
-        Estimate { sampled, triangles: scale(kept) }
+        let simplified = self.cell_pass(mesh, shell, &chosen, pieces, share);
+        let triangles = scale(simplified.pieces.iter().map(|p| p.tris.len()).sum());
+        if share >= 1.0 || !self.groups_free(mesh) || triangles as f64 <= budget as f64 * (1.0 + SHARE_TOLERANCE) {
+            return Estimate { sampled, triangles };
+        }
+        // Every cell sampled: the sample is the bake's own cell pass.
+        let patches = if picked == count { simplified } else { self.patches(mesh, shell, cells, picked, share) };
+        let kept = self.hierarchy_share(patches, share, budget as f64 / triangles as f64);
+        Estimate { sampled, triangles: (triangles as f64 * kept).ceil() as usize }
+    }
+
+    /// The bake's cell pass on the cells `chosen` (their pieces `pieces`): each
+    /// simplified to its `share` ([`Setup::simplified`]).
+    fn cell_pass(&self, mesh: &Mesh, shell: &Shell, chosen: &[usize], pieces: Vec<Piece>, share: f64) -> CellPass {
+        let made: Vec<usize> = pieces.iter().map(|p| p.tris.len()).collect();
+        let (pieces, moved): (Vec<Piece>, Vec<f32>) = chosen
+            .par_iter()
+            .zip(pieces)
+            .map(|(&t, piece)| {
+                let (piece, level) = self.simplified(mesh, shell, t, piece, share, usize::MAX);
+                (piece, self.moved(mesh, shell, t, level))
+            })
+            .unzip();
+        CellPass { pieces, made, moved }
+    }
+
+    /// Whether grouping neighbouring cells can free any rim ([`hierarchy`]): with one
+    /// tile per triangle every rim is a UV seam and stays locked (with one per quad,
+    /// its two halves' common rim can go).
+    fn groups_free(&self, mesh: &Mesh) -> bool {
+        !self.coords.per_face_tiles || mesh.face_sizes().iter().any(|&n| n > 3)
+    }
+
+    /// The cell pass on patches of neighbouring cells, each the size of one of the
+    /// hierarchy's groups ([`hierarchy::GROUP`] cells, grown breadth first through the
+    /// cells' common edges from a seed; the seeds spread evenly over the cells like the
+    /// estimate's sample), as many as fill about `picked` cells and at least
+    /// [`PATCHES`], in patch order.
+    fn patches(&self, mesh: &Mesh, shell: &Shell, cells: &Cells, picked: usize, share: f64) -> CellPass {
+        let tris = &self.lattice.tris;
+        let count = tris.len();
+        let size = hierarchy::GROUP;
+        let seeds = (picked / size).max(PATCHES);
+        let mut by_edge: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+        for (t, c) in tris.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (c[k], c[(k + 1) % 3]);
+                by_edge.entry((a.min(b), a.max(b))).or_default().push(t as u32);
+            }
+        }
+        let mut taken = vec![false; count];
+        let mut chosen = Vec::with_capacity(seeds * size);
+        for seed in (0..seeds).map(|i| i * count / seeds) {
+            if taken[seed] {
+                continue;
+            }
+            let first = chosen.len();
+            taken[seed] = true;
+            chosen.push(seed);
+            let mut i = first;
+            while i < chosen.len() && chosen.len() - first < size {
+                let c = tris[chosen[i]];
+                for k in 0..3 {
+                    let (a, b) = (c[k], c[(k + 1) % 3]);
+                    for &n in &by_edge[&(a.min(b), a.max(b))] {
+                        if chosen.len() - first < size && !taken[n as usize] {
+                            taken[n as usize] = true;
+                            chosen.push(n as usize);
+                        }
+                    }
+                }
+                i += 1;
+            }
+        }
+        let pieces: Vec<Piece> = chosen.par_iter().map_init(Scratch::default, |s, &t| cells.polygonize(s, t)).collect();
+        self.cell_pass(mesh, shell, &chosen, pieces, share)
+    }
+
+    /// The share of its triangles the bake's [`hierarchy`] leaves, run on the cell
+    /// pass `pass` (patches of neighbouring cells) with the budget the same fraction
+    /// `goal` of the pass's triangles as the bake's budget is of its estimated pass.
+    fn hierarchy_share(&self, pass: CellPass, share: f64, goal: f64) -> f64 {
+        let CellPass { mut pieces, made, moved } = pass;
+        let before: usize = pieces.iter().map(|p| p.tris.len()).sum();
+        if before == 0 {
+            return 1.0;
+        }
+        let budget = (before as f64 * goal).ceil() as usize;
+        hierarchy::rounds(&mut pieces, &hierarchy::Cells { sampled: &made, error: &moved }, share, budget, SHARE_TOLERANCE, || false);
+        pieces.iter().map(|p| p.tris.len()).sum::<usize>() as f64 / before as f64
+    }
+
+    /// The cell `t`'s smallest lattice step in world units.
+    fn step(&self, mesh: &Mesh, shell: &Shell, t: usize) -> f32 {
+        let c = &self.lattice.tris[t];
+        let p = |v: u32| shell.point(mesh.positions(), v as usize, 0.0);
+        let edge = (0..3).map(|k| p(c[k]).distance(p(c[(k + 1) % 3]))).fold(f32::MAX, f32::min) / self.lattice.n as f32;
+        let thinnest = self.heights.windows(2).map(|w| w[1] - w[0]).fold(1.0, f32::min);
+        let across = c.iter().map(|&v| shell.directors[v as usize].length()).fold(f32::MAX, f32::min) * thinnest;
+        edge.min(across)
+    }
+
+    /// How far cell `t`'s piece moved at `level` ([`Setup::simplified`]), in world units.
+    fn moved(&self, mesh: &Mesh, shell: &Shell, t: usize, level: usize) -> f32 {
+        if level == 0 {
+            return 0.0;
+        }
+        self.simplify_errors[level.min(self.simplify_errors.len()) - 1] * self.step(mesh, shell, t)
     }
 
     /// Cell `t`'s piece simplified to its `share` of the budget (unchanged at 1: none),
@@ -501,13 +622,7 @@ impl Setup {
         if share >= 1.0 || piece.tris.is_empty() || errors.is_empty() {
             return (piece, 0);
         }
-        // The cell's smallest lattice step in world units.
-        let c = &self.lattice.tris[t];
-        let p = |v: u32| shell.point(mesh.positions(), v as usize, 0.0);
-        let edge = (0..3).map(|k| p(c[k]).distance(p(c[(k + 1) % 3]))).fold(f32::MAX, f32::min) / self.lattice.n as f32;
-        let thinnest = self.heights.windows(2).map(|w| w[1] - w[0]).fold(1.0, f32::min);
-        let across = c.iter().map(|&v| shell.directors[v as usize].length()).fold(f32::MAX, f32::min) * thinnest;
-        let step = edge.min(across);
+        let step = self.step(mesh, shell, t);
         let target = (piece.tris.len() as f64 * share).ceil() as usize;
         // Each level simplifies the previous one's result further (far fewer triangles
         // than the lattice's), by the difference to its error: the surface moves by at
@@ -587,17 +702,19 @@ pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
     if let Some(p) = progress {
         p.start(setup.lattice.tris.len());
     }
-    let (mut pieces, mut levels): (Vec<_>, Vec<_>) = (0..setup.lattice.tris.len())
+    let (mut pieces, (mut levels, made)): (Vec<_>, (Vec<_>, Vec<_>)) = (0..setup.lattice.tris.len())
         .into_par_iter()
         .map_init(Scratch::default, |s, t| {
             if progress.is_some_and(Progress::is_cancelled) {
-                return (Piece::default(), 0);
+                return (Piece::default(), (0, 0));
             }
-            let out = setup.simplified(mesh, shell, t, cells.polygonize(s, t), share, usize::MAX);
+            let piece = cells.polygonize(s, t);
+            let made = piece.tris.len();
+            let (piece, level) = setup.simplified(mesh, shell, t, piece, share, usize::MAX);
             if let Some(p) = progress {
                 p.step();
             }
-            out
+            (piece, (level, made))
         })
         .unzip();
     if let Some(p) = progress {
@@ -615,6 +732,16 @@ pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
             redo.par_iter().map_init(Scratch::default, |s, &t| setup.simplified(mesh, shell, t, cells.polygonize(s, t), share, levels[t] - 1)).collect();
         for (t, (piece, level)) in redo.into_iter().zip(fresh) {
             (pieces[t], levels[t]) = (piece, level);
+        }
+    }
+    // Still over the budget: groups of neighbouring cells simplified with only their
+    // outer rims locked ([`hierarchy`]).
+    if share < 1.0 && setup.groups_free(mesh) {
+        let moved: Vec<f32> = levels.par_iter().enumerate().map(|(t, &level)| setup.moved(mesh, shell, t, level)).collect();
+        let cells = hierarchy::Cells { sampled: &made, error: &moved };
+        hierarchy::rounds(&mut pieces, &cells, share, params.triangle_budget, SHARE_TOLERANCE, || progress.is_some_and(Progress::is_cancelled));
+        if let Some(p) = progress {
+            p.check()?;
         }
     }
     let welded = weld(pieces, &setup.lattice.faces);

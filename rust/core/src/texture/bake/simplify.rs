@@ -28,13 +28,23 @@ const ATTEMPTS: usize = 6;
 /// piece had a fault somewhere (a strand tip collapsed into a pillow, a neck into an
 /// edge), so simplifying the whole piece again took 2.3 simplifications per piece.
 pub(super) fn simplify(piece: Piece, target: usize, error: f32) -> Piece {
+    simplify_fixed(piece, target, error, &[]).0
+}
+
+/// [`simplify`] with the vertices where `fixed` is true locked too (none where it is
+/// empty). Also returns each output vertex's index in `piece`.
+pub(super) fn simplify_fixed(piece: Piece, target: usize, error: f32, fixed: &[bool]) -> (Piece, Vec<u32>) {
+    let same = |piece: Piece| {
+        let n = piece.pos.len() as u32;
+        (piece, (0..n).collect())
+    };
     if target >= piece.tris.len() || piece.tris.len() < 8 {
-        return piece;
+        return same(piece);
     }
     let share = target as f64 / piece.tris.len() as f64;
     let ring = OneRings::new(&piece.tris, piece.pos.len());
     let on_rim = |v: u32| piece.keys[v as usize] != UNSHARED;
-    let mut lock: Vec<bool> = (0..piece.pos.len() as u32).map(on_rim).collect();
+    let mut lock: Vec<bool> = (0..piece.pos.len() as u32).map(|v| on_rim(v) || fixed.get(v as usize).copied().unwrap_or(false)).collect();
     for v in (0..piece.pos.len() as u32).filter(|&v| on_rim(v)) {
         ring.of(v).iter().for_each(|&w| lock[w as usize] = true);
     }
@@ -51,7 +61,7 @@ pub(super) fn simplify(piece: Piece, target: usize, error: f32) -> Piece {
         let fresh: Vec<bool> = kept.iter().zip(&redo).flat_map(|(p, &r)| std::iter::repeat_n(r, p.len())).collect();
         let tris = kept.concat();
         if tris.len() == piece.tris.len() {
-            return piece;
+            return same(piece);
         }
         let faulty = faults(&piece, &before, &tris, &fresh);
         if faulty.is_empty() {
@@ -80,7 +90,7 @@ pub(super) fn simplify(piece: Piece, target: usize, error: f32) -> Piece {
     if tris.len() < piece.tris.len() && faults(&piece, &before, &tris, &fresh).is_empty() {
         return compact(piece, tris);
     }
-    piece
+    same(piece)
 }
 
 /// The triangles `part` (indices into `piece.tris`) simplified toward their `share`
@@ -105,6 +115,10 @@ fn simplify_part(piece: &Piece, part: &[u32], lock: &[bool], share: f64, error: 
         .collect();
     let pos: Vec<glam::Vec3> = global.iter().map(|&v| piece.pos[v as usize]).collect();
     let locks: Vec<bool> = global.iter().map(|&v| lock[v as usize]).collect();
+    if locks.iter().all(|&l| l) {
+        // Nothing may move (a part far from a group's freed rims).
+        return original();
+    }
     let Ok(adapter) = VertexDataAdapter::new(bytemuck::cast_slice(&pos), std::mem::size_of::<glam::Vec3>(), 0) else {
         return original();
     };
@@ -334,13 +348,15 @@ fn crossings(piece: &Piece, before: &Shape, after: &[[u32; 3]], fresh: &[bool]) 
     bad
 }
 
-/// The piece with only `tris` and the vertices they use.
-fn compact(piece: Piece, tris: Vec<[u32; 3]>) -> Piece {
+/// The piece with only `tris` and the vertices they use, and each one's index in `piece`.
+fn compact(piece: Piece, tris: Vec<[u32; 3]>) -> (Piece, Vec<u32>) {
     let mut map = vec![u32::MAX; piece.pos.len()];
     let mut out = Piece::default();
+    let mut from = Vec::new();
     for &v in tris.iter().flatten() {
         if map[v as usize] == u32::MAX {
             map[v as usize] = out.pos.len() as u32;
+            from.push(v);
             out.keys.push(piece.keys[v as usize]);
             out.pos.push(piece.pos[v as usize]);
             out.attr.push(piece.attr[v as usize]);
@@ -349,7 +365,7 @@ fn compact(piece: Piece, tris: Vec<[u32; 3]>) -> Piece {
     }
     out.tris = tris.into_iter().map(|t| t.map(|v| map[v as usize])).collect();
     out.simplified = true;
-    out
+    (out, from)
 }
 
 /// The simplified pieces with a triangle crossing or touching ([`triangles_meet`]) a
@@ -363,6 +379,15 @@ pub(super) fn crossing_pieces(pieces: &[Piece]) -> Vec<usize> {
     if !pieces.iter().any(|p| p.simplified) {
         return Vec::new();
     }
+    let mut bad = meeting_pieces(pieces, |p, _| pieces[p].simplified);
+    bad.retain(|&p| pieces[p].simplified);
+    bad
+}
+
+/// The pieces with a triangle crossing or touching a triangle of another piece, where
+/// one of the two is `asked(piece, triangle)`, and those they meet: where no two
+/// pieces met before some triangles were made, only those need asking.
+pub(super) fn meeting_pieces(pieces: &[Piece], asked: impl Fn(usize, usize) -> bool + Sync) -> Vec<usize> {
     let owner: Vec<(u32, u32)> = pieces.iter().enumerate().flat_map(|(p, piece)| (0..piece.tris.len() as u32).map(move |t| (p as u32, t))).collect();
     let corners = |(p, t): (u32, u32)| {
         let piece = &pieces[p as usize];
@@ -381,7 +406,7 @@ pub(super) fn crossing_pieces(pieces: &[Piece]) -> Vec<usize> {
     };
     let mut bad: Vec<usize> = (0..owner.len())
         .into_par_iter()
-        .filter(|&i| pieces[owner[i].0 as usize].simplified)
+        .filter(|&i| asked(owner[i].0 as usize, owner[i].1 as usize))
         .flat_map_iter(|i| {
             let (p, t) = owner[i];
             let ids = pieces[p as usize].tris[t as usize].map(|v| id(p, v));
@@ -402,7 +427,6 @@ pub(super) fn crossing_pieces(pieces: &[Piece]) -> Vec<usize> {
         .collect();
     bad.sort_unstable();
     bad.dedup();
-    bad.retain(|&p| pieces[p].simplified);
     bad
 }
 
