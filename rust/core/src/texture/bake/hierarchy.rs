@@ -153,7 +153,9 @@ pub(super) fn rounds(pieces: &mut [Piece], cells: &Cells, share: f64, budget: us
         // this round no two pieces met, so each round puts back a group and ends.
         loop {
             // Only the round's new triangles can meet a piece they did not meet before.
-            let bad: Vec<usize> = simplify::meeting_pieces(pieces, |c, t| fresh[c].get(t).copied().unwrap_or(false))
+            // A group's own pieces were tested against each other as one piece
+            // ([`simplify::simplify_fixed`]'s faults): only other pieces are asked.
+            let bad: Vec<usize> = simplify::meeting_pieces(pieces, |c, t| fresh[c].get(t).copied().unwrap_or(false), |c, d| cell_group[c] != cell_group[d])
                 .into_iter()
                 .map(|c| cell_group[c])
                 .filter(|&g| active[g])

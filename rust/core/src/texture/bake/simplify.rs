@@ -97,7 +97,9 @@ pub(super) fn simplify_fixed(piece: Piece, target: usize, error: f32, fixed: &[b
 /// within `error`, `lock`ed vertices kept, as triangles of `piece`'s vertices.
 fn simplify_part(piece: &Piece, part: &[u32], lock: &[bool], share: f64, error: f32) -> Vec<[u32; 3]> {
     let original = || part.iter().map(|&t| piece.tris[t as usize]).collect();
-    if part.len() < 2 {
+    // Nothing may move (a part far from a group's freed rims): checked before the
+    // part's vertices are numbered, as most parts of a group are so.
+    if part.len() < 2 || part.iter().all(|&t| piece.tris[t as usize].iter().all(|&v| lock[v as usize])) {
         return original();
     }
     // The part's own vertices, numbered from 0 (meshoptimizer's work is per vertex).
@@ -115,10 +117,6 @@ fn simplify_part(piece: &Piece, part: &[u32], lock: &[bool], share: f64, error: 
         .collect();
     let pos: Vec<glam::Vec3> = global.iter().map(|&v| piece.pos[v as usize]).collect();
     let locks: Vec<bool> = global.iter().map(|&v| lock[v as usize]).collect();
-    if locks.iter().all(|&l| l) {
-        // Nothing may move (a part far from a group's freed rims).
-        return original();
-    }
     let Ok(adapter) = VertexDataAdapter::new(bytemuck::cast_slice(&pos), std::mem::size_of::<glam::Vec3>(), 0) else {
         return original();
     };
@@ -197,17 +195,44 @@ struct OneRings {
 
 impl OneRings {
     fn new(tris: &[[u32; 3]], vertices: usize) -> Self {
-        let mut pairs: Vec<(u32, u32)> = tris.iter().flat_map(|t| (0..3).flat_map(move |k| [(t[k], t[(k + 1) % 3]), (t[(k + 1) % 3], t[k])])).collect();
-        pairs.sort_unstable();
-        pairs.dedup();
+        // Each vertex's two neighbours in each of its triangles, bucketed by vertex
+        // (counting sort), then each short row sorted and its repeats dropped (the
+        // same rows as sorting all six pairs per triangle, which was most of this).
         let mut start = vec![0u32; vertices + 1];
-        for &(a, _) in &pairs {
-            start[a as usize + 1] += 1;
+        for t in tris {
+            t.iter().for_each(|&v| start[v as usize + 1] += 2);
         }
         for v in 0..vertices {
             start[v + 1] += start[v];
         }
-        Self { start, neighbours: pairs.into_iter().map(|(_, b)| b).collect() }
+        let mut fill = start.clone();
+        let mut all = vec![0u32; start[vertices] as usize];
+        for t in tris {
+            for k in 0..3 {
+                let v = t[k] as usize;
+                let at = fill[v] as usize;
+                (all[at], all[at + 1]) = (t[(k + 1) % 3], t[(k + 2) % 3]);
+                fill[v] += 2;
+            }
+        }
+        // Compacted rows: `start` becomes each row's start after deduplication.
+        let mut neighbours = Vec::with_capacity(all.len() / 2);
+        let mut from = 0;
+        for v in 0..vertices {
+            let row = &mut all[from..start[v + 1] as usize];
+            from = start[v + 1] as usize;
+            row.sort_unstable();
+            start[v] = neighbours.len() as u32;
+            let mut last = None;
+            for &w in row.iter() {
+                if last != Some(w) {
+                    neighbours.push(w);
+                    last = Some(w);
+                }
+            }
+        }
+        start[vertices] = neighbours.len() as u32;
+        Self { start, neighbours }
     }
 
     fn of(&self, v: u32) -> &[u32] {
@@ -334,16 +359,29 @@ fn touch(a: &[DVec3; 3], b: &[DVec3; 3]) -> f64 {
 fn crossings(piece: &Piece, before: &Shape, after: &[[u32; 3]], fresh: &[bool]) -> Vec<u32> {
     let corners = |t: &[u32; 3]| t.map(|v| piece.pos[v as usize].as_dvec3());
     let tris: Vec<[DVec3; 3]> = after.iter().map(corners).collect();
-    let tree = Bvh::from_triangles(&tris);
+    let new: Vec<u32> = (0..after.len() as u32).filter(|&i| fresh[i as usize] && before.tris.binary_search(&after[i as usize]).is_err()).collect();
     let mut bad = Vec::new();
-    for (i, t) in after.iter().enumerate().filter(|&(i, t)| fresh[i] && before.tris.binary_search(t).is_err()) {
-        let (lo, hi) = tri_box(&tris[i]);
-        tree.query(lo, hi, |j| {
-            let u = &after[j as usize];
-            if !u.iter().any(|v| t.contains(v)) && triangles_meet(&tris[i], &tris[j as usize], touch(&tris[i], &tris[j as usize])) {
-                bad.extend(t.iter().chain(u));
-            }
-        });
+    let mut test = |i: usize, j: usize| {
+        let (t, u) = (&after[i], &after[j]);
+        if !u.iter().any(|v| t.contains(v)) && triangles_meet(&tris[i], &tris[j], touch(&tris[i], &tris[j])) {
+            bad.extend(t.iter().chain(u));
+        }
+    };
+    if new.len() * 4 < after.len() {
+        // Few new triangles (a group of the hierarchy, where most parts are locked):
+        // a tree of those, asked with every triangle, instead of a tree of all (the
+        // same pairs, far less building).
+        let tree = Bvh::from_triangles(&new.iter().map(|&i| tris[i as usize]).collect::<Vec<_>>());
+        for (j, corners) in tris.iter().enumerate() {
+            let (lo, hi) = tri_box(corners);
+            tree.query(lo, hi, |k| test(new[k as usize] as usize, j));
+        }
+    } else {
+        let tree = Bvh::from_triangles(&tris);
+        for &i in &new {
+            let (lo, hi) = tri_box(&tris[i as usize]);
+            tree.query(lo, hi, |j| test(i as usize, j as usize));
+        }
     }
     bad
 }
@@ -379,22 +417,24 @@ pub(super) fn crossing_pieces(pieces: &[Piece]) -> Vec<usize> {
     if !pieces.iter().any(|p| p.simplified) {
         return Vec::new();
     }
-    let mut bad = meeting_pieces(pieces, |p, _| pieces[p].simplified);
+    let mut bad = meeting_pieces(pieces, |p, _| pieces[p].simplified, |_, _| true);
     bad.retain(|&p| pieces[p].simplified);
     bad
 }
 
 /// The pieces with a triangle crossing or touching a triangle of another piece, where
 /// one of the two is `asked(piece, triangle)`, and those they meet: where no two
-/// pieces met before some triangles were made, only those need asking.
-pub(super) fn meeting_pieces(pieces: &[Piece], asked: impl Fn(usize, usize) -> bool + Sync) -> Vec<usize> {
+/// pieces met before some triangles were made, only those need asking. Pairs of
+/// pieces that are not `apart(piece, other)` are not tested (their triangles were
+/// tested against each other already: a group of the hierarchy, simplified as one).
+pub(super) fn meeting_pieces(pieces: &[Piece], asked: impl Fn(usize, usize) -> bool + Sync, apart: impl Fn(usize, usize) -> bool + Sync) -> Vec<usize> {
     let owner: Vec<(u32, u32)> = pieces.iter().enumerate().flat_map(|(p, piece)| (0..piece.tris.len() as u32).map(move |t| (p as u32, t))).collect();
     let corners = |(p, t): (u32, u32)| {
         let piece = &pieces[p as usize];
         piece.tris[t as usize].map(|v| piece.pos[v as usize].as_dvec3())
     };
     let tris: Vec<[DVec3; 3]> = owner.par_iter().map(|&o| corners(o)).collect();
-    let tree = Bvh::from_triangles(&tris);
+    let asking: Vec<u32> = (0..owner.len() as u32).into_par_iter().filter(|&i| asked(owner[i as usize].0 as usize, owner[i as usize].1 as usize)).collect();
     // A vertex's identity across pieces: its rim key, or (piece, index) inside.
     let id = |p: u32, v: u32| {
         let key = pieces[p as usize].keys[v as usize];
@@ -404,27 +444,54 @@ pub(super) fn meeting_pieces(pieces: &[Piece], asked: impl Fn(usize, usize) -> b
             (key, true)
         }
     };
-    let mut bad: Vec<usize> = (0..owner.len())
-        .into_par_iter()
-        .filter(|&i| asked(owner[i].0 as usize, owner[i].1 as usize))
-        .flat_map_iter(|i| {
-            let (p, t) = owner[i];
-            let ids = pieces[p as usize].tris[t as usize].map(|v| id(p, v));
-            let (lo, hi) = tri_box(&tris[i]);
-            let mut found = Vec::new();
-            tree.query(lo, hi, |j| {
-                let (q, u) = owner[j as usize];
-                if q == p {
-                    return;
-                }
-                let shares = pieces[q as usize].tris[u as usize].iter().any(|&w| ids.contains(&id(q, w)));
-                if !shares && triangles_meet(&tris[i], &tris[j as usize], touch(&tris[i], &tris[j as usize])) {
-                    found.extend([p as usize, q as usize]);
-                }
-            });
-            found
-        })
-        .collect();
+    let ids = |i: usize| {
+        let (p, t) = owner[i];
+        pieces[p as usize].tris[t as usize].map(|v| id(p, v))
+    };
+    // Whether asked triangle `i` (its vertices' identities `ids`) meets triangle `j`
+    // of another piece, apart from it, sharing no vertex with it.
+    let meet = |i: usize, ids: &[(u128, bool); 3], j: usize| {
+        let (q, u) = owner[j];
+        !pieces[q as usize].tris[u as usize].iter().any(|&w| ids.contains(&id(q, w))) && triangles_meet(&tris[i], &tris[j], touch(&tris[i], &tris[j]))
+    };
+    let asks = |i: usize, j: usize| owner[i].0 != owner[j].0 && apart(owner[i].0 as usize, owner[j].0 as usize);
+    let mut bad: Vec<usize> = if asking.len() * 4 < owner.len() {
+        // Few triangles asked (the hierarchy's new ones): a tree of those, asked with
+        // every triangle (the same pairs as the other way, far less building).
+        let few: Vec<[DVec3; 3]> = asking.iter().map(|&i| tris[i as usize]).collect();
+        let tree = Bvh::from_triangles(&few);
+        (0..owner.len())
+            .into_par_iter()
+            .flat_map_iter(|j| {
+                let (lo, hi) = tri_box(&tris[j]);
+                let mut found = Vec::new();
+                tree.query(lo, hi, |k| {
+                    let i = asking[k as usize] as usize;
+                    if asks(i, j) && meet(i, &ids(i), j) {
+                        found.extend([owner[i].0 as usize, owner[j].0 as usize]);
+                    }
+                });
+                found
+            })
+            .collect()
+    } else {
+        let tree = Bvh::from_triangles(&tris);
+        asking
+            .par_iter()
+            .flat_map_iter(|&i| {
+                let i = i as usize;
+                let (lo, hi) = tri_box(&tris[i]);
+                let ids = ids(i);
+                let mut found = Vec::new();
+                tree.query(lo, hi, |j| {
+                    if asks(i, j as usize) && meet(i, &ids, j as usize) {
+                        found.extend([owner[i].0 as usize, owner[j as usize].0 as usize]);
+                    }
+                });
+                found
+            })
+            .collect()
+    };
     bad.sort_unstable();
     bad.dedup();
     bad
