@@ -276,11 +276,10 @@ impl Trace {
 /// its open `boundary` edges (4.3.2).
 /// Also the longest edge of each one's pieces for the patch tree ([`piece_sizes`]).
 fn integration_triangles(mesh: &Mesh, normals: &[Vec3], reach: &[f32], boundary: &[(u32, u32)]) -> (Vec<[DVec3; 3]>, Vec<f64>) {
-    let p = mesh.positions();
-    let split = mesh.triangulate();
-    let mut tris: Vec<[DVec3; 3]> = split.triangles.iter().map(|t| t.map(|i| p[i as usize].as_dvec3())).collect();
-    tris.extend(extension_faces(boundary, p, normals, reach));
-    let sizes = piece_sizes(reach, &tris, split.triangles.len());
+    let mut tris = super::lp_distance::mesh_triangles(mesh);
+    let mesh_count = tris.len();
+    tris.extend(extension_faces(boundary, mesh.positions(), normals, reach));
+    let sizes = piece_sizes(piece_size(reach), &tris, mesh_count);
     (tris, sizes)
 }
 
@@ -337,10 +336,9 @@ pub(crate) fn piece_max_edge(t: &[DVec3; 3], size: f64) -> f64 {
     }
 }
 
-/// [`piece_max_edge`] of each of `tris`: the mesh's first `mesh_triangles`, then the
-/// extension faces (4.3.2), not split (they are as long as the thickness).
-pub(crate) fn piece_sizes(reach: &[f32], tris: &[[DVec3; 3]], mesh_triangles: usize) -> Vec<f64> {
-    let size = piece_size(reach);
+/// [`piece_max_edge`] of each of `tris` at `size`: the mesh's first `mesh_triangles`,
+/// then the extension faces (4.3.2), not split (they are as long as the thickness).
+pub(crate) fn piece_sizes(size: f64, tris: &[[DVec3; 3]], mesh_triangles: usize) -> Vec<f64> {
     tris.iter().enumerate().map(|(i, t)| if i < mesh_triangles { piece_max_edge(t, size) } else { f64::INFINITY }).collect()
 }
 

@@ -262,7 +262,7 @@ impl Tracked {
         // and the shell is rebuilt.
         let base_count = *self.face_tris.last().unwrap_or(&0) as usize;
         let size = piece_size(&self.lengths);
-        let mut sizes = piece_sizes(&self.lengths, &self.tris, base_count);
+        let mut sizes = piece_sizes(size, &self.tris, base_count);
         for &(i, _, t) in changes.iter().filter(|c| c.0 < base_count) {
             sizes[i] = piece_max_edge(&t, size);
         }
@@ -274,7 +274,12 @@ impl Tracked {
         }
         let moved_tris: Vec<_> = changes.iter().map(|&(i, _, t)| (i, t)).collect();
         if !self.tracer.tree.refit_triangles(&moved_tris) {
-            self.tracer.tree = PatchTree::build_refined(&self.tris, &sizes, self.tris.len() * FIELD_PIECES_BUDGET);
+            let tree = PatchTree::build_refined(&self.tris, &sizes, self.tris.len() * FIELD_PIECES_BUDGET);
+            // Another scale splits every sliver otherwise, not only the moved ones.
+            if tree.scale() != self.tracer.tree.scale() {
+                return None;
+            }
+            self.tracer.tree = tree;
         }
         Some((changes, retriangulated))
     }

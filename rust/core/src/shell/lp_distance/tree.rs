@@ -154,6 +154,12 @@ pub struct PatchTree {
     /// split), and the factor the budget multiplied them by.
     asked: Vec<f64>,
     scale: f64,
+    /// The most pieces the budget allows (the triangles and the budget), and each
+    /// triangle's piece count at half the scale (empty when the scale is 1 or
+    /// infinite), with their sum.
+    limit: usize,
+    finer: Vec<u32>,
+    finer_total: usize,
     /// Leaf of each stored triangle and parent of each node, for [`refit_triangles`].
     ///
     /// [`refit_triangles`]: PatchTree::refit_triangles
@@ -173,6 +179,11 @@ pub(crate) fn tri_props(t: &[DVec3; 3]) -> (f64, DVec3, f64) {
     (area, c, r)
 }
 
+/// Lexicographic order of points (ties broken the same way whatever the input order).
+fn lex(a: DVec3, b: DVec3) -> std::cmp::Ordering {
+    a.to_array().iter().zip(b.to_array()).map(|(x, y)| x.total_cmp(&y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal)
+}
+
 /// Splits `t` by longest-edge bisection until no edge is longer than `max_edge` (or
 /// `depth` runs out), pushing each piece as barycentric corners in `t`. A sliver
 /// becomes a row of pieces (linear in its length), a fat triangle a grid (quadratic).
@@ -183,9 +194,8 @@ fn bisect(t: &[DVec3; 3], bary: [DVec3; 3], max_edge: f64, depth: u32, out: &mut
     // Ties (equilateral triangles) go by the edges' end points, so the pieces do not
     // depend on which corner a triangulation lists first.
     let ends = |k: usize| {
-        let (a, b) = (q[k].to_array(), q[(k + 1) % 3].to_array());
-        let lex = |a: &[f64; 3], b: &[f64; 3]| a.iter().zip(b).map(|(x, y)| x.total_cmp(y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal);
-        if lex(&a, &b).is_le() {
+        let (a, b) = (q[k], q[(k + 1) % 3]);
+        if lex(a, b).is_le() {
             (a, b)
         } else {
             (b, a)
@@ -194,8 +204,7 @@ fn bisect(t: &[DVec3; 3], bary: [DVec3; 3], max_edge: f64, depth: u32, out: &mut
     let k = (0..3)
         .max_by(|&a, &b| {
             let (ea, eb) = (ends(a), ends(b));
-            let lex = |a: &[f64; 3], b: &[f64; 3]| a.iter().zip(b).map(|(x, y)| x.total_cmp(y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal);
-            edge(a).total_cmp(&edge(b)).then_with(|| lex(&ea.0, &eb.0)).then_with(|| lex(&ea.1, &eb.1))
+            edge(a).total_cmp(&edge(b)).then_with(|| lex(ea.0, eb.0)).then_with(|| lex(ea.1, eb.1))
         })
         .unwrap_or(0);
     if depth == 0 || edge(k) <= max_edge * max_edge || edge(k).is_nan() {
@@ -218,9 +227,18 @@ const MAX_DEPTH: u32 = 20;
 /// triangulation lists first: a rounding apart, near-equal edges would split
 /// differently.
 fn canonical(t: &[DVec3; 3]) -> [DVec3; 3] {
-    let lex = |a: DVec3, b: DVec3| a.to_array().iter().zip(b.to_array()).map(|(x, y)| x.total_cmp(&y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal);
     let k = (0..3).min_by(|&a, &b| lex(t[a], t[b])).unwrap_or(0);
     [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+}
+
+/// Scales past this split nothing (see [`PatchTree::build_refined`]).
+const MAX_SCALE: f64 = (1u64 << 40) as f64;
+
+/// How many pieces [`split_into`] makes of `t` at `max_edge`.
+fn count_pieces(t: &[DVec3; 3], max_edge: f64) -> u32 {
+    let mut out = Vec::new();
+    split_into(t, max_edge, &mut out);
+    out.len() as u32
 }
 
 /// `t`'s pieces (barycentric in [`canonical`]`(t)`) no longer than `max_edge` (not
@@ -253,19 +271,27 @@ impl PatchTree {
     /// distance, sees where a large triangle's area actually lies.
     pub fn build_refined(tris: &[[DVec3; 3]], max_edge: &[f64], budget: usize) -> Self {
         assert_eq!(tris.len(), max_edge.len(), "one piece size per triangle");
+        let limit = tris.len() + budget;
         let mut scale = 1.0;
         let (mut first, mut pieces) = (Vec::with_capacity(tris.len() + 1), Vec::with_capacity(tris.len()));
         loop {
+            // Past 2^40 the sizes asked are absurdly small for the triangles: none is
+            // split (an infinite scale), which always fits.
+            if scale > MAX_SCALE {
+                scale = f64::INFINITY;
+            }
             first.clear();
             pieces.clear();
+            let mut over = false;
             for (t, &e) in tris.iter().zip(max_edge) {
                 first.push(pieces.len() as u32);
-                if pieces.len() > tris.len() + budget {
+                split_into(t, e * scale, &mut pieces);
+                if pieces.len() > limit {
+                    over = true;
                     break;
                 }
-                split_into(t, e * scale, &mut pieces);
             }
-            if pieces.len() <= tris.len() + budget || scale > 1e12 {
+            if !over {
                 break;
             }
             scale *= 2.0;
@@ -274,8 +300,42 @@ impl PatchTree {
         let split: Vec<[DVec3; 3]> =
             (0..tris.len()).flat_map(|i| pieces[first[i] as usize..first[i + 1] as usize].iter().map(move |b| piece_of(&tris[i], b))).collect();
         let mut tree = Self::build_pieces(&split);
-        (tree.first, tree.pieces, tree.asked, tree.scale) = (first, pieces, max_edge.to_vec(), scale);
+        (tree.first, tree.pieces, tree.asked, tree.scale, tree.limit) = (first, pieces, max_edge.to_vec(), scale, limit);
+        // How many pieces half this scale would make: where an edit brings that
+        // within the budget, a build would split finer, and a refit must not keep these.
+        if scale > 1.0 && scale.is_finite() {
+            tree.finer = tris.iter().zip(max_edge).map(|(t, &e)| count_pieces(t, e * scale * 0.5)).collect();
+            tree.finer_total = tree.finer.iter().map(|&c| c as usize).sum();
+        }
         tree
+    }
+
+    /// Whether, with `changed` triangles (index, new corners, new size asked) in place
+    /// of theirs, half the scale would fit the budget (a build would then split finer);
+    /// the new counts at half the scale where it does not.
+    fn finer_fits(&self, changed: impl Iterator<Item = (usize, [DVec3; 3], f64)>) -> (bool, Vec<(usize, u32)>) {
+        if self.finer.is_empty() {
+            return (false, Vec::new());
+        }
+        let mut total = self.finer_total;
+        let counts: Vec<(usize, u32)> = changed.map(|(i, t, e)| (i, count_pieces(&t, e * self.scale * 0.5))).collect();
+        for &(i, c) in &counts {
+            total = total - self.finer[i] as usize + c as usize;
+        }
+        (total <= self.limit, counts)
+    }
+
+    fn take_finer(&mut self, counts: Vec<(usize, u32)>) {
+        for (i, c) in counts {
+            self.finer_total = self.finer_total - self.finer[i] as usize + c as usize;
+            self.finer[i] = c;
+        }
+    }
+
+    /// The scale the budget multiplied the sizes asked by (1: as asked; infinite: no
+    /// triangle split).
+    pub fn scale(&self) -> f64 {
+        self.scale
     }
 
     /// The longest edge of each triangle's pieces asked for when this tree was built
@@ -292,16 +352,19 @@ impl PatchTree {
             return false;
         }
         let mut split = Vec::new();
-        for (i, (t, &e)) in tris.iter().zip(max_edge).enumerate() {
-            if e.to_bits() == self.asked[i].to_bits() {
-                continue;
-            }
+        let changed: Vec<usize> = (0..tris.len()).filter(|&i| max_edge[i].to_bits() != self.asked[i].to_bits()).collect();
+        for &i in &changed {
             split.clear();
-            split_into(t, e * self.scale, &mut split);
+            split_into(&tris[i], max_edge[i] * self.scale, &mut split);
             if split[..] != self.pieces[self.first[i] as usize..self.first[i + 1] as usize] {
                 return false;
             }
         }
+        let (fits, counts) = self.finer_fits(changed.iter().map(|&i| (i, tris[i], max_edge[i])));
+        if fits {
+            return false;
+        }
+        self.take_finer(counts);
         self.asked.copy_from_slice(max_edge);
         true
     }
@@ -362,6 +425,10 @@ impl PatchTree {
                 return false;
             }
         }
+        let (fits, counts) = self.finer_fits(moved.iter().map(|&(i, t)| (i, t, self.asked[i])));
+        if fits {
+            return false;
+        }
         let moved: Vec<(usize, [DVec3; 3])> = moved
             .iter()
             .flat_map(|(i, t)| {
@@ -372,6 +439,7 @@ impl PatchTree {
         if moved.iter().any(|(k, piece)| self.place[*k] == u32::MAX && tri_props(piece).0 > 0.0) {
             return false;
         }
+        self.take_finer(counts);
         let mut nodes: Vec<u32> = Vec::with_capacity(moved.len());
         for (i, t) in &moved {
             let k = self.place[*i];
@@ -790,5 +858,36 @@ mod tests {
             let angle = a.push.angle_between(b.push);
             assert!(angle < 0.02 && (a.value - b.value).abs() < 0.02 * b.value, "at {x}: {a:?} vs {b:?} ({angle} rad)");
         }
+    }
+
+    /// Sizes far too small for the triangles (a thickness of 1e-20 against unit
+    /// slivers) split nothing rather than running out of memory or indices.
+    #[test]
+    fn absurdly_small_pieces_split_nothing() {
+        let tris = fan(100, 0.05);
+        let tree = PatchTree::build_refined(&tris, &[1e-20; 100], 800);
+        assert_eq!((tree.piece_count(), tree.scale()), (100, f64::INFINITY));
+        assert!((tree.total_area() - PatchTree::build(&tris).total_area()).abs() <= 1e-12 * tree.total_area());
+    }
+
+    /// Where the budget doubled the sizes, an edit that would let a build split at
+    /// the finer scale again is refused by the refit (a rebuild then makes what a
+    /// build would); one that keeps the counts is refitted.
+    #[test]
+    fn a_refit_refuses_what_a_build_would_split_finer() {
+        let tris = fan(40, 0.05);
+        let sizes = [1.0; 40];
+        let unbounded = PatchTree::build_refined(&tris, &sizes, usize::MAX / 2).piece_count();
+        let tight = PatchTree::build_refined(&tris, &sizes, unbounded - 1 - 40);
+        assert_eq!(tight.scale(), 2.0);
+        let mut lifted = tris[7];
+        lifted[2] += DVec3::new(0.0, 0.0, 1e-6);
+        assert!(tight.clone().refit_triangles(&[(7, lifted)]));
+        // Sliver 7 shrunk to a speck: one piece at any scale, so scale 1 now fits.
+        let speck = [tris[7][0], tris[7][0] + DVec3::new(1e-3, 0.0, 0.0), tris[7][0] + DVec3::new(0.0, 1e-3, 0.0)];
+        let mut moved = tris.clone();
+        moved[7] = speck;
+        assert_eq!(PatchTree::build_refined(&moved, &sizes, unbounded - 1 - 40).scale(), 1.0);
+        assert!(!tight.clone().refit_triangles(&[(7, speck)]));
     }
 }

@@ -13,8 +13,9 @@
 //! triangles need testing).
 //!
 //! Only the vertices the cell pass left where the lattice put them (the inner rims and
-//! their one-rings) may move, each by at most the group's error, so the surface still
-//! moves by at most the largest error of the group's cells. A rim vertex whose copies
+//! their one-rings) may move, each by at most the group's error; the one-rings'
+//! triangles were already simplified cell by cell, so the surface moves by at most
+//! twice the largest error of the group's cells. A rim vertex whose copies
 //! disagree in texture coordinates (a UV seam) stays locked, so each cell's texture
 //! coordinates stay its own.
 
@@ -150,8 +151,8 @@ pub(super) fn rounds(pieces: &mut [Piece], cells: &Cells, share: f64, budget: us
             }
         }
         // Groups whose result crosses or touches another piece are put back; before
-        // this round no two pieces met, so each round puts back a group and ends.
-        loop {
+        // this round no two pieces met, so each pass puts back groups until none meets.
+        while active.iter().any(|&a| a) {
             // Only the round's new triangles can meet a piece they did not meet before.
             // A group's own pieces were tested against each other as one piece
             // ([`simplify::simplify_fixed`]'s faults): only other pieces are asked.
