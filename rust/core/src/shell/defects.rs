@@ -24,11 +24,12 @@
 //! [`Checker::find_star`], while triangles meeting along a whole edge cannot cross
 //! (their planes meet in that edge's line). The enclosure test covers the nesting: a
 //! part wholly inside a cell crosses nothing but has its probe point there, and a
-//! part partly inside crosses a skin. Three kinds of pairs meeting at a vertex or an
-//! edge are tested neither in the trees nor by `find_star` (listed in its docs: a
-//! side wall and a triangle at one of its ends, an envelope's two layers over faces
-//! sharing an edge, two triangles of one face of five or more corners), so for them
-//! the argument above is not yet a proof. One search serves the report (every
+//! part partly inside crosses a skin. `find_star` also tests two triangles of one
+//! face of five or more corners meeting at a vertex, and an envelope's inner and
+//! outer layer triangles over faces sharing an edge. One kind of pair meeting at a
+//! vertex is tested neither in the trees nor by `find_star` (its docs): a side wall
+//! and a triangle at one of the wall's ends, so for open meshes the argument above
+//! is not yet a proof. One search serves the report (every
 //! element, once) and the repair pass (only the elements around directors it just
 //! shortened, round after round, on a refitted BVH).
 //!
@@ -664,13 +665,18 @@ impl Checker {
 
     /// [`find`](Self::find)'s pairs the skin and base tests above leave out by
     /// topology: layer triangles of faces sharing exactly one base vertex `v` (they
-    /// meet at `v`'s point of the layer), and a layer triangle with a base triangle
+    /// meet at `v`'s point of the layer), an envelope's inner and outer layer
+    /// triangles of faces sharing an edge (tested whole: they meet at most where a
+    /// director is zero), and a layer triangle with a base triangle
     /// sharing `v`, or an edge from `v` whose other end is not pressed, where `v`'s
     /// director is zero (the shell pressed onto the base there: they meet at the base
     /// point alone). Each such pair crossing away from the
     /// shared point is a skin pair (kind 0) or a skin/base pair (1), inherited (2)
     /// where the two base triangles themselves cross away from `v`; only the flagged
-    /// triangles' pairs (by the lower triangle when both are flagged). With
+    /// triangles' pairs (by the lower triangle when both are flagged). Two triangles
+    /// of one face of five or more corners (one split) are paired as triangles of
+    /// different faces are; those of a quad are not (its two splits cross each
+    /// other once curved, and the triangles of one split share the diagonal). With
     /// `skins` false, only the skin/base pairs.
     ///
     /// Why (issue 14, cells of non-adjacent faces overlapping): the cells are the
@@ -700,11 +706,11 @@ impl Checker {
     /// other one too (small stars), or the edge is a boundary edge whose wall has no
     /// height: such crossings only this search finds (`tests_find_star`).
     ///
-    /// Not tested here nor by the trees (pairs meeting at a vertex or an edge at
-    /// different points, or of one face): a side wall and a triangle meeting at one of
-    /// its ends, an envelope's inner and outer layer triangles over faces sharing an
-    /// edge, and two triangles of one face of five or more corners meeting at a
-    /// vertex.
+    /// Not tested here nor by the trees: a side wall and a triangle meeting it at one
+    /// of its ends (another wall, a layer or a base triangle around that end); and,
+    /// within one quad, an envelope's inner layer triangle and the outer one of the
+    /// other triangle of its split (they share the diagonal's base vertices, at
+    /// different points), left to the inverted-cell test.
     pub(crate) fn find_star(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, skins_too: bool) -> Vec<(u8, u32, u32)> {
         let p = mesh.positions();
         let tri_flagged = |i: usize| dirty.is_none_or(|d| d.tris[i]);
@@ -739,7 +745,10 @@ impl Checker {
                 for &v in &self.tris[t as usize] {
                     for &u in self.tris_around.of(v as usize) {
                         let shared = self.tris[u as usize].iter().filter(|x| self.tris[t as usize].contains(x)).count();
-                        if u == t || shared == 0 || shared > 2 || self.face_of[u as usize] == self.face_of[t as usize] {
+                        // Triangles of one face of five or more corners (one split, no
+                        // other) are paired as triangles of different faces are.
+                        let face = self.face_of[t as usize];
+                        if u == t || shared == 0 || shared > 2 || (self.face_of[u as usize] == face && mesh.face(face as usize).len() < 5) {
                             continue;
                         }
                         // With an edge in common, the layer triangle meets the base one at
@@ -751,7 +760,20 @@ impl Checker {
                                 hits.push((if inherited() { 2 } else { 1 }, layer_item(t, r), u));
                             }
                         }
-                        if shared != 1 || !skins_too || (u < t && tri_flagged(u as usize)) {
+                        if !skins_too || (u < t && tri_flagged(u as usize)) {
+                            continue;
+                        }
+                        // An envelope's inner and outer layer triangles over an edge in
+                        // common meet nowhere in general: tested whole, once per pair
+                        // (from the edge's lower end).
+                        if let Some(a) = other {
+                            if shell.side == Side::Envelope && v < a {
+                                for (r, r2) in [(1.0, 0.0), (0.0, 1.0)] {
+                                    if triangles_intersect(&corners(t, v, Some(r)), &corners(u, v, Some(r2))) {
+                                        hits.push((if inherited() { 2 } else { 0 }, layer_item(t, r), layer_item(u, r2)));
+                                    }
+                                }
+                            }
                             continue;
                         }
                         for &r in skins(shell.side) {
