@@ -106,18 +106,15 @@ pub(super) fn rounds(pieces: &mut [Piece], cells: &Cells, share: f64, budget: us
             if group_of[seed] != usize::MAX {
                 continue;
             }
-            let mut members = vec![seed];
             group_of[seed] = groups;
-            let mut i = 0;
-            while i < members.len() && members.len() < GROUP {
-                for &(_, b) in &links[start[members[i]]..start[members[i] + 1]] {
-                    if members.len() < GROUP && group_of[b] == usize::MAX {
-                        group_of[b] = groups;
-                        members.push(b);
-                    }
+            let neighbours = |a: usize, visit: &mut dyn FnMut(usize)| links[start[a]..start[a + 1]].iter().for_each(|&(_, b)| visit(b));
+            grow_group(&mut vec![seed], 0, GROUP, neighbours, |b| {
+                let free = group_of[b] == usize::MAX;
+                if free {
+                    group_of[b] = groups;
                 }
-                i += 1;
-            }
+                free
+            });
             groups += 1;
         }
         let cell_group: Vec<usize> = node_of.iter().map(|&nd| group_of[nd]).collect();
@@ -136,18 +133,27 @@ pub(super) fn rounds(pieces: &mut [Piece], cells: &Cells, share: f64, budget: us
                 (k, within && across)
             })
             .collect();
-        let before: Vec<Vec<Piece>> = members.iter().map(|m| m.iter().map(|&c| pieces[c].clone()).collect()).collect();
+        // The groups' pieces are moved out (not copied: the bake's triangles are held
+        // twice at most, before and after), and moved back where nothing changed.
+        let mut before: Vec<Vec<Piece>> = members.iter().map(|m| m.iter().map(|&c| std::mem::take(&mut pieces[c])).collect()).collect();
         let made: Vec<Option<Split>> =
             members.par_iter().enumerate().map(|(g, m)| if m.len() < 2 { None } else { simplify_group(round, m, &before[g], &inner, cells, share) }).collect();
         let mut active = vec![false; groups];
         // Each cell's triangles the round made (not among the group's before).
         let mut fresh: Vec<Vec<bool>> = vec![Vec::new(); n];
         for (g, out) in made.into_iter().enumerate() {
-            if let Some((out, new)) = out {
-                for ((&c, p), new) in members[g].iter().zip(out).zip(new) {
-                    (pieces[c], fresh[c]) = (p, new);
+            match out {
+                Some((out, new)) => {
+                    for ((&c, p), new) in members[g].iter().zip(out).zip(new) {
+                        (pieces[c], fresh[c]) = (p, new);
+                    }
+                    active[g] = true;
                 }
-                active[g] = true;
+                None => {
+                    for (&c, p) in members[g].iter().zip(std::mem::take(&mut before[g])) {
+                        pieces[c] = p;
+                    }
+                }
             }
         }
         // Groups whose result crosses or touches another piece are put back; before
@@ -166,8 +172,8 @@ pub(super) fn rounds(pieces: &mut [Piece], cells: &Cells, share: f64, budget: us
             }
             for g in bad {
                 if active[g] {
-                    for (&c, p) in members[g].iter().zip(&before[g]) {
-                        (pieces[c], fresh[c]) = (p.clone(), Vec::new());
+                    for (&c, p) in members[g].iter().zip(std::mem::take(&mut before[g])) {
+                        (pieces[c], fresh[c]) = (p, Vec::new());
                     }
                     active[g] = false;
                 }
@@ -175,6 +181,28 @@ pub(super) fn rounds(pieces: &mut [Piece], cells: &Cells, share: f64, budget: us
         }
         node_of = cell_group;
         nodes = groups;
+    }
+}
+
+/// Grows a group breadth first: appends to `members` the neighbours (each node's
+/// `neighbours(node, visit)`) of its members from `first` on that `take` accepts (it
+/// marks them taken), until the group has `size` members.
+pub(super) fn grow_group(
+    members: &mut Vec<usize>,
+    first: usize,
+    size: usize,
+    neighbours: impl Fn(usize, &mut dyn FnMut(usize)),
+    mut take: impl FnMut(usize) -> bool,
+) {
+    let mut i = first;
+    while i < members.len() && members.len() - first < size {
+        let node = members[i];
+        neighbours(node, &mut |n| {
+            if members.len() - first < size && take(n) {
+                members.push(n);
+            }
+        });
+        i += 1;
     }
 }
 

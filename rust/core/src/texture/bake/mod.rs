@@ -562,20 +562,14 @@ impl Setup {
             let first = chosen.len();
             taken[seed] = true;
             chosen.push(seed);
-            let mut i = first;
-            while i < chosen.len() && chosen.len() - first < size {
-                let c = tris[chosen[i]];
+            let neighbours = |t: usize, visit: &mut dyn FnMut(usize)| {
+                let c = tris[t];
                 for k in 0..3 {
                     let (a, b) = (c[k], c[(k + 1) % 3]);
-                    for &n in &by_edge[&(a.min(b), a.max(b))] {
-                        if chosen.len() - first < size && !taken[n as usize] {
-                            taken[n as usize] = true;
-                            chosen.push(n as usize);
-                        }
-                    }
+                    by_edge[&(a.min(b), a.max(b))].iter().for_each(|&n| visit(n as usize));
                 }
-                i += 1;
-            }
+            };
+            hierarchy::grow_group(&mut chosen, first, size, neighbours, |n| !std::mem::replace(&mut taken[n], true));
         }
         let pieces: Vec<Piece> = chosen.par_iter().map_init(Scratch::default, |s, &t| cells.polygonize(s, t)).collect();
         self.cell_pass(mesh, shell, &chosen, pieces, share)

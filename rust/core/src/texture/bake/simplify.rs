@@ -360,30 +360,44 @@ fn crossings(piece: &Piece, before: &Shape, after: &[[u32; 3]], fresh: &[bool]) 
     let corners = |t: &[u32; 3]| t.map(|v| piece.pos[v as usize].as_dvec3());
     let tris: Vec<[DVec3; 3]> = after.iter().map(corners).collect();
     let new: Vec<u32> = (0..after.len() as u32).filter(|&i| fresh[i as usize] && before.tris.binary_search(&after[i as usize]).is_err()).collect();
-    let mut bad = Vec::new();
-    let mut test = |i: usize, j: usize| {
+    overlapping_boxes(&tris, &new, |i, j, bad| {
         let (t, u) = (&after[i], &after[j]);
         if !u.iter().any(|v| t.contains(v)) && triangles_meet(&tris[i], &tris[j], touch(&tris[i], &tris[j])) {
             bad.extend(t.iter().chain(u));
         }
-    };
-    if new.len() * 4 < after.len() {
-        // Few new triangles (a group of the hierarchy, where most parts are locked):
-        // a tree of those, asked with every triangle, instead of a tree of all (the
-        // same pairs, far less building).
-        let tree = Bvh::from_triangles(&new.iter().map(|&i| tris[i as usize]).collect::<Vec<_>>());
-        for (j, corners) in tris.iter().enumerate() {
-            let (lo, hi) = tri_box(corners);
-            tree.query(lo, hi, |k| test(new[k as usize] as usize, j));
-        }
+    })
+}
+
+/// What `found(i, j, out)` collects for each `i` of `asking` and `j` of `tris` whose
+/// boxes overlap (`j` may equal `i`). Where few are asked (a group of the hierarchy,
+/// most of it locked, or its new triangles among the whole bake's) a tree of those is
+/// asked with every triangle, otherwise a tree of all with each asked one: the same
+/// pairs, far less building.
+fn overlapping_boxes<T: Send>(tris: &[[DVec3; 3]], asking: &[u32], found: impl Fn(usize, usize, &mut Vec<T>) + Sync) -> Vec<T> {
+    if asking.len() * 4 < tris.len() {
+        let few: Vec<[DVec3; 3]> = asking.iter().map(|&i| tris[i as usize]).collect();
+        let tree = Bvh::from_triangles(&few);
+        (0..tris.len())
+            .into_par_iter()
+            .flat_map_iter(|j| {
+                let (lo, hi) = tri_box(&tris[j]);
+                let mut out = Vec::new();
+                tree.query(lo, hi, |k| found(asking[k as usize] as usize, j, &mut out));
+                out
+            })
+            .collect()
     } else {
-        let tree = Bvh::from_triangles(&tris);
-        for &i in &new {
-            let (lo, hi) = tri_box(&tris[i as usize]);
-            tree.query(lo, hi, |j| test(i as usize, j as usize));
-        }
+        let tree = Bvh::from_triangles(tris);
+        asking
+            .par_iter()
+            .flat_map_iter(|&i| {
+                let (lo, hi) = tri_box(&tris[i as usize]);
+                let mut out = Vec::new();
+                tree.query(lo, hi, |j| found(i as usize, j as usize, &mut out));
+                out
+            })
+            .collect()
     }
-    bad
 }
 
 /// The piece with only `tris` and the vertices they use, and each one's index in `piece`.
@@ -455,43 +469,11 @@ pub(super) fn meeting_pieces(pieces: &[Piece], asked: impl Fn(usize, usize) -> b
         !pieces[q as usize].tris[u as usize].iter().any(|&w| ids.contains(&id(q, w))) && triangles_meet(&tris[i], &tris[j], touch(&tris[i], &tris[j]))
     };
     let asks = |i: usize, j: usize| owner[i].0 != owner[j].0 && apart(owner[i].0 as usize, owner[j].0 as usize);
-    let mut bad: Vec<usize> = if asking.len() * 4 < owner.len() {
-        // Few triangles asked (the hierarchy's new ones): a tree of those, asked with
-        // every triangle (the same pairs as the other way, far less building).
-        let few: Vec<[DVec3; 3]> = asking.iter().map(|&i| tris[i as usize]).collect();
-        let tree = Bvh::from_triangles(&few);
-        (0..owner.len())
-            .into_par_iter()
-            .flat_map_iter(|j| {
-                let (lo, hi) = tri_box(&tris[j]);
-                let mut found = Vec::new();
-                tree.query(lo, hi, |k| {
-                    let i = asking[k as usize] as usize;
-                    if asks(i, j) && meet(i, &ids(i), j) {
-                        found.extend([owner[i].0 as usize, owner[j].0 as usize]);
-                    }
-                });
-                found
-            })
-            .collect()
-    } else {
-        let tree = Bvh::from_triangles(&tris);
-        asking
-            .par_iter()
-            .flat_map_iter(|&i| {
-                let i = i as usize;
-                let (lo, hi) = tri_box(&tris[i]);
-                let ids = ids(i);
-                let mut found = Vec::new();
-                tree.query(lo, hi, |j| {
-                    if asks(i, j as usize) && meet(i, &ids, j as usize) {
-                        found.extend([owner[i].0 as usize, owner[j as usize].0 as usize]);
-                    }
-                });
-                found
-            })
-            .collect()
-    };
+    let mut bad: Vec<usize> = overlapping_boxes(&tris, &asking, |i, j, out| {
+        if asks(i, j) && meet(i, &ids(i), j) {
+            out.extend([owner[i].0 as usize, owner[j].0 as usize]);
+        }
+    });
     bad.sort_unstable();
     bad.dedup();
     bad
