@@ -338,12 +338,6 @@ impl PatchTree {
         self.scale
     }
 
-    /// The longest edge of each triangle's pieces asked for when this tree was built
-    /// (before its budget doubled them).
-    pub fn asked_max_edges(&self) -> &[f64] {
-        &self.asked
-    }
-
     /// Takes `max_edge` as the sizes asked for `tris` (the triangles as last given)
     /// where they split into the same pieces as before; false, changing nothing,
     /// where one would split into others (build anew then).
@@ -819,7 +813,7 @@ mod tests {
         let whole = PatchTree::build(&tris);
         let split = PatchTree::build_refined(&tris, &[1.0; 40], 40 * 100);
         assert!(split.piece_count() > 8 * tris.len() && split.piece_count() <= tris.len() + 40 * 100, "{}", split.piece_count());
-        assert_eq!((split.scale, split.asked_max_edges()), (1.0, &[1.0; 40][..]));
+        assert_eq!((split.scale, &split.asked[..]), (1.0, &[1.0; 40][..]));
         assert!(split.tris.iter().all(|t| (0..3).all(|k| (t[(k + 1) % 3] - t[k]).length() <= 1.0 + 1e-12)));
         assert!((split.total_area() - whole.total_area()).abs() <= 1e-9 * whole.total_area());
         let check = |a: &PatchTree, b: &PatchTree| {
