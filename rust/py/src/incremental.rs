@@ -110,6 +110,7 @@ impl IncrementalShell {
         d.set_item("kept", stats.kept)?;
         d.set_item("resettled", stats.resettled)?;
         d.set_item("rebuilt", stats.rebuilt)?;
+        d.set_item("field_rebuilt", stats.field_rebuilt)?;
         Ok(d)
     }
 

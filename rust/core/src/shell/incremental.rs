@@ -64,12 +64,16 @@ pub struct UpdateStats {
     pub resettled: usize,
     /// Whether the update rebuilt the whole shell (topology or most vertices changed).
     pub rebuilt: bool,
+    /// Whether the field's patch tree was built anew over the whole mesh because the
+    /// moved triangles could not be refitted in it (the shell itself was updated
+    /// locally): a cost in proportion to the mesh, not to the edit.
+    pub field_rebuilt: bool,
 }
 
 impl UpdateStats {
     /// A rebuild of all `n` vertices after `changed` changed.
     fn rebuilt(changed: usize, n: usize) -> Self {
-        Self { changed, retraced: n, kept: 0, resettled: n, rebuilt: true }
+        Self { changed, retraced: n, kept: 0, resettled: n, rebuilt: true, field_rebuilt: true }
     }
 }
 
@@ -169,7 +173,7 @@ impl Tracked {
         }
 
         let (touched_face, around) = self.refresh_around(&moved);
-        let Some((changes, retriangulated)) = self.changed_triangles(&touched_face, &around, &thicker) else {
+        let Some((changes, retriangulated, field_rebuilt)) = self.changed_triangles(&touched_face, &around, &thicker) else {
             return self.rebuild(changed);
         };
         let mut must = vec![false; n];
@@ -198,7 +202,7 @@ impl Tracked {
         seeds.extend(self.checker.cells_near_probes(&self.mesh, &moved, &flipped, reach));
         let repair = Repair { held: Some(&held), ..Repair::for_build(&self.checker, &self.mesh, &self.tracer.normals, self.params.repair_rounds, None) };
         self.shell.check = repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
-        Ok(UpdateStats { changed, retraced: dirty.len(), kept, resettled, rebuilt: false })
+        Ok(UpdateStats { changed, retraced: dirty.len(), kept, resettled, rebuilt: false, field_rebuilt })
     }
 
     /// The faces around moved vertices, and the vertices of those faces, whose normal
@@ -225,10 +229,11 @@ impl Tracked {
 
     /// The integration triangles that changed, as (index, old, new), written into
     /// `tris` and the patch tree, and whether a face other than a quad was split
-    /// anew (the checker, which holds the triangulation, is then rebuilt). `None`: a face's triangle
-    /// count changed; rebuild.
+    /// anew (the checker, which holds the triangulation, is then rebuilt), and whether
+    /// the patch tree was built anew rather than refitted. `None`: a face's triangle
+    /// count changed, or the pieces changed; rebuild.
     #[allow(clippy::type_complexity)]
-    fn changed_triangles(&mut self, touched_face: &[bool], around: &[u32], thicker: &[u32]) -> Option<(Vec<(usize, [DVec3; 3], [DVec3; 3])>, bool)> {
+    fn changed_triangles(&mut self, touched_face: &[bool], around: &[u32], thicker: &[u32]) -> Option<(Vec<(usize, [DVec3; 3], [DVec3; 3])>, bool, bool)> {
         let p = self.mesh.positions();
         let mut changes: Vec<(usize, [DVec3; 3])> = Vec::new();
         let mut scratch = (Vec::new(), Vec::new());
@@ -273,7 +278,8 @@ impl Tracked {
             self.tris[i] = t;
         }
         let moved_tris: Vec<_> = changes.iter().map(|&(i, _, t)| (i, t)).collect();
-        if !self.tracer.tree.refit_triangles(&moved_tris) {
+        let field_rebuilt = !self.tracer.tree.refit_triangles(&moved_tris);
+        if field_rebuilt {
             let tree = PatchTree::build_refined(&self.tris, &sizes, self.tris.len() * FIELD_PIECES_BUDGET);
             // Another scale splits every sliver otherwise, not only the moved ones.
             if tree.scale() != self.tracer.tree.scale() {
@@ -281,7 +287,7 @@ impl Tracked {
             }
             self.tracer.tree = tree;
         }
-        Some((changes, retriangulated))
+        Some((changes, retriangulated, field_rebuilt))
     }
 
     /// The trajectories to trace again: the `must` ones, and those within reach of the

@@ -1067,7 +1067,7 @@ fn incremental_update_of_a_sliver_part_refits_its_pieces_and_matches_a_rebuild()
     t[7] *= 1.3;
     t[60] *= 0.7;
     let stats = inc.update(&moved, &t).unwrap();
-    assert!(!stats.rebuilt && stats.retraced > 0, "{stats:?}");
+    assert!(!stats.rebuilt && !stats.field_rebuilt && stats.retraced > 0, "{stats:?}");
     let edited = with_positions(&mesh, moved);
     let err = worst(&inc.traced_directors(), &traced(&edited, &t, Side::Exterior, &params));
     assert!(err <= 1e-4 * t[0], "worst {err}");

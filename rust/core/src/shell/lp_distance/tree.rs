@@ -405,35 +405,38 @@ impl PatchTree {
     /// Moves some triangles (original indices, as given to [`build`]) and refits the
     /// nodes above them only. Returns false, changing nothing, when one of them was
     /// left out of the tree as degenerate and now has an area, or now splits into
-    /// other pieces: rebuild then.
+    /// another number of pieces: rebuild then.
     ///
     /// [`build`]: PatchTree::build
     pub fn refit_triangles(&mut self, moved: &[(usize, [DVec3; 3])]) -> bool {
-        // A moved triangle splits into the same pieces, or the tree is built again
-        // (so a refit makes what a build would).
-        let mut split = Vec::new();
+        // A moved triangle splits as a build would split it: into as many pieces as
+        // before (their leaves are refitted), or the tree is built again. The same
+        // count may come in other pieces, where the move changed which edge is longest
+        // (the bisection's order): those take the old ones' leaves.
+        let mut splits = Vec::with_capacity(moved.len());
         for (i, t) in moved {
-            split.clear();
+            let mut split = Vec::new();
             split_into(t, self.asked[*i] * self.scale, &mut split);
-            if split[..] != self.pieces[self.first[*i] as usize..self.first[*i + 1] as usize] {
+            if split.len() != (self.first[*i + 1] - self.first[*i]) as usize {
                 return false;
             }
+            splits.push(split);
         }
         let (fits, counts) = self.finer_fits(moved.iter().map(|&(i, t)| (i, t, self.asked[i])));
         if fits {
             return false;
         }
-        let moved: Vec<(usize, [DVec3; 3])> = moved
-            .iter()
-            .flat_map(|(i, t)| {
-                let range = self.first[*i] as usize..self.first[*i + 1] as usize;
-                range.clone().zip(self.pieces[range].iter().map(|b| piece_of(t, b)))
-            })
-            .collect();
+        let triangles: Vec<usize> = moved.iter().map(|m| m.0).collect();
+        let moved: Vec<(usize, [DVec3; 3])> =
+            moved.iter().zip(&splits).flat_map(|((i, t), split)| (self.first[*i] as usize..).zip(split.iter().map(|b| piece_of(t, b)))).collect();
         if moved.iter().any(|(k, piece)| self.place[*k] == u32::MAX && tri_props(piece).0 > 0.0) {
             return false;
         }
         self.take_finer(counts);
+        for (i, split) in triangles.into_iter().zip(splits) {
+            let start = self.first[i] as usize;
+            self.pieces[start..start + split.len()].copy_from_slice(&split);
+        }
         let mut nodes: Vec<u32> = Vec::with_capacity(moved.len());
         for (i, t) in &moved {
             let k = self.place[*i];
@@ -834,6 +837,18 @@ mod tests {
         let mut refit = split.clone();
         assert!(refit.refit_triangles(&[(7, moved[7])]));
         check(&refit, &PatchTree::build(&moved));
+        // Moved so that its other long edge is the longest, the sliver splits into as
+        // many pieces but other ones: refitted, it holds the pieces a build makes (an
+        // update rebuilt the whole tree here before).
+        let mut swapped = tris.clone();
+        swapped[7][1] += DVec3::new(0.1, 0.0, 0.0);
+        let built = PatchTree::build_refined(&swapped, &[1.0; 40], 40 * 100);
+        let pieces = |t: &PatchTree| t.pieces[t.first[7] as usize..t.first[8] as usize].to_vec();
+        assert_ne!(pieces(&split), pieces(&built));
+        let mut refit_swapped = split.clone();
+        assert!(refit_swapped.refit_triangles(&[(7, swapped[7])]));
+        assert_eq!(pieces(&refit_swapped), pieces(&built));
+        check(&refit_swapped, &PatchTree::build(&swapped));
         moved[7][2] += DVec3::new(0.5, -0.2, 1.5);
         assert!(!refit.refit_triangles(&[(7, moved[7])]));
     }
