@@ -26,7 +26,43 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// `--budget`: chain mail in world-size tiles (the add-on's default, 1/32 of the
+/// diagonal) toward the default budget of 1 M triangles: the cell pass alone, then with
+/// the groups of the hierarchy, and the estimate.
+fn budget_case() {
+    use thicket_core::texture::bake::{estimate_triangles, CELL_PASS_ONLY};
+    use thicket_core::texture::charts::with_world_size_uvs;
+    let mesh = testmeshes::bumpy_head(4);
+    let mesh = with_world_size_uvs(&mesh, mesh.bbox_diagonal() / 32.0).unwrap();
+    let t = Thickness::relative(0.05).per_vertex(&mesh, None).unwrap();
+    let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    let texture = Generator::new(Pattern::ChainMail).generate([64, 64, 32]).unwrap();
+    let layers = [TextureLayer { texture, offset: Vec2::ZERO }];
+    let params = BakeParams::default();
+    let timed = |only: bool| {
+        CELL_PASS_ONLY.store(only, std::sync::atomic::Ordering::Relaxed);
+        let start = Instant::now();
+        let b = bake(&mesh, &shell, &layers, &params).unwrap();
+        (start.elapsed().as_secs_f64(), b.triangles.len())
+    };
+    let (cells_s, cells_n) = timed(true);
+    let (all_s, all_n) = timed(false);
+    let estimate = estimate_triangles(&mesh, &shell, &layers, &params).unwrap();
+    println!("world-size chain mail on a {}-face head, budget {}:", mesh.face_count(), params.triangle_budget);
+    println!("  cell pass: {cells_n:>9} triangles, {:7.1} s", cells_s);
+    println!(
+        "  groups:    {all_n:>9} triangles, {:7.1} s ({:.2}x the cell pass's time; {:.2}x the budget)",
+        all_s,
+        all_s / cells_s,
+        all_n as f64 / params.triangle_budget as f64
+    );
+    println!("  estimate:  {estimate:>9} triangles ({:.2}x the bake)", estimate as f64 / all_n as f64);
+}
+
 fn main() {
+    if std::env::args().any(|a| a == "--budget") {
+        return budget_case();
+    }
     let mesh = testmeshes::bumpy_head(4);
     let t = Thickness::relative(0.03).per_vertex(&mesh, None).unwrap();
     let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();

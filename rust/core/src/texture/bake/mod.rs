@@ -682,6 +682,17 @@ fn fitted_setup(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &
     }
 }
 
+/// Benchmarks only: bakes stop after the cell pass (no [`hierarchy`]), to time it alone.
+#[cfg(feature = "test-support")]
+pub static CELL_PASS_ONLY: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+fn cell_pass_only() -> bool {
+    #[cfg(feature = "test-support")]
+    return CELL_PASS_ONLY.load(std::sync::atomic::Ordering::Relaxed);
+    #[cfg(not(feature = "test-support"))]
+    false
+}
+
 /// Bakes the iso-surface. `textures`: at least one, united.
 pub fn bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<BakedMesh> {
     bake_culled(mesh, shell, textures, params, true)
@@ -730,7 +741,7 @@ pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
     }
     // Still over the budget: groups of neighbouring cells simplified with only their
     // outer rims locked ([`hierarchy`]).
-    if share < 1.0 && setup.groups_free(mesh) {
+    if share < 1.0 && setup.groups_free(mesh) && !cell_pass_only() {
         let moved: Vec<f32> = levels.par_iter().enumerate().map(|(t, &level)| setup.moved(mesh, shell, t, level)).collect();
         let cells = hierarchy::Cells { sampled: &made, error: &moved };
         hierarchy::rounds(&mut pieces, &cells, share, params.triangle_budget, SHARE_TOLERANCE, || progress.is_some_and(Progress::is_cancelled));
