@@ -23,7 +23,7 @@ _kept: "OrderedDict[tuple, tuple]" = OrderedDict()  # key -> (face_sizes, corner
 _lock = threading.Lock()
 
 #: What the latest evaluations did, newest last: an update's counts (changed,
-#: retraced, kept, rebuilt), or None for a shell built from scratch.
+#: retraced, kept, resettled, rebuilt, field_rebuilt), or None for a shell built from scratch.
 recent: deque = deque(maxlen=8)
 
 

@@ -684,8 +684,9 @@ impl Checker {
     /// triangles' pairs (by the lower triangle when both are flagged). Two triangles
     /// of one face of five or more corners (one split) are paired as triangles of
     /// different faces are; those of a quad are not (its two splits cross each
-    /// other once curved, and the triangles of one split share the diagonal). With
-    /// `skins` false, only the skin/base pairs.
+    /// other once curved, and the triangles of one split share the diagonal), short
+    /// of an envelope's two layers over one split (below). With `skins_too` false,
+    /// only the skin/base pairs.
     ///
     /// Why (issue 14, cells of non-adjacent faces overlapping): the cells are the
     /// images of one continuous map `F(p, r) = x(p) + r d(p)` of the base times
@@ -718,10 +719,10 @@ impl Checker {
     /// envelope's inner layer triangle and the outer one of the other triangle of its
     /// split (they share the diagonal's base vertices, at different points: tested
     /// whole, as over an edge of two faces); and a side wall and a triangle meeting it
-    /// at one of its ends ([`wall_pairs`](Self::wall_pairs)). In `tests_find_star`,
-    /// no random shell (399 with wall pairs, 168 with pairs over a quad's split) had
-    /// such pairs as its only defect: the other checks also caught each, which is
-    /// seen, not proven, so they are searched. Not tested by any search (the module docs): a wall and the
+    /// at one of its ends ([`wall_pairs`](Self::wall_pairs)). In `tests_find_star`'s
+    /// random shells no shell had such pairs as its only defect: the other checks
+    /// also caught each, which is seen, not proven, so they are searched. Not tested
+    /// by any search (the module docs): a wall and the
     /// triangles holding both its ends, and a layer and a base triangle of one quad
     /// split meeting at a pressed diagonal end.
     pub(crate) fn find_star(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, skins_too: bool) -> Vec<(u8, u32, u32)> {

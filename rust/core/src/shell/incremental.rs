@@ -64,9 +64,9 @@ pub struct UpdateStats {
     pub resettled: usize,
     /// Whether the update rebuilt the whole shell (topology or most vertices changed).
     pub rebuilt: bool,
-    /// Whether the field's patch tree was built anew over the whole mesh because the
-    /// moved triangles could not be refitted in it (the shell itself was updated
-    /// locally): a cost in proportion to the mesh, not to the edit.
+    /// Whether the field's patch tree was built anew over the whole mesh (a cost in
+    /// proportion to the mesh, not to the edit): in a local update, because the moved
+    /// triangles could not be refitted in it; always in a rebuild.
     pub field_rebuilt: bool,
 }
 
@@ -231,7 +231,8 @@ impl Tracked {
     /// `tris` and the patch tree, and whether a face other than a quad was split
     /// anew (the checker, which holds the triangulation, is then rebuilt), and whether
     /// the patch tree was built anew rather than refitted. `None`: a face's triangle
-    /// count changed, or the pieces changed; rebuild.
+    /// count changed, an edited size splits a triangle into other pieces, or the
+    /// rebuilt tree took another scale; rebuild.
     #[allow(clippy::type_complexity)]
     fn changed_triangles(&mut self, touched_face: &[bool], around: &[u32], thicker: &[u32]) -> Option<(Vec<(usize, [DVec3; 3], [DVec3; 3])>, bool, bool)> {
         let p = self.mesh.positions();

@@ -460,7 +460,7 @@ fn pairs_of_one_ngon_and_of_an_envelopes_two_layers_are_found_and_repaired() {
 /// is: 1 a side wall and a triangle meeting it at one end (a wall, a layer or a base
 /// triangle sharing one base vertex with the wall), 2 an envelope's inner and outer
 /// layer triangles over the two triangles of one split of a quad; 0 any other.
-fn wall_or_diagonal(c: &Checker, self_pair: bool, i: u32, j: u32) -> u8 {
+fn wall_or_diagonal(c: &Checker, mesh: &Mesh, self_pair: bool, i: u32, j: u32) -> u8 {
     let wall = |k: u32| matches!(c.item(k), defects::Item::Wall { .. });
     let other: &[u32] = if self_pair { c.item_vertices(j) } else { &c.tris[j as usize] };
     let shared = c.item_vertices(i).iter().filter(|v| other.contains(v)).count();
@@ -468,7 +468,14 @@ fn wall_or_diagonal(c: &Checker, self_pair: bool, i: u32, j: u32) -> u8 {
     let layer = |k: u32| matches!(c.item(k), defects::Item::Layer { r, .. } if r == 1.0);
     if (wall(i) || (self_pair && wall(j))) && shared == 1 {
         1
-    } else if self_pair && !wall(i) && !wall(j) && t != u && c.face_of[t as usize] == c.face_of[u as usize] && layer(i) != layer(j) {
+    } else if self_pair
+        && !wall(i)
+        && !wall(j)
+        && t != u
+        && c.face_of[t as usize] == c.face_of[u as usize]
+        && mesh.face(c.face_of[t as usize] as usize).len() == 4
+        && layer(i) != layer(j)
+    {
         2
     } else {
         0
@@ -506,7 +513,7 @@ fn pairs_of_a_side_wall_at_one_end_and_of_a_quads_split_are_found_and_repaired()
             let f = c.find(&mesh, &shell, None, Some(&tree));
             let pairs: Vec<(bool, u32, u32)> =
                 f.self_pairs.iter().map(|&(i, j)| (true, i, j)).chain(f.base_pairs.iter().map(|&(i, j)| (false, i, j))).collect();
-            let mine: Vec<(bool, u32, u32)> = pairs.iter().copied().filter(|&(s, i, j)| wall_or_diagonal(&c, s, i, j) == kind).collect();
+            let mine: Vec<(bool, u32, u32)> = pairs.iter().copied().filter(|&(s, i, j)| wall_or_diagonal(&c, &mesh, s, i, j) == kind).collect();
             if mine.is_empty() {
                 continue;
             }
@@ -525,8 +532,8 @@ fn pairs_of_a_side_wall_at_one_end_and_of_a_quads_split_are_found_and_repaired()
         alone_total[kind as usize] += alone;
         assert!(with >= 3, "{name} {side:?}: {with} shells of 200 with pairs of kind {kind}");
     }
-    // Seen (seed 0x514e): none of 399 shells with wall pairs nor of 168 with pairs
-    // over a quad's split had them alone (each also had other defects). Tested whole,
+    // Seen (seed 0x514e): no shell with wall pairs nor with pairs over a quad's split
+    // had them alone (each also had other defects; the counts are printed). Tested whole,
     // without the split at an envelope's base point, 18 envelope cups did: rounding
     // put the wall's edge a hair beside the base point, a crossing of no width.
     eprintln!("shells whose only defects were such pairs: walls {}, a quad's split {}", alone_total[1], alone_total[2]);

@@ -540,6 +540,7 @@ fn bake_of_many_small_cells(budget: usize) -> usize {
     // of one cell: no corner more than a tile from another.
     let far = b.corner_texcoords.iter().filter(|c| (0..3).any(|k| (c[k] - c[(k + 1) % 3]).truncate().length() > 1.0)).count();
     assert_eq!(far, 0);
+    // The bake says it is over its budget exactly when it is (the panel shows it).
     assert_eq!(b.over_budget, made as f64 > budget as f64 * (1.0 + 0.05));
     made
 }
@@ -552,7 +553,7 @@ fn a_bake_of_many_small_cells_ends_within_its_budget() {
     // bring it within the budget.
     let budget = 180_000;
     let made = bake_of_many_small_cells(budget);
-    assert!(made as f64 <= budget as f64 * 1.1, "{made} triangles for a budget of {budget}");
+    assert!(made as f64 <= budget as f64 * 1.05, "{made} triangles for a budget of {budget}");
 }
 
 #[test]

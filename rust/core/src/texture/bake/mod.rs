@@ -686,10 +686,13 @@ fn fitted_setup(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &
 #[cfg(feature = "test-support")]
 pub static CELL_PASS_ONLY: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
+#[cfg(feature = "test-support")]
 fn cell_pass_only() -> bool {
-    #[cfg(feature = "test-support")]
-    return CELL_PASS_ONLY.load(std::sync::atomic::Ordering::Relaxed);
-    #[cfg(not(feature = "test-support"))]
+    CELL_PASS_ONLY.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+#[cfg(not(feature = "test-support"))]
+fn cell_pass_only() -> bool {
     false
 }
 
