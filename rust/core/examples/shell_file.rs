@@ -102,11 +102,13 @@ fn edits(mesh: &thicket_core::Mesh, t: &[f32], side: Side, params: &ShellParams)
         let s = inc.shell();
         let far = (0..n).filter(|&v| (s.directors[v] - rebuilt.directors[v]).length() > 0.25 * rebuilt.target[v]).count();
         println!(
-            "  edit {}: incremental {:.1} ms ({} retraced, {} kept; {} repair rounds), rebuild {:.0} ms; defects {:?}; mean ratio {:.4} (rebuild {:.4}); {far} directors off by > 1/4",
+            "  edit {}: incremental {:.1} ms ({} retraced, {} kept, {} resettled{}; {} repair rounds), rebuild {:.0} ms; defects {:?}; mean ratio {:.4} (rebuild {:.4}); {far} directors off by > 1/4",
             step + 1,
             incremental * 1e3,
             stats.retraced,
             stats.kept,
+            stats.resettled,
+            if stats.field_rebuilt { ", field tree built anew" } else { "" },
             inc.shell().check.rounds,
             rebuild * 1e3,
             (r.outer_self_intersections, r.outer_base_intersections, r.inverted_cells),
