@@ -38,6 +38,7 @@ use crate::mesh::vertex_normals;
 use crate::Mesh;
 use glam::Vec3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 /// A folded director shorter than this share of its target, pointing away from its
 /// side's normal, turns to the normal. The constants of the repair and its final
@@ -196,7 +197,7 @@ impl Repair<'_> {
         let mut folded: Vec<u32> = found.inverted.iter().flat_map(|&c| checker.cells[c as usize].base()).copied().collect();
         folded.sort_unstable();
         let corners = self.corners_to_shorten(found, &shell.achieved);
-        let aims = self.crossing_scales(found, shell, &corners, None);
+        let aims = self.crossing_scales(found, shell, &corners, None, true);
         let mut any = false;
         for (v, aim) in corners.into_iter().zip(aims) {
             let folds = folded.binary_search(&v).is_ok();
@@ -289,8 +290,10 @@ impl Repair<'_> {
     /// The defects are measured in `chunk`s on copies of the shell, in parallel (by
     /// default, chunks where there are [`PARALLEL_DEFECTS`], else one after another
     /// on `shell`): each test gives its shell back unchanged, so the aims are the same
-    /// whatever the chunks and threads.
-    fn crossing_scales(&self, found: &Findings, shell: &mut Shell, corners: &[u32], chunk: Option<usize>) -> Vec<Aim> {
+    /// whatever the chunks and threads. With `prune`, a defect that cannot lower any
+    /// of its corners' least scale so far is measured only that far (the aims are
+    /// the same: [`crossing_scale`]'s `enough`).
+    fn crossing_scales(&self, found: &Findings, shell: &mut Shell, corners: &[u32], chunk: Option<usize>, prune: bool) -> Vec<Aim> {
         let (checker, mesh) = (self.checker, self.mesh);
         let mut aims = vec![Aim::Factor; corners.len()];
         if !self.scales {
@@ -303,24 +306,34 @@ impl Repair<'_> {
             .chain(found.enclosing.iter().map(|&c| Defect::Enclosing(c)))
             .collect();
         let p = mesh.positions();
+        // The least scale found so far per corner (f32 bits: non-negative floats order
+        // as their bits), shared by the chunks: a defect that cannot lower it for any
+        // of its corners is not measured to the end ([`crossing_scale`]'s `enough`).
+        let least: Vec<AtomicU32> = (0..corners.len()).map(|_| AtomicU32::new(1.0f32.to_bits())).collect();
         let measure = |shell: &mut Shell, d: &Defect| -> (Vec<u32>, Option<f32>) {
-            match *d {
+            let (mine, scale) = match *d {
                 Defect::Pair(self_pair, i, j) => {
                     let all: &[&[u32]] = if self_pair { &[checker.item_vertices(i), checker.item_vertices(j)] } else { &[checker.item_vertices(i)] };
                     let mine = self.mine(all, &shell.achieved, corners);
                     let test = |s: &Shell| checker.pair_crosses(mesh, s, self_pair, i, j);
                     let gamma = if self_pair { SELF_DAMPING } else { 1.0 };
-                    let scale = crossing_scale(shell, &mine, &test).map(|s| s.powf(gamma));
+                    let floor = if prune { self.floor(&mine, corners, &least) } else { f32::INFINITY };
+                    let scale = crossing_scale(shell, &mine, &test, &|s| enough(s, gamma, floor)).map(|s| s.powf(gamma));
                     (mine, scale)
                 }
                 Defect::Inverted(c) => {
                     let cell = &checker.cells[c as usize];
                     let mine = self.mine(&[cell.base()], &shell.achieved, corners);
-                    let scale = crossing_scale(shell, &mine, &|s: &Shell| cell.is_inverted(p, s));
+                    let floor = if prune { self.floor(&mine, corners, &least) } else { f32::INFINITY };
+                    let scale = crossing_scale(shell, &mine, &|s: &Shell| cell.is_inverted(p, s), &|s| enough(s, 1.0, floor));
                     (mine, scale)
                 }
-                Defect::Enclosing(c) => (self.mine(&[checker.cells[c as usize].base()], &shell.achieved, corners), None),
+                Defect::Enclosing(c) => return (self.mine(&[checker.cells[c as usize].base()], &shell.achieved, corners), None),
+            };
+            if let Some(s) = scale {
+                mine.iter().for_each(|v| _ = least[corners.binary_search(v).unwrap()].fetch_min(s.to_bits(), Ordering::Relaxed));
             }
+            (mine, scale)
         };
         let chunk =
             chunk.or_else(|| (defects.len() >= PARALLEL_DEFECTS).then(|| defects.len().div_ceil(4 * rayon::current_num_threads()).max(PARALLEL_DEFECTS / 4)));
@@ -360,6 +373,13 @@ impl Repair<'_> {
             };
         }
         aims
+    }
+
+    /// The largest least scale so far ([`crossing_scales`](Self::crossing_scales)'s
+    /// `least`, per corner of `corners`) among `mine`: a defect whose scale is at
+    /// least this lowers no corner's.
+    fn floor(&self, mine: &[u32], corners: &[u32], least: &[AtomicU32]) -> f32 {
+        mine.iter().map(|v| f32::from_bits(least[corners.binary_search(v).unwrap()].load(Ordering::Relaxed))).fold(0.0, f32::max)
     }
 
     /// Those of [`defect_corners`](Self::defect_corners) among `corners` (sorted).
@@ -467,7 +487,15 @@ const CAP: f32 = 0.98;
 /// below it, so the largest is searched from above), then [`BISECTIONS`] bisection
 /// steps; 0 where it holds down to [`SNAP`], `None` where it does not hold at the
 /// current lengths. The shell is given back unchanged.
-fn crossing_scale(shell: &mut Shell, corners: &[u32], crosses: &dyn Fn(&Shell) -> bool) -> Option<f32> {
+///
+/// Where the caller has `enough` (any scale at least this large changes nothing for
+/// it), the least scan step that is enough is tested first: if the defect is gone
+/// there, the first step without it is at least as large, and so is the scale, so
+/// that step is returned, a lower bound of the scale that is still enough (one test
+/// instead of a dozen; the first repair round on issue 14's beast measures 10^6
+/// pairs, each corner in hundreds); likewise the bisection stops once its lower end
+/// is enough.
+fn crossing_scale(shell: &mut Shell, corners: &[u32], crosses: &dyn Fn(&Shell) -> bool, enough: &dyn Fn(f32) -> bool) -> Option<f32> {
     if corners.is_empty() || !crosses(shell) {
         return None;
     }
@@ -478,12 +506,19 @@ fn crossing_scale(shell: &mut Shell, corners: &[u32], crosses: &dyn Fn(&Shell) -
             shell.directors[v as usize] = d * s;
         }
     };
+    let steps = std::iter::successors(Some(1.0f32), |&s| (s > SNAP).then_some(s * STEP)).skip(1);
+    if let Some(least) = steps.clone().take_while(|&s| enough(s)).last() {
+        set(shell, least);
+        let gone = !crosses(shell);
+        set(shell, 1.0);
+        if gone {
+            return Some(least);
+        }
+    }
     // Down from the current lengths in steps of STEP (a defect may come back at
     // smaller scales: the largest scale where it is gone is wanted), then bisected.
     let (mut lo, mut hi) = (0.0f32, 1.0f32);
-    let mut s = 1.0f32;
-    while s > SNAP {
-        s *= STEP;
+    for s in steps {
         set(shell, s);
         if !crosses(shell) {
             lo = s;
@@ -492,6 +527,9 @@ fn crossing_scale(shell: &mut Shell, corners: &[u32], crosses: &dyn Fn(&Shell) -
         hi = s;
     }
     for _ in 0..BISECTIONS * (lo > 0.0) as u32 {
+        if enough(lo) {
+            break; // the scale is at least `lo`
+        }
         let mid = 0.5 * (lo + hi);
         set(shell, mid);
         if crosses(shell) {
@@ -502,6 +540,13 @@ fn crossing_scale(shell: &mut Shell, corners: &[u32], crosses: &dyn Fn(&Shell) -
     }
     set(shell, 1.0);
     Some(lo)
+}
+
+/// Whether a defect's scale of at least `s` (before `s^gamma`) would lower no
+/// corner's least scale `floor`: `s^gamma` with room for `powf`'s rounding (under
+/// an ulp either way, so a larger scale never maps below it).
+fn enough(s: f32, gamma: f32, floor: f32) -> bool {
+    s.powf(gamma) * (1.0 - 1e-6) >= floor
 }
 
 /// Per vertex: one past the last repair round that shortened it (0: none yet) and how
@@ -558,8 +603,9 @@ mod tests {
         (mesh, shell)
     }
 
-    /// The crossing scales measured in parallel chunks on copies of the shell are
-    /// those of one pass over the defects, and the shell is given back unchanged.
+    /// The crossing scales measured in parallel chunks on copies of the shell, and
+    /// with defects that cannot lower a corner's scale cut short, are those of one
+    /// full pass over the defects, and the shell is given back unchanged.
     #[test]
     fn crossing_scales_in_parallel_chunks_equal_one_pass() {
         let (mesh, mut shell) = nearly_touching(0.6);
@@ -571,13 +617,45 @@ mod tests {
         assert!(defects > 40, "{found:?}");
         let corners = repair.corners_to_shorten(&found, &shell.achieved);
         let before = shell.clone();
-        let one_pass = repair.crossing_scales(&found, &mut shell, &corners, None);
+        let one_pass = repair.crossing_scales(&found, &mut shell, &corners, None, false);
         assert!(one_pass.iter().any(|a| matches!(a, Aim::Scale(s) if *s < 0.9)), "{one_pass:?}");
         for chunk in [1, 7, usize::MAX] {
-            let chunked = repair.crossing_scales(&found, &mut shell, &corners, Some(chunk));
-            assert_eq!(chunked, one_pass, "chunks of {chunk}");
+            for prune in [false, true] {
+                let chunked = repair.crossing_scales(&found, &mut shell, &corners, Some(chunk), prune);
+                assert_eq!(chunked, one_pass, "chunks of {chunk}, pruned {prune}");
+            }
         }
         assert_eq!((shell.directors, shell.base_offset), (before.directors, before.base_offset));
+    }
+
+    /// A scale measured with `enough` is the full measure's wherever that is below
+    /// the floor, and at least the floor (never above the full measure) elsewhere;
+    /// some measures are cut short.
+    #[test]
+    fn crossing_scale_cut_short_only_where_enough() {
+        let (mesh, mut shell) = nearly_touching(0.6);
+        let checker = Checker::new(&mesh);
+        let found = checker.find(&mesh, &shell, None, Some(&checker.outer_tree(&mesh, &shell, None)));
+        let (mut short, mut below) = (0, 0);
+        for &(i, j) in found.self_pairs.iter().chain(&found.base_pairs) {
+            let self_pair = found.self_pairs.contains(&(i, j));
+            let mut corners: Vec<u32> = checker.item_vertices(i).to_vec();
+            if self_pair {
+                corners.extend(checker.item_vertices(j));
+            }
+            let test = |s: &Shell| checker.pair_crosses(&mesh, s, self_pair, i, j);
+            let full = crossing_scale(&mut shell, &corners, &test, &|_| false).unwrap();
+            for floor in [0.3f32, 0.6, 0.85, 0.95] {
+                let cut = crossing_scale(&mut shell, &corners, &test, &|s| s >= floor).unwrap();
+                match full < floor {
+                    true => assert_eq!(cut, full, "{i} {j} floor {floor}"),
+                    false => assert!(cut >= floor && cut <= full, "{i} {j} floor {floor}: {cut} {full}"),
+                }
+                short += usize::from(cut != full);
+                below += usize::from(full < floor);
+            }
+        }
+        assert!(short > 20 && below > 20, "{short} cut short, {below} below the floor");
     }
 
     #[test]
