@@ -427,33 +427,39 @@ fn pairs_of_one_ngon_and_of_an_envelopes_two_layers_are_found_and_repaired() {
     let mut rng = Rng(0x14);
     for (name, mesh, side, kind) in cases {
         let c = Checker::new(&mesh);
-        let p = mesh.positions();
-        let at = |shell: &Shell, i: u32| c.skin_tri(&mesh, shell, i);
-        let base = |j: u32| c.tris[j as usize].map(|v| p[v as usize].as_dvec3());
         let (mut with, mut alone, mut tried) = (0, 0, 0);
         while with < 3 && tried < 300 {
             tried += 1;
             let shell = random_shell(&mesh, side, [0.3, 0.8, 1.5][tried % 3], &mut rng);
-            let tree = c.outer_tree(&mesh, &shell, None);
-            let f = c.find(&mesh, &shell, None, Some(&tree));
-            let pairs: Vec<(bool, u32, u32)> =
-                f.self_pairs.iter().map(|&(i, j)| (true, i, j)).chain(f.base_pairs.iter().map(|&(i, j)| (false, i, j))).collect();
-            let mine: Vec<(bool, u32, u32)> = pairs.iter().copied().filter(|&(s, i, j)| new_kind(&c, &shell, s, i, j) == kind).collect();
-            if mine.is_empty() {
-                continue;
-            }
+            let what = format!("{name} {side:?}");
+            let Some((only, moved)) = pairs_of_kind(&c, &mesh, &shell, |s, i, j| new_kind(&c, &shell, s, i, j) == kind, &what) else { continue };
             with += 1;
-            alone += (mine.len() == pairs.len() && f.inverted.is_empty() && f.enclosing.is_empty()) as usize;
-            for &(s, i, j) in &mine {
-                let other = if s { at(&shell, j) } else { base(j) };
-                assert!(triangles_intersect(&at(&shell, i), &other), "{name} {side:?}: ({i}, {j}) must cross");
-            }
-            let moved: Vec<usize> = mine.iter().flat_map(|&(_, i, _)| c.item_vertices(i).iter().map(|&v| v as usize)).collect();
+            alone += only as usize;
             repaired_clean(&mesh, &shell, &moved);
         }
         eprintln!("{name} {side:?}: {with} shells of {tried} with pairs of kind {kind}, {alone} with no other defect");
         assert!(with == 3, "{name} {side:?}: {with} shells of {tried} with pairs of kind {kind}");
     }
+}
+
+/// The defect pairs `find` reports in `shell` that `is_kind` (self pair, i, j)
+/// picks, each asserted to cross (whole triangles, exact): None where there are none;
+/// else whether they were the shell's only defects, and their skin items' vertices.
+fn pairs_of_kind(c: &Checker, mesh: &Mesh, shell: &Shell, is_kind: impl Fn(bool, u32, u32) -> bool, what: &str) -> Option<(bool, Vec<usize>)> {
+    let p = mesh.positions();
+    let tree = c.outer_tree(mesh, shell, None);
+    let f = c.find(mesh, shell, None, Some(&tree));
+    let pairs: Vec<(bool, u32, u32)> = f.self_pairs.iter().map(|&(i, j)| (true, i, j)).chain(f.base_pairs.iter().map(|&(i, j)| (false, i, j))).collect();
+    let mine: Vec<(bool, u32, u32)> = pairs.iter().copied().filter(|&(s, i, j)| is_kind(s, i, j)).collect();
+    if mine.is_empty() {
+        return None;
+    }
+    for &(s, i, j) in &mine {
+        let other = if s { c.skin_tri(mesh, shell, j) } else { c.tris[j as usize].map(|v| p[v as usize].as_dvec3()) };
+        assert!(triangles_intersect(&c.skin_tri(mesh, shell, i), &other), "{what}: ({i}, {j}) must cross");
+    }
+    let alone = mine.len() == pairs.len() && f.inverted.is_empty() && f.enclosing.is_empty();
+    Some((alone, mine.iter().flat_map(|&(_, i, _)| c.item_vertices(i).iter().map(|&v| v as usize)).collect()))
 }
 
 /// Which of the pair kinds added for issue 14's open meshes a defect pair of `find`
@@ -504,27 +510,14 @@ fn pairs_of_a_side_wall_at_one_end_and_of_a_quads_split_are_found_and_repaired()
     let mut alone_total = [0usize; 3];
     for (name, mesh, side, kind) in cases {
         let c = Checker::new(&mesh);
-        let p = mesh.positions();
-        let base = |j: u32| c.tris[j as usize].map(|v| p[v as usize].as_dvec3());
         let (mut with, mut alone) = (0, 0);
         for tried in 0..200 {
             let shell = random_shell(&mesh, side, [0.3, 0.8, 1.5][tried % 3], &mut rng);
-            let tree = c.outer_tree(&mesh, &shell, None);
-            let f = c.find(&mesh, &shell, None, Some(&tree));
-            let pairs: Vec<(bool, u32, u32)> =
-                f.self_pairs.iter().map(|&(i, j)| (true, i, j)).chain(f.base_pairs.iter().map(|&(i, j)| (false, i, j))).collect();
-            let mine: Vec<(bool, u32, u32)> = pairs.iter().copied().filter(|&(s, i, j)| wall_or_diagonal(&c, &mesh, s, i, j) == kind).collect();
-            if mine.is_empty() {
-                continue;
-            }
+            let what = format!("{name} {side:?}");
+            let Some((only, moved)) = pairs_of_kind(&c, &mesh, &shell, |s, i, j| wall_or_diagonal(&c, &mesh, s, i, j) == kind, &what) else { continue };
             with += 1;
-            alone += (mine.len() == pairs.len() && f.inverted.is_empty() && f.enclosing.is_empty()) as usize;
-            for &(s, i, j) in &mine {
-                let other = if s { c.skin_tri(&mesh, &shell, j) } else { base(j) };
-                assert!(triangles_intersect(&c.skin_tri(&mesh, &shell, i), &other), "{name} {side:?}: ({i}, {j}) must cross");
-            }
+            alone += only as usize;
             if with <= 3 {
-                let moved: Vec<usize> = mine.iter().flat_map(|&(_, i, _)| c.item_vertices(i).iter().map(|&v| v as usize)).collect();
                 repaired_clean(&mesh, &shell, &moved);
             }
         }
