@@ -498,8 +498,9 @@ impl Checker {
     /// The defects of `shell` among the flagged elements (all for `None`). A pair is
     /// found when either triangle is flagged. `outer_tree` holds every skin triangle
     /// of `shell` at its current place ([`outer_tree`](Self::outer_tree), refitted
-    /// after every change: the search of everything joins its boxes); without it the
-    /// skins are not checked against each other. Everything in double precision.
+    /// after every change: a search with at least 1/`JOIN_SHARE` of the triangles
+    /// flagged joins its boxes, a smaller one queries it per flagged triangle); without
+    /// it the skins are not checked against each other. Everything in double precision.
     pub fn find(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, outer_tree: Option<&TriBvh>) -> Findings {
         let p = mesh.positions();
         // Per skin triangle: (kind, item, other), kind 0 a self pair, 1 a base pair,

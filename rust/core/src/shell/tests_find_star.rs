@@ -444,7 +444,8 @@ fn pairs_of_one_ngon_and_of_an_envelopes_two_layers_are_found_and_repaired() {
 
 /// The defect pairs `find` reports in `shell` that `is_kind` (self pair, i, j)
 /// picks, each asserted to cross (whole triangles, exact): None where there are none;
-/// else whether they were the shell's only defects, and their skin items' vertices.
+/// else whether they were the shell's only defects, and the vertices of each pair's
+/// first skin item.
 fn pairs_of_kind(c: &Checker, mesh: &Mesh, shell: &Shell, is_kind: impl Fn(bool, u32, u32) -> bool, what: &str) -> Option<(bool, Vec<usize>)> {
     let p = mesh.positions();
     let tree = c.outer_tree(mesh, shell, None);
