@@ -506,18 +506,14 @@ impl Checker {
         // Per skin triangle: (kind, item, other), kind 0 a self pair, 1 a base pair,
         // 2 an inherited pair of either kind.
         let many = dirty.is_none_or(|d| d.tri_list.len() * JOIN_SHARE >= self.tris.len());
-        // Every skin triangle once, where most of them are asked for (each is met in
-        // dozens of candidate pairs).
-        let all: Option<Vec<[DVec3; 3]>> = many.then(|| (0..self.items(shell.side) as u32).into_par_iter().map(|i| self.skin_tri(mesh, shell, i)).collect());
-        let skin = |i: u32| match &all {
-            Some(all) => all[i as usize],
-            None => self.skin_tri(mesh, shell, i),
-        };
         let hits: Vec<(u8, u32, u32)> = match outer_tree {
             // Everything, or much: each tree traversed against itself and against the
             // base's, which visits each pair of overlapping nodes once.
             Some(tree) if many => {
                 debug_assert_eq!(tree.len(), self.items(shell.side), "the skin tree must hold every skin triangle");
+                // Every skin triangle once (each is met in dozens of candidate pairs).
+                let all: Vec<[DVec3; 3]> = (0..self.items(shell.side) as u32).into_par_iter().map(|i| self.skin_tri(mesh, shell, i)).collect();
+                let skin = |i: u32| all[i as usize];
                 let flagged = |i: u32| dirty.is_none_or(|d| d.tris[self.item_tri(i) as usize]);
                 let skin_pair = |i, j| (flagged(i) || flagged(j)) && self.skins_cross(shell, i, || skin(i), j, || skin(j));
                 let base_pair = |i, j| flagged(i) && self.skin_crosses_base(mesh, shell, i, || skin(i), j);
@@ -526,7 +522,7 @@ impl Checker {
                 let skin = skin.into_iter().map(|(i, j)| (kind(self.item_tri(i), self.item_tri(j), 0), i, j));
                 skin.chain(base.into_iter().map(|(i, j)| (kind(self.item_tri(i), j, 1), i, j))).collect()
             }
-            _ => self.find_around(mesh, shell, dirty, outer_tree, &skin),
+            _ => self.find_around(mesh, shell, dirty, outer_tree),
         };
         let mut hits = hits;
         hits.extend(self.find_star(mesh, shell, dirty, outer_tree.is_some()));
@@ -920,14 +916,8 @@ impl Checker {
     }
 
     /// [`find`](Self::find)'s pairs, one query per flagged skin triangle.
-    fn find_around(
-        &self,
-        mesh: &Mesh,
-        shell: &Shell,
-        dirty: Option<&Dirty>,
-        outer_tree: Option<&TriBvh>,
-        skin: &(impl Fn(u32) -> [DVec3; 3] + Sync),
-    ) -> Vec<(u8, u32, u32)> {
+    fn find_around(&self, mesh: &Mesh, shell: &Shell, dirty: Option<&Dirty>, outer_tree: Option<&TriBvh>) -> Vec<(u8, u32, u32)> {
+        let skin = |i: u32| self.skin_tri(mesh, shell, i);
         let tri_flagged = |i: usize| dirty.is_none_or(|d| d.tris[i]);
         let tri_list: Cow<[u32]> = match dirty {
             Some(d) => Cow::Borrowed(&d.tri_list),
@@ -941,7 +931,7 @@ impl Checker {
                 let (lo, hi) = tri_box(&mine);
                 let mut hits = match outer_tree {
                     // Each pair once: by the lower item, unless only the higher is flagged.
-                    Some(tree) => self.skin_pairs(skin, shell, (t, i), &mine, tree, |j, u| j > i || !tri_flagged(u as usize)),
+                    Some(tree) => self.skin_pairs(&skin, shell, (t, i), &mine, tree, |j, u| j > i || !tri_flagged(u as usize)),
                     None => Vec::new(),
                 };
                 self.base_bvh.query(lo, hi, |j| {
@@ -1102,7 +1092,7 @@ mod tests {
                 let what = format!("{name}, {:?} flagged", dirty.map(|d| d.tri_list.len()));
                 let joined = sorted(checker.find(&mesh, &shell, dirty, Some(&tree)));
                 // The pairs meeting at one vertex are found apart ([`Checker::find_star`]).
-                let mut hits = checker.find_around(&mesh, &shell, dirty, Some(&tree), &|i| checker.skin_tri(&mesh, &shell, i));
+                let mut hits = checker.find_around(&mesh, &shell, dirty, Some(&tree));
                 hits.extend(checker.find_star(&mesh, &shell, dirty, true));
                 let pairs = |k: u8| {
                     let mut p: Vec<(u32, u32)> = hits.iter().filter(|h| h.0 == k).map(|h| if k == 0 { ordered((h.1, h.2)) } else { (h.1, h.2) }).collect();
