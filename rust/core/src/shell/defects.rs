@@ -1030,6 +1030,35 @@ mod tests {
     use crate::testmeshes;
     use glam::Vec3;
 
+    /// An envelope wall's half holding its end's base point `x` on its edge between
+    /// the end's layer points meets a base triangle through `x` at `x` only, also
+    /// where rounding puts the edge a hair beside `x` (the whole half would cross
+    /// it there); a base triangle the wall really passes through is found, and a
+    /// half without that edge is tested whole.
+    #[test]
+    fn through_base_point_meets_the_base_at_its_point_only() {
+        use crate::shell::intersect::triangles_intersect;
+        let d = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+        let x = d(0.0, 0.0, 0.0);
+        // The wall lies in the plane y = 0; its edge from z = -1 to z = 1 passes
+        // 5e-10 to the side of x, into the base triangle below, which has x as a
+        // corner and otherwise lies at x < 0 in the plane z = 0.
+        let ends = [d(0.0, 0.0, -1.0), d(-1e-9, 0.0, 1.0)];
+        let half = [ends[0], d(1.0, 0.0, 0.0), ends[1]];
+        let touching = [x, d(-1.0, -1.0, 0.0), d(-1.0, 1.0, 0.0)];
+        assert!(triangles_intersect(&half, &touching), "the whole half crosses the base a hair beside x");
+        assert!(!through_base_point(&half, ends, x, &touching));
+        // A base triangle the wall passes through, away from x (at z = 0.5).
+        let through = [d(0.9, -1.0, 0.5), d(0.9, 1.0, 0.5), d(-0.5, 0.0, 0.5)];
+        assert!(through_base_point(&half, ends, x, &through));
+        // A half without the edge between the ends: the whole half, either way.
+        let other = [ends[0], d(1.0, 0.0, 0.0), d(0.5, 0.0, 1.0)];
+        for base in [&touching, &through] {
+            assert_eq!(through_base_point(&other, ends, x, base), triangles_intersect(&other, base));
+        }
+        assert!(triangles_intersect(&other, &through) && !triangles_intersect(&other, &touching));
+    }
+
     /// Two icospheres that pass through each other: a base that crosses itself.
     fn overlapping_spheres() -> Mesh {
         let a = testmeshes::icosphere(3);
@@ -1106,6 +1135,19 @@ mod tests {
                     self_pairs += joined.0.len() + joined.1.len();
                     inherited += joined.3;
                 }
+            }
+            // Against a reference that takes the other path: the whole-shell join's
+            // pairs with a flagged skin triangle (either one of a skin pair), for the
+            // few flagged (queried one by one) and for the most (a filtered join).
+            let all = sorted(checker.find(&mesh, &shell, None, Some(&tree)));
+            for dirty in [&few, &most] {
+                let flagged = |i: u32| dirty.tris[checker.item_tri(i) as usize];
+                let keep_skin: Vec<(u32, u32)> = all.0.iter().copied().filter(|&(i, j)| flagged(i) || flagged(j)).collect();
+                let keep_base: Vec<(u32, u32)> = all.1.iter().copied().filter(|&(i, _)| flagged(i)).collect();
+                let (skin, base, _, _) = sorted(checker.find(&mesh, &shell, Some(dirty), Some(&tree)));
+                let what = format!("{name}, {} flagged, against the whole join", dirty.tri_list.len());
+                assert_eq!(skin, keep_skin, "{what}: skin pairs");
+                assert_eq!(base, keep_base, "{what}: skin/base pairs");
             }
         }
         assert!(self_pairs > 100 && inherited > 0, "the shells must fold and the cards cross: {self_pairs}, {inherited}");

@@ -38,7 +38,7 @@ use crate::mesh::vertex_normals;
 use crate::Mesh;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
 
 /// A folded director shorter than this share of its target, pointing away from its
 /// side's normal, turns to the normal. The constants of the repair and its final
@@ -197,7 +197,7 @@ impl Repair<'_> {
         let mut folded: Vec<u32> = found.inverted.iter().flat_map(|&c| checker.cells[c as usize].base()).copied().collect();
         folded.sort_unstable();
         let corners = self.corners_to_shorten(found, &shell.achieved);
-        let aims = self.crossing_scales(found, shell, &corners, None, true);
+        let (aims, _) = self.crossing_scales(found, shell, &corners, None, true);
         let mut any = false;
         for (v, aim) in corners.into_iter().zip(aims) {
             let folds = folded.binary_search(&v).is_ok();
@@ -292,13 +292,19 @@ impl Repair<'_> {
     /// on `shell`): each test gives its shell back unchanged, so the aims are the same
     /// whatever the chunks and threads. With `prune`, a defect that cannot lower any
     /// of its corners' least scale so far is measured only that far (the aims are
-    /// the same: [`crossing_scale`]'s `enough`).
-    fn crossing_scales(&self, found: &Findings, shell: &mut Shell, corners: &[u32], chunk: Option<usize>, prune: bool) -> Vec<Aim> {
+    /// the same: [`crossing_scale`]'s `enough`). Also gives how many exact tests
+    /// the measures ran (what pruning saves).
+    fn crossing_scales(&self, found: &Findings, shell: &mut Shell, corners: &[u32], chunk: Option<usize>, prune: bool) -> (Vec<Aim>, usize) {
         let (checker, mesh) = (self.checker, self.mesh);
         let mut aims = vec![Aim::Factor; corners.len()];
         if !self.scales {
-            return aims;
+            return (aims, 0);
         }
+        let tests = AtomicUsize::new(0);
+        let counted = |crosses: bool| {
+            tests.fetch_add(1, Ordering::Relaxed);
+            crosses
+        };
         // Each defect's corners and scale, then the least per corner.
         let defects: Vec<Defect> = (found.self_pairs.iter().map(|&(i, j)| Defect::Pair(true, i, j)))
             .chain(found.base_pairs.iter().map(|&(i, j)| Defect::Pair(false, i, j)))
@@ -315,7 +321,7 @@ impl Repair<'_> {
                 Defect::Pair(self_pair, i, j) => {
                     let all: &[&[u32]] = if self_pair { &[checker.item_vertices(i), checker.item_vertices(j)] } else { &[checker.item_vertices(i)] };
                     let mine = self.mine(all, &shell.achieved, corners);
-                    let test = |s: &Shell| checker.pair_crosses(mesh, s, self_pair, i, j);
+                    let test = |s: &Shell| counted(checker.pair_crosses(mesh, s, self_pair, i, j));
                     let gamma = if self_pair { SELF_DAMPING } else { 1.0 };
                     let floor = if prune { self.floor(&mine, corners, &least) } else { f32::INFINITY };
                     let scale = crossing_scale(shell, &mine, &test, &|s| enough(s, gamma, floor)).map(|s| s.powf(gamma));
@@ -325,7 +331,7 @@ impl Repair<'_> {
                     let cell = &checker.cells[c as usize];
                     let mine = self.mine(&[cell.base()], &shell.achieved, corners);
                     let floor = if prune { self.floor(&mine, corners, &least) } else { f32::INFINITY };
-                    let scale = crossing_scale(shell, &mine, &|s: &Shell| cell.is_inverted(p, s), &|s| enough(s, 1.0, floor));
+                    let scale = crossing_scale(shell, &mine, &|s: &Shell| counted(cell.is_inverted(p, s)), &|s| enough(s, 1.0, floor));
                     (mine, scale)
                 }
                 Defect::Enclosing(c) => return (self.mine(&[checker.cells[c as usize].base()], &shell.achieved, corners), None),
@@ -372,7 +378,7 @@ impl Repair<'_> {
                 _ => Aim::Factor,
             };
         }
-        aims
+        (aims, tests.into_inner())
     }
 
     /// The largest least scale so far ([`crossing_scales`](Self::crossing_scales)'s
@@ -617,12 +623,19 @@ mod tests {
         assert!(defects > 40, "{found:?}");
         let corners = repair.corners_to_shorten(&found, &shell.achieved);
         let before = shell.clone();
-        let one_pass = repair.crossing_scales(&found, &mut shell, &corners, None, false);
+        let (one_pass, full_tests) = repair.crossing_scales(&found, &mut shell, &corners, None, false);
         assert!(one_pass.iter().any(|a| matches!(a, Aim::Scale(s) if *s < 0.9)), "{one_pass:?}");
+        // Pruned in one pass (the least scales seen in a fixed order), the measures
+        // run fewer exact tests. (A pruned measure whose first test fails scans on, so
+        // a schedule could make a pruned pass run more; unpruned runs exactly as many.)
+        let (pruned, pruned_tests) = repair.crossing_scales(&found, &mut shell, &corners, None, true);
+        assert_eq!(pruned, one_pass);
+        assert!(pruned_tests < full_tests, "pruned {pruned_tests} exact tests, full {full_tests}");
         for chunk in [1, 7, usize::MAX] {
             for prune in [false, true] {
-                let chunked = repair.crossing_scales(&found, &mut shell, &corners, Some(chunk), prune);
+                let (chunked, tests) = repair.crossing_scales(&found, &mut shell, &corners, Some(chunk), prune);
                 assert_eq!(chunked, one_pass, "chunks of {chunk}, pruned {prune}");
+                assert!(prune || tests == full_tests, "chunks of {chunk}: {tests} exact tests, full {full_tests}");
             }
         }
         assert_eq!((shell.directors, shell.base_offset), (before.directors, before.base_offset));
