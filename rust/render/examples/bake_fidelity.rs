@@ -12,14 +12,17 @@
 //! fur's coverage grows 3.0% from 1% to 0.02% (IoU 0.971 / 0.969 between the two),
 //! grass's 1.5% (0.985 / 0.984), chain mail's 0.2%, the others' under 0.1%.
 //!
-//! `cargo run -p thicket-render --release --example bake_fidelity [-- --budget N] [--size PIXELS] [--step FRACTION]`
+//! `--world`: World-Size Tiles (generated charts, 1/32 of the diagonal per tile) instead
+//! of one tile per face: a map no lattice is aligned with, as UV maps are.
+//!
+//! `cargo run -p thicket-render --release --example bake_fidelity [-- --budget N] [--size PIXELS] [--step FRACTION] [--world]`
 
 use std::time::Instant;
 use thicket_core::glam::{Mat4, Vec2, Vec3};
 use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
 use thicket_core::testmeshes;
 use thicket_core::texture::bake::bake;
-use thicket_core::texture::{BakeParams, Generator, Pattern, TextureLayer, TexturedShell};
+use thicket_core::texture::{with_world_size_uvs, BakeParams, Generator, Pattern, TextureLayer, TexturedShell};
 use thicket_render::reference::{self, RenderParams};
 use thicket_render::silhouette::{frame_coverage, iou, mesh_coverage};
 use thicket_render::{Camera, ShellScene};
@@ -30,7 +33,14 @@ fn main() {
     let number = |name: &str| flag(name).and_then(|v| v.parse::<usize>().ok());
     let size = number("--size").unwrap_or(160) as u32;
     let step = flag("--step").and_then(|v| v.parse::<f32>().ok()).unwrap_or(0.0005);
-    let mesh = testmeshes::bumpy_head(number("--level").unwrap_or(2) as u32);
+    let head = testmeshes::bumpy_head(number("--level").unwrap_or(2) as u32);
+    let world = args.iter().any(|a| a == "--world");
+    let mesh = if world {
+        let (lo, hi) = head.positions().iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        with_world_size_uvs(&head, (hi - lo).length() / 32.0).unwrap()
+    } else {
+        head
+    };
     let t = Thickness::relative(0.05).per_vertex(&mesh, None).unwrap();
     let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
     let mut params = BakeParams::default();
@@ -48,8 +58,9 @@ fn main() {
     let cameras: Vec<Camera> =
         views.iter().map(|(view, fov)| Camera::new(*view, Mat4::perspective_rh_gl(*fov, 1.0, 0.01 * radius, 20.0 * radius), size, size).unwrap()).collect();
     println!(
-        "mesh: {} faces, one tile per face; exterior shell 5%; texture 64x64x32; budget {}; reference step {step}; IoU close / grazing at {size}^2",
+        "mesh: {} faces, {}; exterior shell 5%; texture 64x64x32; budget {}; reference step {step}; IoU close / grazing at {size}^2",
         mesh.face_count(),
+        if world { "World-Size Tiles (1/32 of the diagonal)" } else { "one tile per face" },
         params.triangle_budget
     );
     println!(
