@@ -625,10 +625,11 @@ mod tests {
         let before = shell.clone();
         let (one_pass, full_tests) = repair.crossing_scales(&found, &mut shell, &corners, None, false);
         assert!(one_pass.iter().any(|a| matches!(a, Aim::Scale(s) if *s < 0.9)), "{one_pass:?}");
-        // Pruned in one pass (the least scales seen in a fixed order), the measures
-        // run fewer exact tests. (A pruned measure whose first test fails scans on, so
-        // a schedule could make a pruned pass run more; unpruned runs exactly as many.)
-        let (pruned, pruned_tests) = repair.crossing_scales(&found, &mut shell, &corners, None, true);
+        // Pruned in one chunk (one copy, the least scales seen in a fixed order, also
+        // past PARALLEL_DEFECTS), the measures run fewer exact tests. (A pruned measure
+        // whose first test fails scans on, so a parallel schedule could make a pruned
+        // pass run more; unpruned runs exactly as many.)
+        let (pruned, pruned_tests) = repair.crossing_scales(&found, &mut shell, &corners, Some(usize::MAX), true);
         assert_eq!(pruned, one_pass);
         assert!(pruned_tests < full_tests, "pruned {pruned_tests} exact tests, full {full_tests}");
         for chunk in [1, 7, usize::MAX] {
