@@ -9,8 +9,7 @@
 
 use std::time::Instant;
 use thicket_core::glam::Vec3;
-use thicket_core::shell::directors::traced_directors;
-use thicket_core::shell::{ShellParams, Side, Thickness};
+use thicket_core::shell::{build_shell, ShellParams, Side, Thickness};
 use thicket_core::testmeshes;
 
 fn main() {
@@ -27,12 +26,13 @@ fn main() {
         None => testmeshes::subdivide(&testmeshes::subdivide(&testmeshes::bunny())),
     };
     let t = Thickness::relative(fraction).per_vertex(&mesh, None).unwrap();
-    let params = ShellParams::default();
+    // No repair: the traced directors alone.
+    let params = ShellParams { repair_rounds: 0, ..ShellParams::default() };
     let mut best = f64::INFINITY;
     let mut directors = Vec::new();
     for _ in 0..runs {
         let start = Instant::now();
-        directors = traced_directors(&mesh, &t, side, &params).unwrap();
+        directors = build_shell(&mesh, &t, side, &params).unwrap().directors;
         best = best.min(start.elapsed().as_secs_f64());
     }
     let n = mesh.vertex_count();

@@ -574,23 +574,6 @@ pub fn build_shell_watched(mesh: &Mesh, thickness: &[f32], side: Side, params: &
     Ok(build_in_order(&sorted, &thickness, side, params, progress)?.renumbered(&order))
 }
 
-/// The traced directors alone (section 4.4, before any repair), for the mesh's own
-/// vertices: what `trace_bench` times and compares between versions of the tracer.
-#[cfg(feature = "test-support")]
-pub fn traced_directors(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellParams) -> Result<Vec<Vec3>> {
-    check_inputs(mesh, thickness, params)?;
-    if let Some(weld) = mesh.weld_coincident() {
-        return Ok(weld.expand(&traced_directors(&weld.mesh, &weld.least(thickness), side, params)?));
-    }
-    let (sorted, order) = mesh.spatially_ordered();
-    let thickness: Vec<f32> = order.iter().map(|&v| thickness[v as usize]).collect();
-    let lengths = side_lengths(&thickness, side);
-    let (tracer, _) = Tracer::new(&sorted, &lengths, params);
-    let all: Vec<u32> = (0..sorted.vertex_count() as u32).collect();
-    let traces = trace_vertices(&tracer, &sorted, &lengths, side, params, &all, None)?;
-    Ok(assemble(&sorted, &thickness, side, &traces).renumbered(&order).directors)
-}
-
 fn build_in_order(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellParams, progress: Option<&Progress>) -> Result<Shell> {
     let repairs = params.repair_rounds > 0 && mesh.vertex_count() > 0;
     let (steps, settle) = watched_steps(mesh.vertex_count(), repairs);

@@ -38,7 +38,8 @@ use crate::mesh::vertex_normals;
 use crate::Mesh;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
+use std::cell::Cell;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 /// A folded director shorter than this share of its target, pointing away from its
 /// side's normal, turns to the normal. The constants of the repair and its final
@@ -300,11 +301,6 @@ impl Repair<'_> {
         if !self.scales {
             return (aims, 0);
         }
-        let tests = AtomicUsize::new(0);
-        let counted = |crosses: bool| {
-            tests.fetch_add(1, Ordering::Relaxed);
-            crosses
-        };
         // Each defect's corners and scale, then the least per corner.
         let defects: Vec<Defect> = (found.self_pairs.iter().map(|&(i, j)| Defect::Pair(true, i, j)))
             .chain(found.base_pairs.iter().map(|&(i, j)| Defect::Pair(false, i, j)))
@@ -316,7 +312,13 @@ impl Repair<'_> {
         // as their bits), shared by the chunks: a defect that cannot lower it for any
         // of its corners is not measured to the end ([`crossing_scale`]'s `enough`).
         let least: Vec<AtomicU32> = (0..corners.len()).map(|_| AtomicU32::new(1.0f32.to_bits())).collect();
-        let measure = |shell: &mut Shell, d: &Defect| -> (Vec<u32>, Option<f32>) {
+        // Per defect: its corners, its scale and how many exact tests measured it.
+        let measure = |shell: &mut Shell, d: &Defect| -> (Vec<u32>, Option<f32>, usize) {
+            let tests = Cell::new(0usize);
+            let counted = |crosses: bool| {
+                tests.set(tests.get() + 1);
+                crosses
+            };
             let (mine, scale) = match *d {
                 Defect::Pair(self_pair, i, j) => {
                     let all: &[&[u32]] = if self_pair { &[checker.item_vertices(i), checker.item_vertices(j)] } else { &[checker.item_vertices(i)] };
@@ -334,16 +336,16 @@ impl Repair<'_> {
                     let scale = crossing_scale(shell, &mine, &|s: &Shell| counted(cell.is_inverted(p, s)), &|s| enough(s, 1.0, floor));
                     (mine, scale)
                 }
-                Defect::Enclosing(c) => return (self.mine(&[checker.cells[c as usize].base()], &shell.achieved, corners), None),
+                Defect::Enclosing(c) => return (self.mine(&[checker.cells[c as usize].base()], &shell.achieved, corners), None, 0),
             };
             if let Some(s) = scale {
                 mine.iter().for_each(|v| _ = least[corners.binary_search(v).unwrap()].fetch_min(s.to_bits(), Ordering::Relaxed));
             }
-            (mine, scale)
+            (mine, scale, tests.get())
         };
         let chunk =
             chunk.or_else(|| (defects.len() >= PARALLEL_DEFECTS).then(|| defects.len().div_ceil(4 * rayon::current_num_threads()).max(PARALLEL_DEFECTS / 4)));
-        let measured: Vec<(Vec<u32>, Option<f32>)> = match chunk {
+        let measured: Vec<(Vec<u32>, Option<f32>, usize)> = match chunk {
             None => defects.iter().map(|d| measure(shell, d)).collect(),
             Some(chunk) => {
                 let view: &Shell = shell;
@@ -359,7 +361,9 @@ impl Repair<'_> {
         let mut seen = vec![false; corners.len()];
         let mut fallback = vec![false; corners.len()];
         let mut best = vec![1.0f32; corners.len()];
-        for (mine, scale) in measured {
+        let mut tests = 0;
+        for (mine, scale, measured_with) in measured {
+            tests += measured_with;
             for v in mine {
                 let k = corners.binary_search(&v).unwrap();
                 match scale {
@@ -378,7 +382,7 @@ impl Repair<'_> {
                 _ => Aim::Factor,
             };
         }
-        (aims, tests.into_inner())
+        (aims, tests)
     }
 
     /// The largest least scale so far ([`crossing_scales`](Self::crossing_scales)'s
