@@ -178,7 +178,13 @@ def test_incremental_shell_follows_an_edit_like_a_rebuild(scene):
     # restore pass, greedy, may give one vertex its length back in one shell and not
     # in the other (both stay clean: the reports below).
     assert np.median(differs) < 5e-3 * h and np.percentile(differs, 90) < 0.03 * h
-    assert np.count_nonzero(differs > 0.25 * h) <= 3, np.sort(differs)[-5:] / h
+    # How many it gives back differently depends on where the edit falls: bumps at 13
+    # vertices spread over the head left 0 to 11 of 2,012 vertices more than a quarter
+    # of the thickness apart (0 to 12 once the restore checks cells before skin pairs).
+    # One in a hundred bounds that; the mean length says neither shell is thinner.
+    assert np.count_nonzero(differs > 0.25 * h) <= len(differs) // 100, np.sort(differs)[-5:] / h
+    lengths = [np.linalg.norm(s["directors"], axis=1).mean() for s in (after, fresh)]
+    assert lengths[0] == pytest.approx(lengths[1], rel=5e-3), lengths
     # What the tolerance kept is invisible beside that: retracing everything within
     # reach gives the same shell, but where the repair shortens a director to a
     # defect's crossing scale (found by steps of 0.9 and four bisections), a trace a
@@ -244,8 +250,10 @@ def test_shell_item_follows_source_edits_incrementally(scene):
     assert live.shape == fresh.shape
     differs = np.linalg.norm(live - fresh, axis=1)
     # As in test_incremental_shell_follows_an_edit_like_a_rebuild: a few vertices
-    # may have been given back their length in one and not the other.
-    assert np.median(differs) < 1e-4 * diag and np.count_nonzero(differs > 0.01 * diag) <= 3, np.sort(differs)[-5:] / diag
+    # (under one in a hundred) may have been given back their length in one and not
+    # the other.
+    far = np.count_nonzero(differs > 0.01 * diag)
+    assert np.median(differs) < 1e-4 * diag and far <= len(differs) // 100, np.sort(differs)[-5:] / diag
     assert np.abs(live - mesh_io.read_mesh(head.data).vertices).max() > 0.04 * diag  # a shell, not the base
 
 

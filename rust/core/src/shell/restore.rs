@@ -14,10 +14,11 @@
 //! only while its last one fit, and a share is retried at most [`PARTIAL_RETRIES`]
 //! times, only for tries undone for a crossing with another try of their batch. A
 //! try is kept only where no defect appears around it, so a clean shell stays clean;
-//! each check only undoes tries, and after the first it checks only around what it
-//! undid; the batches are bounded, so the pass always ends.
+//! each check only undoes tries: first for what needs no skin tree (cells, skins
+//! against the base), then for the rest, and after that only around what it undid;
+//! the batches are bounded, so the pass always ends.
 
-use super::defects::{Checker, Dirty};
+use super::defects::{Checker, Dirty, Findings};
 use super::intersect::TriBvh;
 use super::repair::{Repair, ShellCheck};
 use super::report::NormalRoom;
@@ -318,8 +319,14 @@ fn propose(shell: &mut Shell, normal: &Shell, members: &[(u32, f32)], (enough, r
 /// defect touches, until none is left; returns what became of each group.
 fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Shell, saved: &[Saved], dirty: &mut Dirty) -> Vec<Outcome> {
     let vertices = |groups: &[usize]| groups.iter().flat_map(|&g| saved[g].iter().map(|s| s.0)).collect::<Vec<u32>>();
-    let mut live: Vec<usize> = (0..saved.len()).collect();
     let mut outcome = vec![Outcome::Kept; saved.len()];
+    // First what needs no skin tree (cells, and skins against the base): a group
+    // blamed for it is undone whatever else it meets. Beside a base's crossings most
+    // tries are, and their spikes cross many skin triangles the tree search would list.
+    let all: Vec<usize> = (0..saved.len()).collect();
+    checker.mark_anew(vertices(&all).into_iter(), dirty);
+    let found = checker.find(mesh, shell, Some(dirty), None);
+    let (_, mut live) = undo(checker, shell, saved, &all, &found, &mut outcome);
     checker.mark_anew(vertices(&live).into_iter(), dirty);
     refit(checker, outer, mesh, shell, dirty);
     // The directors of the live groups (moved and not undone), after the first check.
@@ -329,14 +336,9 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
             None => checker.find(mesh, shell, Some(dirty), Some(outer)),
             Some(moved) => checker.find_against(mesh, shell, dirty, moved, outer),
         };
-        let (blamed, alone) = blame(checker, &found, saved, &live);
-        let (failed, kept): (Vec<usize>, Vec<usize>) = live.iter().partition(|&&g| blamed.binary_search(&g).is_ok());
+        let (failed, kept) = undo(checker, shell, saved, &live, &found, &mut outcome);
         if failed.is_empty() {
             break;
-        }
-        for &g in &failed {
-            saved[g].iter().for_each(|&(w, shape, length)| set(shell, w as usize, shape, length));
-            outcome[g] = if alone.binary_search(&g).is_ok() { Outcome::Alone } else { Outcome::Joint };
         }
         checker.mark_anew(vertices(&failed).into_iter(), dirty);
         refit(checker, outer, mesh, shell, dirty);
@@ -353,6 +355,18 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
     outcome
 }
 
+/// Sets back the groups of `live` that `found` blames ([`blame`]), noting why in
+/// `outcome`; returns them and the rest.
+fn undo(checker: &Checker, shell: &mut Shell, saved: &[Saved], live: &[usize], found: &Findings, outcome: &mut [Outcome]) -> (Vec<usize>, Vec<usize>) {
+    let (blamed, alone) = blame(checker, found, saved, live);
+    let (failed, kept): (Vec<usize>, Vec<usize>) = live.iter().partition(|&&g| blamed.binary_search(&g).is_ok());
+    for &g in &failed {
+        saved[g].iter().for_each(|&(w, shape, length)| set(shell, w as usize, shape, length));
+        outcome[g] = if alone.binary_search(&g).is_ok() { Outcome::Alone } else { Outcome::Joint };
+    }
+    (failed, kept)
+}
+
 /// The groups of `live` (indices into `saved`) to undo for the defects `found`:
 /// every group moving a corner of an inverted or enclosing cell or of a skin item
 /// crossing the base, and of two skin items crossing each other only the later
@@ -361,7 +375,7 @@ fn keep_clean(checker: &Checker, outer: &mut TriBvh, mesh: &Mesh, shell: &mut Sh
 /// that touches no other group of the batch, live or undone: a crossing with an
 /// undone group's corner may go once that group moves on its retry, so it does not
 /// refuse the live group for good.
-fn blame(checker: &Checker, found: &super::defects::Findings, saved: &[Saved], live: &[usize]) -> (Vec<usize>, Vec<usize>) {
+fn blame(checker: &Checker, found: &Findings, saved: &[Saved], live: &[usize]) -> (Vec<usize>, Vec<usize>) {
     let mut is_live = vec![false; saved.len()];
     live.iter().for_each(|&g| is_live[g] = true);
     let mut owner: Vec<(u32, usize)> = (0..saved.len()).flat_map(|g| saved[g].iter().map(move |s| (s.0, g))).collect();
@@ -510,7 +524,7 @@ mod tests {
         checker.mark_anew(back.iter().copied(), &mut dirty);
         let mixed = dirty.tri_list.iter().filter(|&&t| checker.tris[t as usize].iter().any(|&v| live[v as usize])).count();
         assert!(mixed > 10 && mixed < dirty.tri_list.len() / 2, "{mixed} of {} set-back triangles have live corners", dirty.tri_list.len());
-        let sorted = |f: super::super::defects::Findings| {
+        let sorted = |f: Findings| {
             let mut selfs: Vec<(u32, u32)> = f.self_pairs.iter().map(|&(i, j)| (i.min(j), i.max(j))).collect();
             let (mut base, mut cells) = (f.base_pairs.clone(), [f.inverted.clone(), f.enclosing.clone()]);
             selfs.sort_unstable();
