@@ -567,32 +567,6 @@ fn a_bake_of_many_small_cells_comes_near_a_budget_its_error_cannot_meet() {
     assert!(made as f64 <= budget as f64 * 2.15, "{made} triangles for a budget of {budget}");
 }
 
-/// The cell of `c` in `[-1, 1]` split into `cells` (clamped).
-fn grid_cell(c: f32, cells: usize) -> usize {
-    (((c + 1.0) / 2.0 * cells as f32).floor().max(0.0) as usize).min(cells - 1)
-}
-
-/// Whether the points `(x, y, z)` for each `z` of `heights` lie inside the closed
-/// triangle mesh `b`: the parity of its crossings with the vertical line above them.
-/// `bins` holds the triangles whose `(x, y)` bounding box meets each cell of a grid
-/// over `[-1, 1]²` (`cells` per side, [`grid_cell`]).
-fn inside_above(b: &BakedMesh, bins: &[Vec<u32>], cells: usize, x: f32, y: f32, heights: &[f32]) -> Vec<bool> {
-    let mut crossings = Vec::new();
-    for &t in &bins[grid_cell(y, cells) * cells + grid_cell(x, cells)] {
-        let [a, bb, c] = b.triangles[t as usize].map(|v| b.positions[v as usize]);
-        let (e1, e2, q) = ((bb - a).truncate(), (c - a).truncate(), Vec2::new(x, y) - a.truncate());
-        let det = e1.perp_dot(e2);
-        if det.abs() < 1e-12 {
-            continue;
-        }
-        let (u, v) = (q.perp_dot(e2) / det, e1.perp_dot(q) / det);
-        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 {
-            crossings.push(a.z + u * (bb.z - a.z) + v * (c.z - a.z));
-        }
-    }
-    heights.iter().map(|&z| crossings.iter().filter(|&&c| c > z).count() % 2 == 1).collect()
-}
-
 #[test]
 fn thin_strands_keep_their_volume_on_a_lattice_not_aligned_with_the_texels() {
     // Fur on a plane whose UVs are turned and scaled so no lattice puts points on the
@@ -615,30 +589,19 @@ fn thin_strands_keep_their_volume_on_a_lattice_not_aligned_with_the_texels() {
     let inner = |p: Vec3| p.x.abs().max(p.y.abs()) < 0.75;
     let off = |p: Vec3, c: Vec3| (to_st(p.truncate()) - c.truncate()).length() > 1e-3 || (p.z - c.z * h).abs() > 1e-3 * h;
     assert_eq!(b.positions.iter().zip(&b.texcoords).filter(|(p, c)| inner(**p) && off(**p, **c)).count(), 0);
-    // Triangles binned by their (x, y) bounding box.
-    let cells = 64;
-    let mut bins = vec![Vec::new(); cells * cells];
-    for (i, t) in b.triangles.iter().enumerate() {
-        let p = t.map(|v| b.positions[v as usize]);
-        let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
-        for y in grid_cell(lo.y, cells)..=grid_cell(hi.y, cells) {
-            for x in grid_cell(lo.x, cells)..=grid_cell(hi.x, cells) {
-                bins[y * cells + x].push(i as u32);
-            }
-        }
-    }
+    // Inside the bake: the parity of its crossings along +z (the cutter's own test).
+    let baked = Cutter::new(&b.positions, &b.triangles).unwrap();
     // Columns on a jittered grid over the inside, heights from r = 0.1 to 0.9 (off the
     // first and last layers, which the bake closes).
     let rs: Vec<f32> = (0..40).map(|k| 0.1 + 0.8 * (k as f32 + 0.5) / 40.0).collect();
-    let heights: Vec<f32> = rs.iter().map(|r| r * h).collect();
     let (mut both, mut either) = (0usize, 0usize);
     for j in 0..500 {
         for i in 0..500 {
             let jitter = |k: usize| ((k * 7919 + (i * 503 + j) * 104_729) % 1000) as f32 / 1000.0;
             let (x, y) = (-0.7 + 1.4 * (i as f32 + jitter(1)) / 500.0, -0.7 + 1.4 * (j as f32 + jitter(2)) / 500.0);
             let st = to_st(Vec2::new(x, y));
-            for (inside, r) in inside_above(&b, &bins, cells, x, y, &heights).into_iter().zip(&rs) {
-                let strand = texture.sample(st.extend(*r)) >= 0.5;
+            for r in &rs {
+                let (inside, strand) = (baked.contains(Vec3::new(x, y, r * h)), texture.sample(st.extend(*r)) >= 0.5);
                 both += usize::from(inside && strand);
                 either += usize::from(inside || strand);
             }
