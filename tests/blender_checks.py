@@ -69,28 +69,54 @@ def triangles_cross(t, u):
     return hit
 
 
-def bases_cross(base, pairs, tris):
+def bases_cross(base, pairs, tris, other_tris=None):
     """Whether the two base triangles of each pair cross each other (a float64
     orientation test, independent of Blender's overlap and of the project's checker;
-    triangles sharing a vertex touch there and do not count)."""
+    triangles sharing a vertex touch there and do not count). A pair's second triangle
+    indexes `other_tris` where given (another split of the same base)."""
     if len(pairs) == 0:
         return np.zeros(0, bool)
     p = base.astype(np.float64)
-    ta, tb = tris[pairs[:, 0]], tris[pairs[:, 1]]
+    ta, tb = tris[pairs[:, 0]], (tris if other_tris is None else other_tris)[pairs[:, 1]]
     shared = (ta[:, :, None] == tb[:, None, :]).any(axis=(1, 2))
     return triangles_cross(p[ta], p[tb]) & ~shared
 
 
-def overlapping(a_points, b_points, tris, same):
+def overlapping(a_points, b_points, tris, same, b_tris=None):
     """Crossing triangle pairs by Blender's BVHTree.overlap (pairs sharing a vertex
-    index are dropped for a tree against itself)."""
+    index are dropped for a tree against itself); `b_points` are split by `b_tris`
+    where given, else by `tris`."""
+    b_tris = tris if b_tris is None else b_tris
     a = BVHTree.FromPolygons(a_points.tolist(), tris.tolist(), all_triangles=True)
-    b = a if same else BVHTree.FromPolygons(b_points.tolist(), tris.tolist(), all_triangles=True)
+    b = a if same else BVHTree.FromPolygons(b_points.tolist(), b_tris.tolist(), all_triangles=True)
     pairs = np.array(a.overlap(b), dtype=np.int64).reshape(-1, 2)
     if same and len(pairs):
         shared = (tris[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
         pairs = pairs[~shared & (pairs[:, 0] != pairs[:, 1])]
     return pairs
+
+
+def written_triangles(out):
+    """Blender's own triangulation of the outer layer of a shell result as written
+    (`out`: a native shell dict), as triples of base vertices (`source_vertex`; facing
+    either way): the triangles a user sees of the skin, n-gons included."""
+    import bpy
+
+    mesh = bpy.data.meshes.new("written")
+    try:
+        sizes, corners = out["face_sizes"], out["corners"]
+        mesh.vertices.add(len(out["vertices"]))
+        mesh.vertices.foreach_set("co", np.ascontiguousarray(out["vertices"], np.float32).ravel())
+        mesh.loops.add(len(corners))
+        mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(corners, np.int32))
+        mesh.polygons.add(len(sizes))
+        mesh.polygons.foreach_set("loop_start", np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int32))
+        mesh.update(calc_edges=True)
+        tris = loop_triangles(mesh)
+    finally:
+        bpy.data.meshes.remove(mesh)
+    outer = (out["layer"][tris] == 1.0).all(axis=1)
+    return out["source_vertex"][tris[outer]].astype(np.int32)
 
 
 def inverted_cells(bottom, top, tris, orientation):
@@ -129,37 +155,38 @@ def folding_cells(bottom, top, tris, orientation, samples=65):
     return int((bad & (area > 0)).sum())
 
 
-def blender_check(base, out, side, tris):
+def blender_check(base, out, side, tris, written=None):
     """Crossings and inverted cells of a shell result, found with Blender's tools.
 
+    `tris`: Blender's triangulation of the base (the user's object); `written`: that of
+    the skins as the result writes them (`written_triangles`), `tris` by default.
     A crossing pair is inherited only where its two base triangles cross each other
     (at zero thickness the shell has exactly those pairs), the project's rule; a pair
     with one triangle over a face that crosses some other face elsewhere is not
     excused. Whether two base triangles cross is decided by a float64 test here
     (`bases_cross`), not by Blender's overlap, which misses crossings where edges pass
-    near each other. Blender's loop triangles are among the project's own (it checks
-    both splits of a quad); n-gons are triangulated by each in its own way, so meshes
-    with n-gons can fail here where the project is clean."""
+    near each other. Cells are checked over the base's split: Blender's split of a
+    quad is one of the two the project checks, and its split of an n-gon the project's
+    own; the skins over `written`, where Blender splits a quad by the skin's shape and
+    draws n-gons as the triangles the result writes."""
+    written = tris if written is None else written
     offset, directors = out["base_offset"], out["directors"]
     skins = [base + offset + directors] + ([base + offset] if side == "envelope" else [])
     own = np.unique(overlapping(base, base, tris, same=True))
-
-    def inherited(pairs):
-        return bases_cross(base, pairs, tris)
 
     flat = np.linalg.norm(directors, axis=1) + np.linalg.norm(offset, axis=1) == 0
     self_pairs = base_pairs = 0
     for i, skin in enumerate(skins):
         for j, other in enumerate(skins[i:], start=i):
-            pairs = overlapping(skin, other, tris, same=True) if i == j else overlapping(skin, other, tris, same=False)
+            pairs = overlapping(skin, other, written, same=i == j)
             if i != j:  # inner and outer of one envelope: pairs over cells sharing a vertex are the cell's own
-                shared = (tris[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
+                shared = (written[pairs[:, 0]][:, :, None] == written[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
                 pairs = pairs[~shared]
-            self_pairs += int((~inherited(pairs)).sum())
-        pairs = overlapping(skin, base, tris, same=False)
+            self_pairs += int((~bases_cross(base, pairs, written)).sum())
+        pairs = overlapping(skin, base, written, same=False, b_tris=tris)
         # A skin triangle touches the base where a shared corner is pressed flat.
-        touching = ((tris[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]) & flat[tris[pairs[:, 0]]][:, :, None]).any(axis=(1, 2))
-        base_pairs += int((~touching & ~inherited(pairs)).sum())
+        touching = ((written[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]) & flat[written[pairs[:, 0]]][:, :, None]).any(axis=(1, 2))
+        base_pairs += int((~touching & ~bases_cross(base, pairs, written, tris)).sum())
     orientation = -1.0 if side == "interior" else 1.0
     inverted = inverted_cells(base + offset, base + offset + directors, tris, orientation)
     folding = folding_cells(base + offset, base + offset + directors, tris, orientation)

@@ -24,6 +24,7 @@ pub fn all_closed() -> Vec<(&'static str, Mesh)> {
         ("coil", coil()),
         ("blade", blade()),
         ("touching_cubes", touching_cubes()),
+        ("star_prism", star_prism()),
         ("comb", testmeshes::comb(2)),
         ("bunny", testmeshes::bunny()),
     ]
@@ -155,6 +156,41 @@ pub fn touching_cubes() -> Mesh {
     let a = map(&voxels([4, 4, 4], 2, |_, _, _| true), |v| v * 0.25);
     let b = map(&voxels([3, 3, 3], 2, |_, _, _| true), |v| v * 0.25 + Vec3::new(1.0 + g, 0.125, 0.125));
     centred(merge(&[a, b]))
+}
+
+/// A twisted five-pointed star prism whose caps are single concave, non-planar
+/// 40-gons (saddles 4% of the height above and below the cap's plane), arms
+/// thinning to sharp tips: for shells over n-gons, which Blender splits
+/// its own way (polygon fill and beauty flips).
+pub fn star_prism() -> Mesh {
+    let (outer, inner, height, rings, per_edge) = (0.8f32, 0.28f32, 1.0f32, 24usize, 4usize);
+    let tip = |k: usize| Vec2::from_angle(k as f32 * TAU / 10.0) * if k.is_multiple_of(2) { outer } else { inner };
+    // Sides bowed out by up to 3% of the radius: no three corners in a line.
+    let side = |k: usize, t: f32| {
+        let (a, b) = (tip(k), tip(k + 1));
+        a.lerp(b, t) + (b - a).perp().normalize() * (-0.03 * outer * (std::f32::consts::PI * t).sin())
+    };
+    let outline: Vec<Vec2> = (0..10).flat_map(|k| (0..per_edge).map(move |s| side(k, s as f32 / per_edge as f32))).collect();
+    let n = outline.len() as u32;
+    let mut positions = Vec::new();
+    for j in 0..=rings {
+        let z = height * j as f32 / rings as f32;
+        let turn = Vec2::from_angle(0.6 * z);
+        for q in &outline {
+            let saddle = if j == 0 || j == rings { 0.04 * height * (2.0 * q.to_angle()).sin() } else { 0.0 };
+            positions.push(turn.rotate(*q).extend(z + saddle));
+        }
+    }
+    let mut corners: Vec<u32> = (0..n).rev().collect();
+    corners.extend((0..n).map(|i| rings as u32 * n + i));
+    for j in 0..rings as u32 {
+        for i in 0..n {
+            corners.extend([j * n + i, j * n + (i + 1) % n, (j + 1) * n + (i + 1) % n, (j + 1) * n + i]);
+        }
+    }
+    let mut sizes = vec![n, n];
+    sizes.extend(std::iter::repeat_n(4, rings * n as usize));
+    centred(outward(Mesh::new(positions, &sizes, corners, None).unwrap()))
 }
 
 /// `n` separate open quad cards (foliage, debris) about 1 unit across, randomly placed

@@ -3,6 +3,7 @@
 
 mod normals;
 pub mod obj;
+mod polyfill;
 mod reorder;
 mod topology;
 mod triangulate;
@@ -10,6 +11,7 @@ mod validate;
 mod weld;
 
 pub use normals::{vertex_normal, vertex_normals};
+pub(crate) use polyfill::blender_quad_flips;
 pub use reorder::morton_codes;
 pub use topology::{boundary_edges, face_windings, parts_of, vertex_parts, EdgeMap, EdgeUses, Incidence, Parts, Windings};
 pub use triangulate::{face_triangles, newell_normal, Triangulation};

@@ -1,12 +1,12 @@
-//! Triangulation view of a polygon mesh: ear clipping in each face's best-fit plane
-//! (Newell normal), so concave n-gons triangulate correctly; fans as the fallback.
+//! Triangulation view of a polygon mesh: n-gons split as Blender splits them
+//! ([`super::polyfill`]: ear clipping in the face's plane, concave ones correctly).
 //! A quad folded onto its neighbour (two faces sharing three vertices, as on
 //! Suzanne's chin) is split along its other diagonal when its first split would
 //! repeat the neighbour's triangle: a repeated triangle is a cell of zero volume
 //! whose shell and bake pieces would weld onto the neighbour's, using edges four times.
 
 use super::Mesh;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use std::collections::HashMap;
 
 /// Triangles of a mesh, each remembering the face it came from.
@@ -19,10 +19,9 @@ pub struct Triangulation {
 impl Triangulation {
     pub fn of(mesh: &Mesh) -> Self {
         let mut out = Self { triangles: Vec::with_capacity(mesh.corners().len().saturating_sub(2 * mesh.face_count())), face_of_triangle: Vec::new() };
-        let mut scratch = Vec::new();
         for (f, face) in mesh.faces().enumerate() {
             let before = out.triangles.len();
-            face_triangles(mesh.positions(), face, &mut scratch, &mut out.triangles);
+            face_triangles(mesh.positions(), face, &mut out.triangles);
             out.face_of_triangle.extend(std::iter::repeat_n(f as u32, out.triangles.len() - before));
         }
         out.split_folded_quads(mesh);
@@ -74,14 +73,13 @@ impl Triangulation {
     }
 }
 
-/// Appends the triangles of one face (always `face.len() - 2` of them); `scratch` is
-/// reused between calls.
-pub fn face_triangles(p: &[Vec3], face: &[u32], scratch: &mut Vec<usize>, out: &mut Vec<[u32; 3]>) {
+/// Appends the triangles of one face (always `face.len() - 2` of them).
+pub fn face_triangles(p: &[Vec3], face: &[u32], out: &mut Vec<[u32; 3]>) {
     match face.len() {
         0..=2 => {}
         3 => out.push([face[0], face[1], face[2]]),
         4 => out.extend(split_quad(p, face)),
-        _ => ear_clip(p, face, scratch, out),
+        _ => super::polyfill::split(p, face, out),
     }
 }
 
@@ -111,48 +109,6 @@ pub fn newell_normal(pts: &[Vec3]) -> Vec3 {
         n += Vec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
     }
     n
-}
-
-fn ear_clip(p: &[Vec3], face: &[u32], ring: &mut Vec<usize>, out: &mut Vec<[u32; 3]>) {
-    let pts: Vec<Vec3> = face.iter().map(|&i| p[i as usize]).collect();
-    let n = newell_normal(&pts);
-    if n.length_squared() == 0.0 {
-        return fan(face, out);
-    }
-    let (u, v) = n.normalize().any_orthonormal_pair();
-    let flat: Vec<Vec2> = pts.iter().map(|q| Vec2::new(q.dot(u), q.dot(v))).collect();
-    ring.clear();
-    ring.extend(0..face.len());
-    let cross = |a: Vec2, b: Vec2, c: Vec2| (b - a).perp_dot(c - a);
-    let mut guard = 0;
-    while ring.len() > 3 && guard < 2 * face.len() * face.len() {
-        guard += 1;
-        let m = ring.len();
-        let ear = (0..m).find(|&i| {
-            let (a, b, c) = (flat[ring[(i + m - 1) % m]], flat[ring[i]], flat[ring[(i + 1) % m]]);
-            cross(a, b, c) > 0.0
-                && ring.iter().all(|&k| {
-                    let q = flat[k];
-                    k == ring[(i + m - 1) % m]
-                        || k == ring[i]
-                        || k == ring[(i + 1) % m]
-                        || !(cross(a, b, q) >= 0.0 && cross(b, c, q) >= 0.0 && cross(c, a, q) >= 0.0)
-                })
-        });
-        let Some(i) = ear else { break };
-        out.push([face[ring[(i + m - 1) % m]], face[ring[i]], face[ring[(i + 1) % m]]]);
-        ring.remove(i);
-    }
-    if ring.len() == 3 {
-        out.push([face[ring[0]], face[ring[1]], face[ring[2]]]);
-    } else {
-        let rest: Vec<u32> = ring.iter().map(|&k| face[k]).collect();
-        fan(&rest, out);
-    }
-}
-
-fn fan(face: &[u32], out: &mut Vec<[u32; 3]>) {
-    out.extend((1..face.len() - 1).map(|i| [face[0], face[i], face[i + 1]]));
 }
 
 #[cfg(test)]
@@ -205,7 +161,7 @@ mod tests {
         // One quad of the pair is re-split; the other keeps the split chosen for it.
         let mut first = Vec::new();
         for f in 0..2 {
-            super::face_triangles(m.positions(), m.face(f), &mut Vec::new(), &mut first);
+            super::face_triangles(m.positions(), m.face(f), &mut first);
         }
         let changed = (0..2).filter(|&f| t.triangles[2 * f..2 * f + 2] != first[2 * f..2 * f + 2]).count();
         assert_eq!(changed, 1, "{:?} from {first:?}", t.triangles);

@@ -107,6 +107,7 @@ fn layered_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput, at: im
         }
     }
 
+    let polygons = written_polygons(mesh);
     let mut sizes = Vec::new();
     let mut corners = Vec::new();
     let mut source_corner = Vec::new();
@@ -115,17 +116,19 @@ fn layered_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput, at: im
         // In a solid the base layer (r = 0) faces the other way than the outer layer.
         let reverse = flip ^ (output == ShellOutput::Solid && r == 0.0);
         let base = (k * nv) as u32;
-        for (f, face) in mesh.faces().enumerate() {
-            sizes.push(face.len() as u32);
-            source_face.push(f as u32);
-            let range = mesh.face_corner_range(f);
-            let mapped = face.iter().map(|&v| base + remap[v as usize]);
+        for (f, from) in polygons.iter() {
+            sizes.push(from.len() as u32);
+            source_face.push(f);
+            // Reversed from the first corner on (`0 k-1 .. 1`), so that Blender splits
+            // a quad along the same diagonal as the base's (`blender_quad_flips`).
+            let at = |c: &u32| base + remap[mesh.corners()[*c as usize] as usize];
             if reverse {
-                corners.extend(mapped.rev());
-                source_corner.extend(range.rev().map(|c| c as u32));
+                let order = from[..1].iter().chain(from[1..].iter().rev());
+                corners.extend(order.clone().map(at));
+                source_corner.extend(order);
             } else {
-                corners.extend(mapped);
-                source_corner.extend(range.map(|c| c as u32));
+                corners.extend(from.iter().map(at));
+                source_corner.extend(from);
             }
         }
     }
@@ -160,6 +163,52 @@ fn layered_geometry(mesh: &Mesh, directors: &[Vec3], output: ShellOutput, at: im
     }
     let mesh = Mesh::new(positions, &sizes, corners, None)?;
     Ok(ShellMesh { mesh, source_vertex, layer, source_corner, source_face })
+}
+
+/// The polygons each layer is written with, as the base corners they come from: faces
+/// of up to four corners as they are, larger ones as the triangles of
+/// [`Mesh::triangulate`] (Blender's own split of the base's n-gon), the split the
+/// shell's cells are checked over ([`prisms`]). Written as n-gons, a skin's would be
+/// split by Blender by the skin's own shape, over which a cell the check passed can
+/// fold (a hexagon of a public 32 k-vertex scan, exterior 10%); quads stay, as the
+/// check covers both of their splits ([`Cell::blender_splits_cross`]).
+struct WrittenPolygons {
+    faces: Vec<u32>,
+    /// Where each polygon's corners start in `from`, and one past the last.
+    starts: Vec<usize>,
+    from: Vec<u32>,
+}
+
+impl WrittenPolygons {
+    fn push(&mut self, face: usize, from: impl IntoIterator<Item = u32>) {
+        self.from.extend(from);
+        self.faces.push(face as u32);
+        self.starts.push(self.from.len());
+    }
+    fn iter(&self) -> impl Iterator<Item = (u32, &[u32])> + '_ {
+        self.faces.iter().zip(self.starts.windows(2)).map(|(&f, w)| (f, &self.from[w[0]..w[1]]))
+    }
+}
+
+fn written_polygons(mesh: &Mesh) -> WrittenPolygons {
+    let mut out = WrittenPolygons { faces: Vec::with_capacity(mesh.face_count()), starts: vec![0], from: Vec::with_capacity(mesh.corners().len()) };
+    let tri = mesh.faces().any(|face| face.len() > 4).then(|| mesh.triangulate());
+    let mut t = 0;
+    for (f, face) in mesh.faces().enumerate() {
+        let range = mesh.face_corner_range(f);
+        let n = tri.as_ref().map_or(0, |tri| tri.face_of_triangle[t..].iter().take_while(|&&g| g as usize == f).count());
+        match &tri {
+            Some(tri) if face.len() > 4 => {
+                let corner = |v: u32| (range.start + face.iter().position(|&u| u == v).expect("a triangle of the face")) as u32;
+                for triangle in &tri.triangles[t..t + n] {
+                    out.push(f, triangle.map(corner));
+                }
+            }
+            _ => out.push(f, range.map(|c| c as u32)),
+        }
+        t += n;
+    }
+    out
 }
 
 /// For a base with split seams ([`Mesh::weld_coincident`]) whose copies share their
@@ -283,10 +332,38 @@ impl Cell {
     /// (chapter 3.1), can fold inside a cell whose tetrahedra are all upright, where
     /// its directors differ many times in length (found on public scans and CAD
     /// parts: bakes crossed themselves in such cells). So a cell is inverted too where
-    /// that map's Jacobian is negative anywhere ([`Cell::map_folds`]).
+    /// that map's Jacobian is negative anywhere ([`Cell::map_folds`]), and where Blender
+    /// would draw a skin crossing its base ([`Cell::blender_splits_cross`]).
     pub fn is_inverted(&self, positions: &[Vec3], shell: &Shell) -> bool {
         let s = shell.side.orientation() as f64;
-        self.tet_volumes(positions, shell).iter().any(|v| v.is_some_and(|v| s * v <= 0.0)) || self.map_folds(positions, shell)
+        self.tet_volumes(positions, shell).iter().any(|v| v.is_some_and(|v| s * v <= 0.0))
+            || self.map_folds(positions, shell)
+            || self.blender_splits_cross(positions, shell)
+    }
+
+    /// Whether Blender draws a skin of this hexahedron (its layer at r = 0 or 1) and
+    /// the base (the mesh as given) over different diagonals, and the skin then crosses
+    /// the base inside the cell. Blender splits each quad by its own shape
+    /// ([`blender_quad_flips`](crate::mesh::blender_quad_flips)), so a skin bent far
+    /// from its base can take the other diagonal; the tetrahedra and the map check each
+    /// split with both rings split alike. Found on a public scan: 40 such pairs at
+    /// exterior 10%, skins pinned at one corner and long at the next.
+    pub fn blender_splits_cross(&self, positions: &[Vec3], shell: &Shell) -> bool {
+        if !self.is_hexahedron() {
+            return false;
+        }
+        let base = self.vertices.map(|v| positions[v as usize]);
+        let flips = crate::mesh::blender_quad_flips(base);
+        let halves = |flip: bool| if flip { [[0, 1, 3], [1, 2, 3]] } else { [[0, 1, 2], [0, 2, 3]] };
+        [0.0, 1.0].iter().any(|&r| {
+            let ring = self.vertices.map(|v| shell.point(positions, v as usize, r));
+            if ring == base || crate::mesh::blender_quad_flips(ring) == flips {
+                return false;
+            }
+            halves(!flips)
+                .iter()
+                .any(|s| halves(flips).iter().any(|b| super::intersect::triangles_intersect(&s.map(|k| ring[k].as_dvec3()), &b.map(|k| base[k].as_dvec3()))))
+        })
     }
 
     /// Whether the Jacobian of the cell's map `P(u, v, r)` over a triangle of either
@@ -320,20 +397,19 @@ fn tet_volume(t: [DVec3; 4]) -> f64 {
 }
 
 /// The cells of a shell: triangle prisms over triangles, hexahedra over quads, and
-/// prisms over the triangles of n-gons (split as in [`Mesh::triangulate`]).
+/// prisms over the triangles of n-gons (split as in [`Mesh::triangulate`]): one cell
+/// per polygon a shell result is written with ([`written_polygons`]).
 pub fn prisms(mesh: &Mesh) -> Vec<Cell> {
-    let tri = mesh.triangulate();
-    let mut out = Vec::with_capacity(tri.triangles.len());
-    let mut t = 0;
-    for (f, face) in mesh.faces().enumerate() {
-        let n = tri.face_of_triangle[t..].iter().take_while(|&&g| g as usize == f).count();
-        match face.len() {
-            4 => out.push(Cell { face: f as u32, vertices: [face[0], face[1], face[2], face[3]], count: 4 }),
-            _ => out.extend(tri.triangles[t..t + n].iter().map(|x| Cell { face: f as u32, vertices: [x[0], x[1], x[2], 0], count: 3 })),
-        }
-        t += n;
-    }
-    out
+    let corners = mesh.corners();
+    written_polygons(mesh)
+        .iter()
+        .filter(|(_, from)| (3..=4).contains(&from.len()))
+        .map(|(face, from)| {
+            let mut vertices = [0; 4];
+            vertices.iter_mut().zip(from).for_each(|(v, &c)| *v = corners[c as usize]);
+            Cell { face, vertices, count: from.len() as u8 }
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -367,6 +443,83 @@ mod tests {
         let s = build_geometry(&m, &d, ShellOutput::Solid).unwrap();
         assert!(s.mesh.report().is_closed_manifold());
         assert!((s.mesh.signed_volume() - (1.2f32.powi(3) - 1.0)).abs() < 1e-4);
+    }
+
+    #[test]
+    fn n_gons_are_written_as_the_triangles_their_cells_are_checked_over() {
+        // A closed hexagonal prism whose hexagons zigzag out of plane: Blender would
+        // split them its own way, so every layer writes the checked triangles instead;
+        // quads and provenance stay as they were.
+        let ring = |z: f32, zig: f32| {
+            (0..6).map(move |k| {
+                let a = k as f32 * std::f32::consts::TAU / 6.0;
+                Vec3::new(a.cos(), a.sin(), z + if k % 2 == 0 { zig } else { -zig })
+            })
+        };
+        let positions: Vec<Vec3> = ring(0.0, 0.15).chain(ring(1.0, 0.2)).collect();
+        let mut corners: Vec<u32> = (0..6).rev().collect();
+        corners.extend(6..12);
+        for k in 0..6 {
+            corners.extend([k, (k + 1) % 6, 6 + (k + 1) % 6, 6 + k]);
+        }
+        let mut sizes = vec![6, 6];
+        sizes.extend([4; 6]);
+        let m = Mesh::new(positions, &sizes, corners, None).unwrap();
+        let d = normal_offset_directors(&m, &vec![0.1; m.vertex_count()]);
+        let cells = prisms(&m);
+        assert_eq!(cells.len(), 2 * 4 + 6);
+        for output in [ShellOutput::Outer, ShellOutput::Solid, ShellOutput::Layers(3)] {
+            let s = build_geometry(&m, &d, output).unwrap();
+            assert!(s.mesh.faces().all(|f| f.len() <= 4));
+            let layers = match output {
+                ShellOutput::Layers(n) => n as usize,
+                ShellOutput::Solid => 2,
+                ShellOutput::Outer => 1,
+            };
+            assert_eq!(s.mesh.face_count(), layers * cells.len());
+            // Every written corner comes from a base corner of the same vertex and face.
+            for (f, face) in s.mesh.faces().enumerate() {
+                for (k, &v) in face.iter().enumerate() {
+                    let c = s.source_corner[s.mesh.face_corner_range(f).start + k] as usize;
+                    assert_eq!(m.corners()[c], s.source_vertex[v as usize]);
+                    assert!(m.face_corner_range(s.source_face[f] as usize).contains(&c));
+                }
+            }
+            // The outer layer's polygons are the cells' bases, in order.
+            for (cell, face) in cells.iter().zip(s.mesh.faces()) {
+                let written: Vec<u32> = face.iter().map(|&v| s.source_vertex[v as usize]).collect();
+                assert_eq!(&written[..], cell.base());
+            }
+            if output == ShellOutput::Solid {
+                assert!(s.mesh.report().is_closed_manifold());
+                assert!(s.mesh.signed_volume() > 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn a_skin_that_blender_splits_the_other_way_may_not_cross_its_base() {
+        // A cell of a public scan's exterior shell (10%) as built before this check
+        // (its skin pinned at corner 3, long at 0 and 2): tetrahedra and map upright
+        // for each split, but Blender splits the skin along 1-3 and the base along
+        // 0-2, and there the skin's halves cross the base's.
+        let base =
+            [[-62.731304, 2.328666, 15.387598], [-62.62873, 2.812_173, 15.570518], [-63.170296, 2.862898, 15.040281], [-63.292_36, 2.484_942, 14.667986]];
+        let directors =
+            [[-0.7616215, -0.27686393, 0.8440895], [-0.05605139, -0.020082219, 0.071_717_92], [-0.91614574, -0.326_759_2, 0.650_471_8], [0.0, 0.0, 0.0]];
+        let m = Mesh::new(base.map(Vec3::from_array).to_vec(), &[4], vec![0, 1, 2, 3], None).unwrap();
+        let cell = prisms(&m)[0];
+        let shell = |scale: f32| Shell::from_directors(vec![Vec3::ZERO; 4], directors.map(|d| Vec3::from_array(d) * scale).to_vec());
+        let skin = |scale: f32| (0..4).map(|v| shell(scale).point(m.positions(), v, 1.0)).collect::<Vec<_>>();
+        let flips = |q: &[Vec3]| crate::mesh::blender_quad_flips([q[0], q[1], q[2], q[3]]);
+        assert!(!flips(m.positions()) && flips(&skin(1.0)));
+        let s = shell(1.0);
+        assert!(cell.tet_volumes(m.positions(), &s).iter().all(|v| v.is_none_or(|v| v > 0.0)) && !cell.map_folds(m.positions(), &s));
+        assert!(cell.blender_splits_cross(m.positions(), &s) && cell.is_inverted(m.positions(), &s));
+        // The same skin moved along as a whole (one split for both) and the cell
+        // pressed flat are fine.
+        let lifted = Shell::from_directors(vec![Vec3::ZERO; 4], vec![Vec3::new(-0.5, -0.2, 0.6); 4]);
+        assert!(!cell.blender_splits_cross(m.positions(), &lifted) && !cell.blender_splits_cross(m.positions(), &shell(0.0)));
     }
 
     #[test]

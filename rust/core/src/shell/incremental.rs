@@ -237,19 +237,19 @@ impl Tracked {
     fn changed_triangles(&mut self, touched_face: &[bool], around: &[u32], thicker: &[u32]) -> Option<(Vec<(usize, [DVec3; 3], [DVec3; 3])>, bool, bool)> {
         let p = self.mesh.positions();
         let mut changes: Vec<(usize, [DVec3; 3])> = Vec::new();
-        let mut scratch = (Vec::new(), Vec::new());
+        let mut scratch = Vec::new();
         let mut retriangulated = false;
         for f in (0..touched_face.len()).filter(|&f| touched_face[f]) {
             let range = self.face_tris[f] as usize..self.face_tris[f + 1] as usize;
-            scratch.1.clear();
-            face_triangles(p, self.mesh.face(f), &mut scratch.0, &mut scratch.1);
-            if scratch.1.len() != range.len() {
+            scratch.clear();
+            face_triangles(p, self.mesh.face(f), &mut scratch);
+            if scratch.len() != range.len() {
                 return None;
             }
             // The checker holds both splits of every quad (and its cells are the
             // quads themselves): only another split of a larger face changes it.
             let quad = self.mesh.face(f).len() == 4;
-            for (i, t) in range.zip(&scratch.1) {
+            for (i, t) in range.zip(&scratch) {
                 retriangulated |= !quad && self.checker.tris[i] != *t;
                 changes.push((i, t.map(|k| p[k as usize].as_dvec3())));
             }
