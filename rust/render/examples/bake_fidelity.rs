@@ -15,7 +15,7 @@
 //! `--world`: World-Size Tiles (generated charts, 1/32 of the diagonal per tile) instead
 //! of one tile per face: a map no lattice is aligned with, as UV maps are.
 //!
-//! `cargo run -p thicket-render --release --example bake_fidelity [-- --budget N] [--size PIXELS] [--step FRACTION] [--world]`
+//! `cargo run -p thicket-render --release --example bake_fidelity [-- --budget N] [--max LATTICE_TRIANGLES] [--size PIXELS] [--step FRACTION] [--world]`
 
 use std::time::Instant;
 use thicket_core::glam::{Mat4, Vec2, Vec3};
@@ -46,6 +46,9 @@ fn main() {
     let mut params = BakeParams::default();
     if let Some(b) = number("--budget") {
         params.triangle_budget = b;
+    }
+    if let Some(m) = number("--max") {
+        params.max_triangles = m;
     }
     let fixed = BakeParams { follow_texture: false, triangle_budget: 0, ..params.clone() };
     let (lo, hi) = mesh.positions().iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| (lo.min(*p), hi.max(*p)));

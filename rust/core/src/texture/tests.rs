@@ -567,25 +567,25 @@ fn a_bake_of_many_small_cells_comes_near_a_budget_its_error_cannot_meet() {
     assert!(made as f64 <= budget as f64 * 2.15, "{made} triangles for a budget of {budget}");
 }
 
-#[test]
-fn thin_strands_keep_their_volume_on_a_lattice_not_aligned_with_the_texels() {
-    // Fur on a plane whose UVs are turned and scaled so no lattice puts points on the
-    // texel centres (as on a UV map or World-Size Tiles). Points through the shell
-    // should be inside the bake where the trilinear texture reads 0.5 or more: a volume
-    // IoU against the texture itself (a strand cut to a diamond between lattice points
-    // loses its rims).
-    let base = tm::plane(8);
-    let (angle, scale) = (0.37f32, 1.17f32);
+/// Fur on `tm::plane(cells)` whose UVs are turned and scaled by `scale` so no lattice
+/// puts points on the texel centres (as on a UV map or World-Size Tiles), baked; and
+/// the volume IoU of its inside against the trilinear texture's `>= 0.5` (a strand
+/// cut to a diamond between lattice points loses its rims), with the points counted.
+/// `straight`: every director straight up (on the built shell, those of the inside).
+fn fur_volume_on_a_turned_plane(cells: u32, scale: f32, straight: bool) -> (BakedMesh, f64, usize) {
+    let base = tm::plane(cells);
+    let angle = 0.37f32;
     let to_st = |p: Vec2| Vec2::from_angle(angle).rotate(p) * scale;
     let uvs: Vec<Vec2> = base.corners().iter().map(|&v| to_st(base.positions()[v as usize].truncate())).collect();
     let mesh = Mesh::new(base.positions().to_vec(), &base.face_sizes(), base.corners().to_vec(), Some(uvs)).unwrap();
     let s = shell(&mesh, 0.05);
-    let texture = Generator::new(Pattern::Fur).generate([32, 32, 16]).unwrap();
-    let b = bake(&mesh, &s, &layer(texture.clone()), &BakeParams::default()).unwrap();
-    assert!(!b.per_face_tiles && b.triangles.len() > 10_000, "{}", b.triangles.len());
     // The shell over the plane's inside is straight up, its height `h`: each baked
     // vertex there lies at its own texture coordinates mapped so.
     let h = s.directors.iter().map(|d| d.z).fold(0.0, f32::max);
+    let s = if straight { crate::shell::Shell::from_directors(vec![Vec3::ZERO; mesh.vertex_count()], vec![Vec3::Z * h; mesh.vertex_count()]) } else { s };
+    let texture = Generator::new(Pattern::Fur).generate([32, 32, 16]).unwrap();
+    let b = bake(&mesh, &s, &layer(texture.clone()), &BakeParams::default()).unwrap();
+    assert!(!b.per_face_tiles && b.triangles.len() > 10_000, "{}", b.triangles.len());
     let inner = |p: Vec3| p.x.abs().max(p.y.abs()) < 0.75;
     let off = |p: Vec3, c: Vec3| (to_st(p.truncate()) - c.truncate()).length() > 1e-3 || (p.z - c.z * h).abs() > 1e-3 * h;
     assert_eq!(b.positions.iter().zip(&b.texcoords).filter(|(p, c)| inner(**p) && off(**p, **c)).count(), 0);
@@ -607,7 +607,31 @@ fn thin_strands_keep_their_volume_on_a_lattice_not_aligned_with_the_texels() {
             }
         }
     }
+    (b, both as f64 / either as f64, either)
+}
+
+#[test]
+fn thin_strands_keep_their_volume_on_a_lattice_not_aligned_with_the_texels() {
     // Two steps per texel (32 per cell edge here) gave 0.769, four (56) 0.901.
-    let iou = both as f64 / either as f64;
+    let (b, iou, either) = fur_volume_on_a_turned_plane(8, 1.17, false);
     assert!(either > 10_000 && iou > 0.85, "lattice {:?}: volume IoU {iou:.3} over {either} points", b.lattice);
+}
+
+#[test]
+fn cells_spanning_more_texels_than_a_lattice_holds_are_split_and_keep_thin_strands() {
+    // Eight triangles whose diagonals span 113 texels: four steps per texel want 452
+    // per edge, past MAX_STEPS (unsplit, 192 steps, 1.7 per texel: volume IoU
+    // 0.639); split twice, each cell takes 120 (0.902, 510 k triangles).
+    let (b, iou, either) = fur_volume_on_a_turned_plane(2, 2.5, true);
+    assert_eq!(b.lattice[0], 120);
+    assert!(either > 10_000 && iou > 0.85, "lattice {:?}: volume IoU {iou:.3} over {either} points", b.lattice);
+    // Still a closed 2-manifold, every edge walked once each way, and every triangle
+    // tagged with one of the user's four quads, all of them.
+    let baked = as_mesh(&b);
+    assert!(baked.report().is_closed_manifold(), "{:?}", baked.report());
+    let mut directed = std::collections::HashSet::new();
+    assert!(b.triangles.iter().flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3]))).all(|e| directed.insert(e)));
+    assert!(directed.iter().all(|&(a, c)| directed.contains(&(c, a))));
+    assert!(b.source_face.iter().all(|&f| f < 4));
+    assert_eq!(b.source_face.iter().copied().collect::<std::collections::BTreeSet<u32>>().len(), 4);
 }

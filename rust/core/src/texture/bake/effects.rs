@@ -67,7 +67,7 @@ pub fn collapsed(shell: &Shell) -> Option<Vec<f32>> {
 }
 
 /// The hole weights of `params` and of the shell's collapse together (the larger).
-fn holes(params: &BakeParams, shell: &Shell) -> Option<Vec<f32>> {
+pub(super) fn holes(params: &BakeParams, shell: &Shell) -> Option<Vec<f32>> {
     match (params.holes.as_ref(), collapsed(shell)) {
         (Some(painted), Some(c)) => Some(painted.iter().zip(c).map(|(p, c)| p.clamp(0.0, 1.0).max(c)).collect()),
         (painted, c) => c.or_else(|| painted.cloned()),

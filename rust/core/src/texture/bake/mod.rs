@@ -29,6 +29,7 @@ mod lattice;
 mod occupancy;
 mod polygonize;
 mod simplify;
+mod split;
 mod uv_mask;
 
 use super::mapping::{CellMap, TextureCoordinates, TriangleCells};
@@ -286,13 +287,8 @@ fn lattice_steps(st: &[[Vec2; 3]], textures: &[TextureLayer], params: &BakeParam
     }
     // Steps per texel: two where a texture has many features one texel wide, four
     // for strands off an aligned lattice.
-    let share = textures.iter().map(|l| bounds::thin_share(&l.texture)).fold(0.0, f32::max);
+    let (span, share) = texel_span(st, textures);
     let thin = share > THIN_SHARE;
-    let texels = textures.iter().map(|l| l.texture.dims()).fold(Vec2::ZERO, |a, [x, y, _]| a.max(Vec2::new(x as f32, y as f32)));
-    let mut spans: Vec<f32> = st.iter().map(|c| (0..3).map(|k| ((c[(k + 1) % 3] - c[k]) * texels).length()).fold(0.0, f32::max)).collect();
-    let at = (spans.len() * 9 / 10).min(spans.len() - 1);
-    let (_, span, _) = spans.select_nth_unstable_by(at, f32::total_cmp);
-    let span = if span.is_finite() { *span } else { 0.0 } * if thin { 2.0 } else { 1.0 };
     let heights = texel_layers(textures, m0, if thin { 2 } else { 1 });
     let points = |n: u32| (n as usize + 1) * (n as usize + 2) / 2;
     let blocks = |span: f32| ((span / n0 as f32).ceil() as u32).clamp(1, (MAX_STEPS / n0).max(1));
@@ -307,6 +303,53 @@ fn lattice_steps(st: &[[Vec2; 3]], textures: &[TextureLayer], params: &BakeParam
     }
     let finer = span > (n0 * block) as f32 * 1.5;
     Steps { n: n0 * block, heights, block, finer, thin }
+}
+
+/// The steps per edge a texture-following lattice wants on the cells with corner
+/// coordinates `st` before [`aligned_steps`] ([`lattice_steps`]: the 90th percentile of
+/// the texels a cell's longest edge spans, times the steps per texel of a texture with
+/// thin features), and the textures' share of thin texels ([`bounds::thin_share`]).
+fn texel_span(st: &[[Vec2; 3]], textures: &[TextureLayer]) -> (f32, f32) {
+    let share = textures.iter().map(|l| bounds::thin_share(&l.texture)).fold(0.0, f32::max);
+    let texels = textures.iter().map(|l| l.texture.dims()).fold(Vec2::ZERO, |a, [x, y, _]| a.max(Vec2::new(x as f32, y as f32)));
+    let mut spans: Vec<f32> = st.iter().map(|c| (0..3).map(|k| ((c[(k + 1) % 3] - c[k]) * texels).length()).fold(0.0, f32::max)).collect();
+    if spans.is_empty() {
+        return (0.0, share);
+    }
+    let at = (spans.len() * 9 / 10).min(spans.len() - 1);
+    let (_, span, _) = spans.select_nth_unstable_by(at, f32::total_cmp);
+    (if span.is_finite() { *span } else { 0.0 } * if share > THIN_SHARE { 2.0 } else { 1.0 }, share)
+}
+
+/// The steps per edge a texture-following lattice wants on the cells of `mesh` (four
+/// per texel for strands: a mesh with a UV map has no aligned lattice,
+/// [`aligned_steps`]); 0 where a face's lattice never needs more than [`MAX_STEPS`]
+/// (one tile per face, or a fixed lattice).
+fn wanted_steps(mesh: &Mesh, textures: &[TextureLayer], params: &BakeParams) -> f64 {
+    if !params.follow_texture || mesh.uvs().is_none() {
+        return 0.0;
+    }
+    let cells = TriangleCells::new(mesh, &TextureCoordinates::of(mesh, params.tiling));
+    let (span, share) = texel_span(&cells.st, textures);
+    span as f64 * if share > STRANDS_SHARE { 2.0 } else { 1.0 }
+}
+
+/// The base split for a bake of `params` ([`split`]), once they are checked: halved
+/// until a cell's lattice of at most [`MAX_STEPS`] per edge takes the steps the
+/// texture wants, or as many as `max_triangles` leave room for (the lattice's
+/// triangles grow with the square of its steps: the unsplit bake's count says how
+/// many more fit). `None` where the lattice needs no split.
+fn split_base(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Option<split::Split>> {
+    params.check(mesh, shell, textures)?;
+    let wanted = wanted_steps(mesh, textures, params);
+    if wanted <= MAX_STEPS as f64 {
+        return Ok(None);
+    }
+    let (setup, sampled) = fitted_setup(mesh, shell, textures, params)?;
+    let room = setup.lattice.n as f64 * (params.max_triangles as f64 / sampled.max(1) as f64).sqrt();
+    let steps = wanted.min(room);
+    let levels = (0..8).find(|&k| steps <= (MAX_STEPS << k) as f64).unwrap_or(8);
+    split::split(mesh, shell, params, levels)
 }
 
 /// The fewest steps per cell edge, a multiple of `n0` up to `most`, with which every
@@ -718,6 +761,16 @@ pub fn bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &Bake
 }
 
 pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams, cull: bool) -> Result<BakedMesh> {
+    let Some(split) = split_base(mesh, shell, textures, params)? else {
+        return bake_cells(mesh, shell, textures, params, cull);
+    };
+    let mut baked = bake_cells(&split.mesh, &split.shell, textures, &split.params, cull)?;
+    baked.source_face.iter_mut().for_each(|f| *f = split.faces[*f as usize]);
+    Ok(baked)
+}
+
+/// [`bake_culled`] on the cells of `mesh` as they are.
+fn bake_cells(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams, cull: bool) -> Result<BakedMesh> {
     let (setup, sampled) = fitted_setup(mesh, shell, textures, params)?;
     let field = setup.field(textures);
     let cells = setup.cells(mesh, shell, &field, cull);
@@ -788,6 +841,9 @@ pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
 /// What [`bake`] is expected to make with the same arguments (checked alike): the
 /// bake's own lattice, field and simplification on a sample of its cells.
 pub fn estimate_bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Estimate> {
+    if let Some(split) = split_base(mesh, shell, textures, params)? {
+        return estimate_bake(&split.mesh, &split.shell, textures, &split.params);
+    }
     let (setup, _) = fitted_setup(mesh, shell, textures, params)?;
     let field = setup.field(textures);
     Ok(setup.estimate(mesh, shell, &setup.cells(mesh, shell, &field, true), params.triangle_budget))
