@@ -841,9 +841,15 @@ fn bake_cells(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &Ba
 /// What [`bake`] is expected to make with the same arguments (checked alike): the
 /// bake's own lattice, field and simplification on a sample of its cells.
 pub fn estimate_bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Estimate> {
-    if let Some(split) = split_base(mesh, shell, textures, params)? {
-        return estimate_bake(&split.mesh, &split.shell, textures, &split.params);
+    match split_base(mesh, shell, textures, params)? {
+        // The split bake's cells as they are: split once, as `bake_culled` does.
+        Some(split) => estimate_cells(&split.mesh, &split.shell, textures, &split.params),
+        None => estimate_cells(mesh, shell, textures, params),
     }
+}
+
+/// [`estimate_bake`] on the cells of `mesh` as they are.
+fn estimate_cells(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Estimate> {
     let (setup, _) = fitted_setup(mesh, shell, textures, params)?;
     let field = setup.field(textures);
     Ok(setup.estimate(mesh, shell, &setup.cells(mesh, shell, &field, true), params.triangle_budget))
