@@ -160,8 +160,8 @@ pub fn touching_cubes() -> Mesh {
 
 /// A twisted five-pointed star prism whose caps are single concave, non-planar
 /// 40-gons (saddles 4% of the height above and below the cap's plane), arms
-/// thinning to sharp tips: for shells over n-gons, which Blender splits
-/// its own way (polygon fill and beauty flips).
+/// thinning to sharp tips: for shells over n-gons, which Blender splits by its own
+/// ear clipping ([`crate::mesh::Mesh::triangulate`] follows it).
 pub fn star_prism() -> Mesh {
     let (outer, inner, height, rings, per_edge) = (0.8f32, 0.28f32, 1.0f32, 24usize, 4usize);
     let tip = |k: usize| Vec2::from_angle(k as f32 * TAU / 10.0) * if k.is_multiple_of(2) { outer } else { inner };
