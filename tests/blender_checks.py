@@ -96,10 +96,11 @@ def overlapping(a_points, b_points, tris, same, b_tris=None):
     return pairs
 
 
-def written_triangles(out):
-    """Blender's own triangulation of the outer layer of a shell result as written
-    (`out`: a native shell dict), as triples of base vertices (`source_vertex`; facing
-    either way): the triangles a user sees of the skin, n-gons included."""
+def written_triangles(out, layer=1.0):
+    """Blender's own triangulation of one layer of a shell result as written (`out`: a
+    native shell dict; the outer layer by default, an envelope's inner one at 0 in a
+    solid result), as triples of base vertices (`source_vertex`; facing either way):
+    the triangles a user sees of that skin, n-gons included."""
     import bpy
 
     mesh = bpy.data.meshes.new("written")
@@ -115,8 +116,17 @@ def written_triangles(out):
         tris = loop_triangles(mesh)
     finally:
         bpy.data.meshes.remove(mesh)
-    outer = (out["layer"][tris] == 1.0).all(axis=1)
-    return out["source_vertex"][tris[outer]].astype(np.int32)
+    mine = (out["layer"][tris] == layer).all(axis=1)
+    if not mine.any():
+        raise ValueError(f"the result writes no layer {layer} (an envelope's inner skin is written in a solid result)")
+    return out["source_vertex"][tris[mine]].astype(np.int32)
+
+
+def written_skins(out, side):
+    """`written_triangles` of each skin `blender_check` tests: the outer layer, and an
+    envelope's inner layer (split by Blender by its own shape, not the outer's), which
+    only a solid result writes."""
+    return [written_triangles(out, 1.0)] + ([written_triangles(out, 0.0)] if side == "envelope" else [])
 
 
 def inverted_cells(bottom, top, tris, orientation):
@@ -159,7 +169,9 @@ def blender_check(base, out, side, tris, written=None):
     """Crossings and inverted cells of a shell result, found with Blender's tools.
 
     `tris`: Blender's triangulation of the base (the user's object); `written`: that of
-    the skins as the result writes them (`written_triangles`), `tris` by default.
+    each skin as the result writes it (`written_skins`: the outer skin, and an
+    envelope's inner one), `tris` for every skin by default. A single array is taken
+    for the outer skin only: an envelope's inner skin is split by its own shape.
     A crossing pair is inherited only where its two base triangles cross each other
     (at zero thickness the shell has exactly those pairs), the project's rule; a pair
     with one triangle over a face that crosses some other face elsewhere is not
@@ -169,24 +181,32 @@ def blender_check(base, out, side, tris, written=None):
     quad is one of the two the project checks, and its split of an n-gon the project's
     own; the skins over `written`, where Blender splits a quad by the skin's shape and
     draws n-gons as the triangles the result writes."""
-    written = tris if written is None else written
     offset, directors = out["base_offset"], out["directors"]
     skins = [base + offset + directors] + ([base + offset] if side == "envelope" else [])
+    if written is None:
+        written = [tris] * len(skins)
+    elif isinstance(written, np.ndarray):
+        if len(skins) > 1:
+            raise ValueError("an envelope's inner skin has its own split: pass written_skins(out, side) of a solid result")
+        written = [written]
+    assert len(written) == len(skins)
     own = np.unique(overlapping(base, base, tris, same=True))
 
     flat = np.linalg.norm(directors, axis=1) + np.linalg.norm(offset, axis=1) == 0
     self_pairs = base_pairs = 0
     for i, skin in enumerate(skins):
-        for j, other in enumerate(skins[i:], start=i):
-            pairs = overlapping(skin, other, written, same=i == j)
+        wi = written[i]
+        for j in range(i, len(skins)):
+            wj = written[j]
+            pairs = overlapping(skin, skins[j], wi, same=i == j, b_tris=wj)
             if i != j:  # inner and outer of one envelope: pairs over cells sharing a vertex are the cell's own
-                shared = (written[pairs[:, 0]][:, :, None] == written[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
+                shared = (wi[pairs[:, 0]][:, :, None] == wj[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
                 pairs = pairs[~shared]
-            self_pairs += int((~bases_cross(base, pairs, written)).sum())
-        pairs = overlapping(skin, base, written, same=False, b_tris=tris)
+            self_pairs += int((~bases_cross(base, pairs, wi, wj)).sum())
+        pairs = overlapping(skin, base, wi, same=False, b_tris=tris)
         # A skin triangle touches the base where a shared corner is pressed flat.
-        touching = ((written[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]) & flat[written[pairs[:, 0]]][:, :, None]).any(axis=(1, 2))
-        base_pairs += int((~touching & ~bases_cross(base, pairs, written, tris)).sum())
+        touching = ((wi[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]) & flat[wi[pairs[:, 0]]][:, :, None]).any(axis=(1, 2))
+        base_pairs += int((~touching & ~bases_cross(base, pairs, wi, tris)).sum())
     orientation = -1.0 if side == "interior" else 1.0
     inverted = inverted_cells(base + offset, base + offset + directors, tris, orientation)
     folding = folding_cells(base + offset, base + offset + directors, tris, orientation)

@@ -11,7 +11,7 @@ its head: a base with intersections of its own).
 import bpy
 import numpy as np
 import pytest
-from blender_checks import bases_cross, blender_check, loop_triangles, overlapping, triangles_cross, written_triangles
+from blender_checks import bases_cross, blender_check, loop_triangles, overlapping, triangles_cross, written_skins
 from conftest import DATA, add, positions
 from mathutils.bvhtree import BVHTree
 
@@ -71,10 +71,11 @@ def test_shells_never_fold_by_blenders_own_checks(scene, name):
     weights = (0.5 + 0.5 * np.abs(np.sin(a.vertices @ np.array([3.0, 2.0, 1.0], np.float32)))).astype(np.float32)
     for side, fraction in CASES:
         for factors in (None, weights):
-            out = tn.shell(a.vertices, a.face_sizes, a.corners, fraction, side=side, relative=True, factors=factors)
-            # The skin as Blender draws the result (each quad split by its own shape),
+            # Solid: an envelope's inner skin is written too.
+            out = tn.shell(a.vertices, a.face_sizes, a.corners, fraction, side=side, relative=True, factors=factors, output="solid")
+            # Each skin as Blender draws the result (each quad split by its own shape),
             # against the base as Blender draws it.
-            found = blender_check(a.vertices, out, side, tris, written_triangles(out))
+            found = blender_check(a.vertices, out, side, tris, written_skins(out, side))
             what = f"{name} {side} {fraction} {'weighted' if factors is not None else 'uniform'}: {found} {out['check']}"
             assert (found["self"], found["base"], found["inverted"], found["folding"]) == (0, 0, 0, 0), what
             assert out["check"]["clean"], what

@@ -8,7 +8,7 @@ n-gons as those triangles, so what Blender draws, renders and tests with
 import bpy
 import numpy as np
 import pytest
-from blender_checks import blender_check, loop_triangles, written_triangles
+from blender_checks import blender_check, loop_triangles, written_skins
 from conftest import DATA
 
 import thicket_native as tn
@@ -71,15 +71,16 @@ def test_shells_over_non_planar_n_gons_pass_blenders_checks(scene):
     assert a.face_sizes.max() == 40
     tris = loop_triangles(obj.data)
     for side, fraction in (("exterior", 0.1), ("interior", 0.05), ("envelope", 0.1)):
-        out = tn.shell(a.vertices, a.face_sizes, a.corners, fraction, side=side, relative=True)
+        out = tn.shell(a.vertices, a.face_sizes, a.corners, fraction, side=side, relative=True, output="solid")
         assert out["face_sizes"].max() <= 4
-        written = written_triangles(out)
+        skins = written_skins(out, side)
+        written = skins[0]
         # Blender draws the skin's caps with the base caps' own triangles.
         on_cap = np.zeros(len(a.vertices), bool)
         on_cap[a.corners[np.repeat(a.face_sizes, a.face_sizes) > 4]] = True
         caps = {tuple(t) for t in np.sort(tris[on_cap[tris].all(axis=1)], axis=1)}
         assert len(caps) == 2 * 38
         assert {tuple(t) for t in np.sort(written[on_cap[written].all(axis=1)], axis=1)} == caps, side
-        found = blender_check(a.vertices, out, side, tris, written)
+        found = blender_check(a.vertices, out, side, tris, skins)
         assert (found["self"], found["base"], found["inverted"], found["folding"]) == (0, 0, 0, 0), (side, found)
         assert out["check"]["clean"], side
