@@ -180,7 +180,9 @@ def blender_check(base, out, side, tris, written=None):
     near each other. Cells are checked over the base's split: Blender's split of a
     quad is one of the two the project checks, and its split of an n-gon the project's
     own; the skins over `written`, where Blender splits a quad by the skin's shape and
-    draws n-gons as the triangles the result writes."""
+    draws n-gons as the triangles the result writes. `self_crossing` and
+    `base_crossing` count the pairs of `self` and `base` that a float64 test finds
+    crossing: Blender's float32 overlap also reports pairs that only touch."""
     offset, directors = out["base_offset"], out["directors"]
     skins = [base + offset + directors] + ([base + offset] if side == "envelope" else [])
     if written is None:
@@ -193,7 +195,15 @@ def blender_check(base, out, side, tris, written=None):
     own = np.unique(overlapping(base, base, tris, same=True))
 
     flat = np.linalg.norm(directors, axis=1) + np.linalg.norm(offset, axis=1) == 0
-    self_pairs = base_pairs = 0
+    counts = {"self": 0, "base": 0, "self_crossing": 0, "base_crossing": 0}
+
+    def count(kind, pairs, a_points, a_tris, b_points, b_tris):
+        # Blender's pairs, and those of them the float64 test finds crossing (its overlap
+        # also reports triangles that only touch, in float32).
+        counts[kind] += len(pairs)
+        p, q = a_points.astype(np.float64), b_points.astype(np.float64)
+        counts[kind + "_crossing"] += int(triangles_cross(p[a_tris[pairs[:, 0]]], q[b_tris[pairs[:, 1]]]).sum()) if len(pairs) else 0
+
     for i, skin in enumerate(skins):
         wi = written[i]
         for j in range(i, len(skins)):
@@ -202,12 +212,12 @@ def blender_check(base, out, side, tris, written=None):
             if i != j:  # inner and outer of one envelope: pairs over cells sharing a vertex are the cell's own
                 shared = (wi[pairs[:, 0]][:, :, None] == wj[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
                 pairs = pairs[~shared]
-            self_pairs += int((~bases_cross(base, pairs, wi, wj)).sum())
+            count("self", pairs[~bases_cross(base, pairs, wi, wj)], skin, wi, skins[j], wj)
         pairs = overlapping(skin, base, wi, same=False, b_tris=tris)
         # A skin triangle touches the base where a shared corner is pressed flat.
         touching = ((wi[pairs[:, 0]][:, :, None] == tris[pairs[:, 1]][:, None, :]) & flat[wi[pairs[:, 0]]][:, :, None]).any(axis=(1, 2))
-        base_pairs += int((~touching & ~bases_cross(base, pairs, wi, tris)).sum())
+        count("base", pairs[~touching & ~bases_cross(base, pairs, wi, tris)], skin, wi, base, tris)
     orientation = -1.0 if side == "interior" else 1.0
     inverted = inverted_cells(base + offset, base + offset + directors, tris, orientation)
     folding = folding_cells(base + offset, base + offset + directors, tris, orientation)
-    return {"self": self_pairs, "base": base_pairs, "inverted": inverted, "folding": folding, "own": len(own)}
+    return {**counts, "inverted": inverted, "folding": folding, "own": len(own)}
