@@ -1,0 +1,46 @@
+use numpy::PyReadonlyArray2;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use thicket_core::subdivision::{self, Boundary, Options};
+
+use crate::arrays;
+use crate::errors::{run_detached, to_py, InvalidInput};
+
+/// subdivide(vertices, face_sizes, corners, levels=1, limit=True, material_index=None,
+///           boundary_smooth="ALL") -> dict
+///
+/// Catmull-Clark subdivision as Blender's Subdivision Surface modifier makes it: `levels`
+/// 1 to 6, `limit` its Use Limit Surface, `boundary_smooth` its Boundary Smooth ("ALL" or
+/// "PRESERVE_CORNERS"). Returns vertices (m,3) float32, face_sizes and corners int32 (all
+/// quads), source_face int32 (the base face of each face) and, when `material_index`
+/// (int32 per base face) is given, material_index int32 per face.
+#[pyfunction]
+#[pyo3(signature = (vertices, face_sizes, corners, levels=1, limit=true, material_index=None, boundary_smooth="ALL"))]
+#[allow(clippy::too_many_arguments)]
+pub fn subdivide<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+    levels: u32,
+    limit: bool,
+    material_index: Option<&Bound<'py, PyAny>>,
+    boundary_smooth: &str,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
+    let materials = material_index.map(|m| arrays::indices(m, "material_index")).transpose()?;
+    if let Some(m) = &materials {
+        if m.len() != mesh.face_count() {
+            return Err(InvalidInput::new_err(format!("material_index has {} entries for {} faces", m.len(), mesh.face_count())));
+        }
+    }
+    let options = Options { levels, limit, boundary: Boundary::parse(boundary_smooth).map_err(to_py)? };
+    let out = run_detached(py, move || subdivision::subdivide(&mesh, &options))?;
+    let per_face = materials.map(|m| out.source_face.iter().map(|&f| m[f as usize]).collect::<Vec<u32>>());
+    let d = arrays::mesh_dict(py, out.mesh)?;
+    d.set_item("source_face", arrays::u32_as_i32_array(py, out.source_face))?;
+    if let Some(m) = per_face {
+        d.set_item("material_index", arrays::u32_as_i32_array(py, m))?;
+    }
+    Ok(d)
+}
