@@ -58,5 +58,6 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(field::field_mesh_estimate, m)?)?;
     m.add_function(wrap_pyfunction!(field_render::field_render, m)?)?;
     m.add_function(wrap_pyfunction!(subdivision::subdivide, m)?)?;
+    m.add_function(wrap_pyfunction!(subdivision::procedural_detail, m)?)?;
     Ok(())
 }

@@ -1,10 +1,12 @@
-use numpy::PyReadonlyArray2;
+use numpy::{IntoPyArray, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use thicket_core::subdivision::detail::{self, Model};
 use thicket_core::subdivision::{self, Boundary, Options};
 
 use crate::arrays;
 use crate::errors::{run_detached, to_py, InvalidInput};
+use crate::keywords::Keywords;
 
 /// subdivide(vertices, face_sizes, corners, levels=1, limit=True, material_index=None,
 ///           boundary_smooth="ALL") -> dict
@@ -42,5 +44,50 @@ pub fn subdivide<'py>(
     if let Some(m) = per_face {
         d.set_item("material_index", arrays::u32_as_i32_array(py, m))?;
     }
+    Ok(d)
+}
+
+/// procedural_detail(vertices, face_sizes, corners, model, levels, seed=0, params=None) -> dict
+///
+/// Procedural shape detail on Catmull-Clark levels (Velho, Perlin, Ying and Biermann,
+/// section 4): `model` "rock" or "berry", `levels` 1 to 6, `seed` the random values,
+/// `params` the model's settings, lengths as fractions of the bounding-box diagonal:
+/// rock `amplitude` (0.02) and `scale` (0.1); berry `radius` (0.08), `seeds` (base vertex
+/// indices; Poisson-disk points when empty) and `children` (4). Returns the finest level's
+/// vertices, face_sizes and corners (all quads), source_face (the base face of each face)
+/// and `scalar`, float32 per vertex: the detail the levels added along their normals.
+#[pyfunction]
+#[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn procedural_detail<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+    model: &str,
+    levels: u32,
+    seed: u64,
+    params: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
+    let diag = mesh.bbox_diagonal() as f64;
+    let settings = Keywords::new("procedural_detail", params);
+    let model = match model {
+        "rock" => Model::Rock { amplitude: settings.get("amplitude", 0.02f64)? * diag, scale: settings.get("scale", 0.1f64)? * diag },
+        "berry" => Model::Berry {
+            radius: settings.get("radius", 0.08f64)? * diag,
+            seeds: settings.get("seeds", Vec::<u32>::new())?,
+            children: settings.get("children", 4u32)?,
+        },
+        "tentacle" | "spur" | "mushroom" | "fuse" => {
+            return Err(InvalidInput::new_err(format!("the {model} model is not built yet (issue 18): rock and berry are")));
+        }
+        _ => return Err(InvalidInput::new_err(format!("model must be 'rock' or 'berry', not {model:?}"))),
+    };
+    settings.finish()?;
+    let out = run_detached(py, move || detail::procedural_detail(&mesh, levels, &model, seed))?;
+    let d = arrays::mesh_dict(py, out.mesh)?;
+    d.set_item("source_face", arrays::u32_as_i32_array(py, out.source_face))?;
+    d.set_item("scalar", out.scalar.into_pyarray(py))?;
     Ok(d)
 }
