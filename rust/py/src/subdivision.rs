@@ -52,8 +52,8 @@ pub fn subdivide<'py>(
 /// Procedural shape detail on Catmull-Clark levels (Velho, Perlin, Ying and Biermann,
 /// section 4): `model` "rock" or "berry", `levels` 1 to 6, `seed` the random values,
 /// `params` the model's settings, lengths as fractions of the bounding-box diagonal:
-/// rock `amplitude` (0.02) and `scale` (0.1); berry `radius` (0.08), `seeds` (base vertex
-/// indices; Poisson-disk points when empty) and `children` (4). Returns the finest level's
+/// rock `amplitude` (0.02) and `scale` (0.1); berry `radius` (0.15), `seeds` (base vertex
+/// indices; Poisson-disk points when empty) and `children` (3). Returns the finest level's
 /// vertices, face_sizes and corners (all quads), source_face (the base face of each face)
 /// and `scalar`, float32 per vertex: the detail the levels added along their normals.
 #[pyfunction]
@@ -75,9 +75,9 @@ pub fn procedural_detail<'py>(
     let model = match model {
         "rock" => Model::Rock { amplitude: settings.get("amplitude", 0.02f64)? * diag, scale: settings.get("scale", 0.1f64)? * diag },
         "berry" => Model::Berry {
-            radius: settings.get("radius", 0.08f64)? * diag,
+            radius: settings.get("radius", 0.15f64)? * diag,
             seeds: settings.get("seeds", Vec::<u32>::new())?,
-            children: settings.get("children", 4u32)?,
+            children: settings.get("children", 3u32)?,
         },
         "tentacle" | "spur" | "mushroom" | "fuse" => {
             return Err(InvalidInput::new_err(format!("the {model} model is not built yet (issue 18): rock and berry are")));

@@ -25,7 +25,9 @@ pub enum Model {
     /// nearest seed, `R_l = radius * 2^(1-l)`. Level 1's seeds are `seeds` (vertex
     /// indices of the base mesh) or, if empty, Poisson-disk points `2 radius` apart; at
     /// each finer level every seed of the last one grows a cluster of up to `children`
-    /// seeds within its radius, `2 R_l` apart.
+    /// seeds within its radius, `2 R_l` apart. A dome reads as round where `R_l` spans
+    /// several edges of level `l` (the subdivision then reconstructs it); one or two
+    /// edges across, its steep rim makes a spike.
     Berry { radius: f64, seeds: Vec<u32>, children: u32 },
 }
 
