@@ -63,8 +63,8 @@ impl Model {
 pub const MAX_CHILDREN: u32 = 64;
 
 /// A detailed surface: the finest level's mesh (all quads), the base face each face lies
-/// in, and per vertex the displacements the levels added (signed, along their normals),
-/// subdivided with the surface, for shading.
+/// in, and per vertex the displacements the levels added (signed, along their normals;
+/// carried to finer levels by linear interpolation), for shading.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Detailed {
     pub mesh: Mesh,
@@ -80,6 +80,29 @@ pub fn procedural_detail(base: &Mesh, levels: u32, model: &Model, seed: u64) -> 
     synthesize(base, levels, |level, mesh, seeds| model.displacements(level, mesh, seed, seeds))
 }
 
+/// Per-vertex values of `parent` carried to its subdivision `child` linearly: a vertex
+/// keeps its value, an edge point takes the mean of the edge's ends, a face point the mean
+/// of the face's corners. [`subdivide`] makes corner `c` into child quad `c`, (vertex, edge
+/// point after it, face point, edge point before it), and keeps the vertices' indices.
+fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -> Vec<f32> {
+    let mut out = values.to_vec();
+    out.resize(child.vertex_count(), 0.0);
+    let quads = child.corners();
+    let mut c = 0;
+    for face in parent.faces() {
+        let mean = face.iter().map(|&v| values[v as usize]).sum::<f32>() / face.len() as f32;
+        for (k, &v) in face.iter().enumerate() {
+            let next = face[(k + 1) % face.len()];
+            let quad = &quads[4 * (c + k)..4 * (c + k) + 4];
+            debug_assert_eq!(quad[0], v);
+            out[quad[1] as usize] = 0.5 * (values[v as usize] + values[next as usize]);
+            out[quad[2] as usize] = mean;
+        }
+        c += face.len();
+    }
+    out
+}
+
 /// The synthesis loop: subdivide one level, displace by `detail(level, mesh, state)` along
 /// the level's normals, repeat. `state` carries a model's seeds from one level to the next.
 fn synthesize(base: &Mesh, levels: u32, mut detail: impl FnMut(u32, &Mesh, &mut Vec<u32>) -> Vec<f64>) -> Result<Detailed> {
@@ -92,12 +115,8 @@ fn synthesize(base: &Mesh, levels: u32, mut detail: impl FnMut(u32, &Mesh, &mut 
     let mut scalar: Vec<f32> = vec![0.0; base.vertex_count()];
     let mut state = Vec::new();
     for level in 1..=levels {
-        // The scalar is subdivided with the same masks as the positions (a mesh whose
-        // points are (s, 0, 0)), so the details of coarser levels reach the new vertices
-        // as the surface's do.
-        let carried = Mesh::new(scalar.iter().map(|&s| Vec3::new(s, 0.0, 0.0)).collect(), &mesh.face_sizes(), mesh.corners().to_vec(), None)?;
-        scalar = subdivide(&carried, &options)?.mesh.positions().iter().map(|p| p.x).collect();
         let next = subdivide(&mesh, &options)?;
+        scalar = linear_child_values(&mesh, &next.mesh, &scalar);
         source_face = next.source_face.iter().map(|&f| source_face[f as usize]).collect();
         mesh = next.mesh;
         let d = detail(level, &mesh, &mut state);
@@ -292,6 +311,22 @@ mod tests {
             let ratio = rms[l] / rms[l - 1];
             assert!((ratio - 0.5).abs() < 0.5 * 0.2, "level {} / {}: {ratio} (rms {rms:?})", l + 1, l);
         }
+    }
+
+    #[test]
+    fn values_carried_linearly_land_on_the_new_points() {
+        // On a regular planar grid every new point of a subdivision is the midpoint of its
+        // edge or the centroid of its face, so a value linear in x carried linearly equals
+        // the new point's x.
+        let grid = crate::mesh::fixtures::grid(3);
+        let child = subdivide(&grid, &Options { levels: 1, limit: false, boundary: Boundary::SmoothAll }).unwrap().mesh;
+        let x: Vec<f32> = grid.positions().iter().map(|p| p.x).collect();
+        let carried = linear_child_values(&grid, &child, &x);
+        assert_eq!(carried.len(), child.vertex_count());
+        for (v, (c, p)) in carried.iter().zip(child.positions()).enumerate().skip(grid.vertex_count()) {
+            assert!((c - p.x).abs() < 1e-6, "vertex {v}: {c} against {}", p.x);
+        }
+        assert_eq!(&carried[..x.len()], &x[..]);
     }
 
     #[test]
