@@ -109,3 +109,15 @@ def test_bad_input_is_a_clear_error(scene):
         tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "berry", 1, params={"seeds": [99]})
     with pytest.raises(TypeError, match="unexpected keyword"):
         tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 1, params={"amplitud": 0.1})
+
+
+def test_levels_that_would_not_fit_are_refused_before_anything_is_made(scene):
+    """A 31k-face mesh to 6 levels would be 129 M faces (about 26 GB): refused at once,
+    saying how many levels fit."""
+    obj = add("monkey")
+    mod = obj.modifiers.new("s", "SUBSURF")
+    mod.levels = 3
+    bpy.ops.object.modifier_apply(modifier="s")
+    a = mesh_io.read_mesh(obj.data)
+    with pytest.raises(ValueError, match=r"levels fit"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 6)

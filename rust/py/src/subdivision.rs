@@ -1,6 +1,8 @@
 use numpy::{IntoPyArray, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use thicket_core::polygonize::DEFAULT_MAX_BYTES;
+use thicket_core::subdivision::budget;
 use thicket_core::subdivision::detail::{self, Model};
 use thicket_core::subdivision::{self, Boundary, Options};
 
@@ -56,6 +58,7 @@ pub fn subdivide<'py>(
 /// indices; Poisson-disk points when empty) and `children` (3). Returns the finest level's
 /// vertices, face_sizes and corners (all quads), source_face (the base face of each face)
 /// and `scalar`, float32 per vertex: the detail the levels added along their normals.
+/// Levels whose result would need more than 4 GB are refused before anything is made.
 #[pyfunction]
 #[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None))]
 #[allow(clippy::too_many_arguments)]
@@ -85,6 +88,9 @@ pub fn procedural_detail<'py>(
         _ => return Err(InvalidInput::new_err(format!("model must be 'rock' or 'berry', not {model:?}"))),
     };
     settings.finish()?;
+    if (1..=subdivision::MAX_LEVELS).contains(&levels) {
+        budget::check_fits(&mesh, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
+    }
     let out = run_detached(py, move || detail::procedural_detail(&mesh, levels, &model, seed))?;
     let d = arrays::mesh_dict(py, out.mesh)?;
     d.set_item("source_face", arrays::u32_as_i32_array(py, out.source_face))?;

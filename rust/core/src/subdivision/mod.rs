@@ -4,6 +4,7 @@
 //! Kass and Truong (1998) as OpenSubdiv and Blender's Subdivision Surface modifier apply
 //! them; limit positions by the masks of Halstead, Kass and DeRose (1993).
 
+pub mod budget;
 pub mod detail;
 mod topology;
 
