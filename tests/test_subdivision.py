@@ -155,6 +155,9 @@ def test_refuses_non_manifold_and_bad_arguments(scene):
     sizes = np.array([4, 4, 4], np.int32)
     with pytest.raises(tn.InvalidInput, match="edge 0-1 is shared by 3 faces"):
         tn.subdivide(vertices, sizes, corners)
+    # Two quads wound against each other: OpenSubdiv (so Blender) makes their edge a boundary.
+    with pytest.raises(tn.InvalidInput, match="run along edge 0-1 the same way"):
+        tn.subdivide(vertices, sizes[:2], np.array([0, 1, 2, 3, 0, 1, 5, 4], np.int32))
     quad = (vertices[:4], sizes[:1], corners[:4])
     for kwargs, message in [
         ({"levels": 0}, "levels must be 1 to 6"),

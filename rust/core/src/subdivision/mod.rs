@@ -86,8 +86,8 @@ pub fn subdivide(mesh: &Mesh, options: &Options) -> Result<Subdivided> {
         source_face = level.corner_face.iter().map(|&f| source_face[f as usize]).collect();
         level = level.refine(options.boundary);
     }
-    let positions = if options.limit { level.limit_positions(options.boundary) } else { level.positions.clone() };
-    let positions: Vec<Vec3> = positions.iter().map(|p| p.as_vec3()).collect();
+    let to_f32 = |p: &[DVec3]| p.iter().map(|p| p.as_vec3()).collect::<Vec<Vec3>>();
+    let positions = if options.limit { to_f32(&level.limit_positions(options.boundary)) } else { to_f32(&level.positions) };
     let sizes = vec![4u32; level.corners.len() / 4];
     let mesh = Mesh::new(positions, &sizes, level.corners, None)?;
     Ok(Subdivided { mesh, source_face })
@@ -99,8 +99,7 @@ struct Rings {
     /// of the quad vertices opposite it).
     faces: Vec<u32>,
     face_sum: Vec<DVec3>,
-    /// Edges at each vertex, and the sum of the other ends.
-    edges: Vec<u32>,
+    /// The sum of the other ends of the edges at each vertex.
     edge_sum: Vec<DVec3>,
     /// Boundary edges at each vertex, and the sum of their other ends.
     boundary: Vec<u32>,
@@ -113,7 +112,6 @@ impl Rings {
         let mut r = Self {
             faces: vec![0; n],
             face_sum: vec![DVec3::ZERO; n],
-            edges: vec![0; n],
             edge_sum: vec![DVec3::ZERO; n],
             boundary: vec![0; n],
             boundary_sum: vec![DVec3::ZERO; n],
@@ -125,8 +123,6 @@ impl Rings {
         let p = &level.positions;
         for (e, &[a, b]) in level.edges.iter().enumerate() {
             let (a, b) = (a as usize, b as usize);
-            r.edges[a] += 1;
-            r.edges[b] += 1;
             r.edge_sum[a] += p[b];
             r.edge_sum[b] += p[a];
             if level.edge_faces[e][1] == NONE {

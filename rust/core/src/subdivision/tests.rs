@@ -176,6 +176,12 @@ fn refuses_bad_input_with_a_message() {
     // Two closed cones sharing their apex 0: every edge has two faces, yet two fans.
     let cones = Mesh::new(p(7), &[3; 6], vec![0, 1, 2, 0, 2, 3, 0, 3, 1, 0, 5, 4, 0, 6, 5, 0, 4, 6], None).unwrap();
     assert!(matches!(err(cones, 1), Error::InvalidMesh(m) if m.contains("vertex 0")));
+    // The cube with face 2 wound backwards.
+    let cube = fixtures::cube();
+    let faces: Vec<Vec<u32>> = cube.faces().enumerate().map(|(f, v)| if f == 2 { v.iter().rev().copied().collect() } else { v.to_vec() }).collect();
+    let flipped = Mesh::new(cube.positions().to_vec(), &cube.face_sizes(), faces.concat(), None).unwrap();
+    let e = err(flipped, 1);
+    assert!(matches!(&e, Error::InvalidMesh(m) if m.contains("same way") && m.contains("recalculate normals")), "{e}");
     let loose = Mesh::new(p(4), &[3], vec![0, 1, 2], None).unwrap();
     assert!(matches!(err(loose, 1), Error::InvalidMesh(m) if m.contains("vertex 3") && m.contains("no face")));
     let twice = Mesh::new(p(4), &[4], vec![0, 1, 2, 1], None).unwrap();

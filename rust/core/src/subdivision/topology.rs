@@ -24,8 +24,9 @@ pub(super) struct Level {
 
 impl Level {
     /// The base level of `mesh`, refusing what Catmull-Clark cannot subdivide: faces that
-    /// repeat a vertex, edges of more than two faces, vertices whose faces form more than one
-    /// fan, vertices of no face.
+    /// repeat a vertex, edges of more than two faces or of two faces wound against each other
+    /// (OpenSubdiv, and so Blender, makes those edges non-manifold boundaries), vertices
+    /// whose faces form more than one fan, vertices of no face.
     pub fn base(mesh: &Mesh) -> Result<Self> {
         if let Some((f, v)) = mesh.faces().enumerate().find_map(|(f, face)| repeated(face).map(|v| (f, v))) {
             return Err(Error::InvalidMesh(format!("face {f} uses vertex {v} more than once; merge or dissolve it before subdividing")));
@@ -60,6 +61,12 @@ impl Level {
                 corner_edge[c as usize] = edges.len() as u32;
             }
             if let [(_, _, c), (_, _, d)] = *group {
+                if corners[c as usize] == corners[d as usize] {
+                    let (f, g) = (corner_face[c as usize], corner_face[d as usize]);
+                    return Err(Error::InvalidMesh(format!(
+                        "faces {f} and {g} run along edge {a}-{b} the same way, so their normals disagree (non-manifold for subdivision); recalculate normals before subdividing"
+                    )));
+                }
                 // The corner of each face at each end of the edge.
                 let at = |c: u32, v: u32| if corners[c as usize] == v { c } else { next(c as usize) as u32 };
                 joined.push([at(c, a), at(d, a)]);
