@@ -287,7 +287,7 @@ def subdivide(
     face_sizes: Indices,
     corners: Indices,
     levels: int = 1,
-    limit: bool = True,
+    limit: bool = False,
     material_index: Indices | None = None,
     boundary_smooth: str = "ALL",
 ) -> dict[str, Any]:

@@ -10,7 +10,7 @@ use crate::arrays;
 use crate::errors::{run_detached, to_py, InvalidInput};
 use crate::keywords::Keywords;
 
-/// subdivide(vertices, face_sizes, corners, levels=1, limit=True, material_index=None,
+/// subdivide(vertices, face_sizes, corners, levels=1, limit=False, material_index=None,
 ///           boundary_smooth="ALL") -> dict
 ///
 /// Catmull-Clark subdivision as Blender's Subdivision Surface modifier makes it: `levels`
@@ -19,7 +19,7 @@ use crate::keywords::Keywords;
 /// quads), source_face int32 (the base face of each face) and, when `material_index`
 /// (int32 per base face) is given, material_index int32 per face.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, levels=1, limit=true, material_index=None, boundary_smooth="ALL"))]
+#[pyo3(signature = (vertices, face_sizes, corners, levels=1, limit=false, material_index=None, boundary_smooth="ALL"))]
 #[allow(clippy::too_many_arguments)]
 pub fn subdivide<'py>(
     py: Python<'py>,
@@ -39,6 +39,9 @@ pub fn subdivide<'py>(
         }
     }
     let options = Options { levels, limit, boundary: Boundary::parse(boundary_smooth).map_err(to_py)? };
+    if (1..=subdivision::MAX_LEVELS).contains(&levels) {
+        budget::check_fits(&mesh, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
+    }
     let out = run_detached(py, move || subdivision::subdivide(&mesh, &options))?;
     let per_face = materials.map(|m| out.source_face.iter().map(|&f| m[f as usize]).collect::<Vec<u32>>());
     let d = arrays::mesh_dict(py, out.mesh)?;
