@@ -280,3 +280,28 @@ def field_mesh_estimate(
 Matrix4 = Sequence[Sequence[float]] | NDArray[np.floating[Any]]
 
 def field_render(tree_json: str, view: Matrix4, projection: Matrix4, width: int = 512, height: int = 512, device: str = "cpu") -> NDArray[np.float32]: ...
+
+# Catmull-Clark subdivision (issue 18).
+def subdivide(
+    vertices: Floats,
+    face_sizes: Indices,
+    corners: Indices,
+    levels: int = 1,
+    limit: bool = False,
+    material_index: Indices | None = None,
+    boundary_smooth: str = "ALL",
+) -> dict[str, Any]:
+    """Blender's Subdivision Surface (levels 1-6, limit = Use Limit Surface, boundary_smooth "ALL" or "PRESERVE_CORNERS"); non-manifold input refused.
+    Returns vertices, face_sizes, corners (all quads), source_face and, when material_index (one per base face) is given, material_index per face."""
+
+def procedural_detail(
+    vertices: Floats,
+    face_sizes: Indices,
+    corners: Indices,
+    model: str,
+    levels: int,
+    seed: int = 0,
+    params: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Procedural detail on Catmull-Clark levels (Velho et al. section 4): model "rock" (params amplitude, scale) or "berry" (radius, seeds, children), lengths as fractions of the bounding-box diagonal.
+    Returns the finest level's vertices, face_sizes, corners (all quads), source_face and scalar (float32 per vertex: the detail added)."""

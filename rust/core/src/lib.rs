@@ -14,6 +14,7 @@ pub mod progress;
 pub mod raycast;
 pub mod shell;
 pub mod spatial;
+pub mod subdivision;
 pub mod texture;
 // Test meshes: in the crate's own tests, and for other crates' tests, examples and
 // benches through the `test-support` feature; never in the release library.

@@ -18,6 +18,7 @@ mod offset;
 mod render;
 mod report;
 mod shell;
+mod subdivision;
 mod texture;
 mod texture_io;
 mod textured_shell;
@@ -56,5 +57,7 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(field::field_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(field::field_mesh_estimate, m)?)?;
     m.add_function(wrap_pyfunction!(field_render::field_render, m)?)?;
+    m.add_function(wrap_pyfunction!(subdivision::subdivide, m)?)?;
+    m.add_function(wrap_pyfunction!(subdivision::procedural_detail, m)?)?;
     Ok(())
 }

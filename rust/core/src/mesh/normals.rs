@@ -33,8 +33,17 @@ pub fn vertex_normal(mesh: &Mesh, v: u32, faces: &[u32]) -> Vec3 {
 
 /// Calls `add(corner, weighted normal)` for each corner of a non-degenerate face.
 fn add_face(p: &[Vec3], face: &[u32], mut add: impl FnMut(usize, Vec3)) {
-    let pts: Vec<Vec3> = face.iter().map(|&i| p[i as usize]).collect();
-    let fnorm = super::triangulate::newell_normal(&pts).normalize_or_zero();
+    // Corners on the stack for faces of up to 8 (no allocation per face).
+    let mut small = [Vec3::ZERO; 8];
+    let large: Vec<Vec3>;
+    let pts: &[Vec3] = if face.len() <= small.len() {
+        small.iter_mut().zip(face).for_each(|(s, &i)| *s = p[i as usize]);
+        &small[..face.len()]
+    } else {
+        large = face.iter().map(|&i| p[i as usize]).collect();
+        &large
+    };
+    let fnorm = super::triangulate::newell_normal(pts).normalize_or_zero();
     if fnorm == Vec3::ZERO {
         return;
     }

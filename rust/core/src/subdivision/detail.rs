@@ -1,0 +1,419 @@
+//! Procedural shape detail on multiresolution Catmull-Clark surfaces (Velho, Perlin, Ying
+//! and Biermann, section 4): a procedure `F(p, l)` gives every vertex of level `l` a
+//! displacement along that level's normal, added before the next level is subdivided, so
+//! the subdivision filter reconstructs it (section 3: each scale-limited component
+//! modifies its own level; section 4.2: "it is only necessary to specify a random value at
+//! every control point"). Each model is deterministic for a seed.
+
+use super::{subdivide, Boundary, Options};
+use crate::mesh::vertex_normals;
+use crate::{Error, Mesh, Result};
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// A procedural detail model (section 4.2). Lengths are in the mesh's units.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Model {
+    /// Volumetric fractal ("rock"): at level `l` (1 for the first subdivision) each vertex
+    /// moves by `amplitude * 2^(1-l)` times a value noise in [-1, 1] of its position (the
+    /// coarser surface subdivided, before this level's detail) at frequency `2^(l-1) /
+    /// scale`: 1/f in the level's frequency, one random value per lattice point.
+    Rock { amplitude: f64, scale: f64 },
+    /// Hybrid surface/volume fractal ("berry"): spherical domes `R_l (1 - r^2/R_l^2)^(1/2)`
+    /// along the evolving normal around seed points, `r` the Euclidean distance to the
+    /// nearest seed, `R_l = radius * 2^(1-l)`. Level 1's seeds are `seeds` (vertex
+    /// indices of the base mesh) or, if empty, Poisson-disk points `2 radius` apart; at
+    /// each finer level every seed of the last one grows a cluster of up to `children`
+    /// seeds within its radius, `2 R_l` apart. A dome reads as round where `R_l` spans
+    /// several edges of level `l` (the subdivision then reconstructs it); one or two
+    /// edges across, its steep rim makes a spike.
+    Berry { radius: f64, seeds: Vec<u32>, children: u32 },
+}
+
+impl Model {
+    fn validate(&self, base: &Mesh) -> Result<()> {
+        let bad = |m: String| Err(Error::InvalidParameter(m));
+        match self {
+            Model::Rock { amplitude, scale } => {
+                if !amplitude.is_finite() {
+                    return bad(format!("rock amplitude must be finite, not {amplitude}"));
+                }
+                if !(scale.is_finite() && *scale > 0.0) {
+                    return bad(format!("rock scale must be a positive length, not {scale}"));
+                }
+            }
+            Model::Berry { radius, seeds, children } => {
+                if !(radius.is_finite() && *radius > 0.0) {
+                    return bad(format!("berry radius must be a positive length, not {radius}"));
+                }
+                if let Some(s) = seeds.iter().find(|&&s| s as usize >= base.vertex_count()) {
+                    return bad(format!("berry seed {s} is not a vertex of the mesh ({} vertices)", base.vertex_count()));
+                }
+                if *children > MAX_CHILDREN {
+                    return bad(format!("berry children must be at most {MAX_CHILDREN}, not {children}"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The most seeds a berry seed grows at the next level.
+pub const MAX_CHILDREN: u32 = 64;
+
+/// A detailed surface: the finest level's mesh (all quads), the base face each face lies
+/// in, and per vertex the displacements the levels added (signed, along their normals;
+/// carried to finer levels by linear interpolation), for shading.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Detailed {
+    pub mesh: Mesh,
+    pub source_face: Vec<u32>,
+    pub scalar: Vec<f32>,
+}
+
+/// Subdivides `base` by `levels` Catmull-Clark levels (Blender's default boundary rule, no
+/// limit projection) adding `model`'s detail at each (multiresolution synthesis, section
+/// 2). `seed` picks the random values.
+pub fn procedural_detail(base: &Mesh, levels: u32, model: &Model, seed: u64) -> Result<Detailed> {
+    model.validate(base)?;
+    synthesize(base, levels, |level, mesh, seeds| model.displacements(level, mesh, seed, seeds))
+}
+
+/// Per-vertex values of `parent` carried to its subdivision `child` linearly: a vertex
+/// keeps its value, an edge point takes the mean of the edge's ends, a face point the mean
+/// of the face's corners. [`subdivide`] makes corner `c` into child quad `c`, (vertex, edge
+/// point after it, face point, edge point before it), and keeps the vertices' indices.
+fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -> Vec<f32> {
+    let mut out = values.to_vec();
+    out.resize(child.vertex_count(), 0.0);
+    let quads = child.corners();
+    let mut c = 0;
+    for face in parent.faces() {
+        let mean = face.iter().map(|&v| values[v as usize]).sum::<f32>() / face.len() as f32;
+        for (k, &v) in face.iter().enumerate() {
+            let next = face[(k + 1) % face.len()];
+            let quad = &quads[4 * (c + k)..4 * (c + k) + 4];
+            debug_assert_eq!(quad[0], v);
+            out[quad[1] as usize] = 0.5 * (values[v as usize] + values[next as usize]);
+            out[quad[2] as usize] = mean;
+        }
+        c += face.len();
+    }
+    out
+}
+
+/// The synthesis loop: subdivide one level, displace by `detail(level, mesh, state)` along
+/// the level's normals, repeat. `state` carries a model's seeds from one level to the next.
+fn synthesize(base: &Mesh, levels: u32, mut detail: impl FnMut(u32, &Mesh, &mut Vec<u32>) -> Vec<f64>) -> Result<Detailed> {
+    if !(1..=super::MAX_LEVELS).contains(&levels) {
+        return Err(Error::InvalidParameter(format!("detail levels must be 1 to {}, not {levels}", super::MAX_LEVELS)));
+    }
+    let options = Options { levels: 1, limit: false, boundary: Boundary::SmoothAll };
+    let mut mesh = base.clone();
+    let mut source_face: Vec<u32> = (0..base.face_count() as u32).collect();
+    let mut scalar: Vec<f32> = vec![0.0; base.vertex_count()];
+    let mut state = Vec::new();
+    for level in 1..=levels {
+        let next = subdivide(&mesh, &options)?;
+        scalar = linear_child_values(&mesh, &next.mesh, &scalar);
+        source_face = next.source_face.iter().map(|&f| source_face[f as usize]).collect();
+        mesh = next.mesh;
+        let d = detail(level, &mesh, &mut state);
+        let normals = vertex_normals(&mesh);
+        let moved: Vec<Vec3> = mesh.positions().par_iter().zip(&normals).zip(&d).map(|((&p, &n), &d)| p + n * d as f32).collect();
+        scalar.iter_mut().zip(&d).for_each(|(s, &d)| *s += d as f32);
+        mesh = Mesh::new(moved, &mesh.face_sizes(), mesh.corners().to_vec(), None)?;
+    }
+    Ok(Detailed { mesh, source_face, scalar })
+}
+
+impl Model {
+    /// The displacement of each vertex of `mesh` (level `level`) along its normal.
+    fn displacements(&self, level: u32, mesh: &Mesh, seed: u64, seeds: &mut Vec<u32>) -> Vec<f64> {
+        let octave = 0.5f64.powi(level as i32 - 1);
+        match self {
+            Model::Rock { amplitude, scale } => {
+                let frequency = 1.0 / (scale * octave);
+                let key = mix(seed ^ (level as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+                mesh.positions().par_iter().map(|p| amplitude * octave * value_noise(p.as_dvec3() * frequency, key)).collect()
+            }
+            Model::Berry { radius, seeds: given, children } => {
+                let r = radius * octave;
+                let p = mesh.positions();
+                *seeds = if level == 1 {
+                    match given.is_empty() {
+                        false => given.clone(),
+                        true => poisson_disk(p, (0..p.len() as u32).collect(), 2.0 * r, seed),
+                    }
+                } else {
+                    clusters(p, seeds, 2.0 * r, *children, mix(seed ^ level as u64))
+                };
+                domes(p, seeds, r)
+            }
+        }
+    }
+}
+
+/// Dome heights `R (1 - r^2/R^2)^(1/2)` of every point over its nearest seed within `R`.
+fn domes(p: &[Vec3], seeds: &[u32], radius: f64) -> Vec<f64> {
+    let grid = Grid::new(seeds.iter().map(|&s| p[s as usize].as_dvec3()), radius);
+    p.par_iter()
+        .map(|q| {
+            let q = q.as_dvec3();
+            let nearest = grid.nearest(q).map_or(f64::INFINITY, |(_, d)| d);
+            if nearest < radius {
+                radius * (1.0 - nearest * nearest / (radius * radius)).sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// Seeds of the next level: around each seed of the last, up to `children` vertices within
+/// `spacing` (the last level's radius) of it, at least `spacing / 2` apart from each other
+/// (Poisson-disk among the cluster's candidates).
+fn clusters(p: &[Vec3], parents: &[u32], spacing: f64, children: u32, seed: u64) -> Vec<u32> {
+    let reach = spacing; // the parent's radius: 2 R_l = R_(l-1)
+    let near = Grid::new(parents.iter().map(|&s| p[s as usize].as_dvec3()), reach);
+    // Each vertex goes to the cluster of its nearest parent within reach.
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); parents.len()];
+    for (v, q) in p.iter().enumerate() {
+        if let Some((k, d)) = near.nearest(q.as_dvec3()) {
+            if d < reach {
+                members[k].push(v as u32);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for (k, m) in members.into_iter().enumerate() {
+        let mut chosen = poisson_disk(p, m, spacing, mix(seed ^ k as u64));
+        chosen.truncate(children as usize);
+        out.extend(chosen);
+    }
+    out.sort_unstable();
+    out
+}
+
+/// Dart throwing over `candidates` in a seeded random order: a candidate is kept when no
+/// kept one lies within `spacing` (a Poisson-disk set of the vertices).
+fn poisson_disk(p: &[Vec3], mut candidates: Vec<u32>, spacing: f64, seed: u64) -> Vec<u32> {
+    candidates.sort_unstable_by_key(|&v| (mix(seed ^ v as u64), v));
+    let mut grid = Grid { cell: spacing, cells: HashMap::new(), points: Vec::new() };
+    let mut kept = Vec::new();
+    for v in candidates {
+        let q = p[v as usize].as_dvec3();
+        if grid.nearest(q).is_none_or(|(_, d)| d >= spacing) {
+            grid.insert(q);
+            kept.push(v);
+        }
+    }
+    kept
+}
+
+/// Points hashed into cubes of side `cell`: nearest-point queries within one cell.
+struct Grid {
+    cell: f64,
+    cells: HashMap<[i64; 3], Vec<u32>>,
+    points: Vec<DVec3>,
+}
+
+impl Grid {
+    fn new(points: impl Iterator<Item = DVec3>, cell: f64) -> Self {
+        let mut grid = Grid { cell, cells: HashMap::new(), points: Vec::new() };
+        points.for_each(|q| grid.insert(q));
+        grid
+    }
+
+    fn key(&self, q: DVec3) -> [i64; 3] {
+        (q / self.cell).floor().as_i64vec3().to_array()
+    }
+
+    fn insert(&mut self, q: DVec3) {
+        let k = self.key(q);
+        self.cells.entry(k).or_default().push(self.points.len() as u32);
+        self.points.push(q);
+    }
+
+    /// The nearest point (index, distance) among those within one cell of `q`'s cell:
+    /// every point closer than `cell` is among them.
+    fn nearest(&self, q: DVec3) -> Option<(usize, f64)> {
+        let k = self.key(q);
+        let mut best: Option<(usize, f64)> = None;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    for &i in self.cells.get(&[k[0] + dx, k[1] + dy, k[2] + dz]).map_or(&[][..], |v| &v[..]) {
+                        let d = self.points[i as usize].distance(q);
+                        if best.is_none_or(|(_, b)| d < b) {
+                            best = Some((i as usize, d));
+                        }
+                    }
+                }
+            }
+        }
+        best
+    }
+}
+
+/// Value noise in [-1, 1]: a random value per integer lattice point (hashed with `key`),
+/// blended with the quintic fade (C2, Perlin 2002).
+fn value_noise(x: DVec3, key: u64) -> f64 {
+    let i = x.floor();
+    let f = x - i;
+    let fade = |t: f64| t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
+    let (u, v, w) = (fade(f.x), fade(f.y), fade(f.z));
+    let (ix, iy, iz) = (i.x as i64, i.y as i64, i.z as i64);
+    let at = |dx: i64, dy: i64, dz: i64| {
+        let h = mix(key ^ mix((ix + dx) as u64 ^ mix((iy + dy) as u64 ^ mix((iz + dz) as u64))));
+        (h >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    };
+    let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+    let x00 = lerp(at(0, 0, 0), at(1, 0, 0), u);
+    let x10 = lerp(at(0, 1, 0), at(1, 1, 0), u);
+    let x01 = lerp(at(0, 0, 1), at(1, 0, 1), u);
+    let x11 = lerp(at(0, 1, 1), at(1, 1, 1), u);
+    lerp(lerp(x00, x10, v), lerp(x01, x11, v), w)
+}
+
+/// SplitMix64's finalizer: a well-mixed 64-bit hash.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testmeshes;
+
+    fn sphere() -> Mesh {
+        testmeshes::icosphere(2)
+    }
+
+    #[test]
+    fn rock_details_fall_as_one_over_f() {
+        // The detail each level adds, measured as the RMS of its displacements, halves
+        // from level to level (1/f: the frequency doubles).
+        let base = sphere();
+        let model = Model::Rock { amplitude: 0.05, scale: 0.5 };
+        let mut rms = Vec::new();
+        synthesize(&base, 4, |level, mesh, seeds| {
+            let d = model.displacements(level, mesh, 7, seeds);
+            rms.push((d.iter().map(|d| d * d).sum::<f64>() / d.len() as f64).sqrt());
+            d
+        })
+        .unwrap();
+        for l in 1..rms.len() {
+            let ratio = rms[l] / rms[l - 1];
+            assert!((ratio - 0.5).abs() < 0.5 * 0.2, "level {} / {}: {ratio} (rms {rms:?})", l + 1, l);
+        }
+    }
+
+    #[test]
+    fn values_carried_linearly_land_on_the_new_points() {
+        // On a regular planar grid every new point of a subdivision is the midpoint of its
+        // edge or the centroid of its face, so a value linear in x carried linearly equals
+        // the new point's x.
+        let grid = crate::mesh::fixtures::grid(3);
+        let child = subdivide(&grid, &Options { levels: 1, limit: false, boundary: Boundary::SmoothAll }).unwrap().mesh;
+        let x: Vec<f32> = grid.positions().iter().map(|p| p.x).collect();
+        let carried = linear_child_values(&grid, &child, &x);
+        assert_eq!(carried.len(), child.vertex_count());
+        for (v, (c, p)) in carried.iter().zip(child.positions()).enumerate().skip(grid.vertex_count()) {
+            assert!((c - p.x).abs() < 1e-6, "vertex {v}: {c} against {}", p.x);
+        }
+        assert_eq!(&carried[..x.len()], &x[..]);
+    }
+
+    #[test]
+    fn value_noise_is_continuous_and_spans_its_range() {
+        let (mut lo, mut hi) = (f64::MAX, f64::MIN);
+        let mut worst = 0.0f64;
+        for k in 0..20_000 {
+            let x = DVec3::new(k as f64 * 0.0137, (k as f64 * 0.31).sin() * 3.0, k as f64 * 0.0021);
+            let (a, b) = (value_noise(x, 5), value_noise(x + DVec3::splat(1e-6), 5));
+            worst = worst.max((a - b).abs());
+            lo = lo.min(a);
+            hi = hi.max(a);
+        }
+        // The quintic fade's slope is at most 15/8 per axis and unit of the lattice.
+        assert!(worst < 3.0 * 15.0 / 8.0 * 2.0 * 1e-6, "jump {worst}");
+        assert!(lo >= -1.0 && hi <= 1.0 && lo < -0.6 && hi > 0.6, "range [{lo}, {hi}]");
+    }
+
+    #[test]
+    fn a_berry_dome_reaches_its_radius_at_the_seed() {
+        // One level, one seed: the seed vertex moves by exactly R along its normal from
+        // where plain subdivision puts it, and vertices beyond R do not move.
+        let base = sphere();
+        let radius = 0.3;
+        let out = procedural_detail(&base, 1, &Model::Berry { radius, seeds: vec![5], children: 0 }, 1).unwrap();
+        let plain = subdivide(&base, &Options { levels: 1, limit: false, boundary: Boundary::SmoothAll }).unwrap().mesh;
+        let (p, q) = (plain.positions(), out.mesh.positions());
+        let normals = vertex_normals(&plain);
+        let moved = (q[5] - p[5]).as_dvec3();
+        assert!((moved.length() - radius).abs() < 1e-5 && moved.normalize().dot(normals[5].as_dvec3()) > 0.99999, "{moved}");
+        assert!((out.scalar[5] as f64 - radius).abs() < 1e-6);
+        let mut far = 0;
+        for v in 0..p.len() {
+            let r = p[v].distance(p[5]) as f64;
+            let want = if r < radius { radius * (1.0 - r * r / (radius * radius)).sqrt() } else { 0.0 };
+            assert!(((q[v] - p[v]).length() as f64 - want).abs() < 1e-5, "vertex {v} at {r}");
+            far += (r >= radius) as usize;
+        }
+        assert!(far > p.len() / 2);
+    }
+
+    #[test]
+    fn berry_seeds_are_a_poisson_disk_set_and_clusters_shrink() {
+        let base = sphere();
+        let mut counts = Vec::new();
+        let radius = 0.2;
+        synthesize(&base, 3, |level, mesh, seeds| {
+            let d = Model::Berry { radius, seeds: vec![], children: 4 }.displacements(level, mesh, 3, seeds);
+            let r = radius * 0.5f64.powi(level as i32 - 1);
+            let p = mesh.positions();
+            for (i, &a) in seeds.iter().enumerate() {
+                for &b in &seeds[i + 1..] {
+                    let d = p[a as usize].distance(p[b as usize]) as f64;
+                    // Level 1: 2 R apart. Finer: 2 R apart within a cluster; clusters of
+                    // neighbouring parents may come closer.
+                    assert!(level > 1 || d >= 2.0 * r - 1e-9, "level {level}: seeds {a}, {b} {d} apart");
+                }
+            }
+            assert!(d.iter().all(|&h| (0.0..=r + 1e-12).contains(&h)));
+            counts.push(seeds.len());
+            d
+        })
+        .unwrap();
+        assert!(counts[0] > 3 && counts[1] > counts[0] && counts[2] >= counts[1], "{counts:?}");
+    }
+
+    #[test]
+    fn same_seed_same_surface_other_seed_other_surface() {
+        let base = sphere();
+        let rock = Model::Rock { amplitude: 0.05, scale: 0.4 };
+        let a = procedural_detail(&base, 2, &rock, 11).unwrap();
+        assert_eq!(a, procedural_detail(&base, 2, &rock, 11).unwrap());
+        assert_ne!(a.mesh.positions(), procedural_detail(&base, 2, &rock, 12).unwrap().mesh.positions());
+        let berry = Model::Berry { radius: 0.2, seeds: vec![], children: 3 };
+        assert_eq!(procedural_detail(&base, 3, &berry, 4).unwrap(), procedural_detail(&base, 3, &berry, 4).unwrap());
+    }
+
+    #[test]
+    fn bad_parameters_are_refused() {
+        let base = sphere();
+        let refuse = |m: Model, levels: u32| assert!(matches!(procedural_detail(&base, levels, &m, 0), Err(Error::InvalidParameter(_))), "{m:?}");
+        refuse(Model::Rock { amplitude: f64::NAN, scale: 1.0 }, 2);
+        refuse(Model::Rock { amplitude: 0.1, scale: 0.0 }, 2);
+        refuse(Model::Rock { amplitude: 0.1, scale: 1.0 }, 0);
+        refuse(Model::Rock { amplitude: 0.1, scale: 1.0 }, super::super::MAX_LEVELS + 1);
+        refuse(Model::Berry { radius: -1.0, seeds: vec![], children: 2 }, 2);
+        refuse(Model::Berry { radius: 0.1, seeds: vec![10_000], children: 2 }, 2);
+        refuse(Model::Berry { radius: 0.1, seeds: vec![], children: MAX_CHILDREN + 1 }, 2);
+    }
+}

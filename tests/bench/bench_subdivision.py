@@ -1,0 +1,63 @@
+"""`make bench`: Catmull-Clark subdivision (`thicket_native.subdivide`, issue 18) vs
+Blender's Subdivision Surface modifier (evaluated depsgraph, same bpy run), levels 3 and 4
+on a 30k-quad torus and a 20k-triangle icosphere, Use Limit Surface on (the modifier's default; `subdivide` takes limit=True).
+
+Prints figures measured in this run only, side by side, as ratios (median of N runs).
+Thicket's figure is the native call on numpy arrays; Blender's is the modifier's
+evaluation plus `to_mesh` (its result as a Mesh).
+"""
+
+import pathlib
+import sys
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+sys.path[:0] = [str(ROOT / "addon"), str(ROOT / "build" / "site"), str(ROOT / "tests" / "bench")]
+
+import bpy  # noqa: E402
+from bench_offset import median_time  # noqa: E402
+
+import thicket_native as tn  # noqa: E402
+from thicket import mesh_io  # noqa: E402
+
+
+def modifier_time(obj, levels, runs):
+    modifier = obj.modifiers.new("bench subsurf", "SUBSURF")
+    modifier.levels = levels
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+
+    def run():
+        obj.data.update()  # tags the mesh: the modifier runs again
+        depsgraph.update()
+        evaluated = obj.evaluated_get(depsgraph)
+        evaluated.to_mesh()
+        evaluated.to_mesh_clear()
+
+    t = median_time(run, runs)
+    obj.modifiers.remove(modifier)
+    return t
+
+
+def main():
+    print("\nCatmull-Clark subdivision (limit surface on) vs Blender's Subdivision Surface modifier")
+    print(f"{'mesh':10s} {'faces':>7s} {'level':>5s} {'out faces':>10s} {'thicket ms':>11s} {'blender ms':>11s} {'ratio':>7s}")
+    meshes = {
+        "torus": lambda: bpy.ops.mesh.primitive_torus_add(major_segments=200, minor_segments=150),
+        "icosphere": lambda: bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=6),
+    }
+    for name, make in meshes.items():
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        make()
+        obj = bpy.context.active_object
+        base = mesh_io.read_mesh(obj.data)
+        arrays = (base.vertices, base.face_sizes, base.corners)
+        for levels, runs in ((3, 5), (4, 3)):
+            out = tn.subdivide(*arrays, levels, limit=True)
+            ours = median_time(lambda levels=levels, arrays=arrays: tn.subdivide(*arrays, levels, limit=True), runs)
+            theirs = modifier_time(obj, levels, runs)
+            faces = len(base.face_sizes)
+            print(f"{name:10s} {faces:7d} {levels:5d} {len(out['face_sizes']):10d} {ours * 1e3:11.1f} {theirs * 1e3:11.1f} {ours / theirs:6.2f}x")
+            del out
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,123 @@
+"""Procedural detail on Catmull-Clark levels (issue 18, Velho, Perlin, Ying and
+Biermann, section 4): rock and berry through `thicket_native.procedural_detail`,
+checked inside real Blender against Blender's own Subdivision Surface modifier (the
+surface the detail rides on) and with bmesh."""
+
+import bmesh
+import bpy
+import numpy as np
+import pytest
+from conftest import add, positions
+
+import thicket_native as tn
+from thicket import mesh_io
+
+
+def subsurf(obj, levels):
+    """Blender's Subdivision Surface modifier at `levels`, limit surface off: the
+    control mesh of that level, as the detail's levels are."""
+    mod = obj.modifiers.new("s", "SUBSURF")
+    mod.levels = levels
+    mod.use_limit_surface = False
+    deps = bpy.context.evaluated_depsgraph_get()
+    mesh = obj.evaluated_get(deps).to_mesh()
+    out = positions(mesh).copy()
+    obj.evaluated_get(deps).to_mesh_clear()
+    obj.modifiers.remove(mod)
+    return out
+
+
+def nearest_distance(a, b):
+    """For each point of `a`, the distance to the nearest point of `b` (mathutils' KD tree)."""
+    from mathutils.kdtree import KDTree
+
+    tree = KDTree(len(b))
+    for i, p in enumerate(b):
+        tree.insert(p, i)
+    tree.balance()
+    return np.array([tree.find(p)[2] for p in a])
+
+
+def manifold(out):
+    """Whether the result is a closed 2-manifold by bmesh (every edge manifold)."""
+    bm = bmesh.new()
+    try:
+        vs = [bm.verts.new(p) for p in out["vertices"].tolist()]
+        start = 0
+        for n in out["face_sizes"]:
+            bm.faces.new([vs[i] for i in out["corners"][start : start + n]])
+            start += n
+        return all(e.is_manifold for e in bm.edges) and all(v.is_manifold for v in bm.verts)
+    finally:
+        bm.free()
+
+
+@pytest.mark.parametrize("model", ["rock", "berry"])
+def test_detail_rides_on_blenders_subdivision(scene, model):
+    """Zero detail is Blender's Subdivision Surface exactly; with detail the mesh has
+    the same topology, moves, stays a closed manifold, and the same seed gives the
+    same surface."""
+    obj = add("uv_sphere", segments=16, ring_count=8)
+    a = mesh_io.read_mesh(obj.data)
+    diag = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
+    flat = {"rock": {"amplitude": 0.0}, "berry": {"radius": 1e-9}}[model]
+    plain = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model, 2, params=flat)
+    blender = subsurf(obj, 2)
+    assert len(plain["vertices"]) == len(blender)
+    assert nearest_distance(blender, plain["vertices"]).max() < 1e-5 * diag
+    out = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model, 2, seed=3)
+    assert np.array_equal(out["corners"], plain["corners"])
+    moved = np.linalg.norm(out["vertices"] - plain["vertices"], axis=1)
+    assert moved.max() > 0.005 * diag and np.isfinite(out["scalar"]).all()
+    assert manifold(out)
+    again = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model, 2, seed=3)
+    assert np.array_equal(again["vertices"], out["vertices"])
+    assert not np.array_equal(tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model, 2, seed=4)["vertices"], out["vertices"])
+
+
+def test_berry_dome_at_a_chosen_seed(scene):
+    """A seed given as a base vertex: after one level it stands R above Blender's
+    subdivided surface, the scalar says so, and vertices farther than R stay put."""
+    obj = add("ico_sphere", subdivisions=3)
+    a = mesh_io.read_mesh(obj.data)
+    diag = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
+    out = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "berry", 1, params={"radius": 0.1, "seeds": [7]})
+    blender = subsurf(obj, 1)
+    # Base vertex 7 is vertex 7 of every level.
+    d = np.linalg.norm(out["vertices"] - out["vertices"][7], axis=1)
+    here = np.linalg.norm(blender - out["vertices"][7], axis=1).argmin()
+    r = 0.1 * diag
+    assert abs(np.linalg.norm(out["vertices"][7] - blender[here]) - r) < 1e-4 * diag
+    assert abs(out["scalar"][7] - r) < 1e-4 * diag
+    far = d > 2.5 * r
+    assert far.sum() > len(d) // 2
+    assert nearest_distance(out["vertices"][far], blender).max() < 1e-5 * diag
+
+
+def test_bad_input_is_a_clear_error(scene):
+    obj = add("cube")
+    a = mesh_io.read_mesh(obj.data)
+    with pytest.raises(ValueError, match="not built yet"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "tentacle", 2)
+    with pytest.raises(ValueError, match="model"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "marble", 2)
+    with pytest.raises(ValueError, match="amplitude"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 2, params={"amplitude": float("nan")})
+    with pytest.raises(ValueError, match="levels"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 0)
+    with pytest.raises(ValueError, match="seed"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "berry", 1, params={"seeds": [99]})
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 1, params={"amplitud": 0.1})
+
+
+def test_levels_that_would_not_fit_are_refused_before_anything_is_made(scene):
+    """A 31k-face mesh to 6 levels would be 129 M faces (about 26 GB): refused at once,
+    saying how many levels fit."""
+    obj = add("monkey")
+    mod = obj.modifiers.new("s", "SUBSURF")
+    mod.levels = 3
+    bpy.ops.object.modifier_apply(modifier="s")
+    a = mesh_io.read_mesh(obj.data)
+    with pytest.raises(ValueError, match=r"levels fit"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 6)
