@@ -2,6 +2,9 @@
 Blender's Subdivision Surface modifier (evaluated depsgraph, same bpy run), levels 3 and 4
 on a 30k-quad torus and a 20k-triangle icosphere, Use Limit Surface on (the modifier's default; `subdivide` takes limit=True).
 
+Then the procedural rock (`thicket_native.procedural_detail`) at level 4 on the torus
+beside plain subdivision to level 4: time and peak memory.
+
 Prints figures measured in this run only, side by side, as ratios (median of N runs).
 Thicket's figure is the native call on numpy arrays; Blender's is the modifier's
 evaluation plus `to_mesh` (its result as a Mesh).
@@ -57,6 +60,40 @@ def main():
             faces = len(base.face_sizes)
             print(f"{name:10s} {faces:7d} {levels:5d} {len(out['face_sizes']):10d} {ours * 1e3:11.1f} {theirs * 1e3:11.1f} {ours / theirs:6.2f}x")
             del out
+    rock_synthesis()
+
+
+def _status_kb(field):
+    """A memory figure of this process from /proc/self/status, in kB (Linux)."""
+    with open("/proc/self/status") as status:
+        return next(int(line.split()[1]) for line in status if line.startswith(field + ":"))
+
+
+def peak_growth(call):
+    """`call()`'s result and how far the resident memory rose above where it started
+    while it ran, in bytes (the peak is reset first: /proc/self/clear_refs, Linux)."""
+    with open("/proc/self/clear_refs", "w") as refs:
+        refs.write("5")
+    start = _status_kb("VmRSS")
+    out = call()
+    return out, (_status_kb("VmHWM") - start) * 1024
+
+
+def rock_synthesis():
+    """Issue 18's rock at level 4 on the 30k-quad torus (7.7 M faces): time and peak
+    memory of `procedural_detail` beside plain subdivision to the same level (limit
+    off), in this run."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_torus_add(major_segments=200, minor_segments=150)
+    base = mesh_io.read_mesh(bpy.context.active_object.data)
+    arrays = (base.vertices, base.face_sizes, base.corners)
+    print("\nProcedural detail (rock) at level 4 vs plain subdivision to level 4, the same torus (issue 18's target: rock under 2 s)")
+    for label, call in (("subdivide", lambda: tn.subdivide(*arrays, 4)), ("rock", lambda: tn.procedural_detail(*arrays, "rock", 4))):
+        seconds = median_time(call, 1)
+        out, grown = peak_growth(call)
+        faces = len(out["face_sizes"])
+        print(f"  {label:10s} {faces:9d} faces {seconds:6.2f} s, peak memory {grown / 1e6:5.0f} MB above the start ({grown / faces:4.0f} bytes per face)")
+        del out
 
 
 if __name__ == "__main__":
