@@ -60,8 +60,8 @@ def test_detail_rides_on_blenders_subdivision(scene, model):
     obj = add("uv_sphere", segments=16, ring_count=8)
     a = mesh_io.read_mesh(obj.data)
     diag = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
-    flat = {"rock": {"amplitude": 0.0}, "berry": {"radius": 1e-9}}[model]
-    plain = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model, 2, params=flat)
+    # Zero detail (a rock of amplitude 0): the synthesis's own subdivision.
+    plain = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 2, params={"amplitude": 0.0})
     blender = subsurf(obj, 2)
     assert len(plain["vertices"]) == len(blender)
     assert nearest_distance(blender, plain["vertices"]).max() < 1e-5 * diag
@@ -103,6 +103,8 @@ def test_bad_input_is_a_clear_error(scene):
         tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "marble", 2)
     with pytest.raises(ValueError, match="amplitude"):
         tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 2, params={"amplitude": float("nan")})
+    with pytest.raises(ValueError, match="radius"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "berry", 2, params={"radius": 1e-12})
     with pytest.raises(ValueError, match="levels"):
         tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 0)
     with pytest.raises(ValueError, match="seed"):

@@ -94,7 +94,7 @@ def compare(obj, levels, limit, boundary_smooth="ALL", quality=3):
     obj.data.polygons.foreach_set("material_index", np.arange(len(obj.data.polygons), dtype=np.int32) % 3)
     obj.data.update()
     base = mesh_io.read_mesh(obj.data)
-    ours = tn.subdivide(base.vertices, base.face_sizes, base.corners, levels, limit, base.material_index, boundary_smooth)
+    ours = tn.subdivide(base.vertices, base.face_sizes, base.corners, levels, limit, material_index=base.material_index, boundary_smooth=boundary_smooth)
     theirs = blender_subdivided(obj, levels, limit, boundary_smooth, quality)
     diagonal = float(np.linalg.norm(np.ptp(theirs.vertices, axis=0)))
     distance = point_set_distance(ours["vertices"], theirs.vertices, 1e-3 * diagonal) / diagonal
@@ -164,6 +164,7 @@ def test_refuses_non_manifold_and_bad_arguments(scene):
         ({"levels": 7}, "levels must be 1 to 6"),
         ({"material_index": np.zeros(2, np.int32)}, "2 entries for 1 faces"),
         ({"boundary_smooth": "NONE"}, "boundary_smooth"),
+        ({"uvs": np.zeros((4, 2), np.float32)}, "not built yet"),
     ]:
         with pytest.raises(tn.InvalidInput, match=message):
             tn.subdivide(*quad, **kwargs)

@@ -288,6 +288,8 @@ def subdivide(
     corners: Indices,
     levels: int = 1,
     limit: bool = False,
+    uvs: Floats | None = None,  # not built yet: refused
+    *,
     material_index: Indices | None = None,
     boundary_smooth: str = "ALL",
 ) -> dict[str, Any]:
@@ -303,5 +305,5 @@ def procedural_detail(
     seed: int = 0,
     params: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Procedural detail on Catmull-Clark levels (Velho et al. section 4): model "rock" (params amplitude, scale) or "berry" (radius, seeds, children), lengths as fractions of the bounding-box diagonal.
+    """Procedural detail on Catmull-Clark levels (Velho et al. section 4): model "rock" (params amplitude) or "berry" (radius, seeds, children), lengths as fractions of the bounding-box diagonal.
     Returns the finest level's vertices, face_sizes, corners (all quads), source_face and scalar (float32 per vertex: the detail added)."""

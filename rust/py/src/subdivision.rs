@@ -10,16 +10,17 @@ use crate::arrays;
 use crate::errors::{run_detached, to_py, InvalidInput};
 use crate::keywords::Keywords;
 
-/// subdivide(vertices, face_sizes, corners, levels=1, limit=False, material_index=None,
-///           boundary_smooth="ALL") -> dict
+/// subdivide(vertices, face_sizes, corners, levels=1, limit=False, uvs=None, *,
+///           material_index=None, boundary_smooth="ALL") -> dict
 ///
 /// Catmull-Clark subdivision as Blender's Subdivision Surface modifier makes it: `levels`
 /// 1 to 6, `limit` its Use Limit Surface, `boundary_smooth` its Boundary Smooth ("ALL" or
 /// "PRESERVE_CORNERS"). Returns vertices (m,3) float32, face_sizes and corners int32 (all
 /// quads), source_face int32 (the base face of each face) and, when `material_index`
-/// (int32 per base face) is given, material_index int32 per face.
+/// (int32 per base face) is given, material_index int32 per face. `uvs` (UV maps through
+/// the levels) is not built yet and is refused.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, levels=1, limit=false, material_index=None, boundary_smooth="ALL"))]
+#[pyo3(signature = (vertices, face_sizes, corners, levels=1, limit=false, uvs=None, *, material_index=None, boundary_smooth="ALL"))]
 #[allow(clippy::too_many_arguments)]
 pub fn subdivide<'py>(
     py: Python<'py>,
@@ -28,9 +29,13 @@ pub fn subdivide<'py>(
     corners: &Bound<'py, PyAny>,
     levels: u32,
     limit: bool,
+    uvs: Option<&Bound<'py, PyAny>>,
     material_index: Option<&Bound<'py, PyAny>>,
     boundary_smooth: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
+    if uvs.is_some_and(|u| !u.is_none()) {
+        return Err(InvalidInput::new_err("subdivide: UV maps through the levels (uvs) are not built yet (issue 18); subdivide without them"));
+    }
     let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
     let materials = material_index.map(|m| arrays::indices(m, "material_index")).transpose()?;
     if let Some(m) = &materials {
@@ -57,7 +62,7 @@ pub fn subdivide<'py>(
 /// Procedural shape detail on Catmull-Clark levels (Velho, Perlin, Ying and Biermann,
 /// section 4): `model` "rock" or "berry", `levels` 1 to 6, `seed` the random values,
 /// `params` the model's settings, lengths as fractions of the bounding-box diagonal:
-/// rock `amplitude` (0.02) and `scale` (0.1); berry `radius` (0.15), `seeds` (base vertex
+/// rock `amplitude` (0.02); berry `radius` (0.15), `seeds` (base vertex
 /// indices; Poisson-disk points when empty) and `children` (3). Returns the finest level's
 /// vertices, face_sizes and corners (all quads), source_face (the base face of each face)
 /// and `scalar`, float32 per vertex: the detail the levels added along their normals.
@@ -79,7 +84,7 @@ pub fn procedural_detail<'py>(
     let diag = mesh.bbox_diagonal() as f64;
     let settings = Keywords::new("procedural_detail", params);
     let model = match model {
-        "rock" => Model::Rock { amplitude: settings.get("amplitude", 0.02f64)? * diag, scale: settings.get("scale", 0.1f64)? * diag },
+        "rock" => Model::Rock { amplitude: settings.get("amplitude", 0.02f64)? * diag },
         "berry" => Model::Berry {
             radius: settings.get("radius", 0.15f64)? * diag,
             seeds: settings.get("seeds", Vec::<u32>::new())?,
