@@ -44,7 +44,7 @@ impl Model {
                 }
             }
             Model::Berry { radius, seeds, children } => {
-                if !(radius.is_finite() && *radius >= MIN_SHARE * diag && *radius <= MAX_SHARE * diag) {
+                if !(radius.is_finite() && *radius > 0.0 && *radius >= MIN_SHARE * diag && *radius <= MAX_SHARE * diag) {
                     return bad(format!("berry radius must be between {MIN_SHARE} and {MAX_SHARE} times the mesh's size, not {radius}"));
                 }
                 if let Some(s) = seeds.iter().find(|&&s| s as usize >= base.vertex_count()) {
@@ -433,6 +433,9 @@ mod tests {
         refuse(Model::Rock { amplitude: 0.1 }, 0);
         refuse(Model::Rock { amplitude: 0.1 }, super::super::MAX_LEVELS + 1);
         refuse(Model::Berry { radius: 1e-9, seeds: vec![], children: 2 }, 2);
+        // A mesh of one point (zero size): no radius fits, not even zero.
+        let point = Mesh::new(vec![Vec3::ZERO; 4], &[4], vec![0, 1, 2, 3], None).unwrap();
+        assert!(matches!(procedural_detail(&point, 1, &Model::Berry { radius: 0.0, seeds: vec![], children: 2 }, 0), Err(Error::InvalidParameter(_))));
         refuse(Model::Berry { radius: -1.0, seeds: vec![], children: 2 }, 2);
         refuse(Model::Berry { radius: 0.1, seeds: vec![10_000], children: 2 }, 2);
         refuse(Model::Berry { radius: 0.1, seeds: vec![], children: MAX_CHILDREN + 1 }, 2);
