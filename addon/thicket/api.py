@@ -14,6 +14,7 @@
     th.regenerate_field_mesh(field)             # after editing its stored tree or Text
     th.add_solid_texture(obj, tree_json, mode="COLOR")        # the tree's colours on a mesh
     th.render_field(tree_json, camera=cam)      # the tree sphere-traced into an image
+    th.add_procedural_detail(obj, model="ROCK", levels=4)   # subdivision levels with detail
 
 Every function raises `ThicketError` (from thicket_native, a ValueError) for bad
 geometry or settings, `TypeError` for non-mesh objects and `KeyError` for missing
@@ -60,6 +61,7 @@ __all__ = [
     "estimate_field_mesh",
     "add_solid_texture",
     "render_field",
+    "add_procedural_detail",
     "ThicketError",  # noqa: F822 (module __getattr__)
     "BakeNeedsConfirmation",
 ]
@@ -306,6 +308,48 @@ def add_solid_texture(obj, tree_json, mode="COLOR", domain="POINT", amplitude=0.
         raise ValueError(f"domain must be 'POINT' or 'CORNER', got {domain!r}")
     add_item(obj, "SOLID_TEXTURE", mode=mode, domain=domain, amplitude=amplitude, **settings)
     return _regenerate(obj, progress=progress)
+
+
+def add_procedural_detail(obj, model=None, levels=None, preset=None, progress=None, **settings):
+    """Adds a Procedural Detail item (Velho, Perlin, Ying and Biermann) to `obj`'s
+    stack, before its first shell or texture item (the detail shapes their base), and
+    regenerates; returns the result object. `model`: "ROCK" or "BERRY"; `levels`: 1 to
+    6 Catmull-Clark levels (each has four times the faces of the last). `preset`:
+    "ROCK" or "BERRY", the starting settings (`model`, `levels` and `settings` override
+    them). Other `settings`: `seed`; the rock's `amplitude` and the berry's `radius`
+    (fractions of the bounding-box diagonal), `children` and `seeds` ("RANDOM",
+    "GROUP" with `vertex_group`, or "SELECTED": the source's selected vertices), or any
+    `ThicketItem` name. Results over 4 GB are refused with a ThicketError before
+    anything is made; `regenerate(obj, ask=True)` raises `BakeNeedsConfirmation` over
+    `confirm_above` triangles. The source mesh is never modified."""
+    from .pure.kinds.procedural_detail import API_NAMES, PRESETS
+
+    _require_mesh(obj)
+    if preset is not None and preset.upper() not in PRESETS:
+        raise ValueError(f"preset must be one of {', '.join(PRESETS)}, got {preset!r}")
+    values = dict(PRESETS[preset.upper()]) if preset is not None else {}
+    for key, value in dict(settings, model=model, levels=levels).items():
+        if value is not None:
+            values[API_NAMES.get(key, key)] = value.upper() if key in ("model", "seeds") else value
+    add_detail_item(obj, **values)
+    return _regenerate(obj, progress=progress)
+
+
+def add_detail_item(obj, **values):
+    """Adds a Procedural Detail item with `values` (names of `ThicketItem`) before the
+    first item of `obj`'s stack that is not one (the detail shapes the shells' base);
+    returns it, active, without regenerating."""
+    stack = obj.thicket
+    at = next((i for i, item in enumerate(stack.items) if item.kind != S.ProceduralDetail.kind), None)
+    item = add_item(obj, S.ProceduralDetail.kind, **values)
+    if at is not None:
+        from .stack.guard import suspended
+
+        with suspended():
+            stack.items.move(len(stack.items) - 1, at)
+            stack.active_index = at
+        item = stack.items[at]
+    return item
 
 
 def bake_frames(obj, frame_start, frame_end, directory, step=1, progress=None):

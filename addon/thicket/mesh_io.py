@@ -11,7 +11,7 @@ material indices go through the generic attribute API (`position`, `.corner_vert
 import bpy
 import numpy as np
 
-from .pure.arrays import SELECTED_FACES, MeshArrays, weight_attribute
+from .pure.arrays import SELECTED_FACES, SELECTED_VERTICES, MeshArrays, weight_attribute
 
 
 def _transfer(method, mesh, attribute, key, array, collection, prop):
@@ -149,10 +149,12 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
     Call it with auto-update suspended (`stack.guard.suspended`), as
     `stack.regenerate` does: the probe's own depsgraph updates must not schedule work.
     """
-    if SELECTED_FACES in vertex_groups:
-        arrays = read_evaluated(obj, depsgraph, [g for g in vertex_groups if g != SELECTED_FACES])
-        arrays.point_attributes[weight_attribute(SELECTED_FACES)] = _selected_face_weights(obj, arrays)
-        return arrays
+    selections = {SELECTED_FACES: _selected_face_weights, SELECTED_VERTICES: _selected_vertex_weights}
+    for pseudo, weights in selections.items():
+        if pseudo in vertex_groups:
+            arrays = read_evaluated(obj, depsgraph, [g for g in vertex_groups if g != pseudo])
+            arrays.point_attributes[weight_attribute(pseudo)] = weights(obj, arrays)
+            return arrays
     if not vertex_groups:
         evaluated = obj.evaluated_get(depsgraph)
         mesh = evaluated.to_mesh()
@@ -193,14 +195,29 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
         bpy.context.view_layer.update()
 
 
-def _selected_face_weights(obj, arrays: MeshArrays):
-    """1 on the vertices of the source's selected faces, 0 elsewhere. The selection is
-    the original mesh's, so modifiers must keep its faces (checked)."""
+def _original_selection(obj, arrays: MeshArrays, what):
+    """The source's own mesh, whose selection is read: modifiers must keep its faces
+    and vertices (checked), so its indices are the evaluated mesh's."""
     mesh = obj.data
     if obj.mode == "EDIT":
         obj.update_from_editmode()
-    if len(mesh.polygons) != arrays.face_count or len(mesh.loops) != len(arrays.corners):
-        raise ValueError(f"'{obj.name}': selected faces can only be used when its modifiers keep its faces; use a vertex group")
+    if len(mesh.polygons) != arrays.face_count or len(mesh.loops) != len(arrays.corners) or len(mesh.vertices) != arrays.vertex_count:
+        raise ValueError(f"'{obj.name}': selected {what} can only be used when its modifiers keep its faces; use a vertex group")
+    return mesh
+
+
+def _selected_vertex_weights(obj, arrays: MeshArrays):
+    """1 on the source's selected vertices, 0 elsewhere (see `_original_selection`)."""
+    mesh = _original_selection(obj, arrays, "vertices")
+    selected = np.empty(len(mesh.vertices), dtype=bool)
+    mesh.vertices.foreach_get("select", selected)
+    return selected.astype(np.float32)
+
+
+def _selected_face_weights(obj, arrays: MeshArrays):
+    """1 on the vertices of the source's selected faces, 0 elsewhere (see
+    `_original_selection`)."""
+    mesh = _original_selection(obj, arrays, "faces")
     selected = np.empty(len(mesh.polygons), dtype=bool)
     mesh.polygons.foreach_get("select", selected)
     weights = np.zeros(arrays.vertex_count, dtype=np.float32)

@@ -10,6 +10,7 @@ from .item_add import THICKET_OT_item_add
 from .item_move import THICKET_OT_item_move
 from .item_remove import THICKET_OT_item_remove
 from .live_preview import THICKET_OT_live_preview
+from .procedural_detail_add import THICKET_OT_procedural_detail_add
 from .regenerate import THICKET_OT_regenerate
 from .remove_stack import THICKET_OT_remove
 from .render_preview import THICKET_OT_render_preview
@@ -30,4 +31,5 @@ CLASSES = (
     THICKET_OT_field_mesh_add,
     THICKET_OT_field_nodes_add,
     THICKET_OT_field_mesh_regenerate,
+    THICKET_OT_procedural_detail_add,
 )

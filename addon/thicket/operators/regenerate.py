@@ -17,12 +17,13 @@ class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):
 
     estimate: bpy.props.IntProperty(options={"HIDDEN", "SKIP_SAVE"})
     budget: bpy.props.IntProperty(options={"HIDDEN", "SKIP_SAVE"})
+    making: bpy.props.StringProperty(default="bake", options={"HIDDEN", "SKIP_SAVE"})
     confirmed: bpy.props.BoolProperty(options={"HIDDEN", "SKIP_SAVE"})
 
     def invoke(self, context, event):
         if self.estimate:
-            # A run found a bake over its item's "Ask Above": the user decides.
-            return context.window_manager.invoke_props_dialog(self, title="Large bake", confirm_text="Bake")
+            # A run found a bake (or a subdivision) over its item's "Ask Above": the user decides.
+            return context.window_manager.invoke_props_dialog(self, title=f"Large {self.making}", confirm_text=self.making.capitalize())
         if context.window is None:
             return self.execute(context)
         # Interactive: the stack evaluates on a worker thread while Blender shows the
@@ -30,7 +31,7 @@ class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):
         return self.run_watched(context, self._watch(context, ask=not self.confirmed, fresh=not self.confirmed))
 
     def draw(self, context):
-        self.layout.label(text=f"This bake makes about {self.estimate:,} triangles.", icon="ERROR")
+        self.layout.label(text=f"This {self.making} makes about {self.estimate:,} triangles.", icon="ERROR")
         if self.budget and self.estimate > self.budget:
             self.layout.label(text=f"That is {self.estimate / self.budget:.1f} times its Triangle Budget of {self.budget:,}.")
         self.layout.label(text="It may take a while and a lot of memory. Bake it?")
@@ -74,7 +75,7 @@ def watched_regeneration(context, obj, ask, report, fresh=True):
     def fail(exc):
         if isinstance(exc, BakeNeedsConfirmation):
             if bpy.context.window is not None:  # ask, then bake watched (see invoke)
-                bpy.ops.thicket.regenerate("INVOKE_DEFAULT", estimate=exc.estimate, budget=exc.budget)
+                bpy.ops.thicket.regenerate("INVOKE_DEFAULT", estimate=exc.estimate, budget=exc.budget, making=exc.making)
             return {"CANCELLED"}
         return _failed(bpy.data.objects.get(name), exc, report)
 

@@ -6,6 +6,8 @@ import numpy as np
 
 #: The pseudo vertex group of the source's selected faces (weight 1 on their vertices).
 SELECTED_FACES = "<selected faces>"
+#: The pseudo vertex group of the source's selected vertices (weight 1 on them).
+SELECTED_VERTICES = "<selected vertices>"
 
 
 def weight_attribute(vertex_group: str) -> str:

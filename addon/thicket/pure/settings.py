@@ -2,6 +2,8 @@
 
 from dataclasses import dataclass
 
+from .arrays import SELECTED_VERTICES
+
 
 class _Item:
     def vertex_groups(self):
@@ -133,7 +135,44 @@ class SolidTexture(_Item):
     label = "Solid Texture"
 
 
-KINDS = {cls.kind: cls for cls in (OffsetShell, FieldShell, VolumetricTexture, SolidTexture)}
+@dataclass(frozen=True)
+class ProceduralDetail(_Item):
+    """Procedural Detail: Catmull-Clark levels with procedural detail added at each.
+
+    Velho, Perlin, Ying and Biermann, section 4: the current mesh is subdivided
+    `levels` times and `model`'s detail added at every level ("rock": a random value
+    per control point, amplitude halving per level; "berry": domes around seeds with
+    smaller clusters at each finer level). amplitude (rock) and radius (berry) are
+    fractions of the mesh's bounding-box diagonal; children: seeds each berry seed
+    grows at the next level. seeds: "random" (Poisson-disk points, or the rock's random
+    values from `seed`), "group" (berry seeds: the vertices of `vertex_group` with
+    weight at least one half) or "selected" (the source's selected vertices).
+    confirm_above: results estimated above this many triangles raise
+    NeedsConfirmation when the caller asks (the UI). The result's vertices keep the
+    group weights of the base vertex whose quarter of a face they lie in.
+    """
+
+    model: str = "rock"
+    levels: int = 3
+    seed: int = 0
+    amplitude: float = 0.02
+    radius: float = 0.15
+    children: int = 3
+    seeds: str = "random"
+    vertex_group: str = ""
+    confirm_above: int = 3_000_000
+
+    def vertex_groups(self):
+        if self.seeds == "selected":
+            return [SELECTED_VERTICES]
+        return [self.vertex_group] if self.seeds == "group" and self.vertex_group else []
+
+    kind = "PROCEDURAL_DETAIL"
+    label = "Procedural Detail"
+
+
+# Appended, never reordered: the enum stores each kind by its position in saved files.
+KINDS = {cls.kind: cls for cls in (OffsetShell, FieldShell, VolumetricTexture, SolidTexture, ProceduralDetail)}
 
 
 def shell_settings(kind, thickness, thickness_mode="RELATIVE", vertex_group="", output="OUTER", surfaces=OffsetShell.surfaces, side="EXTERIOR"):

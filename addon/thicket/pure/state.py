@@ -37,6 +37,17 @@ class ShellContext:
         return found
 
 
+class NeedsConfirmation(Exception):
+    """A result estimated above its item's `confirm_above` triangles (a bake, a
+    Procedural Detail's finest level): the UI asks before making it. `making` names
+    the work for the question ("bake", "subdivision")."""
+
+    def __init__(self, label, estimate, limit, budget=0, making="bake"):
+        over = f", {estimate / budget:.1f} times the Triangle Budget of {budget:,}" if budget and estimate > budget else ""
+        super().__init__(f"'{label}' would make about {estimate:,} triangles (over {limit:,}{over}): click Regenerate to confirm")
+        self.estimate, self.budget, self.making = estimate, budget, making
+
+
 class StackError(ValueError):
     """A stack that cannot be evaluated as ordered (e.g. a texture without a shell)."""
 

@@ -211,7 +211,7 @@ class ThicketItem(bpy.types.PropertyGroup):
     )
     confirm_above: IntProperty(
         name="Ask Above",
-        description="In the interface, ask before baking more than this many (estimated) triangles",
+        description="In the interface, ask before baking (or subdividing into) more than this many (estimated) triangles",
         min=1000,
         default=3_000_000,
         update=_changed,
@@ -248,6 +248,59 @@ class ThicketItem(bpy.types.PropertyGroup):
         name="Amplitude", description="Displacement at texture value 1", default=0.1, soft_min=-1.0, soft_max=1.0, step=1, precision=4, update=_changed
     )
     color_attribute: StringProperty(name="Attribute", description="The colour attribute written", default="thicket_color", update=_changed)
+
+    # Procedural Detail
+    detail_model: EnumProperty(
+        name="Model",
+        items=[
+            ("ROCK", "Rock", "A random value per control point at every level, halving per level: a 1/f fractal surface"),
+            ("BERRY", "Berry", "Domes around seed points, with smaller clusters of domes at every finer level"),
+        ],
+        default="ROCK",
+        update=_changed,
+    )
+    levels: IntProperty(
+        name="Levels",
+        description="Catmull-Clark levels, each with its own detail (each level has four times the faces of the last)",
+        min=1,
+        max=6,
+        default=S.ProceduralDetail.levels,
+        update=_changed,
+    )
+    detail_amplitude: FloatProperty(
+        name="Amplitude",
+        description="The rock's largest displacement at the first level, as a fraction of the bounding-box diagonal (halved at each finer level)",
+        default=S.ProceduralDetail.amplitude,
+        soft_min=-0.2,
+        soft_max=0.2,
+        step=0.1,
+        precision=4,
+        update=_changed,
+    )
+    detail_radius: FloatProperty(
+        name="Radius",
+        description="The first level's dome radius, as a fraction of the bounding-box diagonal (halved at each finer level)",
+        default=S.ProceduralDetail.radius,
+        min=0.001,
+        soft_max=0.5,
+        step=0.1,
+        precision=4,
+        update=_changed,
+    )
+    detail_children: IntProperty(
+        name="Children", description="Seeds each dome's seed grows at the next level", min=0, max=64, default=S.ProceduralDetail.children, update=_changed
+    )
+    detail_seeds: EnumProperty(
+        name="Seeds",
+        description="Where the berry's first domes grow",
+        items=[
+            ("RANDOM", "Random", "Poisson-disk points two radii apart, from Seed"),
+            ("GROUP", "Vertex Group", "The vertices of the vertex group with weight 0.5 or more"),
+            ("SELECTED", "Selected Vertices", "The source's selected vertices"),
+        ],
+        default="RANDOM",
+        update=_changed,
+    )
 
     def tree_json(self):
         """The Solid Texture's tree: its Text's content when set, else its JSON text."""
@@ -306,6 +359,18 @@ class ThicketItem(bpy.types.PropertyGroup):
                 move_group=SELECTED_FACES if self.face_selection == "MOVE" else self.move_group,
                 move_offset=tuple(self.move_offset),
                 cutter=self._cutter_arrays(depsgraph),
+            )
+        if self.kind == S.ProceduralDetail.kind:
+            return S.ProceduralDetail(
+                model=self.detail_model.lower(),
+                levels=self.levels,
+                seed=self.seed,
+                amplitude=self.detail_amplitude,
+                radius=self.detail_radius,
+                children=self.detail_children,
+                seeds=self.detail_seeds.lower(),
+                vertex_group=self.vertex_group,
+                confirm_above=self.confirm_above,
             )
         if self.kind == S.SolidTexture.kind:
             return S.SolidTexture(

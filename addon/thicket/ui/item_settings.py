@@ -11,6 +11,9 @@ def draw_item_settings(layout, obj, item):
     if item.kind == "SOLID_TEXTURE":
         _draw_solid_texture_settings(col, item)
         return
+    if item.kind == "PROCEDURAL_DETAIL":
+        _draw_detail_settings(col, obj, item)
+        return
     if item.kind == "SHELL":
         col.prop(item, "side")
     col.prop(item, "thickness_mode")
@@ -32,6 +35,21 @@ def _draw_solid_texture_settings(col, item):
     else:
         col.prop(item, "domain")
         col.prop(item, "color_attribute")
+
+
+def _draw_detail_settings(col, obj, item):
+    col.prop(item, "detail_model")
+    col.prop(item, "levels")
+    col.prop(item, "seed")
+    if item.detail_model == "ROCK":
+        col.prop(item, "detail_amplitude")
+    else:
+        col.prop(item, "detail_radius")
+        col.prop(item, "detail_children")
+        col.prop(item, "detail_seeds")
+        if item.detail_seeds == "GROUP":
+            col.prop_search(item, "vertex_group", obj, "vertex_groups")
+    col.prop(item, "confirm_above")
 
 
 def _draw_no_uv_tiles(col, obj, item):

@@ -10,6 +10,7 @@ class THICKET_MT_object(bpy.types.Menu):
     def draw(self, context):
         layout = self.layout
         layout.operator("thicket.add_thick_surface", icon="MOD_SOLIDIFY")
+        layout.operator_menu_enum("thicket.procedural_detail_add", "preset", icon="MOD_SUBSURF")
         layout.operator("thicket.regenerate", icon="FILE_REFRESH")
         layout.operator("thicket.render_preview", icon="RENDER_STILL")
         layout.operator("thicket.apply", icon="CHECKMARK")

@@ -7,7 +7,7 @@ from .item_settings import draw_item_settings, draw_status
 class THICKET_UL_items(bpy.types.UIList):
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
         row = layout.row(align=True)
-        icon = {"OFFSET_SHELL": "MOD_SOLIDIFY", "SOLID_TEXTURE": "TEXTURE"}.get(item.kind, "MOD_SKIN")
+        icon = {"OFFSET_SHELL": "MOD_SOLIDIFY", "SOLID_TEXTURE": "TEXTURE", "PROCEDURAL_DETAIL": "MOD_SUBSURF"}.get(item.kind, "MOD_SKIN")
         row.prop(item, "name", text="", emboss=False, icon=icon)
         row.prop(item, "show_viewport", text="", emboss=False, icon="RESTRICT_VIEW_OFF" if item.show_viewport else "RESTRICT_VIEW_ON")
 

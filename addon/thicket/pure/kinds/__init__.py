@@ -7,6 +7,7 @@ with its step, and one line in `KINDS`; Blender also needs its settings in
 from typing import NamedTuple
 
 from .. import settings as S
+from .procedural_detail import procedural_detail_step
 from .shell import field_shell, offset_shell, shell_step
 from .solid_texture import solid_texture_step
 from .volumetric_texture import texture_draw_setup, texture_step
@@ -47,4 +48,5 @@ KINDS = {
     S.FieldShell: Kind("mesh", "shell", 1.0, shell_step(field_shell)),
     S.VolumetricTexture: Kind("shell", "geometry", 3.0, texture_step, texture_draw_setup),
     S.SolidTexture: Kind("any", "mesh", 0.2, solid_texture_step),
+    S.ProceduralDetail: Kind("mesh", "mesh", 1.0, procedural_detail_step),
 }

@@ -12,6 +12,7 @@ from .. import native
 from .. import settings as S
 from ..arrays import MeshArrays
 from ..field_tree import check_tree
+from ..state import NeedsConfirmation as BakeNeedsConfirmation  # the name the API has exported since bakes asked first
 from ..state import ShellContext, State, group_weights
 
 TEXCOORD_ATTRIBUTE = "thicket_texcoord"
@@ -72,15 +73,6 @@ def item_texture(item: S.VolumetricTexture):
     if item.field_tree:
         return _field(tn, check_tree(item.field_tree), _size(item))
     return _texture_file(tn, item.filepath) if item.filepath else _texture(tn, item.pattern, item)
-
-
-class BakeNeedsConfirmation(Exception):
-    """A bake estimated above the item's `confirm_above`: the UI asks before baking."""
-
-    def __init__(self, label, estimate, limit, budget=0):
-        over = f", {estimate / budget:.1f} times the Triangle Budget of {budget:,}" if budget and estimate > budget else ""
-        super().__init__(f"'{label}' would make about {estimate:,} triangles (over {limit:,}{over}): click Regenerate to confirm")
-        self.estimate, self.budget = estimate, budget
 
 
 def placed_textures(item: S.VolumetricTexture):

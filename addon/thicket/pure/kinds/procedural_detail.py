@@ -1,0 +1,120 @@
+"""The Procedural Detail kind (Velho, Perlin, Ying and Biermann, sections 2 and 4;
+issue 18): the current mesh subdivided by Catmull-Clark levels with a procedural
+model's detail added at each, by `thicket_native.procedural_detail`. It comes before
+the shells in a stack: its vertices keep a source vertex each (the base vertex whose
+quarter of a base face they lie in), so the vertex groups of later items still apply."""
+
+import numpy as np
+
+from .. import native
+from .. import settings as S
+from ..arrays import SELECTED_VERTICES, MeshArrays
+from ..state import NeedsConfirmation, State, group_weights
+
+#: The per-vertex detail the levels added along their normals (signed), for shading.
+DETAIL_ATTRIBUTE = "thicket_detail"
+
+#: Each model's settings, by their `thicket_native.procedural_detail` names.
+MODEL_SETTINGS = {
+    "rock": ("amplitude",),
+    "berry": ("radius", "children"),
+}
+#: Models whose seeds may be chosen (a vertex group or the selection).
+SEEDED = ("berry",)
+SEED_SOURCES = ("random", "group", "selected")
+
+#: Starting points for the Add Procedural Detail menu and `thicket.api`, as stack item
+#: property values (the paper's figures 3 and 4).
+PRESETS = {
+    "ROCK": dict(detail_model="ROCK", levels=4, detail_amplitude=0.03),
+    "BERRY": dict(detail_model="BERRY", levels=4, detail_radius=0.12, detail_children=3),
+}
+
+#: `thicket.api.add_procedural_detail` keywords and the stack item properties they set.
+API_NAMES = {
+    "model": "detail_model",
+    "amplitude": "detail_amplitude",
+    "radius": "detail_radius",
+    "children": "detail_children",
+    "seeds": "detail_seeds",
+}
+
+
+def faces_after(mesh: MeshArrays, levels: int) -> int:
+    """Faces (quads) of the finest level: every corner of the base becomes a quad at
+    level 1, and every quad four at each level after it."""
+    return int(np.sum(mesh.face_sizes, dtype=np.int64)) * 4 ** (int(levels) - 1)
+
+
+def seed_vertices(state: State, item: S.ProceduralDetail):
+    """The berry's seeds, as vertex indices of the current mesh: None for Poisson-disk
+    seeds; else the vertices of the item's group (weight at least one half) or of the
+    source's selection."""
+    if item.model not in SEEDED or item.seeds == "random":
+        return None
+    group = SELECTED_VERTICES if item.seeds == "selected" else item.vertex_group
+    if not group:
+        raise native.get().InvalidInput(f"'{item.label}': seeds from a vertex group need the group's name")
+    seeds = np.flatnonzero(group_weights(state.source, group, state.origin) >= 0.5)
+    if seeds.size == 0:
+        where = "no vertex is selected" if group == SELECTED_VERTICES else f"vertex group '{group}' has no vertex of weight 0.5 or more"
+        raise native.get().InvalidInput(f"'{item.label}': {where}, so the berry has no seeds")
+    return seeds
+
+
+def params(state: State, item: S.ProceduralDetail) -> dict:
+    """The model's `params` for `thicket_native.procedural_detail`."""
+    if item.model not in MODEL_SETTINGS:
+        raise native.get().InvalidInput(f"'{item.label}': model must be one of {', '.join(MODEL_SETTINGS)}, not {item.model!r}")
+    if item.seeds not in SEED_SOURCES:
+        raise native.get().InvalidInput(f"'{item.label}': seeds must be one of {', '.join(SEED_SOURCES)}, not {item.seeds!r}")
+    out = {name: getattr(item, name) for name in MODEL_SETTINGS[item.model]}
+    seeds = seed_vertices(state, item)
+    if seeds is not None:
+        out["seeds"] = seeds.tolist()
+    return out
+
+
+def provenance(mesh: MeshArrays, out, levels: int) -> np.ndarray:
+    """The current mesh's vertex each detailed vertex stands for: its own (the base
+    vertices keep their indices through the levels), else the vertex of the base
+    corner whose quarter of a face it lies in. Each finest face `f` of `levels` lies in
+    base corner `f >> 2 (levels - 1)`: `subdivide` makes corner `c` into child quad
+    `c`, so quad `q`'s corners make quads `4 q` to `4 q + 3`."""
+    corners = np.asarray(out["corners"], dtype=np.int64)
+    faces = len(out["face_sizes"])
+    base_corner = np.arange(faces, dtype=np.int64) >> (2 * (levels - 1))
+    origin = np.empty(len(out["vertices"]), dtype=np.int64)
+    origin[corners] = np.repeat(np.asarray(mesh.corners, dtype=np.int64)[base_corner], 4)
+    origin[: mesh.vertex_count] = np.arange(mesh.vertex_count)
+    return origin
+
+
+def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tuple:
+    """The detailed mesh (material indices carried by face, the detail as a point
+    attribute) and each vertex's provenance in the current mesh. `ask`: raise
+    NeedsConfirmation first when the finest level is estimated over `confirm_above`
+    triangles."""
+    mesh = state.current
+    settings = params(state, item)
+    triangles = 2 * faces_after(mesh, item.levels)
+    if ask and triangles > item.confirm_above:
+        raise NeedsConfirmation(item.label, triangles, item.confirm_above, making="subdivision")
+    tn = native.get()
+    out = tn.procedural_detail(mesh.vertices, mesh.face_sizes, mesh.corners, item.model, int(item.levels), int(item.seed), settings)
+    result = MeshArrays.from_native(out)
+    if mesh.material_index is not None:
+        result.material_index = mesh.material_index[out["source_face"]]
+    result.point_attributes = {DETAIL_ATTRIBUTE: np.asarray(out["scalar"], dtype=np.float32)}
+    if mesh.uv_maps or mesh.uvs is not None:
+        result.notes.append(f"'{item.label}': UV maps are not carried through the subdivision levels yet; the result has none")
+    return result, provenance(mesh, out, int(item.levels))
+
+
+def procedural_detail_step(state: State, item: S.ProceduralDetail, ask, progress):
+    if progress is not None and progress(0.0) is False:
+        raise native.get().Cancelled("cancelled")
+    result, origin = procedural_detail(state, item, ask)
+    state.notes.extend(result.notes)
+    result.notes = []
+    state.current, state.origin = result, state.origin[origin]

@@ -1,0 +1,223 @@
+"""The Procedural Detail stack item (issue 18) in real Blender: `thicket.api.
+add_procedural_detail`, the Add Procedural Detail operator and the panel. Results are
+compared with `thicket_native.procedural_detail` run here, checked with bmesh and
+BVHTree, chained before a shell whose vertex group still applies, and bad input
+leaves the source and the previous result as they were."""
+
+import bmesh
+import bpy
+import numpy as np
+import pytest
+from conftest import add, positions, select_only
+from mathutils.bvhtree import BVHTree
+
+import thicket_native as tn
+from thicket import api, mesh_io
+from thicket.operators.procedural_detail_add import THICKET_OT_procedural_detail_add
+from thicket.pure.kinds.procedural_detail import DETAIL_ATTRIBUTE
+from thicket.stack.guard import suspended
+
+
+def native_detail(obj, model, levels, seed=0, **params):
+    """`thicket_native.procedural_detail` on `obj`'s mesh; lengths as the item stores
+    them (Blender keeps float properties in single precision)."""
+    a = mesh_io.read_mesh(obj.data)
+    params = {k: float(np.float32(v)) if isinstance(v, float) else v for k, v in params.items()}
+    return tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model, levels, seed, params)
+
+
+def point_values(mesh, name):
+    values = np.empty(len(mesh.vertices), np.float32)
+    mesh.attributes[name].data.foreach_get("value", values)
+    return values
+
+
+def face_vertices(mesh):
+    corners = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get("vertex_index", corners)
+    sizes = np.empty(len(mesh.polygons), np.int32)
+    mesh.polygons.foreach_get("loop_total", sizes)
+    return sizes, corners
+
+
+def closed_and_manifold(mesh):
+    bm = bmesh.new()
+    bm.from_mesh(mesh)
+    try:
+        return all(e.is_manifold for e in bm.edges) and all(v.is_manifold for v in bm.verts)
+    finally:
+        bm.free()
+
+
+def test_rock_item_is_the_native_detail_and_leaves_the_source(scene):
+    cube = add("cube")
+    cube.data.materials.append(bpy.data.materials.new("a"))
+    cube.data.materials.append(bpy.data.materials.new("b"))
+    materials = np.array([0, 1, 0, 1, 0, 1], np.int32)
+    cube.data.polygons.foreach_set("material_index", materials)
+    before = positions(cube).copy()
+    result = api.add_procedural_detail(cube, model="ROCK", levels=3, amplitude=0.03, seed=7)
+    expected = native_detail(cube, "rock", 3, 7, amplitude=0.03)
+    np.testing.assert_array_equal(positions(result), expected["vertices"])
+    sizes, corners = face_vertices(result.data)
+    assert (sizes == 4).all() and len(sizes) == 6 * 4**3
+    np.testing.assert_array_equal(corners, expected["corners"])
+    np.testing.assert_array_equal(point_values(result.data, DETAIL_ATTRIBUTE), expected["scalar"])
+    got = np.empty(len(sizes), np.int32)
+    result.data.polygons.foreach_get("material_index", got)
+    np.testing.assert_array_equal(got, materials[expected["source_face"]])
+    assert closed_and_manifold(result.data)
+    assert np.abs(expected["scalar"]).max() > 0.01, "the rock moved the surface"
+    np.testing.assert_array_equal(positions(cube), before)
+    assert len(cube.data.polygons) == 6
+
+
+def test_the_detail_goes_before_a_shell_and_the_shell_wraps_it(scene):
+    cube = add("cube")
+    api.add_thick_surface(cube, thickness=0.05, kind="SHELL", output="OUTER")
+    result = api.add_procedural_detail(cube, model="ROCK", levels=2, amplitude=0.02)
+    assert [i.kind for i in cube.thicket.items] == ["PROCEDURAL_DETAIL", "SHELL"]
+    assert cube.thicket.active_index == 0
+    detail = native_detail(cube, "rock", 2, amplitude=0.02)
+    assert len(result.data.polygons) == len(detail["face_sizes"])
+    # Blender's own test: the shell's outer surface does not cross the detailed base.
+    base = BVHTree.FromPolygons([tuple(v) for v in detail["vertices"]], np.split(detail["corners"], np.cumsum(detail["face_sizes"])[:-1]))
+    outer = BVHTree.FromPolygons([tuple(v) for v in positions(result)], [tuple(p.vertices) for p in result.data.polygons])
+    assert outer.overlap(base) == []
+    assert cube.thicket.last_error == ""
+
+
+def test_a_shells_vertex_group_follows_the_detailed_vertices(scene):
+    """Each detailed vertex keeps the weight of the base vertex whose quarter of a face
+    it lies in: an Offset Shell over the top face's group moves every vertex of the
+    faces grown from the top face, and no vertex of those grown from the bottom one."""
+    cube = add("cube")
+    top = [v.index for v in cube.data.vertices if v.co.z > 0]
+    cube.vertex_groups.new(name="top").add(top, 1.0, "REPLACE")
+    api.add_thick_surface(cube, thickness=0.2, thickness_mode="ABSOLUTE", vertex_group="top")
+    result = api.add_procedural_detail(cube, model="ROCK", levels=2, amplitude=0.01)
+    detail = native_detail(cube, "rock", 2, amplitude=0.01)
+    moved = np.linalg.norm(positions(result) - detail["vertices"], axis=1)
+    quads = detail["corners"].reshape(-1, 4)
+    normals = np.array([p.normal[:] for p in cube.data.polygons])
+    top_face, bottom_face = int(np.argmax(normals[:, 2])), int(np.argmin(normals[:, 2]))
+    assert (moved[quads[detail["source_face"] == top_face]] > 0.1).all()
+    assert (moved[quads[detail["source_face"] == bottom_face]] < 1e-6).all()
+
+
+def sphere_with_seed():
+    sphere = add("ico_sphere", subdivisions=3, radius=1.0)
+    seed = int(np.argmax(positions(sphere)[:, 2]))
+    return sphere, seed
+
+
+@pytest.mark.parametrize("source", ["GROUP", "SELECTED"])
+def test_berry_seeds_from_a_vertex_group_or_the_selection(scene, source):
+    sphere, seed = sphere_with_seed()
+    if source == "GROUP":
+        sphere.vertex_groups.new(name="seeds").add([seed], 1.0, "REPLACE")
+    else:
+        flags = np.zeros(len(sphere.data.vertices), bool)
+        flags[seed] = True
+        sphere.data.vertices.foreach_set("select", flags)
+    result = api.add_procedural_detail(sphere, model="BERRY", levels=2, radius=0.15, seeds=source, vertex_group="seeds" if source == "GROUP" else "")
+    expected = native_detail(sphere, "berry", 2, radius=0.15, seeds=[seed])
+    np.testing.assert_array_equal(positions(result), expected["vertices"])
+    height = point_values(result.data, DETAIL_ATTRIBUTE)
+    radius = 0.15 * np.linalg.norm(np.ptp(positions(sphere), axis=0))
+    assert height[seed] >= radius * 0.999, "the dome reaches its radius at the seed"
+    # Level 1's dome has radius R, level 2's clusters lie within R of it with domes of R / 2.
+    far = np.linalg.norm(expected["vertices"] - positions(sphere)[seed], axis=1) > 1.6 * radius
+    assert far.any() and (height[far] == 0).all()
+
+
+def test_seeds_that_name_nothing_are_refused_with_the_reason(scene):
+    sphere, seed = sphere_with_seed()
+    sphere.vertex_groups.new(name="light").add([seed], 0.2, "REPLACE")
+    with pytest.raises(api.ThicketError, match="no vertex of weight 0.5"):
+        api.add_procedural_detail(sphere, model="BERRY", levels=1, seeds="GROUP", vertex_group="light")
+    sphere.data.vertices.foreach_set("select", np.zeros(len(sphere.data.vertices), bool))
+    sphere.thicket.items[0].detail_seeds = "SELECTED"
+    assert "no vertex is selected" in sphere.thicket.last_error
+
+
+def test_a_large_result_asks_first_and_keeps_the_last_result(scene):
+    cube = add("cube")
+    result = api.add_procedural_detail(cube, model="ROCK", levels=1)
+    kept = positions(result).copy()
+    item = cube.thicket.items[0]
+    with suspended():  # else the edit regenerates at once (headless: without asking)
+        item.confirm_above, item.levels = 1000, 4  # 6 * 4 * 4^3 quads: 3072 triangles
+    with pytest.raises(api.BakeNeedsConfirmation, match="3,072 triangles") as asked:
+        api.regenerate(cube, ask=True)
+    assert asked.value.estimate == 3072 and asked.value.making == "subdivision"
+    np.testing.assert_array_equal(positions(result), kept)
+    assert len(api.regenerate(cube).data.polygons) == 1536, "without asking it is made"
+
+
+def test_over_the_memory_budget_is_refused_before_anything_is_made(scene):
+    grid = add("grid", x_subdivisions=150, y_subdivisions=150)
+    before = positions(grid).copy()
+    with pytest.raises(api.ThicketError, match="GB"):
+        api.add_procedural_detail(grid, model="ROCK", levels=6)
+    assert grid.thicket.result is None
+    np.testing.assert_array_equal(positions(grid), before)
+
+
+def test_a_non_manifold_mesh_is_refused_and_the_source_kept(scene):
+    mesh = bpy.data.meshes.new("fin")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1)], [], [(0, 1, 2), (1, 0, 3), (0, 1, 4)])
+    obj = bpy.data.objects.new("fin", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    with pytest.raises(api.ThicketError, match="manifold"):
+        api.add_procedural_detail(obj, model="ROCK", levels=1)
+    assert len(obj.data.polygons) == 3 and obj.thicket.result is None
+    obj.thicket.items[0].levels = 2  # a live edit: the error is the stack's, for the panel
+    assert "manifold" in obj.thicket.last_error and obj.thicket.result is None
+
+
+def test_the_operator_adds_a_preset_before_the_shells_and_undoes(scene):
+    cube = add("cube")
+    select_only(cube)
+    api.add_thick_surface(cube, thickness=0.05)
+    assert {"REGISTER", "UNDO"} <= THICKET_OT_procedural_detail_add.bl_options
+    bpy.ops.ed.undo_push(message="before")
+    assert bpy.ops.thicket.procedural_detail_add(preset="BERRY") == {"FINISHED"}
+    bpy.ops.ed.undo_push(message="Add Procedural Detail")
+    cube = bpy.data.objects["Cube"]
+    assert [i.kind for i in cube.thicket.items] == ["PROCEDURAL_DETAIL", "OFFSET_SHELL"]
+    item = cube.thicket.items[0]
+    assert item.detail_model == "BERRY" and item.levels == 4 and item.name == "Procedural Detail (Berry)"
+    assert len(cube.thicket.result.data.polygons) == 6 * 4**4, "regenerated live"
+    bpy.ops.ed.undo()
+    cube = bpy.data.objects["Cube"]
+    assert [i.kind for i in cube.thicket.items] == ["OFFSET_SHELL"]
+
+
+def test_the_panel_draws_the_detail_settings(scene):
+    from test_field_blender import Layout
+
+    from thicket.ui.item_settings import draw_item_settings
+
+    cube = add("cube")
+    api.add_item(cube, "PROCEDURAL_DETAIL")
+    item = cube.thicket.items[0]
+    drawn = []
+    draw_item_settings(Layout(drawn), cube, item)
+    assert drawn == ["detail_model", "levels", "seed", "detail_amplitude", "confirm_above"]
+    item.detail_model = "BERRY"
+    drawn.clear()
+    draw_item_settings(Layout(drawn), cube, item)
+    assert drawn == ["detail_model", "levels", "seed", "detail_radius", "detail_children", "detail_seeds", "confirm_above"]
+
+
+def test_a_saved_stack_reloads_with_its_detail(scene, tmp_path):
+    cube = add("cube")
+    api.add_procedural_detail(cube, preset="ROCK", seed=3)
+    path = str(tmp_path / "detail.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    cube = bpy.data.objects["Cube"]
+    item = cube.thicket.items[0]
+    assert (item.kind, item.detail_model, item.levels, item.seed) == ("PROCEDURAL_DETAIL", "ROCK", 4, 3)
+    np.testing.assert_array_equal(positions(api.regenerate(cube)), native_detail(cube, "rock", 4, 3, amplitude=0.03)["vertices"])
