@@ -34,7 +34,7 @@ pub enum Model {
 }
 
 impl Model {
-    fn validate(&self, base: &Mesh) -> Result<()> {
+    pub(crate) fn validate(&self, base: &Mesh) -> Result<()> {
         let bad = |m: String| Err(Error::InvalidParameter(m));
         let diag = base.bbox_diagonal() as f64;
         match self {
@@ -90,7 +90,7 @@ pub fn procedural_detail(base: &Mesh, levels: u32, model: &Model, seed: u64) -> 
 /// keeps its value, an edge point takes the mean of the edge's ends, a face point the mean
 /// of the face's corners. [`subdivide`] makes corner `c` into child quad `c`, (vertex, edge
 /// point after it, face point, edge point before it), and keeps the vertices' indices.
-fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -> Vec<f32> {
+pub(crate) fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -> Vec<f32> {
     let mut out = values.to_vec();
     out.resize(child.vertex_count(), 0.0);
     let quads = child.corners();
@@ -111,7 +111,7 @@ fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -> Vec<f32> 
 
 /// The synthesis loop: subdivide one level, displace by `detail(level, mesh, state)` along
 /// the level's normals, repeat. `state` carries a model's seeds from one level to the next.
-fn synthesize(base: &Mesh, levels: u32, mut detail: impl FnMut(u32, &Mesh, &mut Vec<u32>) -> Vec<f64>) -> Result<Detailed> {
+pub(crate) fn synthesize(base: &Mesh, levels: u32, mut detail: impl FnMut(u32, &Mesh, &mut Vec<u32>) -> Vec<f64>) -> Result<Detailed> {
     if !(1..=super::MAX_LEVELS).contains(&levels) {
         return Err(Error::InvalidParameter(format!("detail levels must be 1 to {}, not {levels}", super::MAX_LEVELS)));
     }
@@ -136,7 +136,7 @@ fn synthesize(base: &Mesh, levels: u32, mut detail: impl FnMut(u32, &Mesh, &mut 
 
 impl Model {
     /// The displacement of each vertex of `mesh` (level `level`) along its normal.
-    fn displacements(&self, level: u32, mesh: &Mesh, seed: u64, seeds: &mut Vec<u32>) -> Vec<f64> {
+    pub(crate) fn displacements(&self, level: u32, mesh: &Mesh, seed: u64, seeds: &mut Vec<u32>) -> Vec<f64> {
         let octave = 0.5f64.powi(level as i32 - 1);
         match self {
             Model::Rock { amplitude } => {

@@ -6,6 +6,8 @@
 
 pub mod budget;
 pub mod detail;
+pub mod operations;
+pub mod recipe;
 mod topology;
 
 use crate::{Error, Mesh, Result};

@@ -1,0 +1,327 @@
+//! Operations on multiscale detail (Velho, Perlin, Ying and Biermann, sections 5-6), as
+//! per-level, per-vertex weights the synthesis applies to a model's detail: placement at
+//! chosen levels, local modification around a point, and the alpha of a multiscale
+//! (Burt-Adelson) blend of two models; and the post-processing shader of the planet
+//! (6.2), colours from the blended scalar and the blend parameter.
+
+use crate::{Error, Mesh, Result};
+use glam::{DVec3, Vec3};
+use std::collections::VecDeque;
+
+/// A set of levels (bit `l` for level `l`, 1 to 31): where a model or a modification acts
+/// (5: "features may be placed at one level or simultaneously at different scales").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Levels(pub u32);
+
+impl Levels {
+    pub const ALL: Levels = Levels(u32::MAX);
+
+    /// The set of the given levels; levels outside 1 to 31 are refused.
+    pub fn of(levels: &[u32]) -> Result<Self> {
+        let mut bits = 0u32;
+        for &l in levels {
+            if !(1..=31).contains(&l) {
+                return Err(Error::InvalidParameter(format!("levels must be 1 to 31, not {l}")));
+            }
+            bits |= 1 << l;
+        }
+        Ok(Levels(bits))
+    }
+
+    pub fn has(self, level: u32) -> bool {
+        level < 32 && self.0 & (1 << level) != 0
+    }
+}
+
+/// Local detail modification (5): at `levels`, detail within `radius` of vertex `center`
+/// is scaled by `gain` (0 removes it, 2 doubles it), dropping off cubically to 1 at the
+/// radius. The distance is topological: edge hops at the level, `radius` counted in edges
+/// of the base mesh (so `radius * 2^l` hops at level `l`, whose edges are `2^l` times
+/// shorter), so the region covers the same part of the surface at every level.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Local {
+    pub center: u32,
+    pub radius: f64,
+    pub gain: f64,
+    pub levels: Levels,
+}
+
+/// The cubic drop-off `1 - 3 t^2 + 2 t^3` (1 at `t = 0`, 0 from `t = 1` on, flat at both
+/// ends, so the modified region meets the rest without a crease).
+pub fn drop_off(t: f64) -> f64 {
+    let t = t.clamp(0.0, 1.0);
+    1.0 - t * t * (3.0 - 2.0 * t)
+}
+
+/// Edge hops from `from` to every vertex of `mesh` (`u32::MAX` where unreachable), a
+/// breadth-first search that stops beyond `limit` hops.
+pub fn hops(mesh: &Mesh, from: u32, limit: u32) -> Vec<u32> {
+    let n = mesh.vertex_count();
+    let incidence = crate::mesh::Incidence::faces(mesh);
+    let mut out = vec![u32::MAX; n];
+    let mut queue = VecDeque::from([from]);
+    out[from as usize] = 0;
+    while let Some(v) = queue.pop_front() {
+        let d = out[v as usize];
+        if d >= limit {
+            continue;
+        }
+        for &f in incidence.of(v as usize) {
+            let face = mesh.face(f as usize);
+            let k = face.iter().position(|&w| w == v).expect("a face around v has v");
+            for w in [face[(k + 1) % face.len()], face[(k + face.len() - 1) % face.len()]] {
+                if out[w as usize] == u32::MAX {
+                    out[w as usize] = d + 1;
+                    queue.push_back(w);
+                }
+            }
+        }
+    }
+    out
+}
+
+impl Local {
+    pub fn validate(&self, base: &Mesh) -> Result<()> {
+        if self.center as usize >= base.vertex_count() {
+            return Err(Error::InvalidParameter(format!("local modification center {} is not a vertex of the mesh", self.center)));
+        }
+        if !(self.radius.is_finite() && self.radius > 0.0 && self.radius <= 1e4) {
+            return Err(Error::InvalidParameter(format!("local modification radius must be above 0 and at most 10000 edges, not {}", self.radius)));
+        }
+        if !(self.gain.is_finite() && self.gain.abs() <= 1e3) {
+            return Err(Error::InvalidParameter(format!("local modification gain must be finite and at most 1000 in size, not {}", self.gain)));
+        }
+        Ok(())
+    }
+
+    /// The factor on each vertex's detail at `level` (`mesh` that level's): `1 + (gain -
+    /// 1) drop_off(hops / (radius 2^level))`; 1 everywhere at levels it does not act at.
+    pub fn weights(&self, level: u32, mesh: &Mesh) -> Vec<f64> {
+        let mut out = vec![1.0; mesh.vertex_count()];
+        if !self.levels.has(level) {
+            return out;
+        }
+        let reach = self.radius * 2f64.powi(level as i32);
+        for (w, h) in out.iter_mut().zip(hops(mesh, self.center, reach.ceil() as u32)) {
+            if h != u32::MAX {
+                *w = 1.0 + (self.gain - 1.0) * drop_off(h as f64 / reach);
+            }
+        }
+        out
+    }
+}
+
+/// Where the second model of a blend takes over (6.1): a blend coordinate `s` per vertex
+/// and the alpha `smoothstep(-w_l / 2, w_l / 2, s)` at level `l`, `w_l = width 2^(1-l)`:
+/// Burt and Adelson's transition, "proportional to the size of one sample at that scale
+/// level", wide at coarse levels (their features reach across) and sharp at the finest.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AlphaSource {
+    /// `s`: the signed distance to the plane through `point` with normal `direction`
+    /// (the paper's "plane oriented in the (1, 2, 0) direction"); `width` a length.
+    Plane { point: DVec3, direction: DVec3 },
+    /// `s`: painted weights (one per base vertex, carried to finer levels linearly)
+    /// minus one half; `width` in weight units (1: the painted ramp as it is at level 1).
+    Painted { weights: Vec<f32> },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Alpha {
+    pub source: AlphaSource,
+    pub width: f64,
+}
+
+/// `3 x^2 - 2 x^3` of `x` clamped to [0, 1].
+fn smoothstep(x: f64) -> f64 {
+    let x = x.clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+impl Alpha {
+    pub fn validate(&self, base: &Mesh) -> Result<()> {
+        let bad = |m: String| Err(Error::InvalidParameter(m));
+        if !(self.width.is_finite() && self.width >= 0.0) {
+            return bad(format!("blend width must be finite and not negative, not {}", self.width));
+        }
+        match &self.source {
+            AlphaSource::Plane { point, direction } => {
+                if !(point.is_finite() && direction.is_finite() && direction.length() > 0.0) {
+                    return bad(format!("the blend plane needs a finite point and a nonzero direction, not {point} and {direction}"));
+                }
+            }
+            AlphaSource::Painted { weights } => {
+                if weights.len() != base.vertex_count() {
+                    return bad(format!("blend weights have {} entries for {} vertices", weights.len(), base.vertex_count()));
+                }
+                if let Some(w) = weights.iter().find(|w| !w.is_finite()) {
+                    return bad(format!("blend weights must be finite, not {w}"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The alpha of each vertex at `level`: `positions` the level's (before its detail),
+    /// `painted` the painted weights carried to it (ignored for a plane). A width of 0
+    /// is a step (alpha 0 or 1 only).
+    pub fn at(&self, level: u32, positions: &[Vec3], painted: &[f32]) -> Vec<f64> {
+        let w = self.width * 0.5f64.powi(level as i32 - 1);
+        let alpha = |s: f64| match w > 0.0 {
+            true => smoothstep(s / w + 0.5),
+            false => f64::from(u8::from(s >= 0.0)),
+        };
+        match &self.source {
+            AlphaSource::Plane { point, direction } => {
+                let d = direction.normalize();
+                positions.iter().map(|p| alpha((p.as_dvec3() - *point).dot(d))).collect()
+            }
+            AlphaSource::Painted { .. } => painted.iter().map(|&a| alpha(a as f64 - 0.5)).collect(),
+        }
+    }
+}
+
+/// The planet's post-processing shader (6.2): a colour per vertex from the blended
+/// scalar `h` (its height over the base, relative to `scale`) and the blend parameter
+/// `b`: oceans below `sea`, deeper darker; lowlands, mountains, and snow caps above
+/// `snow`; each band's colour mixed between the two sub-planets' palettes by `b`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Planet {
+    /// Heights are divided by it: the band limits below are in its units.
+    pub scale: f64,
+    pub sea: f64,
+    pub snow: f64,
+    /// Colours (linear RGB) of deep sea, shallow sea, lowland, mountain and snow for
+    /// sub-planet 0 (`b = 0`) and 1.
+    pub palettes: [[Vec3; 5]; 2],
+}
+
+impl Default for Planet {
+    fn default() -> Self {
+        let earth = [Vec3::new(0.01, 0.03, 0.15), Vec3::new(0.05, 0.25, 0.45), Vec3::new(0.10, 0.35, 0.08), Vec3::new(0.30, 0.22, 0.15), Vec3::ONE];
+        let mars =
+            [Vec3::new(0.10, 0.02, 0.02), Vec3::new(0.35, 0.12, 0.05), Vec3::new(0.60, 0.30, 0.12), Vec3::new(0.40, 0.18, 0.10), Vec3::new(0.95, 0.85, 0.80)];
+        Planet { scale: 1.0, sea: 0.0, snow: 0.6, palettes: [earth, mars] }
+    }
+}
+
+impl Planet {
+    pub fn validate(&self) -> Result<()> {
+        let finite = [self.scale, self.sea, self.snow].iter().all(|x| x.is_finite()) && self.palettes.iter().flatten().all(|c| c.is_finite());
+        if !(finite && self.scale > 0.0 && self.snow > self.sea) {
+            return Err(Error::InvalidParameter(format!(
+                "planet shader: scale must be above 0 and snow above sea, all finite (scale {}, sea {}, snow {})",
+                self.scale, self.sea, self.snow
+            )));
+        }
+        Ok(())
+    }
+
+    /// RGBA (alpha 1) of each vertex from its scalar `h` and blend parameter `b`.
+    pub fn colors(&self, h: &[f32], b: &[f32]) -> Vec<[f32; 4]> {
+        h.iter()
+            .zip(b)
+            .map(|(&h, &b)| {
+                let band = |palette: &[Vec3; 5]| self.band(palette, h as f64 / self.scale);
+                let c = band(&self.palettes[0]).lerp(band(&self.palettes[1]), b.clamp(0.0, 1.0));
+                [c.x, c.y, c.z, 1.0]
+            })
+            .collect()
+    }
+
+    /// One palette's colour at relative height `x`: deep to shallow sea over the depth
+    /// `snow - sea` below `sea`, lowland to mountain from `sea` to the snow line, snow
+    /// above it (a short ramp, a tenth of the range, so the caps' edges are not jagged).
+    fn band(&self, p: &[Vec3; 5], x: f64) -> Vec3 {
+        let range = self.snow - self.sea;
+        if x < self.sea {
+            return p[1].lerp(p[0], ((self.sea - x) / range).min(1.0) as f32);
+        }
+        let t = ((x - self.sea) / range).min(1.0) as f32;
+        let land = p[2].lerp(p[3], t);
+        land.lerp(p[4], smoothstep((x - self.snow) / (0.1 * range)) as f32)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::fixtures;
+
+    #[test]
+    fn drop_off_is_one_at_the_center_zero_at_the_radius_and_flat_at_both() {
+        assert_eq!(drop_off(0.0), 1.0);
+        assert_eq!(drop_off(1.0), 0.0);
+        assert_eq!(drop_off(3.0), 0.0);
+        let h = 1e-6;
+        assert!((drop_off(h) - 1.0).abs() < 1e-9 && drop_off(1.0 - h) < 1e-9, "no crease at either end");
+        assert!((drop_off(0.5) - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn hops_on_a_grid_are_the_manhattan_distance() {
+        let grid = fixtures::grid(6); // 7 x 7 vertices
+        let center = 3 * 7 + 3;
+        let d = hops(&grid, center, u32::MAX);
+        for (v, &h) in d.iter().enumerate() {
+            let (x, y) = (v % 7, v / 7);
+            assert_eq!(h as usize, x.abs_diff(3) + y.abs_diff(3), "vertex {v}");
+        }
+        let near = hops(&grid, center, 2);
+        assert_eq!(near.iter().filter(|&&h| h != u32::MAX).count(), 1 + 4 + 8, "reaches no farther than the limit");
+    }
+
+    #[test]
+    fn local_weights_are_gain_at_the_center_and_one_beyond_the_radius() {
+        let grid = fixtures::grid(8);
+        let center = 4 * 9 + 4;
+        let local = Local { center, radius: 1.0, gain: 0.0, levels: Levels::of(&[2]).unwrap() };
+        let w = local.weights(2, &grid); // reach 4 hops
+        let d = hops(&grid, center, u32::MAX);
+        assert_eq!(w[center as usize], 0.0);
+        for (v, (&w, &h)) in w.iter().zip(&d).enumerate() {
+            if h >= 4 {
+                assert_eq!(w, 1.0, "vertex {v}");
+            } else {
+                assert!((w - (1.0 - drop_off(h as f64 / 4.0))).abs() < 1e-12);
+            }
+        }
+        assert!(local.weights(1, &grid).iter().all(|&w| w == 1.0), "not at levels it does not act at");
+    }
+
+    #[test]
+    fn plane_alpha_is_a_step_at_width_zero_and_halves_its_ramp_per_level() {
+        let points: Vec<Vec3> = (-10..=10).map(|i| Vec3::new(i as f32 * 0.1, 0.0, 0.0)).collect();
+        let alpha = |width: f64, level| Alpha { source: AlphaSource::Plane { point: DVec3::ZERO, direction: DVec3::X * 3.0 }, width }.at(level, &points, &[]);
+        let step = alpha(0.0, 1);
+        assert!(step.iter().zip(&points).all(|(&a, p)| a == if p.x >= 0.0 { 1.0 } else { 0.0 }));
+        let ramp = |a: &[f64]| a.iter().filter(|&&a| a > 0.0 && a < 1.0).count();
+        let (one, two) = (alpha(1.0, 1), alpha(1.0, 2));
+        assert_eq!(ramp(&one), 9, "width 1 at level 1: |x| < 0.5");
+        assert_eq!(ramp(&two), 5, "width 1/2 at level 2: |x| < 0.25");
+        assert!((one[10] - 0.5).abs() < 1e-12 && one.windows(2).all(|w| w[0] <= w[1]));
+    }
+
+    #[test]
+    fn painted_alpha_reads_the_carried_weights() {
+        let a = Alpha { source: AlphaSource::Painted { weights: vec![0.0; 3] }, width: 1.0 };
+        assert_eq!(a.at(1, &[Vec3::ZERO; 3], &[0.0, 0.5, 1.0]), vec![0.0, 0.5, 1.0]);
+        let sharp = a.at(3, &[Vec3::ZERO; 3], &[0.3, 0.5, 0.7]);
+        assert_eq!((sharp[0], sharp[2]), (0.0, 1.0), "width 1/4 at level 3: 0.3 and 0.7 lie beyond the ramp");
+    }
+
+    #[test]
+    fn planet_bands_follow_height_and_the_blend_mixes_palettes() {
+        let planet = Planet::default();
+        let c = planet.colors(&[-1.0, -0.0001, 0.0, 0.3, 0.59, 1.0], &[0.0; 6]);
+        let earth = planet.palettes[0];
+        let rgb = |c: [f32; 4]| Vec3::new(c[0], c[1], c[2]);
+        assert!(rgb(c[0]).abs_diff_eq(earth[0], 1e-6), "deep sea below sea - range");
+        assert!(rgb(c[1]).abs_diff_eq(earth[1], 1e-3), "shallow just below sea level");
+        assert!(rgb(c[2]).abs_diff_eq(earth[2], 1e-6), "lowland at sea level");
+        assert!(rgb(c[5]).abs_diff_eq(earth[4], 1e-6), "snow on the peaks");
+        assert!(c[3][1] > c[4][1] && c[4][0] > c[3][0], "greener low, browner high");
+        let mixed = planet.colors(&[0.0], &[0.5]);
+        assert!(rgb(mixed[0]).abs_diff_eq(earth[2].lerp(planet.palettes[1][2], 0.5), 1e-6));
+        assert!(Planet { snow: -1.0, ..Planet::default() }.validate().is_err());
+    }
+}

@@ -1,0 +1,251 @@
+//! A procedural detail with its operations (Velho, Perlin, Ying and Biermann, sections
+//! 5-6): a model placed at chosen levels, blended level by level with a second model
+//! (Burt-Adelson), and modified locally; the blend parameter comes out beside the
+//! scalar for the post-processing shader.
+
+use super::detail::{self, Detailed, Model};
+use super::operations::{Alpha, AlphaSource, Levels, Local};
+use crate::{Error, Mesh, Result};
+
+/// The most local modifications one recipe takes.
+pub const MAX_LOCAL: usize = 64;
+
+/// A second model blended in (6.1): its detail where `alpha` is 1, the first model's
+/// where it is 0, mixed coefficient by coefficient at every level in between.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Blend {
+    pub model: Model,
+    pub seed: u64,
+    pub at: Levels,
+    pub alpha: Alpha,
+}
+
+/// What [`synthesize`] builds: `model` (random values from `seed`) adding detail at the
+/// levels `at` only (5: features "placed at one level or simultaneously at different
+/// scales"), optionally blended with a second model, then scaled by each local
+/// modification.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recipe {
+    pub model: Model,
+    pub seed: u64,
+    pub at: Levels,
+    pub blend: Option<Blend>,
+    pub local: Vec<Local>,
+}
+
+impl Recipe {
+    /// `model` everywhere, at every level, alone.
+    pub fn of(model: Model, seed: u64) -> Self {
+        Recipe { model, seed, at: Levels::ALL, blend: None, local: Vec::new() }
+    }
+
+    fn validate(&self, base: &Mesh) -> Result<()> {
+        self.model.validate(base)?;
+        if let Some(b) = &self.blend {
+            b.model.validate(base)?;
+            b.alpha.validate(base)?;
+        }
+        if self.local.len() > MAX_LOCAL {
+            return Err(Error::InvalidParameter(format!("at most {MAX_LOCAL} local modifications, not {}", self.local.len())));
+        }
+        self.local.iter().try_for_each(|l| l.validate(base))
+    }
+}
+
+/// A detailed surface and, per vertex of its finest level, the blend parameter there (0
+/// without a blend): what the planet's shader reads beside the scalar (6.2).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Synthesized {
+    pub detailed: Detailed,
+    pub blend: Vec<f32>,
+}
+
+/// Subdivides `base` by `levels` levels adding the recipe's detail at each (see
+/// [`Recipe`]); the models keep their own seeds and states, so a model placed at
+/// some levels only, or blended, has the same features it has alone.
+pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesized> {
+    recipe.validate(base)?;
+    let (mut first, mut second) = (Vec::new(), Vec::new());
+    // Painted alpha: the weights carried level by level, linearly (the parent level's
+    // topology is kept for it).
+    let mut painted = match recipe.blend.as_ref().map(|b| &b.alpha.source) {
+        Some(AlphaSource::Painted { weights }) => Some((base.clone(), weights.clone())),
+        _ => None,
+    };
+    let mut blend_out = Vec::new();
+    let detailed = detail::synthesize(base, levels, |level, mesh, _| {
+        let placed = |at: Levels, d: Vec<f64>| if at.has(level) { d } else { vec![0.0; d.len()] };
+        let mut d = placed(recipe.at, recipe.model.displacements(level, mesh, recipe.seed, &mut first));
+        if let Some(b) = &recipe.blend {
+            let other = placed(b.at, b.model.displacements(level, mesh, b.seed, &mut second));
+            let carried = match painted.take() {
+                Some((parent, w)) => {
+                    let w = detail::linear_child_values(&parent, mesh, &w);
+                    painted = Some((mesh.clone(), w.clone()));
+                    w
+                }
+                None => Vec::new(),
+            };
+            let alpha = b.alpha.at(level, mesh.positions(), &carried);
+            d.iter_mut().zip(&other).zip(&alpha).for_each(|((d, o), a)| *d = (1.0 - a) * *d + a * o);
+            if level == levels {
+                blend_out = alpha.iter().map(|&a| a as f32).collect();
+            }
+        }
+        for local in &recipe.local {
+            d.iter_mut().zip(local.weights(level, mesh)).for_each(|(d, w)| *d *= w);
+        }
+        d
+    })?;
+    if blend_out.is_empty() {
+        blend_out = vec![0.0; detailed.mesh.vertex_count()];
+    }
+    Ok(Synthesized { detailed, blend: blend_out })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::subdivision::operations::hops;
+    use crate::testmeshes;
+    use glam::DVec3;
+
+    fn sphere() -> Mesh {
+        testmeshes::icosphere(2)
+    }
+
+    fn rock(amplitude: f64) -> Model {
+        Model::Rock { amplitude }
+    }
+
+    fn plane_blend(model: Model, width: f64, point: DVec3) -> Blend {
+        Blend { model, seed: 2, at: Levels::ALL, alpha: Alpha { source: AlphaSource::Plane { point, direction: DVec3::new(1.0, 2.0, 0.0) }, width } }
+    }
+
+    #[test]
+    fn a_recipe_of_one_model_is_that_model() {
+        let base = sphere();
+        let alone = detail::procedural_detail(&base, 3, &rock(0.05), 4).unwrap();
+        let out = synthesize(&base, 3, &Recipe::of(rock(0.05), 4)).unwrap();
+        assert_eq!(out.detailed, alone);
+        assert!(out.blend.iter().all(|&b| b == 0.0));
+    }
+
+    #[test]
+    fn a_blend_with_alpha_zero_or_one_is_the_single_model() {
+        let base = sphere();
+        let berry = Model::Berry { radius: 0.3, seeds: vec![], children: 2 };
+        let far = DVec3::new(100.0, 0.0, 0.0);
+        let (all_first, all_second) = (plane_blend(berry.clone(), 0.2, far), plane_blend(berry.clone(), 0.2, -far));
+        let first = Recipe { blend: Some(all_first), ..Recipe::of(rock(0.05), 4) };
+        assert_eq!(synthesize(&base, 3, &first).unwrap().detailed, detail::procedural_detail(&base, 3, &rock(0.05), 4).unwrap());
+        let second = Recipe { blend: Some(all_second), ..Recipe::of(rock(0.05), 4) };
+        let out = synthesize(&base, 3, &second).unwrap();
+        assert_eq!(out.detailed, detail::procedural_detail(&base, 3, &berry, 2).unwrap());
+        assert!(out.blend.iter().all(|&b| b == 1.0));
+        // Painted: all 0 is the first model, all 1 the second.
+        let painted = |w: f32| Recipe {
+            blend: Some(Blend {
+                model: berry.clone(),
+                seed: 2,
+                at: Levels::ALL,
+                alpha: Alpha { source: AlphaSource::Painted { weights: vec![w; base.vertex_count()] }, width: 0.5 },
+            }),
+            ..Recipe::of(rock(0.05), 4)
+        };
+        assert_eq!(synthesize(&base, 2, &painted(0.0)).unwrap().detailed, detail::procedural_detail(&base, 2, &rock(0.05), 4).unwrap());
+        assert_eq!(synthesize(&base, 2, &painted(1.0)).unwrap().detailed, detail::procedural_detail(&base, 2, &berry, 2).unwrap());
+    }
+
+    #[test]
+    fn a_plane_blend_mixes_inside_its_transition_only() {
+        let base = sphere();
+        let width = 0.4;
+        let out = synthesize(&base, 3, &Recipe { blend: Some(plane_blend(rock(0.0), width, DVec3::ZERO)), ..Recipe::of(rock(0.05), 4) }).unwrap();
+        // The finest level's transition is width / 4 wide: the blend parameter is 0 or 1
+        // beyond it (measured on the detailed surface, which the rock moved a little).
+        let dir = DVec3::new(1.0, 2.0, 0.0).normalize();
+        let p = out.detailed.mesh.positions();
+        let mut mixed = 0;
+        for (q, &b) in p.iter().zip(&out.blend) {
+            let s = q.as_dvec3().dot(dir);
+            if s.abs() > width / 8.0 + 0.06 {
+                assert_eq!(b, if s > 0.0 { 1.0 } else { 0.0 }, "at {s}");
+            }
+            mixed += (b > 0.0 && b < 1.0) as usize;
+        }
+        assert!(mixed > 0);
+        // The flat second model where alpha is 1: the rock's coarse levels reach across
+        // (their transition is wider, and subdivision spreads each level's detail by
+        // about one of its rings), but far on that side the surface is the plain one.
+        let plain = detail::synthesize(&base, 3, |_, mesh, _| vec![0.0; mesh.vertex_count()]).unwrap().mesh;
+        let mut far_side = p.iter().zip(plain.positions()).filter(|(_, q)| q.as_dvec3().dot(dir) > width + 0.1);
+        assert!(far_side.clone().count() > 10 && far_side.all(|(a, b)| a.distance(*b) < 1e-6));
+    }
+
+    #[test]
+    fn local_modification_leaves_vertices_beyond_its_reach_untouched() {
+        let base = sphere();
+        let center = 7;
+        let radius = 1.0; // base edges
+        let local = Local { center, radius, gain: 0.0, levels: Levels::ALL };
+        let plain = synthesize(&base, 3, &Recipe::of(rock(0.05), 4)).unwrap().detailed;
+        let out = synthesize(&base, 3, &Recipe { local: vec![local], ..Recipe::of(rock(0.05), 4) }).unwrap().detailed;
+        // Level l changes detail within 2^l hops of its own (1 at level 1, radius 1 base
+        // edge). A change within h hops of level l reaches 2 h + 4 hops of level l + 1
+        // (a vertex point reads the face points around it, which read the vertices
+        // diagonally across quads), and the normals move one ring more: 1 at level 1,
+        // 2 + 4 + 1 = 7 at level 2, 14 + 4 + 1 = 19 at level 3.
+        let d = hops(&out.mesh, center, u32::MAX);
+        let (p, q) = (plain.mesh.positions(), out.mesh.positions());
+        let reach = 19;
+        let mut kept = 0;
+        for v in 0..p.len() {
+            if d[v] > reach {
+                assert_eq!(p[v], q[v], "vertex {v} at {} hops", d[v]);
+                kept += 1;
+            }
+        }
+        assert!(kept > p.len() / 2, "{kept} of {} beyond the reach", p.len());
+        assert!(out.scalar[center as usize].abs() < 1e-6, "gain 0 removes the detail at the center");
+        assert!(plain.scalar[center as usize].abs() > 1e-4);
+    }
+
+    #[test]
+    fn a_model_placed_at_some_levels_adds_nothing_at_the_others() {
+        let base = sphere();
+        let at2 = Recipe { at: Levels::of(&[2]).unwrap(), ..Recipe::of(rock(0.05), 4) };
+        let out = synthesize(&base, 2, &at2).unwrap().detailed;
+        // Level 1 adds nothing: the result is plain level 1, subdivided, plus level 2's detail.
+        let level2_only = detail::synthesize(&base, 2, |level, mesh, seeds| {
+            let d = rock(0.05).displacements(level, mesh, 4, seeds);
+            if level == 2 {
+                d
+            } else {
+                vec![0.0; d.len()]
+            }
+        })
+        .unwrap();
+        assert_eq!(out, level2_only);
+        assert_ne!(out, detail::procedural_detail(&base, 2, &rock(0.05), 4).unwrap());
+    }
+
+    #[test]
+    fn bad_operations_are_refused() {
+        let base = sphere();
+        let refuse = |r: Recipe| assert!(matches!(synthesize(&base, 2, &r), Err(Error::InvalidParameter(_))), "{r:?}");
+        let local = |center, radius, gain| Recipe { local: vec![Local { center, radius, gain, levels: Levels::ALL }], ..Recipe::of(rock(0.05), 1) };
+        refuse(local(100_000, 1.0, 0.0));
+        refuse(local(0, 0.0, 0.0));
+        refuse(local(0, 1.0, f64::NAN));
+        refuse(Recipe { blend: Some(plane_blend(rock(0.05), -1.0, DVec3::ZERO)), ..Recipe::of(rock(0.05), 1) });
+        let mut zero_dir = plane_blend(rock(0.05), 1.0, DVec3::ZERO);
+        zero_dir.alpha.source = AlphaSource::Plane { point: DVec3::ZERO, direction: DVec3::ZERO };
+        refuse(Recipe { blend: Some(zero_dir), ..Recipe::of(rock(0.05), 1) });
+        let mut short = plane_blend(rock(0.05), 1.0, DVec3::ZERO);
+        short.alpha.source = AlphaSource::Painted { weights: vec![0.5; 3] };
+        refuse(Recipe { blend: Some(short), ..Recipe::of(rock(0.05), 1) });
+        refuse(Recipe { blend: Some(plane_blend(rock(f64::INFINITY), 1.0, DVec3::ZERO)), ..Recipe::of(rock(0.05), 1) });
+        assert!(Levels::of(&[0]).is_err() && Levels::of(&[32]).is_err());
+    }
+}
