@@ -23,11 +23,11 @@ import thicket_native as tn
 from thicket import mesh_io
 
 
-def nearest_distances(a, b, h):
-    """For each point of `b`, its distance to the nearest point of `a` where that is below
-    `h`, else at least `h` (inf where no point of `a` lies in the 27 cells of side `h` around
-    it): exact for the question "is every point within h", vectorised by hashing `a` into
-    cells of side `h`."""
+def nearest(a, b, h):
+    """For each point of `b`, the index of its nearest point of `a` and the distance to it
+    where that is below `h`, else a distance of at least `h` (inf where no point of `a` lies
+    in the 27 cells of side `h` around it): exact for the question "is every point within
+    h", vectorised by hashing `a` into cells of side `h`."""
 
     def cell(p):
         return np.floor(p / h).astype(np.int64) + (1 << 20)
@@ -40,15 +40,20 @@ def nearest_distances(a, b, h):
     ka, a = ka[order], a[order]
     most = np.unique(ka, return_counts=True)[1].max()
     qb = cell(b)
-    best = np.full(len(b), np.inf)
+    best, index = np.full(len(b), np.inf), np.zeros(len(b), np.int64)
     for off in np.stack(np.meshgrid([-1, 0, 1], [-1, 0, 1], [-1, 0, 1]), -1).reshape(-1, 3):
         kb = key(qb + off)
         first = np.searchsorted(ka, kb)
         for k in range(most):  # the k-th point of each cell
             i = np.minimum(first + k, len(ka) - 1)
             d = np.where(ka[i] == kb, np.linalg.norm(b - a[i], axis=1), np.inf)
-            best = np.minimum(best, d)
-    return best
+            closer = d < best
+            best, index = np.where(closer, d, best), np.where(closer, order[i], index)
+    return best, index
+
+
+def nearest_distances(a, b, h):
+    return nearest(a, b, h)[0]
 
 
 def point_set_distance(a, b, h):
@@ -57,10 +62,11 @@ def point_set_distance(a, b, h):
     return max(nearest_distances(a, b, h).max(), nearest_distances(b, a, h).max())
 
 
-def blender_subdivided(obj, levels, limit, boundary_smooth="ALL", quality=3):
-    """The modifier's result on `obj`: vertices, face sizes, material indices."""
+def blender_subdivided(obj, levels, limit, boundary_smooth="ALL", quality=3, uv_smooth="PRESERVE_BOUNDARIES"):
+    """The modifier's result on `obj`: vertices, face sizes, material indices, UVs."""
     mod = obj.modifiers.new("subsurf", "SUBSURF")
     mod.levels, mod.use_limit_surface, mod.boundary_smooth, mod.quality = levels, limit, boundary_smooth, quality
+    mod.uv_smooth = uv_smooth
     dg = bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(dg)
     mesh = evaluated.to_mesh()
@@ -164,10 +170,82 @@ def test_refuses_non_manifold_and_bad_arguments(scene):
         ({"levels": 7}, "levels must be 1 to 6"),
         ({"material_index": np.zeros(2, np.int32)}, "2 entries for 1 faces"),
         ({"boundary_smooth": "NONE"}, "boundary_smooth"),
-        ({"uvs": np.zeros((4, 2), np.float32)}, "not built yet"),
+        ({"uvs": np.zeros((5, 2), np.float32)}, r"uvs must have shape \(4, 2\)"),
+        ({"uvs": np.zeros((4, 2), np.float64)}, "uvs must be a float32 array"),
+        ({"uvs": np.array([[0, 0], [1, 0], [1, np.nan], [0, 1]], np.float32)}, "UV of corner 2 is not finite"),
+        ({"uvs": np.zeros((4, 2), np.float32), "uv_smooth": "SMOOTH_ALL"}, "uv_smooth must be"),
     ]:
         with pytest.raises(tn.InvalidInput, match=message):
             tn.subdivide(*quad, **kwargs)
     # One quad, corners kept: its limit is the bilinear quad itself at level 1.
     out = tn.subdivide(*quad, levels=1, limit=True, boundary_smooth="PRESERVE_CORNERS")
     assert np.allclose(np.sort(out["vertices"][:, 0]), np.sort([0, 1, 1, 0, 0.5, 1, 0.5, 0, 0.5]), atol=1e-6)
+
+
+def smart_projected_sphere():
+    obj = add("uv_sphere", segments=16, ring_count=8)
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.uv.smart_project()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return obj
+
+
+# UV maps: the primitives' own (the cube's cross, where every vertex lies on a seam; the
+# grid's, all smooth inside a boundary; Suzanne's islands; the cylinder's n-gon caps) and a
+# Smart UV Project.
+UV_MESHES = {
+    "cube": lambda: add("cube"),
+    "grid": lambda: add("grid", x_subdivisions=6, y_subdivisions=4),
+    "suzanne": lambda: add("monkey"),
+    "cylinder_ngon_caps": lambda: add("cylinder", vertices=12, end_fill_type="NGON"),
+    "smart_projected_sphere": smart_projected_sphere,
+}
+
+
+def corner_uv_difference(ours, theirs, diagonal):
+    """The largest difference between the UVs of matching corners: faces matched by their
+    centroids (one-to-one), corners within a face by their vertices."""
+    mine = ours["vertices"][ours["corners"]].reshape(-1, 4, 3)
+    other = theirs.vertices[theirs.corners].reshape(-1, 4, 3)
+    distance, face = nearest(other.mean(axis=1), mine.mean(axis=1), 1e-3 * diagonal)
+    assert distance.max() <= 1e-3 * diagonal and len(np.unique(face)) == len(face), "faces do not match one to one"
+    gaps = np.linalg.norm(mine[:, :, None, :] - other[face][:, None, :, :], axis=3)
+    corner = gaps.argmin(axis=2)
+    assert np.all(np.sort(corner, axis=1) == np.arange(4)), "corners do not match one to one"
+    matched = np.take_along_axis(theirs.uvs.reshape(-1, 4, 2)[face], corner[:, :, None], axis=1)
+    return np.abs(ours["uvs"].reshape(-1, 4, 2) - matched).max()
+
+
+@pytest.mark.parametrize("uv_smooth", ["PRESERVE_BOUNDARIES", "NONE"])
+@pytest.mark.parametrize("limit", [False, True])
+@pytest.mark.parametrize("levels", [1, 2, 3])
+@pytest.mark.parametrize("name", list(UV_MESHES))
+def test_uvs_match_blender(scene, name, levels, limit, uv_smooth):
+    # Per-corner UVs against the modifier's UV map, within 1e-5 (UV units: the maps span
+    # [0, 1]); the two differ by float32 rounding, at most 3.0e-7. The limit surface at
+    # Quality max(3, levels), as for the positions.
+    obj = UV_MESHES[name]()
+    boundary = "PRESERVE_CORNERS" if limit and name == "grid" else "ALL"
+    base = mesh_io.read_mesh(obj.data)
+    assert base.uvs is not None
+    ours = tn.subdivide(base.vertices, base.face_sizes, base.corners, levels, limit, uvs=base.uvs, boundary_smooth=boundary, uv_smooth=uv_smooth)
+    theirs = blender_subdivided(obj, levels, limit, boundary, max(3, levels), uv_smooth)
+    assert ours["uvs"].shape == theirs.uvs.shape == (len(ours["corners"]), 2) and ours["uvs"].dtype == np.float32
+    diagonal = float(np.linalg.norm(np.ptp(theirs.vertices, axis=0)))
+    difference = corner_uv_difference(ours, theirs, diagonal)
+    assert difference <= 1e-5, f"{name} level {levels} limit {limit} {uv_smooth}: {difference:.3g}"
+    # The positions are those subdivide gives without UVs.
+    plain = tn.subdivide(base.vertices, base.face_sizes, base.corners, levels, limit, boundary_smooth=boundary)
+    assert np.array_equal(ours["vertices"], plain["vertices"]) and np.array_equal(ours["corners"], plain["corners"])
+
+
+def test_uv_smooth_rules_differ_where_uvs_are_smooth(scene):
+    # On Suzanne's islands the default rule smooths inner UVs; 'NONE' keeps them bilinear:
+    # the two must differ there (or the test above could not tell the rules apart).
+    obj = add("monkey")
+    base = mesh_io.read_mesh(obj.data)
+    smooth, linear = (
+        tn.subdivide(base.vertices, base.face_sizes, base.corners, 2, uvs=base.uvs, uv_smooth=rule)["uvs"] for rule in ("PRESERVE_BOUNDARIES", "NONE")
+    )
+    assert np.abs(smooth - linear).max() > 1e-2

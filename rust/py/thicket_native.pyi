@@ -288,13 +288,16 @@ def subdivide(
     corners: Indices,
     levels: int = 1,
     limit: bool = False,
-    uvs: Floats | None = None,  # not built yet: refused
+    uvs: Floats | None = None,
     *,
     material_index: Indices | None = None,
     boundary_smooth: str = "ALL",
+    uv_smooth: str = "PRESERVE_BOUNDARIES",
 ) -> dict[str, Any]:
-    """Blender's Subdivision Surface (levels 1-6, limit = Use Limit Surface, boundary_smooth "ALL" or "PRESERVE_CORNERS"); non-manifold input refused.
-    Returns vertices, face_sizes, corners (all quads), source_face and, when material_index (one per base face) is given, material_index per face."""
+    """Blender's Subdivision Surface (levels 1-6, limit = Use Limit Surface, boundary_smooth "ALL" or "PRESERVE_CORNERS",
+    uv_smooth "PRESERVE_BOUNDARIES" or "NONE"); non-manifold input refused.
+    Returns vertices, face_sizes, corners (all quads), source_face; when material_index (one per base face) is given, material_index
+    per face; when uvs (float32 (corners, 2)) is given, uvs per corner of the result."""
 
 def procedural_detail(
     vertices: Floats,

@@ -4,23 +4,24 @@ use pyo3::types::PyDict;
 use thicket_core::polygonize::DEFAULT_MAX_BYTES;
 use thicket_core::subdivision::budget;
 use thicket_core::subdivision::detail::{self, Model};
-use thicket_core::subdivision::{self, Boundary, Options};
+use thicket_core::subdivision::{self, Boundary, Options, UvSmooth};
 
 use crate::arrays;
 use crate::errors::{run_detached, to_py, InvalidInput};
 use crate::keywords::Keywords;
 
 /// subdivide(vertices, face_sizes, corners, levels=1, limit=False, uvs=None, *,
-///           material_index=None, boundary_smooth="ALL") -> dict
+///           material_index=None, boundary_smooth="ALL", uv_smooth="PRESERVE_BOUNDARIES") -> dict
 ///
 /// Catmull-Clark subdivision as Blender's Subdivision Surface modifier makes it: `levels`
 /// 1 to 6, `limit` its Use Limit Surface, `boundary_smooth` its Boundary Smooth ("ALL" or
-/// "PRESERVE_CORNERS"). Returns vertices (m,3) float32, face_sizes and corners int32 (all
-/// quads), source_face int32 (the base face of each face) and, when `material_index`
-/// (int32 per base face) is given, material_index int32 per face. `uvs` (UV maps through
-/// the levels) is not built yet and is refused.
+/// "PRESERVE_CORNERS"), `uv_smooth` its UV Smooth ("PRESERVE_BOUNDARIES" or "NONE").
+/// Returns vertices (m,3) float32, face_sizes and corners int32 (all quads), source_face
+/// int32 (the base face of each face); when `material_index` (int32 per base face) is
+/// given, material_index int32 per face; when `uvs` (float32 (corners, 2), one UV per base
+/// corner) is given, uvs float32 (4^levels corners, 2), one per corner of the result.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, levels=1, limit=false, uvs=None, *, material_index=None, boundary_smooth="ALL"))]
+#[pyo3(signature = (vertices, face_sizes, corners, levels=1, limit=false, uvs=None, *, material_index=None, boundary_smooth="ALL", uv_smooth="PRESERVE_BOUNDARIES"))]
 #[allow(clippy::too_many_arguments)]
 pub fn subdivide<'py>(
     py: Python<'py>,
@@ -32,11 +33,16 @@ pub fn subdivide<'py>(
     uvs: Option<&Bound<'py, PyAny>>,
     material_index: Option<&Bound<'py, PyAny>>,
     boundary_smooth: &str,
+    uv_smooth: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
-    if uvs.is_some_and(|u| !u.is_none()) {
-        return Err(InvalidInput::new_err("subdivide: UV maps through the levels (uvs) are not built yet (issue 18); subdivide without them"));
-    }
     let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
+    let uvs = match uvs.filter(|u| !u.is_none()) {
+        Some(u) => {
+            let array: PyReadonlyArray2<f32> = u.extract().map_err(|_| InvalidInput::new_err("uvs must be a float32 array of shape (corners, 2)"))?;
+            Some(arrays::uvs(&array, mesh.corners().len())?)
+        }
+        None => None,
+    };
     let materials = material_index.map(|m| arrays::indices(m, "material_index")).transpose()?;
     if let Some(m) = &materials {
         if m.len() != mesh.face_count() {
@@ -44,15 +50,19 @@ pub fn subdivide<'py>(
         }
     }
     let options = Options { levels, limit, boundary: Boundary::parse(boundary_smooth).map_err(to_py)? };
+    let smooth = UvSmooth::parse(uv_smooth).map_err(to_py)?;
     if (1..=subdivision::MAX_LEVELS).contains(&levels) {
         budget::check_fits(&mesh, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
     }
-    let out = run_detached(py, move || subdivision::subdivide(&mesh, &options))?;
+    let (out, mut out_uvs) = run_detached(py, move || subdivision::subdivide_with_uvs(&mesh, &options, smooth, &Vec::from_iter(uvs.as_deref())))?;
     let per_face = materials.map(|m| out.source_face.iter().map(|&f| m[f as usize]).collect::<Vec<u32>>());
     let d = arrays::mesh_dict(py, out.mesh)?;
     d.set_item("source_face", arrays::u32_as_i32_array(py, out.source_face))?;
     if let Some(m) = per_face {
         d.set_item("material_index", arrays::u32_as_i32_array(py, m))?;
+    }
+    if let Some(uv) = out_uvs.pop() {
+        d.set_item("uvs", arrays::vec2_array(py, uv)?)?;
     }
     Ok(d)
 }

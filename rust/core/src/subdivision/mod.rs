@@ -6,13 +6,17 @@
 
 pub mod budget;
 pub mod detail;
+mod face_varying;
 pub mod operations;
 pub mod recipe;
 mod topology;
 
 use crate::{Error, Mesh, Result};
-use glam::{DVec3, Vec3};
+use face_varying::Channel;
+pub use face_varying::UvSmooth;
+use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
+use std::ops::{Add, Div, Mul};
 use topology::{Level, NONE};
 
 /// The most levels [`subdivide`] takes: each level multiplies the faces by 4.
@@ -71,6 +75,14 @@ pub struct Subdivided {
 /// non-manifold input (an edge of 3 or more faces, a vertex whose faces form several fans),
 /// loose vertices, faces that repeat a vertex, and outputs beyond 2^32 corners.
 pub fn subdivide(mesh: &Mesh, options: &Options) -> Result<Subdivided> {
+    Ok(subdivide_with_uvs(mesh, options, UvSmooth::default(), &[])?.0)
+}
+
+/// [`subdivide`], carrying per-corner UV maps (`uvs`, each one UV per base corner) through
+/// every level as face-varying data by the `smooth` rule, as Blender's modifier does with its
+/// UV Smooth option; returns each map per corner of the subdivided mesh. With
+/// `options.limit`, the UVs go to their limit as the positions do.
+pub fn subdivide_with_uvs(mesh: &Mesh, options: &Options, smooth: UvSmooth, uvs: &[&[Vec2]]) -> Result<(Subdivided, Vec<Vec<Vec2>>)> {
     if !(1..=MAX_LEVELS).contains(&options.levels) {
         return Err(Error::InvalidParameter(format!("subdivision levels must be 1 to {MAX_LEVELS}, not {}", options.levels)));
     }
@@ -83,16 +95,47 @@ pub fn subdivide(mesh: &Mesh, options: &Options) -> Result<Subdivided> {
         )));
     }
     let mut level = Level::base(mesh)?;
+    let mut channels = uvs.iter().map(|uv| Channel::weld(&level, uv)).collect::<Result<Vec<_>>>()?;
     let mut source_face: Vec<u32> = (0..mesh.face_count() as u32).collect();
     for _ in 0..options.levels {
         source_face = level.corner_face.iter().map(|&f| source_face[f as usize]).collect();
+        channels = channels.iter().map(|c| c.refine(&level, smooth)).collect();
         level = level.refine(options.boundary);
     }
+    let uvs = channels.iter().map(|c| c.per_corner(&level, smooth, options.limit)).collect();
     let to_f32 = |p: &[DVec3]| p.iter().map(|p| p.as_vec3()).collect::<Vec<Vec3>>();
     let positions = if options.limit { to_f32(&level.limit_positions(options.boundary)) } else { to_f32(&level.positions) };
     let sizes = vec![4u32; level.corners.len() / 4];
     let mesh = Mesh::new(positions, &sizes, level.corners, None)?;
-    Ok(Subdivided { mesh, source_face })
+    Ok((Subdivided { mesh, source_face }, uvs))
+}
+
+/// What the subdivision rules average: positions and face-varying values.
+trait Point: Copy + Send + Sync + Add<Output = Self> + Mul<f64, Output = Self> + Div<f64, Output = Self> + std::iter::Sum {}
+impl<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T> + Div<f64, Output = T> + std::iter::Sum> Point for T {}
+
+/// Catmull-Clark's face point: the centroid.
+fn face_point<T: Point>(points: impl ExactSizeIterator<Item = T>) -> T {
+    let n = points.len() as f64;
+    points.sum::<T>() / n
+}
+
+/// Catmull-Clark's smooth edge point from the sum of the edge's ends and its two face points.
+fn edge_point<T: Point>(ends: T, f0: T, f1: T) -> T {
+    (ends + f0 + f1) * 0.25
+}
+
+/// Catmull-Clark's smooth vertex point, (n-2)/n v + sum(e_i)/n^2 + sum(f_i)/n^2, from the
+/// sums of the n edge neighbours and n face points.
+fn vertex_point<T: Point>(v: T, n: f64, edges: T, faces: T) -> T {
+    v * ((n - 2.0) / n) + (edges + faces) / (n * n)
+}
+
+/// The limit of a smooth vertex of an all-quad level, (n^2 v + 4 sum(e_i) + sum(d_i)) /
+/// (n (n + 5)), e_i the edge neighbours and d_i the quad vertices opposite v (Halstead et
+/// al. 1993; OpenSubdiv's Catmull-Clark limit mask).
+fn limit_point<T: Point>(v: T, n: f64, edges: T, diagonals: T) -> T {
+    (v * (n * n) + edges * 4.0 + diagonals) / (n * (n + 5.0))
 }
 
 /// Per-vertex sums over a level's neighbourhoods, gathered in one pass over edges and corners.
@@ -169,13 +212,7 @@ impl Level {
     /// cubic B-spline curve rule).
     fn refine(&self, boundary: Boundary) -> Level {
         let p = &self.positions;
-        let face_points: Vec<DVec3> = (0..self.face_count())
-            .into_par_iter()
-            .map(|f| {
-                let face = self.face(f);
-                face.iter().map(|&v| p[v as usize]).sum::<DVec3>() / face.len() as f64
-            })
-            .collect();
+        let face_points: Vec<DVec3> = (0..self.face_count()).into_par_iter().map(|f| face_point(self.face(f).iter().map(|&v| p[v as usize]))).collect();
         let edge_points: Vec<DVec3> = self
             .edges
             .par_iter()
@@ -185,24 +222,21 @@ impl Level {
                 if f1 == NONE {
                     ends * 0.5
                 } else {
-                    (ends + face_points[f0 as usize] + face_points[f1 as usize]) * 0.25
+                    edge_point(ends, face_points[f0 as usize], face_points[f1 as usize])
                 }
             })
             .collect();
         let rings = Rings::of(self, |c| face_points[self.corner_face[c] as usize]);
-        let vertex_points =
-            rings.each_vertex(p, boundary, |v, ends| (v * 6.0 + ends) / 8.0, |v, n, edges, faces| v * ((n - 2.0) / n) + (edges + faces) / (n * n));
+        let vertex_points = rings.each_vertex(p, boundary, |v, ends| (v * 6.0 + ends) / 8.0, vertex_point);
         self.child([vertex_points, edge_points, face_points].concat())
     }
 
-    /// The limit positions of an all-quad level's vertices: (n^2 v + 4 sum(e_i) + sum(d_i)) /
-    /// (n (n + 5)) inside, with e_i the edge neighbours and d_i the quad vertices opposite v
-    /// (Halstead et al. 1993; OpenSubdiv's Catmull-Clark limit mask); (e1 + 4 v + e2) / 6 on
-    /// a boundary (the cubic B-spline curve's point); kept corners stay.
+    /// The limit positions of an all-quad level's vertices: [`limit_point`] inside,
+    /// (e1 + 4 v + e2) / 6 on a boundary (the cubic B-spline curve's point); kept corners stay.
     fn limit_positions(&self, boundary: Boundary) -> Vec<DVec3> {
         let p = &self.positions;
         let rings = Rings::of(self, |c| p[self.corners[c - c % 4 + (c + 2) % 4] as usize]);
-        rings.each_vertex(p, boundary, |v, ends| (v * 4.0 + ends) / 6.0, |v, n, edges, faces| (v * (n * n) + edges * 4.0 + faces) / (n * (n + 5.0)))
+        rings.each_vertex(p, boundary, |v, ends| (v * 4.0 + ends) / 6.0, limit_point)
     }
 }
 

@@ -2,6 +2,7 @@ use super::*;
 use crate::mesh::{boundary_edges, fixtures};
 use crate::test_rng::Rng;
 use crate::{hard_meshes, testmeshes};
+use glam::DVec2;
 
 fn run(mesh: &Mesh, levels: u32, limit: bool) -> Subdivided {
     subdivide(mesh, &Options { levels, limit, boundary: Boundary::SmoothAll }).unwrap()
@@ -194,4 +195,209 @@ fn refuses_bad_input_with_a_message() {
     let huge = Mesh::new(p(1 << 20), &[1 << 20], (0..1 << 20).collect(), None).unwrap();
     assert!(matches!(err(huge, MAX_LEVELS), Error::OverLimit(_)));
     assert!(Boundary::parse("NONE").is_err());
+}
+
+fn with_uvs(mesh: &Mesh, levels: u32, limit: bool, smooth: UvSmooth, uvs: &[Vec2]) -> (Subdivided, Vec<Vec2>) {
+    let options = Options { levels, limit, boundary: Boundary::KeepCorners };
+    let (out, mut maps) = subdivide_with_uvs(mesh, &options, smooth, &[uvs]).unwrap();
+    assert_eq!(maps.len(), 1);
+    let uvs = maps.pop().unwrap();
+    assert_eq!(uvs.len(), out.mesh.corners().len());
+    (out, uvs)
+}
+
+/// The UV of each corner of `mesh` from a per-vertex map.
+fn per_vertex(mesh: &Mesh, uv: impl Fn(Vec3) -> Vec2) -> Vec<Vec2> {
+    mesh.corners().iter().map(|&v| uv(mesh.positions()[v as usize])).collect()
+}
+
+#[test]
+fn uvs_leave_positions_bit_identical() {
+    let mesh = hard_meshes::star_prism();
+    let uvs = per_vertex(&mesh, |p| Vec2::new(p.x, p.y + p.z));
+    for (levels, limit) in [(1, false), (2, true), (3, true)] {
+        let options = Options { levels, limit, boundary: Boundary::SmoothAll };
+        let (out, _) = subdivide_with_uvs(&mesh, &options, UvSmooth::PreserveBoundaries, &[&uvs, &uvs]).unwrap();
+        assert_eq!(out, subdivide(&mesh, &options).unwrap());
+    }
+}
+
+#[test]
+fn planar_grid_uvs_stay_the_bilinear_map() {
+    // A flat grid with corners kept: every level's positions are the bilinear map of the
+    // base grid, on the limit too; UVs equal to the positions must stay so, by either rule.
+    let grid = fixtures::grid(4);
+    let uvs = per_vertex(&grid, |p| Vec2::new(p.x, p.y) * 0.25);
+    for smooth in [UvSmooth::PreserveBoundaries, UvSmooth::Linear] {
+        for levels in 1..=4 {
+            for limit in [false, true] {
+                let (out, got) = with_uvs(&grid, levels, limit, smooth, &uvs);
+                for (c, &v) in out.mesh.corners().iter().enumerate() {
+                    let p = out.mesh.positions()[v as usize];
+                    assert!(got[c].distance(Vec2::new(p.x, p.y) * 0.25) < 1e-6, "{smooth:?} level {levels} limit {limit} corner {c}: {} at {p}", got[c]);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn inner_uvs_limit_is_the_bicubic_b_spline() {
+    // Random UVs without seams on an 8 x 8 flat grid: faces whose 4 x 4 net avoids the
+    // (preserved) boundary are uniform bicubic B-spline patches of the UVs.
+    let n = 7u32;
+    let grid = fixtures::grid(n);
+    let mut rng = Rng(11);
+    let control: Vec<Vec2> = (0..grid.vertex_count()).map(|_| Vec2::new(rng.range(-1.0, 1.0) as f32, rng.range(-1.0, 1.0) as f32)).collect();
+    let uvs: Vec<Vec2> = grid.corners().iter().map(|&v| control[v as usize]).collect();
+    let at = |i: i64, j: i64| control[(j * (n as i64 + 1) + i) as usize].as_dvec2();
+    for levels in 1..=3 {
+        let (out, got) = with_uvs(&grid, levels, true, UvSmooth::PreserveBoundaries, &uvs);
+        let mut checked = 0;
+        for (c, &v) in out.mesh.corners().iter().enumerate() {
+            let p = out.mesh.positions()[v as usize];
+            let (u, v) = (p.x as f64, p.y as f64);
+            if !(2.0..=5.0).contains(&u) || !(2.0..=5.0).contains(&v) {
+                continue;
+            }
+            let (i, j) = ((u.floor() as i64).min(4), (v.floor() as i64).min(4));
+            let (bu, bv) = (bspline(u - i as f64), bspline(v - j as f64));
+            let want: DVec2 = (0..4).flat_map(|a| (0..4).map(move |b| (a, b))).map(|(a, b)| at(i - 1 + a as i64, j - 1 + b as i64) * (bu[a] * bv[b])).sum();
+            assert!(got[c].as_dvec2().distance(want) < 1e-5, "level {levels} at ({u}, {v}): {} vs {want}", got[c]);
+            checked += 1;
+        }
+        let side = 3 * (1 << levels);
+        assert!(checked >= side * side * 4, "level {levels}: {checked} corners checked");
+    }
+}
+
+/// A 6 x 4 grid, jittered, with random UVs per vertex, cut by a seam along x = 3: the faces
+/// right of it take UVs shifted by 10 (a second island).
+fn seamed_grid() -> (Mesh, Vec<Vec2>) {
+    let mut rng = Rng(5);
+    let mut grid = fixtures::grid(6);
+    let n = 6u32;
+    let faces: Vec<Vec<u32>> = grid.faces().filter(|f| f[0] / (n + 1) < 4).map(|f| f.to_vec()).collect();
+    let sizes = vec![4u32; faces.len()];
+    let keep = 5 * (n + 1) as usize;
+    grid = Mesh::new(grid.positions()[..keep].to_vec(), &sizes, faces.concat(), None).unwrap();
+    for v in 0..grid.vertex_count() {
+        grid.set_position(v, grid.positions()[v] + rng.vec(0.2).as_vec3()).unwrap();
+    }
+    let control: Vec<Vec2> = (0..grid.vertex_count()).map(|_| Vec2::new(rng.range(0.0, 1.0) as f32, rng.range(0.0, 1.0) as f32)).collect();
+    let uvs = grid
+        .faces()
+        .flat_map(|f| {
+            let shift = if f.iter().any(|&v| v % (n + 1) > 3) { 10.0 } else { 0.0 };
+            f.iter().map(|&v| control[v as usize] + Vec2::new(shift, 0.0)).collect::<Vec<_>>()
+        })
+        .collect();
+    (grid, uvs)
+}
+
+#[test]
+fn seam_keeps_its_islands_apart() {
+    // With preserved boundaries each island subdivides on its own: the seamed grid's UVs
+    // equal those of its two halves subdivided as separate meshes.
+    let (grid, uvs) = seamed_grid();
+    let sizes = grid.face_sizes();
+    let offsets: Vec<usize> = std::iter::once(0)
+        .chain(sizes.iter().scan(0, |s, &k| {
+            *s += k as usize;
+            Some(*s)
+        }))
+        .collect();
+    let right: Vec<bool> = (0..grid.face_count()).map(|f| uvs[offsets[f]].x > 5.0).collect();
+    for (levels, limit) in [(1, false), (2, true), (3, false), (3, true)] {
+        let (out, got) = with_uvs(&grid, levels, limit, UvSmooth::PreserveBoundaries, &uvs);
+        let per_face = 4usize.pow(levels);
+        for side in [false, true] {
+            let faces: Vec<usize> = (0..grid.face_count()).filter(|&f| right[f] == side).collect();
+            let half = Mesh::new(grid.positions().to_vec(), &vec![4; faces.len()], faces.iter().flat_map(|&f| grid.face(f).to_vec()).collect(), None).unwrap();
+            let half_uvs: Vec<Vec2> = faces.iter().flat_map(|&f| uvs[offsets[f]..offsets[f + 1]].to_vec()).collect();
+            // The half's loose vertices are refused, so keep only its own.
+            let used: std::collections::BTreeSet<u32> = half.corners().iter().copied().collect();
+            let renumber: std::collections::HashMap<u32, u32> = used.iter().enumerate().map(|(i, &v)| (v, i as u32)).collect();
+            let half = Mesh::new(
+                used.iter().map(|&v| half.positions()[v as usize]).collect(),
+                &half.face_sizes(),
+                half.corners().iter().map(|v| renumber[v]).collect(),
+                None,
+            )
+            .unwrap();
+            let (_, want) = with_uvs(&half, levels, limit, UvSmooth::PreserveBoundaries, &half_uvs);
+            // A base quad's 4^L child quads hold 4^(L+1) corners.
+            let corners = 4 * per_face;
+            for (k, &f) in faces.iter().enumerate() {
+                for i in 0..corners {
+                    let (a, b) = (got[f * corners + i], want[k * corners + i]);
+                    assert!(a.distance(b) < 1e-6, "levels {levels} limit {limit} face {f} child {i}: {a} vs {b}");
+                }
+            }
+        }
+        // Base corners on the seam and the boundary keep their UVs; the children of base
+        // corner c at level L start with corner 4^L c.
+        let seam_or_boundary = |v: u32| [0, 3, 6].contains(&(v % 7)) || !(7..28).contains(&v);
+        let mut moved = 0;
+        for (c, &v) in grid.corners().iter().enumerate() {
+            let child = got[c * per_face];
+            assert_eq!(out.mesh.corners()[c * per_face], v);
+            if seam_or_boundary(v) {
+                assert_eq!(child, uvs[c], "levels {levels} corner {c} at vertex {v}");
+            } else {
+                moved += (child.distance(uvs[c]) > 1e-4) as usize;
+            }
+        }
+        assert_eq!(moved, 12 * 4, "levels {levels}: every corner of the 12 inner vertices moves");
+    }
+}
+
+#[test]
+fn uv_limits_are_the_same_from_every_level() {
+    // Smooth UVs reach the same limit from levels 1 to 4 (the limit mask is an eigenvector
+    // of the refinement), at valence 3, 5 and n-gon centres of the star prism.
+    let mesh = hard_meshes::star_prism();
+    let uvs = per_vertex(&mesh, |p| Vec2::new(p.x * p.y + p.z, (p.y * 3.0).sin()));
+    let (_, first) = with_uvs(&mesh, 1, true, UvSmooth::PreserveBoundaries, &uvs);
+    for levels in 2..=4 {
+        let (_, got) = with_uvs(&mesh, levels, true, UvSmooth::PreserveBoundaries, &uvs);
+        let step = 4usize.pow(levels - 1);
+        for (c, &uv) in first.iter().enumerate() {
+            assert!(uv.distance(got[c * step]) < 1e-5, "level {levels} corner {c}: {uv} vs {}", got[c * step]);
+        }
+    }
+}
+
+#[test]
+fn linear_uvs_are_bilinear() {
+    // 'NONE': face points are the centroids of the face's UVs, edge points the midpoints,
+    // corners stay; per-corner random UVs on triangles, quads and a hexagon.
+    let mesh = hard_meshes::star_prism();
+    let mut rng = Rng(9);
+    let uvs: Vec<Vec2> = (0..mesh.corners().len()).map(|_| Vec2::new(rng.uniform() as f32, rng.uniform() as f32)).collect();
+    for limit in [false, true] {
+        let (_, got) = with_uvs(&mesh, 1, limit, UvSmooth::Linear, &uvs);
+        for (f, face) in mesh.faces().enumerate() {
+            let first: usize = mesh.face_sizes()[..f].iter().map(|&k| k as usize).sum();
+            let n = face.len();
+            let centre = uvs[first..first + n].iter().sum::<Vec2>() / n as f32;
+            for k in 0..n {
+                let (c, next) = (first + k, first + (k + 1) % n);
+                let quad = &got[4 * c..4 * c + 4];
+                assert!(quad[0].distance(uvs[c]) < 1e-6 && quad[1].distance((uvs[c] + uvs[next]) * 0.5) < 1e-6 && quad[2].distance(centre) < 1e-6);
+            }
+        }
+    }
+}
+
+#[test]
+fn refuses_bad_uvs() {
+    let cube = fixtures::cube();
+    let options = Options::default();
+    let short = vec![Vec2::ZERO; 23];
+    assert!(matches!(subdivide_with_uvs(&cube, &options, UvSmooth::default(), &[&short]), Err(Error::InvalidParameter(m)) if m.contains("23 UVs")));
+    let mut nan = vec![Vec2::ZERO; 24];
+    nan[7].y = f32::NAN;
+    assert!(matches!(subdivide_with_uvs(&cube, &options, UvSmooth::default(), &[&nan]), Err(Error::InvalidParameter(m)) if m.contains("corner 7")));
+    assert!(UvSmooth::parse("SMOOTH_ALL").is_err() && UvSmooth::parse("NONE") == Ok(UvSmooth::Linear));
 }

@@ -99,8 +99,18 @@ impl Level {
         &self.corners[self.offsets[f] as usize..self.offsets[f + 1] as usize]
     }
 
+    /// The corner after `c` in its face.
+    pub fn next(&self, c: usize) -> usize {
+        let f = self.corner_face[c] as usize;
+        if c + 1 == self.offsets[f + 1] as usize {
+            self.offsets[f] as usize
+        } else {
+            c + 1
+        }
+    }
+
     /// The corner before `c` in its face.
-    fn prev(&self, c: usize) -> usize {
+    pub fn prev(&self, c: usize) -> usize {
         let f = self.corner_face[c] as usize;
         if c == self.offsets[f] as usize {
             self.offsets[f + 1] as usize - 1
