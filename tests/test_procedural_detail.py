@@ -123,3 +123,98 @@ def test_levels_that_would_not_fit_are_refused_before_anything_is_made(scene):
     a = mesh_io.read_mesh(obj.data)
     with pytest.raises(ValueError, match=r"levels fit"):
         tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 6)
+
+
+def sphere_arrays():
+    obj = add("ico_sphere", subdivisions=3)
+    a = mesh_io.read_mesh(obj.data)
+    return a, float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
+
+
+def detail(a, model, levels, seed=0, params=None, **operations):
+    return tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model, levels, seed, params, **operations)
+
+
+def test_a_blend_at_alpha_zero_or_one_is_the_single_model(scene):
+    """Burt-Adelson blending (6.1): a plane far to one side gives alpha 0 (the first
+    model) or 1 (the second) everywhere; painted weights of 0 or 1 likewise."""
+    a, _ = sphere_arrays()
+    rock = detail(a, "rock", 3, 4, {"amplitude": 0.02})
+    berry = detail(a, "berry", 3, 9, {"radius": 0.1})
+    partner = {"model": "berry", "params": {"radius": 0.1}, "seed": 9}
+    for point, expected, alpha in [((100, 0, 0), rock, 0.0), ((-100, 0, 0), berry, 1.0)]:
+        out = detail(a, "rock", 3, 4, {"amplitude": 0.02}, blend=dict(partner, plane=(point, (1, 2, 0))))
+        np.testing.assert_array_equal(out["vertices"], expected["vertices"])
+        assert (out["blend"] == alpha).all()
+    for weight, expected in [(0.0, rock), (1.0, berry)]:
+        weights = np.full(len(a.vertices), weight, np.float32)
+        out = detail(a, "rock", 3, 4, {"amplitude": 0.02}, blend=dict(partner, weights=weights))
+        np.testing.assert_array_equal(out["vertices"], expected["vertices"])
+    assert (rock["blend"] == 0).all() and "colors" not in rock
+
+
+def test_a_plane_blend_is_each_model_far_on_its_side(scene):
+    a, diag = sphere_arrays()
+    width = 0.1
+    out = detail(a, "rock", 3, 4, {"amplitude": 0.02}, blend={"model": "rock", "params": {"amplitude": 0.0}, "plane": ((0, 0, 0), (1, 2, 0)), "width": width})
+    flat = detail(a, "rock", 3, 4, {"amplitude": 0.0})
+    side = out["vertices"] @ (np.array([1, 2, 0]) / np.sqrt(5))
+    b = out["blend"]
+    assert ((b > 0) & (b < 1)).any() and (b[side < -0.1 * diag] == 0).all() and (b[side > 0.1 * diag] == 1).all()
+    # Far on the flat model's side the surface is plain subdivision (Blender's, checked above).
+    far = side > (width + 0.15) * diag
+    assert far.sum() > 50
+    assert np.abs(out["vertices"][far] - flat["vertices"][far]).max() < 1e-6 * diag
+    near_rock = side < -(width + 0.15) * diag
+    assert np.abs(out["vertices"][near_rock] - flat["vertices"][near_rock]).max() > 1e-3 * diag
+
+
+def test_local_modification_changes_only_around_its_center(scene):
+    a, diag = sphere_arrays()
+    plain = detail(a, "rock", 3, 4, {"amplitude": 0.03})
+    out = detail(a, "rock", 3, 4, {"amplitude": 0.03}, local=[{"center": 7, "radius": 1.0, "gain": 0.0}])
+    moved = np.linalg.norm(out["vertices"] - plain["vertices"], axis=1)
+    # Within a few base edges of the center (the icosphere's base edges are about 0.06
+    # of its diagonal; the change spreads about 2.4 of them by level 3), nothing beyond.
+    distance = np.linalg.norm(plain["vertices"] - plain["vertices"][7], axis=1)
+    assert moved[7] > 1e-4 * diag and abs(out["scalar"][7]) < 1e-6
+    assert (moved[distance > 0.3 * diag] == 0).all() and (distance > 0.3 * diag).sum() > len(distance) // 4
+    doubled = detail(a, "rock", 1, 4, {"amplitude": 0.03}, local=[{"center": 7, "radius": 1.0, "gain": 2.0}])
+    once = detail(a, "rock", 1, 4, {"amplitude": 0.03})
+    assert abs(doubled["scalar"][7] - 2 * once["scalar"][7]) < 1e-6 * diag
+
+
+def test_placement_at_chosen_levels_and_the_planet_shader(scene):
+    a, diag = sphere_arrays()
+    everywhere = detail(a, "rock", 2, 4, {"amplitude": 0.03})
+    only_two = detail(a, "rock", 2, 4, {"amplitude": 0.03}, at=[2])
+    assert not np.array_equal(everywhere["vertices"], only_two["vertices"])
+    # At level 2 only, the scalar is level 2's random values alone: at most amplitude / 2.
+    assert np.abs(only_two["scalar"]).max() <= 0.015 * diag * (1 + 1e-5)
+    assert np.abs(everywhere["scalar"]).max() > 0.015 * diag
+    out = detail(a, "rock", 2, 4, {"amplitude": 0.03}, shader={"name": "planet", "sea": 0.0, "snow": 0.02})
+    colors, h = out["colors"], out["scalar"] / diag
+    assert colors.shape == (len(h), 4) and (colors[:, 3] == 1).all()
+    sea, land, snow = h < -0.005, (h > 0.002) & (h < 0.015), h > 0.025
+    assert sea.any() and land.any() and snow.any()
+    assert (colors[sea, 2] > colors[sea, 0]).all(), "oceans are blue"
+    assert (colors[land, 1] > colors[land, 2]).all(), "lowlands are green or brown, not blue"
+    assert (colors[snow, :3] > 0.9).all(), "snow caps are white"
+
+
+def test_bad_operations_are_clear_errors(scene):
+    a, _ = sphere_arrays()
+    with pytest.raises(ValueError, match="plane"):
+        detail(a, "rock", 1, blend={"model": "rock"})
+    with pytest.raises(ValueError, match="center"):
+        detail(a, "rock", 1, local=[{"center": 10**6}])
+    with pytest.raises(ValueError, match="levels"):
+        detail(a, "rock", 1, at=[0])
+    with pytest.raises(ValueError, match="shader"):
+        detail(a, "rock", 1, shader={"name": "marble"})
+    with pytest.raises(ValueError, match="snow"):
+        detail(a, "rock", 1, shader={"sea": 0.1, "snow": 0.0})
+    with pytest.raises(ValueError, match="weights"):
+        detail(a, "rock", 1, blend={"model": "rock", "weights": np.zeros(3, np.float32)})
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        detail(a, "rock", 1, local=[{"centre": 1}])

@@ -204,11 +204,18 @@ def test_the_panel_draws_the_detail_settings(scene):
     item = cube.thicket.items[0]
     drawn = []
     draw_item_settings(Layout(drawn), cube, item)
-    assert drawn == ["detail_model", "levels", "seed", "detail_amplitude", "confirm_above"]
-    item.detail_model = "BERRY"
+    tail = ["detail_at", "blend_model", "local_object", "detail_shader", "confirm_above"]
+    assert drawn == ["detail_model", "levels", "seed", "detail_amplitude", *tail]
+    with suspended():
+        item.detail_model, item.blend_model, item.detail_shader = "BERRY", "ROCK", "PLANET"
+        item.local_object = bpy.data.objects.new("center", None)
     drawn.clear()
     draw_item_settings(Layout(drawn), cube, item)
-    assert drawn == ["detail_model", "levels", "seed", "detail_radius", "detail_children", "detail_seeds", "confirm_above"]
+    assert drawn == [
+        *["detail_model", "levels", "seed", "detail_radius", "detail_children", "detail_seeds", "detail_at"],
+        *["blend_model", "blend_seed", "blend_gain", "blend_alpha", "blend_point", "blend_direction", "blend_width"],
+        *["local_object", "local_radius", "local_gain", "local_at", "detail_shader", "shader_sea", "shader_snow", "confirm_above"],
+    ]
 
 
 def test_a_saved_stack_reloads_with_its_detail(scene, tmp_path):
@@ -221,3 +228,86 @@ def test_a_saved_stack_reloads_with_its_detail(scene, tmp_path):
     item = cube.thicket.items[0]
     assert (item.kind, item.detail_model, item.levels, item.seed) == ("PROCEDURAL_DETAIL", "ROCK", 4, 3)
     np.testing.assert_array_equal(positions(api.regenerate(cube)), native_detail(cube, "rock", 4, 3, amplitude=0.03)["vertices"])
+
+
+def attribute_values(mesh, name, width):
+    attr = mesh.attributes[name]
+    values = np.empty(len(attr.data) * width, np.float32)
+    attr.data.foreach_get("color" if width == 4 else "value", values)
+    return attr, values.reshape(-1, width) if width > 1 else values
+
+
+def test_the_planet_preset_blends_two_rocks_and_colours_them(scene):
+    sphere = add("uv_sphere", segments=24, ring_count=12)
+    result = api.add_procedural_detail(sphere, preset="PLANET", levels=3)
+    item = sphere.thicket.items[0]
+    a = mesh_io.read_mesh(sphere.data)
+    f32 = lambda x: float(np.float32(x))  # noqa: E731 (Blender stores floats in single precision)
+    expected = tn.procedural_detail(
+        a.vertices, a.face_sizes, a.corners, "rock", 3, 0, {"amplitude": f32(0.03)},
+        blend={"model": "rock", "params": {"amplitude": f32(0.03) * f32(1.6)}, "seed": 2, "plane": ((0, 0, 0), (1, 2, 0)), "width": f32(0.3)},
+        shader={"name": "planet", "sea": 0.0, "snow": f32(0.03)},
+    )  # fmt: skip
+    np.testing.assert_array_equal(positions(result), expected["vertices"])
+    attr, colors = attribute_values(result.data, "thicket_color", 4)
+    assert (attr.domain, attr.data_type) == ("POINT", "FLOAT_COLOR")
+    np.testing.assert_allclose(colors, expected["colors"], atol=1e-6)
+    assert result.data.color_attributes.active_color_name == "thicket_color"
+    _, blend = attribute_values(result.data, "thicket_blend", 1)
+    assert blend.min() == 0.0 and blend.max() == 1.0, "both sub-planets show"
+    assert item.blend_model == "ROCK" and item.detail_shader == "PLANET"
+
+
+def test_a_local_center_empty_scales_the_detail_near_it_and_follows_it(scene):
+    sphere = add("ico_sphere", subdivisions=3)
+    verts = positions(sphere)
+    top, bottom = int(np.argmax(verts[:, 2])), int(np.argmin(verts[:, 2]))
+    empty = bpy.data.objects.new("center", None)
+    scene.collection.objects.link(empty)
+    empty.location = verts[top] * 1.05
+    bpy.context.view_layer.update()
+    plain = api.add_procedural_detail(sphere, model="ROCK", levels=2, amplitude=0.03)
+    before = positions(plain).copy()
+    sphere.thicket.items[0].local_object = empty  # regenerates live (at once, headless)
+    a = mesh_io.read_mesh(sphere.data)
+    amplitude = float(np.float32(0.03))
+    expected = tn.procedural_detail(
+        a.vertices, a.face_sizes, a.corners, "rock", 2, 0, {"amplitude": amplitude}, local=[{"center": top, "radius": 2.0, "gain": 0.0}]
+    )
+    result = sphere.thicket.result
+    np.testing.assert_array_equal(positions(result), expected["vertices"])
+    moved = np.linalg.norm(positions(result) - before, axis=1)
+    assert moved[top] > 0 and moved[bottom] == 0
+    empty.location = verts[bottom] * 1.05
+    bpy.context.view_layer.update()  # the depsgraph update the handler sees (background: regenerated at once)
+    moved = np.linalg.norm(positions(result) - before, axis=1)
+    assert moved[top] == 0 and moved[bottom] > 0, "the modification followed the empty"
+
+
+def test_placement_at_chosen_levels_and_a_blend_by_vertex_group(scene):
+    sphere = add("ico_sphere", subdivisions=3)
+    verts = positions(sphere)
+    upper = np.flatnonzero(verts[:, 2] > 0).tolist()
+    sphere.vertex_groups.new(name="berries").add(upper, 1.0, "REPLACE")
+    result = api.add_procedural_detail(sphere, model="ROCK", levels=2, amplitude=0.02, at=[2, 3, 4, 5, 6])
+    a = mesh_io.read_mesh(sphere.data)
+    amplitude = float(np.float32(0.02))
+    np.testing.assert_array_equal(
+        positions(result), tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 2, 0, {"amplitude": amplitude}, at=[2, 3, 4, 5, 6])["vertices"]
+    )
+    item = sphere.thicket.items[0]
+    with suspended():
+        item.detail_at = (True,) * 6
+        item.blend_model, item.blend_alpha, item.blend_group, item.blend_width = "BERRY", "GROUP", "berries", 1.0
+    result = api.regenerate(sphere)
+    weights = np.zeros(len(verts), np.float32)
+    weights[upper] = 1.0
+    radius = float(np.float32(item.detail_radius))
+    expected = tn.procedural_detail(
+        a.vertices, a.face_sizes, a.corners, "rock", 2, 0, {"amplitude": amplitude},
+        blend={"model": "berry", "params": {"radius": radius, "children": 3}, "seed": 1, "weights": weights, "width": 1.0},
+    )  # fmt: skip
+    np.testing.assert_array_equal(positions(result), expected["vertices"])
+    _, blend = attribute_values(result.data, "thicket_blend", 1)
+    np.testing.assert_array_equal(blend, expected["blend"])
+    assert blend[upper].min() == 1.0 and blend[np.flatnonzero(verts[:, 2] < 0)].max() == 0.0

@@ -315,22 +315,26 @@ def add_procedural_detail(obj, model=None, levels=None, preset=None, progress=No
     stack, before its first shell or texture item (the detail shapes their base), and
     regenerates; returns the result object. `model`: "ROCK" or "BERRY"; `levels`: 1 to
     6 Catmull-Clark levels (each has four times the faces of the last). `preset`:
-    "ROCK" or "BERRY", the starting settings (`model`, `levels` and `settings` override
-    them). Other `settings`: `seed`; the rock's `amplitude` and the berry's `radius`
-    (fractions of the bounding-box diagonal), `children` and `seeds` ("RANDOM",
-    "GROUP" with `vertex_group`, or "SELECTED": the source's selected vertices), or any
-    `ThicketItem` name. Results over 4 GB are refused with a ThicketError before
+    "ROCK", "BERRY" or "PLANET", the starting settings (`model`, `levels` and
+    `settings` override them). Other `settings`: `seed`; the rock's `amplitude` and
+    the berry's `radius` (fractions of the bounding-box diagonal), `children` and
+    `seeds` ("RANDOM", "GROUP" with `vertex_group`, or "SELECTED": the source's
+    selected vertices); `at`, the levels the model acts at (a list, e.g. [1, 3]); a
+    blend: `blend_model`, `blend_seed`, `blend_gain`, `blend_alpha` ("PLANE" with
+    `blend_point` and `blend_direction`, or "GROUP" with `blend_group`),
+    `blend_width`; a local modification: `local_object` (its location the center),
+    `local_radius` (base edges), `local_gain`, `local_at`; `shader` ("PLANET") with
+    `sea` and `snow`; or any `ThicketItem` name. Results over 4 GB are refused with a ThicketError before
     anything is made; `regenerate(obj, ask=True)` raises `BakeNeedsConfirmation` over
     `confirm_above` triangles. The source mesh is never modified."""
-    from .pure.kinds.procedural_detail import API_NAMES, PRESETS
+    from .pure.kinds.procedural_detail import PRESETS, api_values
 
     _require_mesh(obj)
     if preset is not None and preset.upper() not in PRESETS:
         raise ValueError(f"preset must be one of {', '.join(PRESETS)}, got {preset!r}")
     values = dict(PRESETS[preset.upper()]) if preset is not None else {}
-    for key, value in dict(settings, model=model, levels=levels).items():
-        if value is not None:
-            values[API_NAMES.get(key, key)] = value.upper() if key in ("model", "seeds") else value
+    given = {key: value for key, value in dict(settings, model=model, levels=levels).items() if value is not None}
+    values.update(api_values(given))
     add_detail_item(obj, **values)
     return _regenerate(obj, progress=progress)
 

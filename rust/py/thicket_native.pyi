@@ -307,6 +307,13 @@ def procedural_detail(
     levels: int,
     seed: int = 0,
     params: dict[str, Any] | None = None,
+    *,
+    at: list[int] | None = None,
+    blend: dict[str, Any] | None = None,
+    local: list[dict[str, Any]] | None = None,
+    shader: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Procedural detail on Catmull-Clark levels (Velho et al. section 4): model "rock" (params amplitude) or "berry" (radius, seeds, children), lengths as fractions of the bounding-box diagonal.
-    Returns the finest level's vertices, face_sizes, corners (all quads), source_face and scalar (float32 per vertex: the detail added)."""
+    Operations (sections 5-6): `at` the levels the model acts at; `blend` a second model (model, params, seed, at, plane=(point, direction) or weights, width) blended level by level;
+    `local` modifications (center, radius in base edges, gain, levels); `shader` {"name": "planet", "sea", "snow"} for colours.
+    Returns the finest level's vertices, face_sizes, corners (all quads), source_face, scalar (float32 per vertex: the detail added), blend (float32 per vertex) and, with a shader, colors ((n, 4) float32)."""

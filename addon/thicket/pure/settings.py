@@ -150,6 +150,17 @@ class ProceduralDetail(_Item):
     confirm_above: results estimated above this many triangles raise
     NeedsConfirmation when the caller asks (the UI). The result's vertices keep the
     group weights of the base vertex whose quarter of a face they lie in.
+
+    Operations (sections 5-6): `at`, the levels the model adds detail at (empty: all);
+    `blend_model` (empty: none), a second model with the item's own settings times
+    `blend_gain` and random values from `blend_seed`, blended in where the alpha is 1:
+    `blend_alpha` "plane" (through `blend_point`, object space, facing
+    `blend_direction`; `blend_width` a fraction of the diagonal) or "group"
+    (`blend_group`'s weights; `blend_width` in weight units), the transition halving per
+    level. `local_center` (object space, or None): the detail within `local_radius`
+    base edges of the vertex nearest it scaled by `local_gain` at `local_at` (empty:
+    all). `shader` "planet": colours from the scalar and the blend parameter, oceans
+    below `sea`, snow above `snow` (fractions of the diagonal).
     """
 
     model: str = "rock"
@@ -161,11 +172,28 @@ class ProceduralDetail(_Item):
     seeds: str = "random"
     vertex_group: str = ""
     confirm_above: int = 3_000_000
+    at: tuple = ()
+    blend_model: str = ""
+    blend_seed: int = 1
+    blend_gain: float = 1.0
+    blend_alpha: str = "plane"
+    blend_point: tuple = (0.0, 0.0, 0.0)
+    blend_direction: tuple = (1.0, 2.0, 0.0)
+    blend_width: float = 0.2
+    blend_group: str = ""
+    local_center: tuple | None = None
+    local_radius: float = 2.0
+    local_gain: float = 0.0
+    local_at: tuple = ()
+    shader: str = ""
+    sea: float = 0.0
+    snow: float = 0.025
 
     def vertex_groups(self):
+        groups = [self.blend_group] if self.blend_model and self.blend_alpha == "group" and self.blend_group else []
         if self.seeds == "selected":
-            return [SELECTED_VERTICES]
-        return [self.vertex_group] if self.seeds == "group" and self.vertex_group else []
+            return groups + [SELECTED_VERTICES]
+        return groups + ([self.vertex_group] if self.seeds == "group" and self.vertex_group else [])
 
     kind = "PROCEDURAL_DETAIL"
     label = "Procedural Detail"

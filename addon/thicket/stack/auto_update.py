@@ -48,25 +48,26 @@ flush = _sources.flush
 def changed_sources(scene, depsgraph, is_source=_is_source):
     """The objects passing `is_source` whose result this depsgraph update changes: those
     whose geometry changed (mesh edits, modifiers, vertex groups, shape keys), and
-    those whose Volumetric Texture cuts with an object that moved or changed. Each
+    those with an item watching an object that moved or changed (a Volumetric Texture's
+    cutter, a Procedural Detail's local center). Each
     once, though an update can name a source twice (its object and its mesh). The
     scene's stacks are looked up once per call (nothing to do without any)."""
     stacks = [obj for obj in scene.objects if obj.type == "MESH" and len(obj.thicket.items) > 0 and is_source(obj)]
     if not stacks:
         return []
     by_object = {obj.as_pointer(): [obj] for obj in stacks}
-    by_mesh, by_cutter = {}, {}
+    by_mesh, by_watched = {}, {}
     for obj in stacks:
         by_mesh.setdefault(obj.data.as_pointer(), []).append(obj)
         for item in obj.thicket.items:
-            if item.kind == "VOLUMETRIC_TEXTURE" and item.cutter is not None and item.cutter != obj:
-                by_cutter.setdefault(item.cutter.as_pointer(), []).append(obj)
+            for watched in item.watched_objects():
+                by_watched.setdefault(watched.as_pointer(), []).append(obj)
     sources = []
     for update in depsgraph.updates:
         original = update.id.original
         found = []
         if isinstance(original, bpy.types.Object) and (update.is_updated_geometry or update.is_updated_transform):
-            found += by_cutter.get(original.as_pointer(), [])  # a cutter moved or changed
+            found += by_watched.get(original.as_pointer(), [])  # a cutter or local center moved or changed
         if update.is_updated_geometry:
             if isinstance(original, bpy.types.Object):
                 found += by_object.get(original.as_pointer(), [])

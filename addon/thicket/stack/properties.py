@@ -1,7 +1,17 @@
 """PropertyGroups of the stack, stored on each object (saved in the .blend)."""
 
 import bpy
-from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty, StringProperty
+from bpy.props import (
+    BoolProperty,
+    BoolVectorProperty,
+    CollectionProperty,
+    EnumProperty,
+    FloatProperty,
+    FloatVectorProperty,
+    IntProperty,
+    PointerProperty,
+    StringProperty,
+)
 
 from ..pure import settings as S
 from ..pure.arrays import SELECTED_FACES
@@ -14,6 +24,11 @@ PATTERNS = [
     ("grass", "Grass", "Bending blades that grow with time"),
     ("fur", "Fur", "Thin curling strands"),
     ("bubbles", "Bubbles", "Bubbles rising from a film and bursting (animated)"),
+]
+
+DETAIL_MODELS = [
+    ("ROCK", "Rock", "A random value per control point at every level, halving per level: a 1/f fractal surface"),
+    ("BERRY", "Berry", "Domes around seed points, with smaller clusters of domes at every finer level"),
 ]
 
 
@@ -250,15 +265,7 @@ class ThicketItem(bpy.types.PropertyGroup):
     color_attribute: StringProperty(name="Attribute", description="The colour attribute written", default="thicket_color", update=_changed)
 
     # Procedural Detail
-    detail_model: EnumProperty(
-        name="Model",
-        items=[
-            ("ROCK", "Rock", "A random value per control point at every level, halving per level: a 1/f fractal surface"),
-            ("BERRY", "Berry", "Domes around seed points, with smaller clusters of domes at every finer level"),
-        ],
-        default="ROCK",
-        update=_changed,
-    )
+    detail_model: EnumProperty(name="Model", items=DETAIL_MODELS, default="ROCK", update=_changed)
     levels: IntProperty(
         name="Levels",
         description="Catmull-Clark levels, each with its own detail (each level has four times the faces of the last)",
@@ -300,6 +307,84 @@ class ThicketItem(bpy.types.PropertyGroup):
         ],
         default="RANDOM",
         update=_changed,
+    )
+
+    detail_at: BoolVectorProperty(
+        name="Detail At Levels",
+        description="The levels the model adds detail at (5: features at one level or several)",
+        size=6,
+        default=(True,) * 6,
+        update=_changed,
+    )
+    blend_model: EnumProperty(
+        name="Blend With",
+        description="A second model blended in level by level (Burt-Adelson): its detail where the alpha is 1",
+        items=[("NONE", "Nothing", "No blend")] + DETAIL_MODELS,
+        default="NONE",
+        update=_changed,
+    )
+    blend_seed: IntProperty(name="Blend Seed", description="The second model's random values", min=0, default=1, update=_changed)
+    blend_gain: FloatProperty(
+        name="Blend Gain",
+        description="The second model's lengths (amplitude, radius) as a multiple of the first's",
+        default=1.0,
+        soft_min=0.0,
+        soft_max=4.0,
+        update=_changed,
+    )
+    blend_alpha: EnumProperty(
+        name="Alpha",
+        items=[
+            ("PLANE", "Plane", "The second model beyond a plane (through Point, facing Direction, in the object's space)"),
+            ("GROUP", "Vertex Group", "The second model where the vertex group's weight is 1"),
+        ],
+        default="PLANE",
+        update=_changed,
+    )
+    blend_point: FloatVectorProperty(
+        name="Point", description="A point of the blend plane, in the object's space", size=3, default=(0.0, 0.0, 0.0), subtype="TRANSLATION", update=_changed
+    )
+    blend_direction: FloatVectorProperty(
+        name="Direction", description="The blend plane's normal: the second model lies on its side", size=3, default=(1.0, 2.0, 0.0), update=_changed
+    )
+    blend_width: FloatProperty(
+        name="Transition",
+        description="The transition's width at the first level, halving at each finer one: a fraction of the bounding-box diagonal (plane) or of the weights (group)",
+        default=0.2,
+        min=0.0,
+        soft_max=1.0,
+        update=_changed,
+    )
+    blend_group: StringProperty(name="Blend Group", description="Vertex group whose weight is the blend's alpha", update=_changed)
+    local_object: PointerProperty(
+        name="Local Center",
+        description="An object (an Empty) whose location centres a local modification of the detail (section 5); none: no modification",
+        type=bpy.types.Object,
+        update=_changed,
+    )
+    local_radius: FloatProperty(
+        name="Local Radius", description="The modification's reach, in edges of the base mesh", default=2.0, min=0.01, soft_max=20.0, update=_changed
+    )
+    local_gain: FloatProperty(
+        name="Local Gain",
+        description="The detail's factor at the center (0 removes it, 2 doubles it), easing to 1 at the radius",
+        default=0.0,
+        soft_min=0.0,
+        soft_max=4.0,
+        update=_changed,
+    )
+    local_at: BoolVectorProperty(name="Local At Levels", description="The levels the modification acts at", size=6, default=(True,) * 6, update=_changed)
+    detail_shader: EnumProperty(
+        name="Shader",
+        items=[("NONE", "None", "No colours"), ("PLANET", "Planet", "Oceans, lowlands, mountains and snow caps from the detail's height and the blend (6.2)")],
+        default="NONE",
+        update=_changed,
+    )
+    shader_sea: FloatProperty(
+        name="Sea Level", description="Height of the sea, a fraction of the bounding-box diagonal", default=0.0, step=0.1, precision=4, update=_changed
+    )
+    shader_snow: FloatProperty(
+        name="Snow Line", description="Height of the snow line, a fraction of the bounding-box diagonal", default=0.025, step=0.1, precision=4, update=_changed
     )
 
     def tree_json(self):
@@ -371,6 +456,22 @@ class ThicketItem(bpy.types.PropertyGroup):
                 seeds=self.detail_seeds.lower(),
                 vertex_group=self.vertex_group,
                 confirm_above=self.confirm_above,
+                at=_chosen_levels(self.detail_at),
+                blend_model="" if self.blend_model == "NONE" else self.blend_model.lower(),
+                blend_seed=self.blend_seed,
+                blend_gain=self.blend_gain,
+                blend_alpha=self.blend_alpha.lower(),
+                blend_point=tuple(self.blend_point),
+                blend_direction=tuple(self.blend_direction),
+                blend_width=self.blend_width,
+                blend_group=self.blend_group,
+                local_center=self._local_center(),
+                local_radius=self.local_radius,
+                local_gain=self.local_gain,
+                local_at=_chosen_levels(self.local_at),
+                shader="" if self.detail_shader == "NONE" else self.detail_shader.lower(),
+                sea=self.shader_sea,
+                snow=self.shader_snow,
             )
         if self.kind == S.SolidTexture.kind:
             return S.SolidTexture(
@@ -378,12 +479,28 @@ class ThicketItem(bpy.types.PropertyGroup):
             )
         return S.shell_settings(self.kind, self.thickness, self.thickness_mode, self.vertex_group, self.output, saved_value(self, "surfaces"), self.side)
 
+    def _local_center(self):
+        """The local modification's center in the source's object space, or None."""
+        if self.local_object is None:
+            return None
+        return tuple(self.id_data.matrix_world.inverted() @ self.local_object.matrix_world.translation)
+
+    def watched_objects(self):
+        """Other objects whose change changes this item's result: a cutter, a local center."""
+        found = {"VOLUMETRIC_TEXTURE": self.cutter, "PROCEDURAL_DETAIL": self.local_object}.get(self.kind)
+        return [found] if found is not None and found != self.id_data else []
+
     def _cutter_arrays(self, depsgraph):
         if self.cutter is None:
             return None
         from ..mesh_io import read_solid
 
         return read_solid(self.cutter, self.id_data, depsgraph or bpy.context.evaluated_depsgraph_get())
+
+
+def _chosen_levels(flags):
+    """The levels (1-based) whose flag is on; () when all are (every level, however many)."""
+    return () if all(flags) else tuple(i + 1 for i, on in enumerate(flags) if on)
 
 
 class ThicketStack(bpy.types.PropertyGroup):

@@ -49,6 +49,30 @@ def _draw_detail_settings(col, obj, item):
         col.prop(item, "detail_seeds")
         if item.detail_seeds == "GROUP":
             col.prop_search(item, "vertex_group", obj, "vertex_groups")
+    col.prop(item, "detail_at")
+    col.separator()
+    col.prop(item, "blend_model")
+    if item.blend_model != "NONE":
+        col.prop(item, "blend_seed")
+        col.prop(item, "blend_gain")
+        col.prop(item, "blend_alpha")
+        if item.blend_alpha == "PLANE":
+            col.prop(item, "blend_point")
+            col.prop(item, "blend_direction")
+        else:
+            col.prop_search(item, "blend_group", obj, "vertex_groups")
+        col.prop(item, "blend_width")
+    col.separator()
+    col.prop(item, "local_object")
+    if item.local_object is not None:
+        col.prop(item, "local_radius")
+        col.prop(item, "local_gain")
+        col.prop(item, "local_at")
+    col.separator()
+    col.prop(item, "detail_shader")
+    if item.detail_shader == "PLANET":
+        col.prop(item, "shader_sea")
+        col.prop(item, "shader_snow")
     col.prop(item, "confirm_above")
 
 

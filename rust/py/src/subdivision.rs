@@ -1,9 +1,12 @@
-use numpy::{IntoPyArray, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use thicket_core::glam::DVec3;
 use thicket_core::polygonize::DEFAULT_MAX_BYTES;
 use thicket_core::subdivision::budget;
-use thicket_core::subdivision::detail::{self, Model};
+use thicket_core::subdivision::detail::Model;
+use thicket_core::subdivision::operations::{Alpha, AlphaSource, Levels, Local, Planet};
+use thicket_core::subdivision::recipe::{self, Blend, Recipe};
 use thicket_core::subdivision::{self, Boundary, Options, UvSmooth};
 
 use crate::arrays;
@@ -67,18 +70,29 @@ pub fn subdivide<'py>(
     Ok(d)
 }
 
-/// procedural_detail(vertices, face_sizes, corners, model, levels, seed=0, params=None) -> dict
+/// procedural_detail(vertices, face_sizes, corners, model, levels, seed=0, params=None, *,
+///                   at=None, blend=None, local=None, shader=None) -> dict
 ///
 /// Procedural shape detail on Catmull-Clark levels (Velho, Perlin, Ying and Biermann,
 /// section 4): `model` "rock" or "berry", `levels` 1 to 6, `seed` the random values,
 /// `params` the model's settings, lengths as fractions of the bounding-box diagonal:
 /// rock `amplitude` (0.02); berry `radius` (0.15), `seeds` (base vertex
-/// indices; Poisson-disk points when empty) and `children` (3). Returns the finest level's
-/// vertices, face_sizes and corners (all quads), source_face (the base face of each face)
-/// and `scalar`, float32 per vertex: the detail the levels added along their normals.
-/// Levels whose result would need more than 4 GB are refused before anything is made.
+/// indices; Poisson-disk points when empty) and `children` (3). Operations (sections
+/// 5-6): `at`, the levels the model adds detail at (all when None); `blend`, a second
+/// model blended in, a dict of `model`, `params`, `seed` (0), `at`, and the alpha: `plane`
+/// (a point and a direction; `width` a fraction of the diagonal, 0.2) or `weights` (one
+/// per vertex, float32; `width` in weight units, 1.0), its transition halving per level;
+/// `local`, a list of dicts of `center` (a vertex), `radius` (in base edges), `gain` (0
+/// removes the detail, 2 doubles it) and `levels` (all when absent); `shader`, a dict
+/// `{"name": "planet", "sea": 0.0, "snow": 0.025}` (heights as fractions of the
+/// diagonal) for the planet's colours. Returns the finest level's vertices, face_sizes
+/// and corners (all quads), source_face (the base face of each face), `scalar`, float32
+/// per vertex: the detail the levels added along their normals, `blend` (float32 per
+/// vertex, the blend parameter; 0 without a blend) and, with a shader, `colors` (float32
+/// (n, 4) RGBA). Levels whose result would need more than 4 GB are refused before
+/// anything is made.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None))]
+#[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None, *, at=None, blend=None, local=None, shader=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn procedural_detail<'py>(
     py: Python<'py>,
@@ -89,9 +103,41 @@ pub fn procedural_detail<'py>(
     levels: u32,
     seed: u64,
     params: Option<&Bound<'py, PyDict>>,
+    at: Option<Vec<u32>>,
+    blend: Option<&Bound<'py, PyDict>>,
+    local: Option<Vec<Bound<'py, PyDict>>>,
+    shader: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
     let diag = mesh.bbox_diagonal() as f64;
+    let mut recipe = Recipe::of(model_from(model, params, diag)?, seed);
+    recipe.at = levels_from(at)?;
+    recipe.blend = blend.map(|b| blend_from(b, mesh.vertex_count(), diag)).transpose()?;
+    recipe.local = local.unwrap_or_default().iter().map(local_from).collect::<PyResult<_>>()?;
+    let planet = shader.map(|s| planet_from(s, diag)).transpose()?;
+    if (1..=subdivision::MAX_LEVELS).contains(&levels) {
+        budget::check_fits(&mesh, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
+    }
+    let out = run_detached(py, move || {
+        let out = recipe::synthesize(&mesh, levels, &recipe)?;
+        let colors = planet.map(|p| p.colors(&out.detailed.scalar, &out.blend));
+        Ok((out, colors))
+    })?;
+    let (out, colors) = out;
+    let d = arrays::mesh_dict(py, out.detailed.mesh)?;
+    d.set_item("source_face", arrays::u32_as_i32_array(py, out.detailed.source_face))?;
+    d.set_item("scalar", out.detailed.scalar.into_pyarray(py))?;
+    d.set_item("blend", out.blend.into_pyarray(py))?;
+    if let Some(c) = colors {
+        let n = c.len();
+        let flat: Vec<f32> = c.into_iter().flatten().collect();
+        d.set_item("colors", flat.into_pyarray(py).reshape([n, 4])?)?;
+    }
+    Ok(d)
+}
+
+/// A model from its name and `params` (lengths as fractions of `diag`).
+fn model_from(model: &str, params: Option<&Bound<'_, PyDict>>, diag: f64) -> PyResult<Model> {
     let settings = Keywords::new("procedural_detail", params);
     let model = match model {
         "rock" => Model::Rock { amplitude: settings.get("amplitude", 0.02f64)? * diag },
@@ -106,12 +152,58 @@ pub fn procedural_detail<'py>(
         _ => return Err(InvalidInput::new_err(format!("model must be 'rock' or 'berry', not {model:?}"))),
     };
     settings.finish()?;
-    if (1..=subdivision::MAX_LEVELS).contains(&levels) {
-        budget::check_fits(&mesh, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
+    Ok(model)
+}
+
+/// The levels a model or a modification acts at: all when None.
+fn levels_from(at: Option<Vec<u32>>) -> PyResult<Levels> {
+    at.map_or(Ok(Levels::ALL), |l| Levels::of(&l)).map_err(to_py)
+}
+
+/// `procedural_detail`'s `blend` dict.
+fn blend_from(b: &Bound<'_, PyDict>, vertices: usize, diag: f64) -> PyResult<Blend> {
+    let k = Keywords::new("procedural_detail blend", Some(b));
+    let name: String = k.get("model", String::new())?;
+    let params: Option<Bound<'_, PyDict>> = k.get("params", None)?;
+    let seed = k.get("seed", 0u64)?;
+    let at = levels_from(k.get("at", None)?)?;
+    let plane: Option<([f64; 3], [f64; 3])> = k.get("plane", None)?;
+    let weights: Option<Bound<'_, PyAny>> = k.get("weights", None)?;
+    let source = match (plane, weights) {
+        (Some((point, direction)), None) => AlphaSource::Plane { point: DVec3::from(point), direction: DVec3::from(direction) },
+        (None, Some(w)) => AlphaSource::Painted { weights: arrays::per_vertex_or_scalar(&w, vertices, "blend weights")? },
+        _ => {
+            return Err(InvalidInput::new_err(
+                "blend needs its alpha from either 'plane' (point, direction) or 'weights' (one per vertex), not both or neither",
+            ))
+        }
+    };
+    let width = match source {
+        AlphaSource::Plane { .. } => k.get("width", 0.2f64)? * diag,
+        AlphaSource::Painted { .. } => k.get("width", 1.0f64)?,
+    };
+    k.finish()?;
+    Ok(Blend { model: model_from(&name, params.as_ref(), diag)?, seed, at, alpha: Alpha { source, width } })
+}
+
+/// One of `procedural_detail`'s `local` dicts.
+fn local_from(l: &Bound<'_, PyDict>) -> PyResult<Local> {
+    let k = Keywords::new("procedural_detail local", Some(l));
+    let local =
+        Local { center: k.get("center", 0u32)?, radius: k.get("radius", 2.0f64)?, gain: k.get("gain", 0.0f64)?, levels: levels_from(k.get("levels", None)?)? };
+    k.finish()?;
+    Ok(local)
+}
+
+/// `procedural_detail`'s `shader` dict (heights as fractions of `diag`).
+fn planet_from(s: &Bound<'_, PyDict>, diag: f64) -> PyResult<Planet> {
+    let k = Keywords::new("procedural_detail shader", Some(s));
+    let name: String = k.get("name", "planet".to_string())?;
+    if name != "planet" {
+        return Err(InvalidInput::new_err(format!("shader name must be 'planet', not {name:?}")));
     }
-    let out = run_detached(py, move || detail::procedural_detail(&mesh, levels, &model, seed))?;
-    let d = arrays::mesh_dict(py, out.mesh)?;
-    d.set_item("source_face", arrays::u32_as_i32_array(py, out.source_face))?;
-    d.set_item("scalar", out.scalar.into_pyarray(py))?;
-    Ok(d)
+    let planet = Planet { scale: diag, sea: k.get("sea", 0.0f64)?, snow: k.get("snow", 0.025f64)?, ..Planet::default() };
+    k.finish()?;
+    planet.validate().map_err(to_py)?;
+    Ok(planet)
 }

@@ -9,16 +9,21 @@ import numpy as np
 from .. import native
 from .. import settings as S
 from ..arrays import SELECTED_VERTICES, MeshArrays
+from ..field_tree import COLOR_ATTRIBUTE
 from ..state import NeedsConfirmation, State, group_weights
 
 #: The per-vertex detail the levels added along their normals (signed), for shading.
 DETAIL_ATTRIBUTE = "thicket_detail"
+#: The blend parameter (0: the first model, 1: the second), for shading.
+BLEND_ATTRIBUTE = "thicket_blend"
 
 #: Each model's settings, by their `thicket_native.procedural_detail` names.
 MODEL_SETTINGS = {
     "rock": ("amplitude",),
     "berry": ("radius", "children"),
 }
+#: The settings that are lengths (a blend's gain scales them).
+LENGTHS = ("amplitude", "radius")
 #: Models whose seeds may be chosen (a vertex group or the selection).
 SEEDED = ("berry",)
 SEED_SOURCES = ("random", "group", "selected")
@@ -28,6 +33,18 @@ SEED_SOURCES = ("random", "group", "selected")
 PRESETS = {
     "ROCK": dict(detail_model="ROCK", levels=4, detail_amplitude=0.03),
     "BERRY": dict(detail_model="BERRY", levels=4, detail_radius=0.12, detail_children=3),
+    # Two rocky sub-planets blended across a plane, coloured by the planet shader (6.2).
+    "PLANET": dict(
+        detail_model="ROCK",
+        levels=4,
+        detail_amplitude=0.03,
+        blend_model="ROCK",
+        blend_seed=2,
+        blend_gain=1.6,
+        blend_width=0.3,
+        detail_shader="PLANET",
+        shader_snow=0.03,
+    ),
 }
 
 #: `thicket.api.add_procedural_detail` keywords and the stack item properties they set.
@@ -37,7 +54,27 @@ API_NAMES = {
     "radius": "detail_radius",
     "children": "detail_children",
     "seeds": "detail_seeds",
+    "at": "detail_at",
+    "shader": "detail_shader",
+    "sea": "shader_sea",
+    "snow": "shader_snow",
 }
+#: Those given as names, which the item stores as Blender enum identifiers (upper case).
+API_ENUMS = ("model", "seeds", "blend_model", "blend_alpha", "shader")
+#: Those given as lists of levels, which the item stores as one flag per level 1 to 6.
+API_LEVELS = ("at", "local_at")
+
+
+def api_values(settings: dict) -> dict:
+    """`thicket.api.add_procedural_detail`'s keywords as stack item property values."""
+    out = {}
+    for key, value in settings.items():
+        if key in API_ENUMS:
+            value = str(value).upper()
+        elif key in API_LEVELS and not (len(value) == 6 and all(isinstance(v, bool) for v in value)):
+            value = tuple(level in set(value) for level in range(1, 7))
+        out[API_NAMES.get(key, key)] = value
+    return out
 
 
 def faces_after(mesh: MeshArrays, levels: int) -> int:
@@ -75,6 +112,61 @@ def params(state: State, item: S.ProceduralDetail) -> dict:
     return out
 
 
+#: The blend's alpha sources and the shaders the item takes.
+BLEND_ALPHAS = ("plane", "group")
+SHADERS = ("", "planet")
+
+
+def _invalid(item, message):
+    return native.get().InvalidInput(f"'{item.label}': {message}")
+
+
+def _levels(at):
+    """A level set as `thicket_native.procedural_detail` takes it (None: all)."""
+    return [int(level) for level in at] if at else None
+
+
+def blend(state: State, item: S.ProceduralDetail):
+    """The `blend` argument: the second model, with the item's settings times
+    `blend_gain`, and its alpha (None without a blend)."""
+    if not item.blend_model:
+        return None
+    if item.blend_model not in MODEL_SETTINGS:
+        raise _invalid(item, f"the blend model must be one of {', '.join(MODEL_SETTINGS)}, not {item.blend_model!r}")
+    if item.blend_alpha not in BLEND_ALPHAS:
+        raise _invalid(item, f"the blend alpha must be one of {', '.join(BLEND_ALPHAS)}, not {item.blend_alpha!r}")
+    gain = float(item.blend_gain)
+    partner = {name: getattr(item, name) * gain if name in LENGTHS else getattr(item, name) for name in MODEL_SETTINGS[item.blend_model]}
+    out = dict(model=item.blend_model, params=partner, seed=int(item.blend_seed), width=float(item.blend_width))
+    if item.blend_alpha == "plane":
+        out["plane"] = (tuple(map(float, item.blend_point)), tuple(map(float, item.blend_direction)))
+    elif not item.blend_group:
+        raise _invalid(item, "a blend by vertex group needs the group's name")
+    else:
+        out["weights"] = group_weights(state.source, item.blend_group, state.origin)
+    return out
+
+
+def local(mesh: MeshArrays, item: S.ProceduralDetail):
+    """The `local` argument: one modification centred on the vertex nearest
+    `local_center` (None without one)."""
+    if item.local_center is None:
+        return None
+    center = np.asarray(item.local_center, dtype=np.float64)
+    if center.shape != (3,) or not np.isfinite(center).all():
+        raise _invalid(item, f"the local modification's center must be a finite point, not {item.local_center!r}")
+    if mesh.vertex_count == 0:
+        return None
+    nearest = int(np.argmin(np.einsum("ij,ij->i", mesh.vertices - center, mesh.vertices - center)))
+    return [dict(center=nearest, radius=float(item.local_radius), gain=float(item.local_gain), levels=_levels(item.local_at))]
+
+
+def shader(item: S.ProceduralDetail):
+    if item.shader not in SHADERS:
+        raise _invalid(item, f"shader must be one of {', '.join(s for s in SHADERS if s)} or none, not {item.shader!r}")
+    return dict(name=item.shader, sea=float(item.sea), snow=float(item.snow)) if item.shader else None
+
+
 def provenance(mesh: MeshArrays, out, levels: int) -> np.ndarray:
     """The current mesh's vertex each detailed vertex stands for: its own (the base
     vertices keep their indices through the levels), else the vertex of the base
@@ -101,11 +193,17 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tupl
     if ask and triangles > item.confirm_above:
         raise NeedsConfirmation(item.label, triangles, item.confirm_above, making="subdivision")
     tn = native.get()
-    out = tn.procedural_detail(mesh.vertices, mesh.face_sizes, mesh.corners, item.model, int(item.levels), int(item.seed), settings)
+    operations = dict(at=_levels(item.at), blend=blend(state, item), local=local(mesh, item), shader=shader(item))
+    out = tn.procedural_detail(mesh.vertices, mesh.face_sizes, mesh.corners, item.model, int(item.levels), int(item.seed), settings, **operations)
     result = MeshArrays.from_native(out)
+    if "colors" in out:
+        result.attributes = {COLOR_ATTRIBUTE: ("POINT", "FLOAT_COLOR", out["colors"])}
+        result.active_color = COLOR_ATTRIBUTE
     if mesh.material_index is not None:
         result.material_index = mesh.material_index[out["source_face"]]
     result.point_attributes = {DETAIL_ATTRIBUTE: np.asarray(out["scalar"], dtype=np.float32)}
+    if item.blend_model:
+        result.point_attributes[BLEND_ATTRIBUTE] = np.asarray(out["blend"], dtype=np.float32)
     if mesh.uv_maps or mesh.uvs is not None:
         result.notes.append(f"'{item.label}': UV maps are not carried through the subdivision levels yet; the result has none")
     return result, provenance(mesh, out, int(item.levels))
