@@ -311,3 +311,46 @@ def test_placement_at_chosen_levels_and_a_blend_by_vertex_group(scene):
     _, blend = attribute_values(result.data, "thicket_blend", 1)
     np.testing.assert_array_equal(blend, expected["blend"])
     assert blend[upper].min() == 1.0 and blend[np.flatnonzero(verts[:, 2] < 0)].max() == 0.0
+
+
+def f32(x):
+    """A float as Blender stores it in a float property (single precision)."""
+    return float(np.float32(x))
+
+
+def test_a_tentacle_grows_from_the_selected_vertex_and_turns_with_the_frame(scene):
+    sphere = add("ico_sphere", subdivisions=2)
+    tip = int(np.argmax(positions(sphere)[:, 2]))
+    flags = np.zeros(len(sphere.data.vertices), bool)
+    flags[tip] = True
+    sphere.data.vertices.foreach_set("select", flags)
+    result = api.add_procedural_detail(sphere, preset="TENTACLE", levels=3, seeds="SELECTED")
+    a = mesh_io.read_mesh(sphere.data)
+    params = {"length": f32(0.012), "theta": 0.0, "spacing": f32(0.25), "seeds": [tip]}
+    np.testing.assert_array_equal(positions(result), tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "tentacle", 3, 0, params)["vertices"])
+    before = positions(result).copy()
+    assert np.linalg.norm(before[tip]) - 1.0 > 0.05, "the tip stands out of the sphere"
+    item = sphere.thicket.items[0]
+    item.follow_frame = True
+    scene.render.fps, scene.render.fps_base = 24, 1.0
+    scene.frame_set(36)  # 1.5 s: the tentacle turns by 1.5 radians (regenerated at once, headless)
+    turned = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "tentacle", 3, 0, dict(params, theta=1.5))
+    np.testing.assert_allclose(positions(sphere.thicket.result), turned["vertices"], atol=1e-6)
+    assert np.abs(positions(result) - before).max() > 1e-3, "the turn moved the tentacle"
+
+
+@pytest.mark.parametrize("model", ["SPUR", "MUSHROOM", "FUSE"])
+def test_every_model_is_the_native_one_in_the_stack(scene, model):
+    obj = add("cylinder", vertices=16, depth=2.0) if model == "FUSE" else add("ico_sphere", subdivisions=2)
+    result = api.add_procedural_detail(obj, model=model, levels=2, seed=3)
+    item = obj.thicket.items[0]
+    params = {
+        "SPUR": {"length": f32(item.detail_length), "spacing": f32(item.detail_spacing)},
+        "MUSHROOM": {"radius": f32(item.detail_radius), "length": f32(item.detail_length)},
+        "FUSE": {"amplitude": f32(item.detail_amplitude), "span": f32(item.fuse_span), "axis": (0.0, 0.0, 1.0)},
+    }[model]
+    a = mesh_io.read_mesh(obj.data)
+    expected = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model.lower(), 2, 3, params)
+    np.testing.assert_array_equal(positions(result), expected["vertices"])
+    plain = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 2, 0, {"amplitude": 0.0})
+    assert np.abs(positions(result) - plain["vertices"]).max() > 1e-3, "the model moved the surface"

@@ -142,10 +142,15 @@ class ProceduralDetail(_Item):
     Velho, Perlin, Ying and Biermann, section 4: the current mesh is subdivided
     `levels` times and `model`'s detail added at every level ("rock": a random value
     per control point, amplitude halving per level; "berry": domes around seeds with
-    smaller clusters at each finer level). amplitude (rock) and radius (berry) are
-    fractions of the mesh's bounding-box diagonal; children: seeds each berry seed
-    grows at the next level. seeds: "random" (Poisson-disk points, or the rock's random
-    values from `seed`), "group" (berry seeds: the vertices of `vertex_group` with
+    smaller clusters at each finer level; "tentacle": seeds pulled out `length` times
+    the level, turning by `theta` plus `time` radians; "spur": the same, straight;
+    "mushroom": a vortex ring of `radius` carrying the surface around each seed for
+    `length` times the level; "fuse": the surface of revolution about `axis` with the
+    fuse profile, `amplitude`, its argument reaching `span` at the farthest vertex).
+    amplitude, radius, length and spacing (the tentacles' and spurs' Poisson-disk
+    spacing) are fractions of the mesh's bounding-box diagonal; children: seeds each
+    berry seed grows at the next level. seeds: "random" (Poisson-disk points, or the
+    rock's random values from `seed`), "group" (the vertices of `vertex_group` with
     weight at least one half) or "selected" (the source's selected vertices).
     confirm_above: results estimated above this many triangles raise
     NeedsConfirmation when the caller asks (the UI). The result's vertices keep the
@@ -169,6 +174,12 @@ class ProceduralDetail(_Item):
     amplitude: float = 0.02
     radius: float = 0.15
     children: int = 3
+    length: float = 0.01
+    theta: float = 0.0
+    spacing: float = 0.25
+    span: float = 1.5
+    axis: tuple = (0.0, 0.0, 1.0)
+    time: float = 0.0
     seeds: str = "random"
     vertex_group: str = ""
     confirm_above: int = 3_000_000

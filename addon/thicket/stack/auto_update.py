@@ -87,12 +87,12 @@ def on_depsgraph_update(scene, depsgraph):
 
 @persistent
 def on_frame_change(scene, depsgraph=None):
-    """Animated sources (shape keys, armatures) and textures following the frame
-    regenerate on frame change."""
+    """Animated sources (shape keys, armatures, keyframed item settings), textures and
+    tentacles following the frame regenerate on frame change."""
     if busy():
         return
     for obj in scene.objects:
-        if _is_source(obj) and (obj.animation_data is not None or any(i.follow_frame and i.kind == "VOLUMETRIC_TEXTURE" for i in obj.thicket.items)):
+        if _is_source(obj) and (obj.animation_data is not None or any(i.follow_frame and i.kind in ("VOLUMETRIC_TEXTURE", "PROCEDURAL_DETAIL") for i in obj.thicket.items)):
             schedule(obj)
 
 

@@ -29,6 +29,10 @@ PATTERNS = [
 DETAIL_MODELS = [
     ("ROCK", "Rock", "A random value per control point at every level, halving per level: a 1/f fractal surface"),
     ("BERRY", "Berry", "Domes around seed points, with smaller clusters of domes at every finer level"),
+    ("TENTACLE", "Tentacle", "Seeds pulled out further at each level, turning as they grow"),
+    ("SPUR", "Spur", "Seeds pulled straight out along the normal, further at each level"),
+    ("MUSHROOM", "Mushroom Cloud", "Around each seed a rising vortex ring lifts a stem and rolls a cap"),
+    ("FUSE", "Fuse", "A surface of revolution about an axis, the fuse profile sin(sum 2^-i sin(t^(2^i))) one term per level"),
 ]
 
 
@@ -276,7 +280,7 @@ class ThicketItem(bpy.types.PropertyGroup):
     )
     detail_amplitude: FloatProperty(
         name="Amplitude",
-        description="The rock's largest displacement at the first level, as a fraction of the bounding-box diagonal (halved at each finer level)",
+        description="The rock's largest displacement at the first level (halved at each finer level), or the fuse's, as a fraction of the bounding-box diagonal",
         default=S.ProceduralDetail.amplitude,
         soft_min=-0.2,
         soft_max=0.2,
@@ -286,7 +290,7 @@ class ThicketItem(bpy.types.PropertyGroup):
     )
     detail_radius: FloatProperty(
         name="Radius",
-        description="The first level's dome radius, as a fraction of the bounding-box diagonal (halved at each finer level)",
+        description="The berry's dome radius at the first level (halved at each finer level), or the mushroom cloud's vortex ring's, as a fraction of the bounding-box diagonal",
         default=S.ProceduralDetail.radius,
         min=0.001,
         soft_max=0.5,
@@ -294,14 +298,40 @@ class ThicketItem(bpy.types.PropertyGroup):
         precision=4,
         update=_changed,
     )
+    detail_length: FloatProperty(
+        name="Length",
+        description="The pull at level 1 (tentacle, spur; times the level at finer ones) or the flow per level (mushroom cloud), a fraction of the bounding-box diagonal",
+        default=S.ProceduralDetail.length,
+        soft_min=-0.1,
+        soft_max=0.1,
+        step=0.1,
+        precision=4,
+        update=_changed,
+    )
+    detail_theta: FloatProperty(
+        name="Turn", description="The tentacle's rotation angle (animatable)", default=0.0, subtype="ANGLE", update=_changed
+    )
+    detail_spacing: FloatProperty(
+        name="Spacing",
+        description="Random seeds' spacing, a fraction of the bounding-box diagonal",
+        default=S.ProceduralDetail.spacing,
+        min=0.001,
+        soft_max=1.0,
+        precision=3,
+        update=_changed,
+    )
+    fuse_span: FloatProperty(
+        name="Span", description="The fuse profile's argument at the vertex farthest along the axis (more: more waves)", default=1.5, min=0.01, max=4.0, update=_changed
+    )
+    fuse_axis: FloatVectorProperty(name="Axis", description="The fuse's axis of revolution (through the bounding-box centre)", size=3, default=(0.0, 0.0, 1.0), update=_changed)
     detail_children: IntProperty(
         name="Children", description="Seeds each dome's seed grows at the next level", min=0, max=64, default=S.ProceduralDetail.children, update=_changed
     )
     detail_seeds: EnumProperty(
         name="Seeds",
-        description="Where the berry's first domes grow",
+        description="Where the berries, tentacles, spurs or mushroom clouds grow",
         items=[
-            ("RANDOM", "Random", "Poisson-disk points two radii apart, from Seed"),
+            ("RANDOM", "Random", "Poisson-disk points (two radii or Spacing apart), from Seed"),
             ("GROUP", "Vertex Group", "The vertices of the vertex group with weight 0.5 or more"),
             ("SELECTED", "Selected Vertices", "The source's selected vertices"),
         ],
@@ -453,6 +483,12 @@ class ThicketItem(bpy.types.PropertyGroup):
                 amplitude=self.detail_amplitude,
                 radius=self.detail_radius,
                 children=self.detail_children,
+                length=self.detail_length,
+                theta=self.detail_theta,
+                spacing=self.detail_spacing,
+                span=self.fuse_span,
+                axis=tuple(self.fuse_axis),
+                time=self.texture_time() if self.follow_frame else 0.0,
                 seeds=self.detail_seeds.lower(),
                 vertex_group=self.vertex_group,
                 confirm_above=self.confirm_above,

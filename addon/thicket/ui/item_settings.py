@@ -37,15 +37,28 @@ def _draw_solid_texture_settings(col, item):
         col.prop(item, "color_attribute")
 
 
+#: Each Procedural Detail model's own settings, as the panel shows them.
+DETAIL_PROPS = {
+    "ROCK": ("detail_amplitude",),
+    "BERRY": ("detail_radius", "detail_children"),
+    "TENTACLE": ("detail_length", "detail_theta", "detail_spacing"),
+    "SPUR": ("detail_length", "detail_spacing"),
+    "MUSHROOM": ("detail_radius", "detail_length"),
+    "FUSE": ("detail_amplitude", "fuse_span", "fuse_axis"),
+}
+
+
 def _draw_detail_settings(col, obj, item):
     col.prop(item, "detail_model")
     col.prop(item, "levels")
     col.prop(item, "seed")
-    if item.detail_model == "ROCK":
-        col.prop(item, "detail_amplitude")
-    else:
-        col.prop(item, "detail_radius")
-        col.prop(item, "detail_children")
+    for prop in DETAIL_PROPS[item.detail_model]:
+        col.prop(item, prop)
+    if item.detail_model == "TENTACLE":
+        col.prop(item, "follow_frame", text="Turn With Frame")
+        if item.follow_frame:
+            col.prop(item, "speed")
+    if item.detail_model not in ("ROCK", "FUSE"):
         col.prop(item, "detail_seeds")
         if item.detail_seeds == "GROUP":
             col.prop_search(item, "vertex_group", obj, "vertex_groups")

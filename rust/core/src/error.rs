@@ -8,7 +8,7 @@ pub enum Error {
     EmptyMesh,
     #[error("invalid mesh: {0}")]
     InvalidMesh(String),
-    #[error("vertex {index} has a non-finite coordinate ({value:?}); fix or delete it before building a shell")]
+    #[error("vertex {index} has a non-finite coordinate ({value:?}); fix or delete it before using the mesh")]
     NonFinite { index: usize, value: [f32; 3] },
     #[error("invalid parameter: {0}")]
     InvalidParameter(String),

@@ -21,11 +21,15 @@ BLEND_ATTRIBUTE = "thicket_blend"
 MODEL_SETTINGS = {
     "rock": ("amplitude",),
     "berry": ("radius", "children"),
+    "tentacle": ("length", "theta", "spacing"),
+    "spur": ("length", "spacing"),
+    "mushroom": ("radius", "length"),
+    "fuse": ("amplitude", "span", "axis"),
 }
 #: The settings that are lengths (a blend's gain scales them).
-LENGTHS = ("amplitude", "radius")
+LENGTHS = ("amplitude", "radius", "length")
 #: Models whose seeds may be chosen (a vertex group or the selection).
-SEEDED = ("berry",)
+SEEDED = ("berry", "tentacle", "spur", "mushroom")
 SEED_SOURCES = ("random", "group", "selected")
 
 #: Starting points for the Add Procedural Detail menu and `thicket.api`, as stack item
@@ -34,6 +38,8 @@ PRESETS = {
     "ROCK": dict(detail_model="ROCK", levels=4, detail_amplitude=0.03),
     "BERRY": dict(detail_model="BERRY", levels=4, detail_radius=0.12, detail_children=3),
     # Two rocky sub-planets blended across a plane, coloured by the planet shader (6.2).
+    "TENTACLE": dict(detail_model="TENTACLE", levels=4, detail_length=0.012, detail_theta=0.0, detail_spacing=0.25),
+    "MUSHROOM": dict(detail_model="MUSHROOM", levels=4, detail_radius=0.1, detail_length=0.04),
     "PLANET": dict(
         detail_model="ROCK",
         levels=4,
@@ -57,6 +63,11 @@ API_NAMES = {
     "at": "detail_at",
     "shader": "detail_shader",
     "sea": "shader_sea",
+    "length": "detail_length",
+    "theta": "detail_theta",
+    "spacing": "detail_spacing",
+    "span": "fuse_span",
+    "axis": "fuse_axis",
     "snow": "shader_snow",
 }
 #: Those given as names, which the item stores as Blender enum identifiers (upper case).
@@ -99,13 +110,24 @@ def seed_vertices(state: State, item: S.ProceduralDetail):
     return seeds
 
 
+def model_params(item: S.ProceduralDetail, model: str, gain: float = 1.0) -> dict:
+    """`model`'s settings from the item, its lengths times `gain`; a tentacle turns by
+    `theta` plus the item's `time` (radians)."""
+    out = {name: getattr(item, name) * gain if name in LENGTHS else getattr(item, name) for name in MODEL_SETTINGS[model]}
+    if "theta" in out:
+        out["theta"] = float(out["theta"]) + float(item.time)
+    if "axis" in out:
+        out["axis"] = tuple(map(float, out["axis"]))
+    return out
+
+
 def params(state: State, item: S.ProceduralDetail) -> dict:
     """The model's `params` for `thicket_native.procedural_detail`."""
     if item.model not in MODEL_SETTINGS:
         raise native.get().InvalidInput(f"'{item.label}': model must be one of {', '.join(MODEL_SETTINGS)}, not {item.model!r}")
     if item.seeds not in SEED_SOURCES:
         raise native.get().InvalidInput(f"'{item.label}': seeds must be one of {', '.join(SEED_SOURCES)}, not {item.seeds!r}")
-    out = {name: getattr(item, name) for name in MODEL_SETTINGS[item.model]}
+    out = model_params(item, item.model)
     seeds = seed_vertices(state, item)
     if seeds is not None:
         out["seeds"] = seeds.tolist()
@@ -135,8 +157,7 @@ def blend(state: State, item: S.ProceduralDetail):
         raise _invalid(item, f"the blend model must be one of {', '.join(MODEL_SETTINGS)}, not {item.blend_model!r}")
     if item.blend_alpha not in BLEND_ALPHAS:
         raise _invalid(item, f"the blend alpha must be one of {', '.join(BLEND_ALPHAS)}, not {item.blend_alpha!r}")
-    gain = float(item.blend_gain)
-    partner = {name: getattr(item, name) * gain if name in LENGTHS else getattr(item, name) for name in MODEL_SETTINGS[item.blend_model]}
+    partner = model_params(item, item.blend_model, float(item.blend_gain))
     out = dict(model=item.blend_model, params=partner, seed=int(item.blend_seed), width=float(item.blend_width))
     if item.blend_alpha == "plane":
         out["plane"] = (tuple(map(float, item.blend_point)), tuple(map(float, item.blend_direction)))
