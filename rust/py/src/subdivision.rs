@@ -81,9 +81,11 @@ pub fn subdivide<'py>(
 /// 5-6): `at`, the levels the model adds detail at (all when None); `blend`, a second
 /// model blended in, a dict of `model`, `params`, `seed` (0), `at`, and the alpha: `plane`
 /// (a point and a direction; `width` a fraction of the diagonal, 0.2) or `weights` (one
-/// per vertex, float32; `width` in weight units, 1.0), its transition halving per level;
-/// `local`, a list of dicts of `center` (a vertex), `radius` (in base edges), `gain` (0
-/// removes the detail, 2 doubles it) and `levels` (all when absent); `shader`, a dict
+/// per vertex, float32; `width` in weight units, at most 1.0), its transition halving per
+/// level;
+/// `local`, a list of dicts of `center` (a vertex), `radius` (in base edges: nothing that
+/// far or farther changes), `gain` (0 removes the detail, 2 doubles it) and `levels` (all
+/// when absent); `shader`, a dict
 /// `{"name": "planet", "sea": 0.0, "snow": 0.025}` (heights as fractions of the
 /// diagonal) for the planet's colours. Returns the finest level's vertices, face_sizes
 /// and corners (all quads), source_face (the base face of each face), `scalar`, float32
@@ -103,7 +105,7 @@ pub fn procedural_detail<'py>(
     levels: u32,
     seed: u64,
     params: Option<&Bound<'py, PyDict>>,
-    at: Option<Vec<u32>>,
+    at: Option<Vec<i64>>,
     blend: Option<&Bound<'py, PyDict>>,
     local: Option<Vec<Bound<'py, PyDict>>>,
     shader: Option<&Bound<'py, PyDict>>,
@@ -155,15 +157,23 @@ fn model_from(model: &str, params: Option<&Bound<'_, PyDict>>, diag: f64) -> PyR
     Ok(model)
 }
 
-/// The levels a model or a modification acts at: all when None.
-fn levels_from(at: Option<Vec<u32>>) -> PyResult<Levels> {
-    at.map_or(Ok(Levels::ALL), |l| Levels::of(&l)).map_err(to_py)
+/// The levels a model or a modification acts at: all when None; an empty list is refused.
+fn levels_from(at: Option<Vec<i64>>) -> PyResult<Levels> {
+    let Some(at) = at else { return Ok(Levels::ALL) };
+    if at.is_empty() {
+        return Err(InvalidInput::new_err("levels must name at least one level (None: all of them)"));
+    }
+    let at: Vec<u32> =
+        at.iter().map(|&l| u32::try_from(l).map_err(|_| InvalidInput::new_err(format!("levels must be 1 to 31, not {l}")))).collect::<PyResult<_>>()?;
+    Levels::of(&at).map_err(to_py)
 }
 
 /// `procedural_detail`'s `blend` dict.
 fn blend_from(b: &Bound<'_, PyDict>, vertices: usize, diag: f64) -> PyResult<Blend> {
     let k = Keywords::new("procedural_detail blend", Some(b));
-    let name: String = k.get("model", String::new())?;
+    let Some(name): Option<String> = k.get("model", None)? else {
+        return Err(InvalidInput::new_err("blend needs the second model's name ('model')"));
+    };
     let params: Option<Bound<'_, PyDict>> = k.get("params", None)?;
     let seed = k.get("seed", 0u64)?;
     let at = levels_from(k.get("at", None)?)?;
@@ -189,8 +199,10 @@ fn blend_from(b: &Bound<'_, PyDict>, vertices: usize, diag: f64) -> PyResult<Ble
 /// One of `procedural_detail`'s `local` dicts.
 fn local_from(l: &Bound<'_, PyDict>) -> PyResult<Local> {
     let k = Keywords::new("procedural_detail local", Some(l));
-    let local =
-        Local { center: k.get("center", 0u32)?, radius: k.get("radius", 2.0f64)?, gain: k.get("gain", 0.0f64)?, levels: levels_from(k.get("levels", None)?)? };
+    let Some(center) = k.get("center", None)? else {
+        return Err(InvalidInput::new_err("a local modification needs its center vertex ('center')"));
+    };
+    let local = Local { center, radius: k.get("radius", 2.0f64)?, gain: k.get("gain", 0.0f64)?, levels: levels_from(k.get("levels", None)?)? };
     k.finish()?;
     Ok(local)
 }

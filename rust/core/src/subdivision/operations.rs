@@ -4,6 +4,7 @@
 //! (Burt-Adelson) blend of two models; and the post-processing shader of the planet
 //! (6.2), colours from the blended scalar and the blend parameter.
 
+use crate::mesh::Incidence;
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
 use std::collections::VecDeque;
@@ -33,11 +34,12 @@ impl Levels {
     }
 }
 
-/// Local detail modification (5): at `levels`, detail within `radius` of vertex `center`
-/// is scaled by `gain` (0 removes it, 2 doubles it), dropping off cubically to 1 at the
-/// radius. The distance is topological: edge hops at the level, `radius` counted in edges
-/// of the base mesh (so `radius * 2^l` hops at level `l`, whose edges are `2^l` times
-/// shorter), so the region covers the same part of the surface at every level.
+/// Local detail modification (5): at `levels`, detail near vertex `center` is scaled by
+/// `gain` (0 removes it, 2 doubles it), dropping off cubically to 1, so that nothing
+/// `radius` or farther from the center changes. The distance is topological: edge hops
+/// at the finest level, `radius` counted in edges of the base mesh (`radius 2^L` hops at
+/// level `L`, whose edges are `2^L` times shorter). See [`Local::reach`] for how far
+/// each level's own change goes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Local {
     pub center: u32,
@@ -54,10 +56,10 @@ pub fn drop_off(t: f64) -> f64 {
 }
 
 /// Edge hops from `from` to every vertex of `mesh` (`u32::MAX` where unreachable), a
-/// breadth-first search that stops beyond `limit` hops.
-pub fn hops(mesh: &Mesh, from: u32, limit: u32) -> Vec<u32> {
+/// breadth-first search that stops beyond `limit` hops; `incidence` the faces around
+/// each vertex of `mesh`.
+pub fn hops(mesh: &Mesh, incidence: &Incidence, from: u32, limit: u32) -> Vec<u32> {
     let n = mesh.vertex_count();
-    let incidence = crate::mesh::Incidence::faces(mesh);
     let mut out = vec![u32::MAX; n];
     let mut queue = VecDeque::from([from]);
     out[from as usize] = 0;
@@ -94,17 +96,31 @@ impl Local {
         Ok(())
     }
 
-    /// The factor on each vertex's detail at `level` (`mesh` that level's): `1 + (gain -
-    /// 1) drop_off(hops / (radius 2^level))`; 1 everywhere at levels it does not act at.
-    pub fn weights(&self, level: u32, mesh: &Mesh) -> Vec<f64> {
+    /// How far level `level`'s own change reaches (in its hops), out of `levels`: a
+    /// change within `h` hops of level `l` reaches `2 h + 5` hops of level `l + 1`,
+    /// `2 (h - 1) + 4` through the subdivision (a vertex point reads the face points
+    /// around it, which read the vertices diagonally across quads) and two more through
+    /// the normals (a face's normal reads its diagonal corner). So level `l` acts within
+    /// `radius 2^l - 5 (1 - 2^(l - L))` hops, which the later levels spread to exactly
+    /// `radius 2^L` hops of level `L`. A radius too small for a coarse level leaves that
+    /// level alone (its features are larger than the region).
+    pub fn reach(&self, level: u32, levels: u32) -> u32 {
+        let shrink = 5.0 * (1.0 - 0.5f64.powi(levels as i32 - level as i32));
+        (self.radius * 2f64.powi(level as i32) - shrink).floor().max(0.0) as u32
+    }
+
+    /// The factor on each vertex's detail at `level` of `levels` (`mesh` that level's,
+    /// `incidence` its faces around each vertex): `1 + (gain - 1) drop_off(hops /
+    /// reach)`, 1 at levels it does not act at and from its reach on.
+    pub fn weights(&self, level: u32, levels: u32, mesh: &Mesh, incidence: &Incidence) -> Vec<f64> {
         let mut out = vec![1.0; mesh.vertex_count()];
-        if !self.levels.has(level) {
+        let reach = self.reach(level, levels);
+        if !self.levels.has(level) || reach == 0 {
             return out;
         }
-        let reach = self.radius * 2f64.powi(level as i32);
-        for (w, h) in out.iter_mut().zip(hops(mesh, self.center, reach.ceil() as u32)) {
-            if h != u32::MAX {
-                *w = 1.0 + (self.gain - 1.0) * drop_off(h as f64 / reach);
+        for (w, h) in out.iter_mut().zip(hops(mesh, incidence, self.center, reach)) {
+            if h < reach {
+                *w = 1.0 + (self.gain - 1.0) * drop_off(h as f64 / reach as f64);
             }
         }
         out
@@ -150,6 +166,9 @@ impl Alpha {
                 }
             }
             AlphaSource::Painted { weights } => {
+                if self.width > 1.0 {
+                    return bad(format!("a painted blend's width must be at most 1 (weights 0 and 1 would not be pure), not {}", self.width));
+                }
                 if weights.len() != base.vertex_count() {
                     return bad(format!("blend weights have {} entries for {} vertices", weights.len(), base.vertex_count()));
                 }
@@ -261,31 +280,35 @@ mod tests {
     fn hops_on_a_grid_are_the_manhattan_distance() {
         let grid = fixtures::grid(6); // 7 x 7 vertices
         let center = 3 * 7 + 3;
-        let d = hops(&grid, center, u32::MAX);
+        let d = hops(&grid, &Incidence::faces(&grid), center, u32::MAX);
         for (v, &h) in d.iter().enumerate() {
             let (x, y) = (v % 7, v / 7);
             assert_eq!(h as usize, x.abs_diff(3) + y.abs_diff(3), "vertex {v}");
         }
-        let near = hops(&grid, center, 2);
+        let near = hops(&grid, &Incidence::faces(&grid), center, 2);
         assert_eq!(near.iter().filter(|&&h| h != u32::MAX).count(), 1 + 4 + 8, "reaches no farther than the limit");
     }
 
     #[test]
-    fn local_weights_are_gain_at_the_center_and_one_beyond_the_radius() {
-        let grid = fixtures::grid(8);
-        let center = 4 * 9 + 4;
-        let local = Local { center, radius: 1.0, gain: 0.0, levels: Levels::of(&[2]).unwrap() };
-        let w = local.weights(2, &grid); // reach 4 hops
-        let d = hops(&grid, center, u32::MAX);
+    fn local_weights_are_gain_at_the_center_and_one_beyond_the_reach() {
+        let grid = fixtures::grid(12);
+        let incidence = Incidence::faces(&grid);
+        let center = 6 * 13 + 6;
+        let local = Local { center, radius: 1.5, gain: 0.0, levels: Levels::of(&[2, 3]).unwrap() };
+        // Of 3 levels: level 3 acts within 1.5 * 8 = 12 hops, level 2 within
+        // floor(6 - 2.5) = 3, level 1 within floor(3 - 3.75) = 0 (none).
+        assert_eq!([local.reach(1, 3), local.reach(2, 3), local.reach(3, 3)], [0, 3, 12]);
+        let w = local.weights(2, 3, &grid, &incidence);
+        let d = hops(&grid, &incidence, center, u32::MAX);
         assert_eq!(w[center as usize], 0.0);
         for (v, (&w, &h)) in w.iter().zip(&d).enumerate() {
-            if h >= 4 {
+            if h >= 3 {
                 assert_eq!(w, 1.0, "vertex {v}");
             } else {
-                assert!((w - (1.0 - drop_off(h as f64 / 4.0))).abs() < 1e-12);
+                assert!((w - (1.0 - drop_off(h as f64 / 3.0))).abs() < 1e-12);
             }
         }
-        assert!(local.weights(1, &grid).iter().all(|&w| w == 1.0), "not at levels it does not act at");
+        assert!(local.weights(1, 3, &grid, &incidence).iter().all(|&w| w == 1.0), "not at levels it does not act at");
     }
 
     #[test]

@@ -5,10 +5,11 @@
 
 use super::detail::{self, Detailed, Model};
 use super::operations::{Alpha, AlphaSource, Levels, Local};
+use crate::mesh::Incidence;
 use crate::{Error, Mesh, Result};
 
 /// The most local modifications one recipe takes.
-pub const MAX_LOCAL: usize = 64;
+pub const MAX_LOCAL: usize = 16;
 
 /// A second model blended in (6.1): its detail where `alpha` is 1, the first model's
 /// where it is 0, mixed coefficient by coefficient at every level in between.
@@ -81,7 +82,9 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
             let carried = match painted.take() {
                 Some((parent, w)) => {
                     let w = detail::linear_child_values(&parent, mesh, &w);
-                    painted = Some((mesh.clone(), w.clone()));
+                    if level < levels {
+                        painted = Some((mesh.clone(), w.clone())); // the next level's parent
+                    }
                     w
                 }
                 None => Vec::new(),
@@ -92,8 +95,11 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
                 blend_out = alpha.iter().map(|&a| a as f32).collect();
             }
         }
-        for local in &recipe.local {
-            d.iter_mut().zip(local.weights(level, mesh)).for_each(|(d, w)| *d *= w);
+        if !recipe.local.is_empty() {
+            let incidence = Incidence::faces(mesh);
+            for local in &recipe.local {
+                d.iter_mut().zip(local.weights(level, levels, mesh, &incidence)).for_each(|(d, w)| *d *= w);
+            }
         }
         d
     })?;
@@ -106,6 +112,7 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::Incidence;
     use crate::subdivision::operations::hops;
     use crate::testmeshes;
     use glam::DVec3;
@@ -184,31 +191,34 @@ mod tests {
     }
 
     #[test]
-    fn local_modification_leaves_vertices_beyond_its_reach_untouched() {
+    fn local_modification_leaves_vertices_beyond_its_radius_untouched() {
         let base = sphere();
         let center = 7;
-        let radius = 1.0; // base edges
-        let local = Local { center, radius, gain: 0.0, levels: Levels::ALL };
-        let plain = synthesize(&base, 3, &Recipe::of(rock(0.05), 4)).unwrap().detailed;
-        let out = synthesize(&base, 3, &Recipe { local: vec![local], ..Recipe::of(rock(0.05), 4) }).unwrap().detailed;
-        // Level l changes detail within 2^l hops of its own (1 at level 1, radius 1 base
-        // edge). A change within h hops of level l reaches 2 h + 4 hops of level l + 1
-        // (a vertex point reads the face points around it, which read the vertices
-        // diagonally across quads), and the normals move one ring more: 1 at level 1,
-        // 2 + 4 + 1 = 7 at level 2, 14 + 4 + 1 = 19 at level 3.
-        let d = hops(&out.mesh, center, u32::MAX);
-        let (p, q) = (plain.mesh.positions(), out.mesh.positions());
-        let reach = 19;
-        let mut kept = 0;
-        for v in 0..p.len() {
-            if d[v] > reach {
-                assert_eq!(p[v], q[v], "vertex {v} at {} hops", d[v]);
-                kept += 1;
+        let levels = 3;
+        for radius in [1.0, 2.5, 3.5] {
+            let local = Local { center, radius, gain: 0.0, levels: Levels::ALL };
+            let plain = synthesize(&base, levels, &Recipe::of(rock(0.05), 4)).unwrap().detailed;
+            let out = synthesize(&base, levels, &Recipe { local: vec![local], ..Recipe::of(rock(0.05), 4) }).unwrap().detailed;
+            // Nothing changes `radius` base edges (radius * 2^3 hops of level 3) or farther
+            // from the center, and something changes just inside.
+            let d = hops(&out.mesh, &Incidence::faces(&out.mesh), center, u32::MAX);
+            let (p, q) = (plain.mesh.positions(), out.mesh.positions());
+            let bound = (radius * 8.0) as u32;
+            let mut kept = 0;
+            for v in 0..p.len() {
+                if d[v] >= bound {
+                    assert_eq!(p[v], q[v], "radius {radius}: vertex {v} at {} hops", d[v]);
+                    kept += 1;
+                }
             }
+            assert!(kept > p.len() / 3, "{kept} of {} beyond the radius", p.len());
+            assert!((0..p.len()).any(|v| d[v] + 1 == bound && p[v] != q[v]) || radius < 2.5, "radius {radius}: the change reaches the radius");
+            if radius >= 2.5 {
+                // Every level acts at the center (level 1 within floor(2 radius - 3.75) hops).
+                assert!(out.scalar[center as usize].abs() < 1e-6, "gain 0 removes the detail at the center");
+            }
+            assert!(plain.scalar[center as usize].abs() > 1e-4);
         }
-        assert!(kept > p.len() / 2, "{kept} of {} beyond the reach", p.len());
-        assert!(out.scalar[center as usize].abs() < 1e-6, "gain 0 removes the detail at the center");
-        assert!(plain.scalar[center as usize].abs() > 1e-4);
     }
 
     #[test]
