@@ -1,6 +1,7 @@
 use numpy::{IntoPyArray, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use thicket_core::glam::DVec3;
 use thicket_core::polygonize::DEFAULT_MAX_BYTES;
 use thicket_core::subdivision::budget;
 use thicket_core::subdivision::detail::{self, Model};
@@ -60,10 +61,17 @@ pub fn subdivide<'py>(
 /// procedural_detail(vertices, face_sizes, corners, model, levels, seed=0, params=None) -> dict
 ///
 /// Procedural shape detail on Catmull-Clark levels (Velho, Perlin, Ying and Biermann,
-/// section 4): `model` "rock" or "berry", `levels` 1 to 6, `seed` the random values,
-/// `params` the model's settings, lengths as fractions of the bounding-box diagonal:
-/// rock `amplitude` (0.02); berry `radius` (0.15), `seeds` (base vertex
-/// indices; Poisson-disk points when empty) and `children` (3). Returns the finest level's
+/// sections 4 and 6.1): `model` "rock", "berry", "tentacle", "spur", "mushroom" or "fuse",
+/// `levels` 1 to 6, `seed` the random values (and Poisson-disk seeds), `params` the
+/// model's settings, lengths as fractions of the bounding-box diagonal, `seeds` base vertex
+/// indices (Poisson-disk vertices of level 1 when empty): rock `amplitude` (0.02); berry
+/// `radius` (0.15), `seeds` and `children` (3); tentacle `length` (0.01, the pull per
+/// level, times the level), `theta` (0.0 radians, the turn), `seeds` and `spacing` (0.25);
+/// spur `length` (0.01), `seeds` and `spacing` (0.25); mushroom `radius` (0.1, the vortex
+/// ring's), `length` (0.04, the flow time per level, times the level) and `seeds` (placed
+/// 2 radius apart); fuse `amplitude` (0.03), `span` (1.5, the profile's `|t|` at the
+/// base's farthest vertex along the axis, at most 4), `center` (x, y, z in the mesh's
+/// units; the bounding-box centre) and `axis` ((0, 0, 1)). Returns the finest level's
 /// vertices, face_sizes and corners (all quads), source_face (the base face of each face)
 /// and `scalar`, float32 per vertex: the detail the levels added along their normals.
 /// Levels whose result would need more than 4 GB are refused before anything is made.
@@ -90,10 +98,32 @@ pub fn procedural_detail<'py>(
             seeds: settings.get("seeds", Vec::<u32>::new())?,
             children: settings.get("children", 3u32)?,
         },
-        "tentacle" | "spur" | "mushroom" | "fuse" => {
-            return Err(InvalidInput::new_err(format!("the {model} model is not built yet (issue 18): rock and berry are")));
+        "tentacle" => Model::Tentacle {
+            length: settings.get("length", 0.01f64)? * diag,
+            theta: settings.get("theta", 0.0f64)?,
+            seeds: settings.get("seeds", Vec::<u32>::new())?,
+            spacing: settings.get("spacing", 0.25f64)? * diag,
+        },
+        "spur" => Model::Spur {
+            length: settings.get("length", 0.01f64)? * diag,
+            seeds: settings.get("seeds", Vec::<u32>::new())?,
+            spacing: settings.get("spacing", 0.25f64)? * diag,
+        },
+        "mushroom" => Model::Mushroom {
+            radius: settings.get("radius", 0.1f64)? * diag,
+            length: settings.get("length", 0.04f64)? * diag,
+            seeds: settings.get("seeds", Vec::<u32>::new())?,
+        },
+        "fuse" => {
+            let (low, high) = mesh.bounds();
+            Model::Fuse {
+                amplitude: settings.get("amplitude", 0.03f64)? * diag,
+                span: settings.get("span", 1.5f64)?,
+                center: DVec3::from(settings.get("center", (0.5 * (low + high)).as_dvec3().to_array())?),
+                axis: DVec3::from(settings.get("axis", [0.0, 0.0, 1.0])?),
+            }
         }
-        _ => return Err(InvalidInput::new_err(format!("model must be 'rock' or 'berry', not {model:?}"))),
+        _ => return Err(InvalidInput::new_err(format!("model must be 'rock', 'berry', 'tentacle', 'spur', 'mushroom' or 'fuse', not {model:?}"))),
     };
     settings.finish()?;
     if (1..=subdivision::MAX_LEVELS).contains(&levels) {

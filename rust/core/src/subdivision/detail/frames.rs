@@ -21,23 +21,11 @@ pub struct Frame {
 impl Frame {
     /// The frame of normal `n` whose tangent is `towards` projected to the tangent plane,
     /// or, when that is too short (a neighbour along the normal, a zero normal), the world
-    /// axis least aligned with `n` projected instead.
+    /// axis least aligned with `n` projected instead (the charts' frame).
     pub fn new(n: DVec3, towards: DVec3) -> Self {
         let n = if n.length_squared() > 0.0 { n.normalize() } else { DVec3::Z };
         let along = towards - n * towards.dot(n);
-        let t = if along.length() > 1e-9 * towards.length() && along.length() > 0.0 {
-            along.normalize()
-        } else {
-            let a = n.abs();
-            let axis = if a.x <= a.y && a.x <= a.z {
-                DVec3::X
-            } else if a.y <= a.z {
-                DVec3::Y
-            } else {
-                DVec3::Z
-            };
-            (axis - n * axis.dot(n)).normalize()
-        };
+        let t = if along.length() > 1e-9 * towards.length() && along.length() > 0.0 { along.normalize() } else { crate::texture::charts::frame(n).0 };
         Frame { t, b: n.cross(t), n }
     }
 
