@@ -1,5 +1,5 @@
 """Procedural detail on Catmull-Clark levels (issue 18, Velho, Perlin, Ying and
-Biermann, section 4): rock and berry through `thicket_native.procedural_detail`,
+Biermann, sections 4 and 6.1): rock, berry, tentacle, spur, mushroom and fuse through `thicket_native.procedural_detail`,
 checked inside real Blender against Blender's own Subdivision Surface modifier (the
 surface the detail rides on) and with bmesh."""
 
@@ -97,10 +97,18 @@ def test_berry_dome_at_a_chosen_seed(scene):
 def test_bad_input_is_a_clear_error(scene):
     obj = add("cube")
     a = mesh_io.read_mesh(obj.data)
-    with pytest.raises(ValueError, match="not built yet"):
-        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "tentacle", 2)
-    with pytest.raises(ValueError, match="model"):
+    with pytest.raises(ValueError, match="model must be 'rock', 'berry', 'tentacle', 'spur', 'mushroom' or 'fuse'"):
         tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "marble", 2)
+    with pytest.raises(ValueError, match="tentacle length"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "tentacle", 2, params={"length": float("nan")})
+    with pytest.raises(ValueError, match="spur spacing"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "spur", 2, params={"spacing": 0.0})
+    with pytest.raises(ValueError, match="mushroom seed 99"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "mushroom", 2, params={"seeds": [99]})
+    with pytest.raises(ValueError, match="fuse span"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "fuse", 2, params={"span": 5.0})
+    with pytest.raises(ValueError, match="fuse center"):
+        tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "fuse", 2, params={"axis": [0.0, 0.0, 0.0]})
     with pytest.raises(ValueError, match="amplitude"):
         tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 2, params={"amplitude": float("nan")})
     with pytest.raises(ValueError, match="radius"):
@@ -111,6 +119,42 @@ def test_bad_input_is_a_clear_error(scene):
         tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "berry", 1, params={"seeds": [99]})
     with pytest.raises(TypeError, match="unexpected keyword"):
         tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 1, params={"amplitud": 0.1})
+
+
+@pytest.mark.parametrize("model", ["tentacle", "spur", "mushroom", "fuse"])
+def test_growth_models_show_on_suzanne_with_their_defaults(scene, model):
+    """At 3 levels with the defaults each model moves Suzanne visibly (over 2% of its
+    size) from the plain subdivision, on the same topology, and is seeded: the same seed
+    gives the same surface, another seed other Poisson-disk seeds (the fuse has none)."""
+    obj = add("monkey")
+    a = mesh_io.read_mesh(obj.data)
+    diag = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
+    plain = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 3, params={"amplitude": 0.0})
+    out = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model, 3, seed=1)
+    assert np.array_equal(out["corners"], plain["corners"])
+    moved = np.linalg.norm(out["vertices"] - plain["vertices"], axis=1)
+    assert moved.max() > 0.02 * diag and np.isfinite(out["vertices"]).all() and np.isfinite(out["scalar"]).all()
+    assert np.array_equal(tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model, 3, seed=1)["vertices"], out["vertices"])
+    other = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model, 3, seed=2)["vertices"]
+    assert np.array_equal(other, out["vertices"]) == (model == "fuse")
+
+
+@pytest.mark.parametrize("model, pull", [("tentacle", 2**0.5), ("spur", 1.0)])
+def test_a_seed_grows_out_by_the_length_at_level_1(scene, model, pull):
+    """Level 1 moves a chosen seed `length` along its normal (the scalar) and, for the
+    tentacle, as far again across it: sqrt(2) length in all; Blender's subdivided surface
+    stays elsewhere."""
+    obj = add("ico_sphere", subdivisions=3)
+    a = mesh_io.read_mesh(obj.data)
+    diag = float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
+    out = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, model, 1, params={"length": 0.05, "seeds": [7]})
+    blender = subsurf(obj, 1)
+    here = np.linalg.norm(blender - a.vertices[7], axis=1).argmin()
+    length = 0.05 * diag
+    assert abs(np.linalg.norm(out["vertices"][7] - blender[here]) - pull * length) < 1e-4 * diag
+    assert abs(out["scalar"][7] - length) < 1e-4 * diag
+    rest = np.arange(len(out["vertices"])) != 7
+    assert nearest_distance(out["vertices"][rest], blender).max() < 1e-5 * diag
 
 
 def test_levels_that_would_not_fit_are_refused_before_anything_is_made(scene):

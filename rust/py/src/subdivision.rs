@@ -8,6 +8,7 @@ use thicket_core::subdivision::detail::Model;
 use thicket_core::subdivision::operations::{Alpha, AlphaSource, Levels, Local, Planet};
 use thicket_core::subdivision::recipe::{self, Blend, Recipe};
 use thicket_core::subdivision::{self, Boundary, Options, UvSmooth};
+use thicket_core::Mesh;
 
 use crate::arrays;
 use crate::errors::{run_detached, to_py, InvalidInput};
@@ -74,25 +75,30 @@ pub fn subdivide<'py>(
 ///                   at=None, blend=None, local=None, shader=None) -> dict
 ///
 /// Procedural shape detail on Catmull-Clark levels (Velho, Perlin, Ying and Biermann,
-/// section 4): `model` "rock" or "berry", `levels` 1 to 6, `seed` the random values,
-/// `params` the model's settings, lengths as fractions of the bounding-box diagonal:
-/// rock `amplitude` (0.02); berry `radius` (0.15), `seeds` (base vertex
-/// indices; Poisson-disk points when empty) and `children` (3). Operations (sections
-/// 5-6): `at`, the levels the model adds detail at (all when None); `blend`, a second
-/// model blended in, a dict of `model`, `params`, `seed` (0), `at`, and the alpha: `plane`
-/// (a point and a direction; `width` a fraction of the diagonal, 0.2) or `weights` (one
-/// per vertex, float32; `width` in weight units, at most 1.0), its transition halving per
-/// level;
-/// `local`, a list of dicts of `center` (a vertex), `radius` (in base edges: nothing that
-/// far or farther changes), `gain` (0 removes the detail, 2 doubles it) and `levels` (all
-/// when absent); `shader`, a dict
-/// `{"name": "planet", "sea": 0.0, "snow": 0.025}` (heights as fractions of the
-/// diagonal) for the planet's colours. Returns the finest level's vertices, face_sizes
-/// and corners (all quads), source_face (the base face of each face), `scalar`, float32
-/// per vertex: the detail the levels added along their normals, `blend` (float32 per
-/// vertex, the blend parameter; 0 without a blend) and, with a shader, `colors` (float32
-/// (n, 4) RGBA). Levels whose result would need more than 4 GB are refused before
-/// anything is made.
+/// sections 4 and 6.1): `model` "rock", "berry", "tentacle", "spur", "mushroom" or "fuse",
+/// `levels` 1 to 6, `seed` the random values (and Poisson-disk seeds), `params` the
+/// model's settings, lengths as fractions of the bounding-box diagonal, `seeds` base vertex
+/// indices (Poisson-disk vertices of level 1 when empty): rock `amplitude` (0.02); berry
+/// `radius` (0.15), `seeds` and `children` (3); tentacle `length` (0.01, the pull per
+/// level, times the level), `theta` (0.0 radians, the turn), `seeds` and `spacing` (0.25);
+/// spur `length` (0.01), `seeds` and `spacing` (0.25); mushroom `radius` (0.1, the vortex
+/// ring's), `length` (0.04, the flow time per level, times the level) and `seeds` (placed
+/// 2 radius apart); fuse `amplitude` (0.03), `span` (1.5, the profile's `|t|` at the
+/// base's farthest vertex along the axis, at most 4), `center` (x, y, z in the mesh's
+/// units; the bounding-box centre) and `axis` ((0, 0, 1)). Operations (sections 5-6):
+/// `at`, the levels the model adds detail at (all when None); `blend`, a second model
+/// blended in, a dict of `model`, `params`, `seed` (0), `at`, and the alpha: `plane` (a
+/// point and a direction; `width` a fraction of the diagonal, 0.2) or `weights` (one per
+/// vertex, float32; `width` in weight units, at most 1.0), its transition halving per
+/// level; `local`, a list of dicts of `center` (a vertex), `radius` (in base edges:
+/// nothing that far or farther changes), `gain` (0 removes the detail, 2 doubles it) and
+/// `levels` (all when absent); `shader`, a dict `{"name": "planet", "sea": 0.0, "snow":
+/// 0.025}` (heights as fractions of the diagonal) for the planet's colours. Returns the
+/// finest level's vertices, face_sizes and corners (all quads), source_face (the base face
+/// of each face), `scalar`, float32 per vertex: the detail the levels added along their
+/// normals, `blend` (float32 per vertex, the blend parameter; 0 without a blend) and,
+/// with a shader, `colors` (float32 (n, 4) RGBA). Levels whose result would need more
+/// than 4 GB are refused before anything is made.
 #[pyfunction]
 #[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None, *, at=None, blend=None, local=None, shader=None))]
 #[allow(clippy::too_many_arguments)]
@@ -112,9 +118,9 @@ pub fn procedural_detail<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
     let diag = mesh.bbox_diagonal() as f64;
-    let mut recipe = Recipe::of(model_from(model, params, diag)?, seed);
+    let mut recipe = Recipe::of(model_from(model, params, &mesh)?, seed);
     recipe.at = levels_from(at)?;
-    recipe.blend = blend.map(|b| blend_from(b, mesh.vertex_count(), diag)).transpose()?;
+    recipe.blend = blend.map(|b| blend_from(b, &mesh)).transpose()?;
     recipe.local = local.unwrap_or_default().iter().map(local_from).collect::<PyResult<_>>()?;
     let planet = shader.map(|s| planet_from(s, diag)).transpose()?;
     if (1..=subdivision::MAX_LEVELS).contains(&levels) {
@@ -138,8 +144,9 @@ pub fn procedural_detail<'py>(
     Ok(d)
 }
 
-/// A model from its name and `params` (lengths as fractions of `diag`).
-fn model_from(model: &str, params: Option<&Bound<'_, PyDict>>, diag: f64) -> PyResult<Model> {
+/// A model from its name and `params` (lengths as fractions of `mesh`'s diagonal).
+fn model_from(model: &str, params: Option<&Bound<'_, PyDict>>, mesh: &Mesh) -> PyResult<Model> {
+    let diag = mesh.bbox_diagonal() as f64;
     let settings = Keywords::new("procedural_detail", params);
     let model = match model {
         "rock" => Model::Rock { amplitude: settings.get("amplitude", 0.02f64)? * diag },
@@ -148,10 +155,32 @@ fn model_from(model: &str, params: Option<&Bound<'_, PyDict>>, diag: f64) -> PyR
             seeds: settings.get("seeds", Vec::<u32>::new())?,
             children: settings.get("children", 3u32)?,
         },
-        "tentacle" | "spur" | "mushroom" | "fuse" => {
-            return Err(InvalidInput::new_err(format!("the {model} model is not built yet (issue 18): rock and berry are")));
+        "tentacle" => Model::Tentacle {
+            length: settings.get("length", 0.01f64)? * diag,
+            theta: settings.get("theta", 0.0f64)?,
+            seeds: settings.get("seeds", Vec::<u32>::new())?,
+            spacing: settings.get("spacing", 0.25f64)? * diag,
+        },
+        "spur" => Model::Spur {
+            length: settings.get("length", 0.01f64)? * diag,
+            seeds: settings.get("seeds", Vec::<u32>::new())?,
+            spacing: settings.get("spacing", 0.25f64)? * diag,
+        },
+        "mushroom" => Model::Mushroom {
+            radius: settings.get("radius", 0.1f64)? * diag,
+            length: settings.get("length", 0.04f64)? * diag,
+            seeds: settings.get("seeds", Vec::<u32>::new())?,
+        },
+        "fuse" => {
+            let (low, high) = mesh.bounds();
+            Model::Fuse {
+                amplitude: settings.get("amplitude", 0.03f64)? * diag,
+                span: settings.get("span", 1.5f64)?,
+                center: DVec3::from(settings.get("center", (0.5 * (low + high)).as_dvec3().to_array())?),
+                axis: DVec3::from(settings.get("axis", [0.0, 0.0, 1.0])?),
+            }
         }
-        _ => return Err(InvalidInput::new_err(format!("model must be 'rock' or 'berry', not {model:?}"))),
+        _ => return Err(InvalidInput::new_err(format!("model must be 'rock', 'berry', 'tentacle', 'spur', 'mushroom' or 'fuse', not {model:?}"))),
     };
     settings.finish()?;
     Ok(model)
@@ -169,7 +198,8 @@ fn levels_from(at: Option<Vec<i64>>) -> PyResult<Levels> {
 }
 
 /// `procedural_detail`'s `blend` dict.
-fn blend_from(b: &Bound<'_, PyDict>, vertices: usize, diag: f64) -> PyResult<Blend> {
+fn blend_from(b: &Bound<'_, PyDict>, mesh: &Mesh) -> PyResult<Blend> {
+    let diag = mesh.bbox_diagonal() as f64;
     let k = Keywords::new("procedural_detail blend", Some(b));
     let Some(name): Option<String> = k.get("model", None)? else {
         return Err(InvalidInput::new_err("blend needs the second model's name ('model')"));
@@ -181,7 +211,7 @@ fn blend_from(b: &Bound<'_, PyDict>, vertices: usize, diag: f64) -> PyResult<Ble
     let weights: Option<Bound<'_, PyAny>> = k.get("weights", None)?;
     let source = match (plane, weights) {
         (Some((point, direction)), None) => AlphaSource::Plane { point: DVec3::from(point), direction: DVec3::from(direction) },
-        (None, Some(w)) => AlphaSource::Painted { weights: arrays::per_vertex_or_scalar(&w, vertices, "blend weights")? },
+        (None, Some(w)) => AlphaSource::Painted { weights: arrays::per_vertex_or_scalar(&w, mesh.vertex_count(), "blend weights")? },
         _ => {
             return Err(InvalidInput::new_err(
                 "blend needs its alpha from either 'plane' (point, direction) or 'weights' (one per vertex), not both or neither",
@@ -193,7 +223,7 @@ fn blend_from(b: &Bound<'_, PyDict>, vertices: usize, diag: f64) -> PyResult<Ble
         AlphaSource::Painted { .. } => k.get("width", 1.0f64)?,
     };
     k.finish()?;
-    Ok(Blend { model: model_from(&name, params.as_ref(), diag)?, seed, at, alpha: Alpha { source, width } })
+    Ok(Blend { model: model_from(&name, params.as_ref(), mesh)?, seed, at, alpha: Alpha { source, width } })
 }
 
 /// One of `procedural_detail`'s `local` dicts.

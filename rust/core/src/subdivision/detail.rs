@@ -5,6 +5,11 @@
 //! modifies its own level; section 4.2: "it is only necessary to specify a random value at
 //! every control point"). Each model is deterministic for a seed.
 
+mod frames;
+mod growth;
+
+pub use frames::Frame;
+
 use super::{subdivide, Boundary, Options};
 use crate::mesh::vertex_normals;
 use crate::{Error, Mesh, Result};
@@ -31,27 +36,84 @@ pub enum Model {
     /// several edges of level `l` (the subdivision then reconstructs it); one or two
     /// edges across, its steep rim makes a spike.
     Berry { radius: f64, seeds: Vec<u32>, children: u32 },
+    /// Morphogenic growth ("tentacle", 4.2): at level `l` every seed vertex moves by
+    /// `length * l * (±sin(theta + p), ±cos(theta + p), 1)` in its local frame (t, b, n),
+    /// `p = l pi/3`, the tangential part negated on even levels, and the levels after it
+    /// smooth the pulled vertex into a tentacle that lengthens, thins and twists (see
+    /// [`growth`]). Seeds: `seeds` (base vertex indices) or Poisson-disk vertices of level 1
+    /// `spacing` apart.
+    Tentacle { length: f64, theta: f64, seeds: Vec<u32>, spacing: f64 },
+    /// The tentacle's growth without the turn (the "spur" of 5.1, Figure 9): at level `l`
+    /// every seed vertex moves `length * l` along its normal, a straight spike.
+    Spur { length: f64, seeds: Vec<u32>, spacing: f64 },
+    /// Hybrid surface/volume growth ("mushroom cloud", 4.2): around each seed a rising
+    /// vortex ring of `radius`, a 3D flow fixed at level 1 (see [`growth`]), carries the
+    /// vertices of level `l` for a time `length * l`: a stem rises, its top spreads into a
+    /// cap whose rim rolls over and down. Seeds as the tentacle's, `2 radius` apart.
+    Mushroom { radius: f64, length: f64, seeds: Vec<u32> },
+    /// Surface of revolution with the fuse profile of 6.1, `sin(sum_i 2^-i sin(t^(2^i)))`:
+    /// level `l` moves every vertex away from the axis through `center` along `axis` by
+    /// `amplitude` times the profile's change when its term `i = l - 1` is added, `t` the
+    /// vertex's axial coordinate scaled so the base's farthest vertex is at `|t| = span`
+    /// (see [`growth`]).
+    Fuse { amplitude: f64, span: f64, center: DVec3, axis: DVec3 },
 }
 
 impl Model {
     pub(crate) fn validate(&self, base: &Mesh) -> Result<()> {
         let bad = |m: String| Err(Error::InvalidParameter(m));
         let diag = base.bbox_diagonal() as f64;
+        let length = |name: &str, x: f64| match x.is_finite() && x.abs() <= MAX_SHARE * diag {
+            true => Ok(()),
+            false => bad(format!("{name} must be finite and at most {MAX_SHARE} times the mesh's size, not {x}")),
+        };
+        let spacing = |name: &str, x: f64| match x.is_finite() && x > 0.0 && x >= MIN_SHARE * diag && x <= MAX_SHARE * diag {
+            true => Ok(()),
+            false => bad(format!("{name} must be between {MIN_SHARE} and {MAX_SHARE} times the mesh's size, not {x}")),
+        };
+        let seeds_in = |name: &str, seeds: &[u32]| match seeds.iter().find(|&&s| s as usize >= base.vertex_count()) {
+            None => Ok(()),
+            Some(s) => bad(format!("{name} seed {s} is not a vertex of the mesh ({} vertices)", base.vertex_count())),
+        };
         match self {
             Model::Rock { amplitude } => {
-                if !(amplitude.is_finite() && amplitude.abs() <= MAX_SHARE * diag) {
-                    return bad(format!("rock amplitude must be finite and at most {MAX_SHARE} times the mesh's size, not {amplitude}"));
-                }
+                length("rock amplitude", *amplitude)?;
             }
             Model::Berry { radius, seeds, children } => {
-                if !(radius.is_finite() && *radius > 0.0 && *radius >= MIN_SHARE * diag && *radius <= MAX_SHARE * diag) {
-                    return bad(format!("berry radius must be between {MIN_SHARE} and {MAX_SHARE} times the mesh's size, not {radius}"));
-                }
-                if let Some(s) = seeds.iter().find(|&&s| s as usize >= base.vertex_count()) {
-                    return bad(format!("berry seed {s} is not a vertex of the mesh ({} vertices)", base.vertex_count()));
-                }
+                spacing("berry radius", *radius)?;
+                seeds_in("berry", seeds)?;
                 if *children > MAX_CHILDREN {
                     return bad(format!("berry children must be at most {MAX_CHILDREN}, not {children}"));
+                }
+            }
+            Model::Tentacle { length: l, theta, seeds, spacing: s } => {
+                length("tentacle length", *l)?;
+                if !(theta.is_finite() && theta.abs() <= MAX_ANGLE) {
+                    return bad(format!("tentacle theta must be finite and at most {MAX_ANGLE} radians in size, not {theta}"));
+                }
+                seeds_in("tentacle", seeds)?;
+                spacing("tentacle spacing", *s)?;
+            }
+            Model::Spur { length: l, seeds, spacing: s } => {
+                length("spur length", *l)?;
+                seeds_in("spur", seeds)?;
+                spacing("spur spacing", *s)?;
+            }
+            Model::Mushroom { radius, length: l, seeds } => {
+                spacing("mushroom radius", *radius)?;
+                length("mushroom length", *l)?;
+                seeds_in("mushroom", seeds)?;
+            }
+            Model::Fuse { amplitude, span, center, axis } => {
+                length("fuse amplitude", *amplitude)?;
+                if !(span.is_finite() && *span > 0.0 && *span <= MAX_SPAN) {
+                    return bad(format!("fuse span must be above 0 and at most {MAX_SPAN}, not {span}"));
+                }
+                if !(center.is_finite() && axis.is_finite() && axis.length() > 0.0) {
+                    return bad(format!("fuse center must be finite and axis finite and not zero, not {center} and {axis}"));
+                }
+                if growth::half_extent(base.positions(), *center, axis.normalize()) <= MIN_SHARE * diag {
+                    return bad(format!("the mesh has no extent along the fuse axis {axis}"));
                 }
             }
         }
@@ -68,6 +130,13 @@ pub const MIN_SHARE: f64 = 1e-4;
 /// The most seeds a berry seed grows at the next level.
 pub const MAX_CHILDREN: u32 = 64;
 
+/// The largest tentacle turn `theta` taken, in radians (an animated angle may wind up).
+pub const MAX_ANGLE: f64 = 1e6;
+
+/// The largest fuse `span`: the profile's term `i` has `t^(2^i)` radians, past 4 far more
+/// waves than any level has vertices.
+pub const MAX_SPAN: f64 = 4.0;
+
 /// A detailed surface: the finest level's mesh (all quads), the base face each face lies
 /// in, and per vertex the displacements the levels added (signed, along their normals;
 /// carried to finer levels by linear interpolation), for shading.
@@ -83,7 +152,33 @@ pub struct Detailed {
 /// 2). `seed` picks the random values.
 pub fn procedural_detail(base: &Mesh, levels: u32, model: &Model, seed: u64) -> Result<Detailed> {
     model.validate(base)?;
-    synthesize(base, levels, |level, mesh, seeds| model.displacements(level, mesh, seed, seeds))
+    synthesize(base, levels, model.initial_state(base), |level, mesh, normals, state| model.displacements(level, mesh, normals, seed, state))
+}
+
+impl Model {
+    /// What the model carries into level 1: the fuse's axial reach on the base.
+    pub(crate) fn initial_state(&self, base: &Mesh) -> State {
+        let mut state = State::default();
+        if let Model::Fuse { center, axis, .. } = self {
+            state.reach = growth::half_extent(base.positions(), *center, axis.normalize());
+        }
+        state
+    }
+}
+
+/// What a model carries from one level to the next: its seeds (vertex indices, which every
+/// finer level keeps), a mushroom's rings, the fuse's axial reach on the base.
+#[derive(Debug, Default)]
+pub(crate) struct State {
+    seeds: Vec<u32>,
+    rings: Vec<growth::Ring>,
+    reach: f64,
+}
+
+/// A level's detail: displacements along the vertex normals, or world-space offsets.
+pub(crate) enum Offsets {
+    Normal(Vec<f64>),
+    World(Vec<DVec3>),
 }
 
 /// Per-vertex values of `parent` carried to its subdivision `child` linearly: a vertex
@@ -109,9 +204,9 @@ pub(crate) fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -
     out
 }
 
-/// The synthesis loop: subdivide one level, displace by `detail(level, mesh, state)` along
-/// the level's normals, repeat. `state` carries a model's seeds from one level to the next.
-pub(crate) fn synthesize(base: &Mesh, levels: u32, mut detail: impl FnMut(u32, &Mesh, &mut Vec<u32>) -> Vec<f64>) -> Result<Detailed> {
+/// The synthesis loop: subdivide one level, displace by `detail(level, mesh, normals,
+/// state)`, repeat. `scalar` sums the displacements' components along the normals.
+pub(crate) fn synthesize(base: &Mesh, levels: u32, mut state: State, mut detail: impl FnMut(u32, &Mesh, &[Vec3], &mut State) -> Offsets) -> Result<Detailed> {
     if !(1..=super::MAX_LEVELS).contains(&levels) {
         return Err(Error::InvalidParameter(format!("detail levels must be 1 to {}, not {levels}", super::MAX_LEVELS)));
     }
@@ -119,43 +214,69 @@ pub(crate) fn synthesize(base: &Mesh, levels: u32, mut detail: impl FnMut(u32, &
     let mut mesh = base.clone();
     let mut source_face: Vec<u32> = (0..base.face_count() as u32).collect();
     let mut scalar: Vec<f32> = vec![0.0; base.vertex_count()];
-    let mut state = Vec::new();
     for level in 1..=levels {
         let next = subdivide(&mesh, &options)?;
         scalar = linear_child_values(&mesh, &next.mesh, &scalar);
         source_face = next.source_face.iter().map(|&f| source_face[f as usize]).collect();
         mesh = next.mesh;
-        let d = detail(level, &mesh, &mut state);
         let normals = vertex_normals(&mesh);
-        let moved: Vec<Vec3> = mesh.positions().par_iter().zip(&normals).zip(&d).map(|((&p, &n), &d)| p + n * d as f32).collect();
-        scalar.iter_mut().zip(&d).for_each(|(s, &d)| *s += d as f32);
+        let moved: Vec<Vec3> = match detail(level, &mesh, &normals, &mut state) {
+            Offsets::Normal(d) => {
+                scalar.iter_mut().zip(&d).for_each(|(s, &d)| *s += d as f32);
+                mesh.positions().par_iter().zip(&normals).zip(&d).map(|((&p, &n), &d)| p + n * d as f32).collect()
+            }
+            Offsets::World(w) => {
+                scalar.iter_mut().zip(&w).zip(&normals).for_each(|((s, w), n)| *s += w.dot(n.as_dvec3()) as f32);
+                mesh.positions().par_iter().zip(&w).map(|(&p, w)| (p.as_dvec3() + w).as_vec3()).collect()
+            }
+        };
         mesh = Mesh::new(moved, &mesh.face_sizes(), mesh.corners().to_vec(), None)?;
     }
     Ok(Detailed { mesh, source_face, scalar })
 }
 
 impl Model {
-    /// The displacement of each vertex of `mesh` (level `level`) along its normal.
-    pub(crate) fn displacements(&self, level: u32, mesh: &Mesh, seed: u64, seeds: &mut Vec<u32>) -> Vec<f64> {
+    /// The displacement of each vertex of `mesh` (level `level`, vertex normals `normals`).
+    pub(crate) fn displacements(&self, level: u32, mesh: &Mesh, normals: &[Vec3], seed: u64, state: &mut State) -> Offsets {
         let octave = 0.5f64.powi(level as i32 - 1);
+        let p = mesh.positions();
+        // Level 1's seeds: `given`, or Poisson-disk vertices `spacing` apart.
+        let first_seeds = |given: &[u32], spacing: f64| match given.is_empty() {
+            false => given.to_vec(),
+            true => poisson_disk(p, (0..p.len() as u32).collect(), spacing, seed),
+        };
         match self {
             Model::Rock { amplitude } => {
                 let key = mix(seed ^ (level as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-                (0..mesh.vertex_count() as u64).into_par_iter().map(|v| amplitude * octave * unit_random(mix(key ^ mix(v)))).collect()
+                Offsets::Normal((0..mesh.vertex_count() as u64).into_par_iter().map(|v| amplitude * octave * unit_random(mix(key ^ mix(v)))).collect())
             }
             Model::Berry { radius, seeds: given, children } => {
                 let r = radius * octave;
-                let p = mesh.positions();
-                *seeds = if level == 1 {
-                    match given.is_empty() {
-                        false => given.clone(),
-                        true => poisson_disk(p, (0..p.len() as u32).collect(), 2.0 * r, seed),
-                    }
-                } else {
-                    clusters(p, seeds, 2.0 * r, *children, mix(seed ^ level as u64))
+                state.seeds = match level {
+                    1 => first_seeds(given, 2.0 * r),
+                    _ => clusters(p, &state.seeds, 2.0 * r, *children, mix(seed ^ level as u64)),
                 };
-                domes(p, seeds, r)
+                Offsets::Normal(domes(p, &state.seeds, r))
             }
+            Model::Tentacle { seeds: given, spacing, .. } | Model::Spur { seeds: given, spacing, .. } => {
+                if level == 1 {
+                    state.seeds = first_seeds(given, *spacing);
+                }
+                let local = match *self {
+                    Model::Tentacle { length, theta, .. } => growth::tentacle_local(level, length, theta),
+                    Model::Spur { length, .. } => growth::spur_local(level, length),
+                    _ => unreachable!("a growth model"),
+                };
+                Offsets::World(growth::at_seeds(mesh, normals, &state.seeds, local))
+            }
+            Model::Mushroom { radius, length, seeds: given } => {
+                if level == 1 {
+                    state.seeds = first_seeds(given, 2.0 * radius);
+                    state.rings = state.seeds.iter().map(|&s| growth::Ring::over(p[s as usize], normals[s as usize], *radius)).collect();
+                }
+                Offsets::World(growth::advect(p, &state.rings, length * level as f64))
+            }
+            Model::Fuse { amplitude, span, center, axis } => Offsets::World(growth::fuse(p, level, *amplitude, *span, *center, axis.normalize(), state.reach)),
         }
     }
 }
@@ -241,24 +362,24 @@ impl Grid {
         self.points.push(q);
     }
 
-    /// The nearest point (index, distance) among those within one cell of `q`'s cell:
-    /// every point closer than `cell` is among them.
-    fn nearest(&self, q: DVec3) -> Option<(usize, f64)> {
+    /// The points (index, distance) within one cell of `q`'s cell: every point closer
+    /// than `cell` is among them.
+    fn around(&self, q: DVec3) -> impl Iterator<Item = (usize, f64)> + '_ {
         let k = self.key(q);
-        let mut best: Option<(usize, f64)> = None;
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    for &i in self.cells.get(&[k[0].wrapping_add(dx), k[1].wrapping_add(dy), k[2].wrapping_add(dz)]).map_or(&[][..], |v| &v[..]) {
-                        let d = self.points[i as usize].distance(q);
-                        if best.is_none_or(|(_, b)| d < b) {
-                            best = Some((i as usize, d));
-                        }
-                    }
-                }
-            }
-        }
-        best
+        (0..27).flat_map(move |c| {
+            let cell = [k[0].wrapping_add(c / 9 - 1), k[1].wrapping_add(c / 3 % 3 - 1), k[2].wrapping_add(c % 3 - 1)];
+            self.cells.get(&cell).map_or(&[][..], |v| &v[..]).iter().map(move |&i| (i as usize, self.points[i as usize].distance(q)))
+        })
+    }
+
+    /// The points closer to `q` than `reach`, at most `cell`.
+    fn within(&self, q: DVec3, reach: f64) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.around(q).filter(move |&(_, d)| d < reach)
+    }
+
+    /// The nearest point (index, distance) among those of [`Grid::around`].
+    fn nearest(&self, q: DVec3) -> Option<(usize, f64)> {
+        self.around(q).fold(None, |best, (i, d)| if best.is_none_or(|(_, b)| d < b) { Some((i, d)) } else { best })
     }
 }
 
@@ -292,10 +413,10 @@ mod tests {
         let base = sphere();
         let model = Model::Rock { amplitude: 0.05 };
         let mut rms = Vec::new();
-        synthesize(&base, 4, |level, mesh, seeds| {
-            let d = model.displacements(level, mesh, 7, seeds);
+        synthesize(&base, 4, State::default(), |level, mesh, normals, state| {
+            let Offsets::Normal(d) = model.displacements(level, mesh, normals, 7, state) else { unreachable!() };
             rms.push((d.iter().map(|d| d * d).sum::<f64>() / d.len() as f64).sqrt());
-            d
+            Offsets::Normal(d)
         })
         .unwrap();
         for l in 1..rms.len() {
@@ -353,14 +474,12 @@ mod tests {
             }
             sum / n as f64
         };
-        let once = synthesize(&base, 1, |level, mesh, seeds| Model::Rock { amplitude }.displacements(level, mesh, 9, seeds)).unwrap();
-        let smoothed =
-            synthesize(
-                &base,
-                4,
-                |level, mesh, seeds| if level == 1 { Model::Rock { amplitude }.displacements(level, mesh, 9, seeds) } else { vec![0.0; mesh.vertex_count()] },
-            )
-            .unwrap();
+        let rock = |level, mesh: &Mesh, normals: &[Vec3], state: &mut State| match level {
+            1 => Model::Rock { amplitude }.displacements(level, mesh, normals, 9, state),
+            _ => Offsets::Normal(vec![0.0; mesh.vertex_count()]),
+        };
+        let once = synthesize(&base, 1, State::default(), rock).unwrap();
+        let smoothed = synthesize(&base, 4, State::default(), rock).unwrap();
         let (raw, after) = (rough(&once), rough(&smoothed));
         assert!(after < 0.25 * raw, "edge steps along the normal: {raw} raw, {after} after three smoothing levels");
     }
@@ -393,8 +512,9 @@ mod tests {
         let base = sphere();
         let mut counts = Vec::new();
         let radius = 0.2;
-        synthesize(&base, 3, |level, mesh, seeds| {
-            let d = Model::Berry { radius, seeds: vec![], children: 4 }.displacements(level, mesh, 3, seeds);
+        synthesize(&base, 3, State::default(), |level, mesh, normals, state| {
+            let Offsets::Normal(d) = Model::Berry { radius, seeds: vec![], children: 4 }.displacements(level, mesh, normals, 3, state) else { unreachable!() };
+            let seeds = &state.seeds;
             let r = radius * 0.5f64.powi(level as i32 - 1);
             let p = mesh.positions();
             for (i, &a) in seeds.iter().enumerate() {
@@ -407,7 +527,7 @@ mod tests {
             }
             assert!(d.iter().all(|&h| (0.0..=r + 1e-12).contains(&h)));
             counts.push(seeds.len());
-            d
+            Offsets::Normal(d)
         })
         .unwrap();
         assert!(counts[0] > 3 && counts[1] > counts[0] && counts[2] >= counts[1], "{counts:?}");

@@ -3,10 +3,11 @@
 //! (Burt-Adelson), and modified locally; the blend parameter comes out beside the
 //! scalar for the post-processing shader.
 
-use super::detail::{self, Detailed, Model};
+use super::detail::{self, Detailed, Model, Offsets, State};
 use super::operations::{Alpha, AlphaSource, Levels, Local};
 use crate::mesh::Incidence;
 use crate::{Error, Mesh, Result};
+use glam::{DVec3, Vec3};
 
 /// The most local modifications one recipe takes.
 pub const MAX_LOCAL: usize = 16;
@@ -66,7 +67,8 @@ pub struct Synthesized {
 /// some levels only, or blended, has the same features it has alone.
 pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesized> {
     recipe.validate(base)?;
-    let (mut first, mut second) = (Vec::new(), Vec::new());
+    let mut first = recipe.model.initial_state(base);
+    let mut second = recipe.blend.as_ref().map(|b| b.model.initial_state(base));
     // Painted alpha: the weights carried level by level, linearly (the parent level's
     // topology is kept for it).
     let mut painted = match recipe.blend.as_ref().map(|b| &b.alpha.source) {
@@ -74,11 +76,11 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
         _ => None,
     };
     let mut blend_out = Vec::new();
-    let detailed = detail::synthesize(base, levels, |level, mesh, _| {
-        let placed = |at: Levels, d: Vec<f64>| if at.has(level) { d } else { vec![0.0; d.len()] };
-        let mut d = placed(recipe.at, recipe.model.displacements(level, mesh, recipe.seed, &mut first));
-        if let Some(b) = &recipe.blend {
-            let other = placed(b.at, b.model.displacements(level, mesh, b.seed, &mut second));
+    let detailed = detail::synthesize(base, levels, State::default(), |level, mesh, normals, _| {
+        let placed = |at: Levels, d: Offsets| if at.has(level) { d } else { Offsets::Normal(vec![0.0; mesh.vertex_count()]) };
+        let mut d = placed(recipe.at, recipe.model.displacements(level, mesh, normals, recipe.seed, &mut first));
+        if let (Some(b), Some(state)) = (&recipe.blend, second.as_mut()) {
+            let other = placed(b.at, b.model.displacements(level, mesh, normals, b.seed, state));
             let carried = match painted.take() {
                 Some((parent, w)) => {
                     let w = detail::linear_child_values(&parent, mesh, &w);
@@ -90,7 +92,7 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
                 None => Vec::new(),
             };
             let alpha = b.alpha.at(level, mesh.positions(), &carried);
-            d.iter_mut().zip(&other).zip(&alpha).for_each(|((d, o), a)| *d = (1.0 - a) * *d + a * o);
+            d = mixed(d, other, &alpha, normals);
             if level == levels {
                 blend_out = alpha.iter().map(|&a| a as f32).collect();
             }
@@ -98,7 +100,7 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
         if !recipe.local.is_empty() {
             let incidence = Incidence::faces(mesh);
             for local in &recipe.local {
-                d.iter_mut().zip(local.weights(level, levels, mesh, &incidence)).for_each(|(d, w)| *d *= w);
+                scaled(&mut d, &local.weights(level, levels, mesh, &incidence));
             }
         }
         d
@@ -109,13 +111,40 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
     Ok(Synthesized { detailed, blend: blend_out })
 }
 
+/// `(1 - alpha) a + alpha b`, per vertex (6.1: a linear combination of the two signals);
+/// along the normals where both models move along them, else as world-space offsets.
+fn mixed(a: Offsets, b: Offsets, alpha: &[f64], normals: &[Vec3]) -> Offsets {
+    match (a, b) {
+        (Offsets::Normal(a), Offsets::Normal(b)) => Offsets::Normal(a.iter().zip(&b).zip(alpha).map(|((a, b), t)| (1.0 - t) * a + t * b).collect()),
+        (a, b) => {
+            let (a, b) = (world(a, normals), world(b, normals));
+            Offsets::World(a.iter().zip(&b).zip(alpha).map(|((a, b), &t)| *a * (1.0 - t) + *b * t).collect())
+        }
+    }
+}
+
+/// Offsets as world-space vectors (a displacement along the normal times the normal).
+fn world(o: Offsets, normals: &[Vec3]) -> Vec<DVec3> {
+    match o {
+        Offsets::Normal(d) => d.iter().zip(normals).map(|(&d, n)| n.as_dvec3() * d).collect(),
+        Offsets::World(w) => w,
+    }
+}
+
+/// Each vertex's offset times its weight.
+fn scaled(o: &mut Offsets, weights: &[f64]) {
+    match o {
+        Offsets::Normal(d) => d.iter_mut().zip(weights).for_each(|(d, w)| *d *= w),
+        Offsets::World(v) => v.iter_mut().zip(weights).for_each(|(v, &w)| *v *= w),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mesh::Incidence;
     use crate::subdivision::operations::hops;
     use crate::testmeshes;
-    use glam::DVec3;
 
     fn sphere() -> Mesh {
         testmeshes::icosphere(2)
@@ -185,7 +214,7 @@ mod tests {
         // The flat second model where alpha is 1: the rock's coarse levels reach across
         // (their transition is wider, and subdivision spreads each level's detail by
         // about one of its rings), but far on that side the surface is the plain one.
-        let plain = detail::synthesize(&base, 3, |_, mesh, _| vec![0.0; mesh.vertex_count()]).unwrap().mesh;
+        let plain = detail::synthesize(&base, 3, State::default(), |_, mesh, _, _| Offsets::Normal(vec![0.0; mesh.vertex_count()])).unwrap().mesh;
         let mut far_side = p.iter().zip(plain.positions()).filter(|(_, q)| q.as_dvec3().dot(dir) > width + 0.1);
         assert!(far_side.clone().count() > 10 && far_side.all(|(a, b)| a.distance(*b) < 1e-6));
     }
@@ -227,12 +256,12 @@ mod tests {
         let at2 = Recipe { at: Levels::of(&[2]).unwrap(), ..Recipe::of(rock(0.05), 4) };
         let out = synthesize(&base, 2, &at2).unwrap().detailed;
         // Level 1 adds nothing: the result is plain level 1, subdivided, plus level 2's detail.
-        let level2_only = detail::synthesize(&base, 2, |level, mesh, seeds| {
-            let d = rock(0.05).displacements(level, mesh, 4, seeds);
+        let level2_only = detail::synthesize(&base, 2, State::default(), |level, mesh, normals, state| {
+            let d = rock(0.05).displacements(level, mesh, normals, 4, state);
             if level == 2 {
                 d
             } else {
-                vec![0.0; d.len()]
+                Offsets::Normal(vec![0.0; mesh.vertex_count()])
             }
         })
         .unwrap();

@@ -183,7 +183,7 @@ impl Charts {
 /// A right-handed frame `(u, v)` of the plane with `normal` (`u × v = normal`): `u`
 /// from the world axis least aligned with the normal (lowest index on ties), so the
 /// frame depends on the normal alone.
-fn frame(normal: DVec3) -> (DVec3, DVec3) {
+pub(crate) fn frame(normal: DVec3) -> (DVec3, DVec3) {
     let a = normal.abs();
     let axis = if a.x <= a.y && a.x <= a.z {
         DVec3::X
