@@ -354,3 +354,42 @@ def test_every_model_is_the_native_one_in_the_stack(scene, model):
     np.testing.assert_array_equal(positions(result), expected["vertices"])
     plain = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 2, 0, {"amplitude": 0.0})
     assert np.abs(positions(result) - plain["vertices"]).max() > 1e-3, "the model moved the surface"
+
+
+def test_no_chosen_level_and_a_bad_setting_are_refused_without_leftovers(scene):
+    cube = add("cube")
+    api.add_procedural_detail(cube, model="ROCK", levels=1)
+    cube.thicket.items[0].detail_at = (False,) * 6  # a live edit: the stack's error
+    assert "tick at least one level" in cube.thicket.last_error
+    with pytest.raises(TypeError):
+        api.add_procedural_detail(cube, model="MARBLE")
+    assert len(cube.thicket.items) == 1, "no half-set item left behind"
+    with pytest.raises(api.ThicketError, match="tick at least one level"):
+        api.add_procedural_detail(cube, model="ROCK", at=[])
+
+
+def test_seeds_after_an_earlier_detail_item_are_the_source_vertices_only(scene):
+    """After a first Procedural Detail, a selected source vertex seeds one tentacle
+    (its own vertex), not one on every vertex that kept its weight."""
+    sphere = add("ico_sphere", subdivisions=2)
+    tip = int(np.argmax(positions(sphere)[:, 2]))
+    flags = np.zeros(len(sphere.data.vertices), bool)
+    flags[tip] = True
+    sphere.data.vertices.foreach_set("select", flags)
+    api.add_procedural_detail(sphere, model="ROCK", levels=1, amplitude=0.0)
+    result = api.add_procedural_detail(sphere, model="SPUR", levels=1, seeds="SELECTED")
+    order = [i.detail_model for i in sphere.thicket.items]
+    assert order == ["ROCK", "SPUR"]
+    a = mesh_io.read_mesh(sphere.data)
+    rock = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", 1, 0, {"amplitude": 0.0})
+    item = sphere.thicket.items[1]
+    spur = tn.procedural_detail(
+        rock["vertices"],
+        rock["face_sizes"],
+        rock["corners"],
+        "spur",
+        1,
+        0,
+        {"length": f32(item.detail_length), "spacing": f32(item.detail_spacing), "seeds": [tip]},
+    )
+    np.testing.assert_allclose(positions(result), spur["vertices"], atol=1e-6)

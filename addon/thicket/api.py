@@ -108,10 +108,14 @@ def add_item(obj, kind="OFFSET_SHELL", **settings):
     settings = current_names(settings)
     with suspended():
         item = obj.thicket.items.add()
-        item.kind = kind
-        item.name = cls.label
-        for key, value in settings.items():
-            setattr(item, key, value)
+        try:
+            item.kind = kind
+            item.name = cls.label
+            for key, value in settings.items():
+                setattr(item, key, value)
+        except (TypeError, ValueError, AttributeError):
+            obj.thicket.items.remove(len(obj.thicket.items) - 1)  # no half-set item left behind
+            raise
         obj.thicket.active_index = len(obj.thicket.items) - 1
     return item
 
@@ -313,13 +317,16 @@ def add_solid_texture(obj, tree_json, mode="COLOR", domain="POINT", amplitude=0.
 def add_procedural_detail(obj, model=None, levels=None, preset=None, progress=None, **settings):
     """Adds a Procedural Detail item (Velho, Perlin, Ying and Biermann) to `obj`'s
     stack, before its first shell or texture item (the detail shapes their base), and
-    regenerates; returns the result object. `model`: "ROCK" or "BERRY"; `levels`: 1 to
+    regenerates; returns the result object. `model`: "ROCK", "BERRY", "TENTACLE",
+    "SPUR", "MUSHROOM" or "FUSE"; `levels`: 1 to
     6 Catmull-Clark levels (each has four times the faces of the last). `preset`:
-    "ROCK", "BERRY" or "PLANET", the starting settings (`model`, `levels` and
+    "ROCK", "BERRY", "TENTACLE", "MUSHROOM" or "PLANET", the starting settings (`model`, `levels` and
     `settings` override them). Other `settings`: `seed`; the rock's `amplitude` and
-    the berry's `radius` (fractions of the bounding-box diagonal), `children` and
-    `seeds` ("RANDOM", "GROUP" with `vertex_group`, or "SELECTED": the source's
-    selected vertices); `at`, the levels the model acts at (a list, e.g. [1, 3]); a
+    the berry's and mushroom cloud's `radius`, the tentacle's, spur's and mushroom
+    cloud's `length`, the tentacle's `theta` (radians) and the tentacles' and spurs'
+    `spacing` (lengths as fractions of the bounding-box diagonal), the fuse's `span` and
+    `axis`, the berry's `children`, and `seeds` ("RANDOM", "GROUP" with
+    `vertex_group`, or "SELECTED": the source's selected vertices); `at`, the levels the model acts at (a list, e.g. [1, 3]); a
     blend: `blend_model`, `blend_seed`, `blend_gain`, `blend_alpha` ("PLANE" with
     `blend_point` and `blend_direction`, or "GROUP" with `blend_group`),
     `blend_width`; a local modification: `local_object` (its location the center),

@@ -23,7 +23,8 @@ class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):
     def invoke(self, context, event):
         if self.estimate:
             # A run found a bake (or a subdivision) over its item's "Ask Above": the user decides.
-            return context.window_manager.invoke_props_dialog(self, title=f"Large {self.making}", confirm_text=self.making.capitalize())
+            confirm = {"bake": "Bake", "subdivision": "Subdivide"}.get(self.making, "Continue")
+            return context.window_manager.invoke_props_dialog(self, title=f"Large {self.making}", confirm_text=confirm)
         if context.window is None:
             return self.execute(context)
         # Interactive: the stack evaluates on a worker thread while Blender shows the
@@ -34,7 +35,7 @@ class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):
         self.layout.label(text=f"This {self.making} makes about {self.estimate:,} triangles.", icon="ERROR")
         if self.budget and self.estimate > self.budget:
             self.layout.label(text=f"That is {self.estimate / self.budget:.1f} times its Triangle Budget of {self.budget:,}.")
-        self.layout.label(text="It may take a while and a lot of memory. Bake it?")
+        self.layout.label(text="It may take a while and a lot of memory. Make it?")
 
     def execute(self, context):
         if self.estimate and context.window is not None:

@@ -156,14 +156,14 @@ class ProceduralDetail(_Item):
     NeedsConfirmation when the caller asks (the UI). The result's vertices keep the
     group weights of the base vertex whose quarter of a face they lie in.
 
-    Operations (sections 5-6): `at`, the levels the model adds detail at (empty: all);
+    Operations (sections 5-6): `at`, the levels the model adds detail at (None: all);
     `blend_model` (empty: none), a second model with the item's own settings times
     `blend_gain` and random values from `blend_seed`, blended in where the alpha is 1:
     `blend_alpha` "plane" (through `blend_point`, object space, facing
     `blend_direction`; `blend_width` a fraction of the diagonal) or "group"
     (`blend_group`'s weights; `blend_width` in weight units), the transition halving per
     level. `local_center` (object space, or None): the detail within `local_radius`
-    base edges of the vertex nearest it scaled by `local_gain` at `local_at` (empty:
+    base edges of the vertex nearest it scaled by `local_gain` at `local_at` (None:
     all). `shader` "planet": colours from the scalar and the blend parameter, oceans
     below `sea`, snow above `snow` (fractions of the diagonal).
     """
@@ -183,7 +183,7 @@ class ProceduralDetail(_Item):
     seeds: str = "random"
     vertex_group: str = ""
     confirm_above: int = 3_000_000
-    at: tuple = ()
+    at: tuple | None = None
     blend_model: str = ""
     blend_seed: int = 1
     blend_gain: float = 1.0
@@ -195,13 +195,15 @@ class ProceduralDetail(_Item):
     local_center: tuple | None = None
     local_radius: float = 2.0
     local_gain: float = 0.0
-    local_at: tuple = ()
+    local_at: tuple | None = None
     shader: str = ""
     sea: float = 0.0
     snow: float = 0.025
 
     def vertex_groups(self):
         groups = [self.blend_group] if self.blend_model and self.blend_alpha == "group" and self.blend_group else []
+        if self.model in ("rock", "fuse") or self.seeds == "random":
+            return groups
         if self.seeds == "selected":
             return groups + [SELECTED_VERTICES]
         return groups + ([self.vertex_group] if self.seeds == "group" and self.vertex_group else [])

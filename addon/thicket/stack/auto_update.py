@@ -92,7 +92,7 @@ def on_frame_change(scene, depsgraph=None):
     if busy():
         return
     for obj in scene.objects:
-        if _is_source(obj) and (obj.animation_data is not None or any(i.follow_frame and i.kind in ("VOLUMETRIC_TEXTURE", "PROCEDURAL_DETAIL") for i in obj.thicket.items)):
+        if _is_source(obj) and (obj.animation_data is not None or any(i.follows_frame() for i in obj.thicket.items)):
             schedule(obj)
 
 

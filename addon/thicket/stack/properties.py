@@ -308,9 +308,7 @@ class ThicketItem(bpy.types.PropertyGroup):
         precision=4,
         update=_changed,
     )
-    detail_theta: FloatProperty(
-        name="Turn", description="The tentacle's rotation angle (animatable)", default=0.0, subtype="ANGLE", update=_changed
-    )
+    detail_theta: FloatProperty(name="Turn", description="The tentacle's rotation angle (animatable)", default=0.0, subtype="ANGLE", update=_changed)
     detail_spacing: FloatProperty(
         name="Spacing",
         description="Random seeds' spacing, a fraction of the bounding-box diagonal",
@@ -321,9 +319,16 @@ class ThicketItem(bpy.types.PropertyGroup):
         update=_changed,
     )
     fuse_span: FloatProperty(
-        name="Span", description="The fuse profile's argument at the vertex farthest along the axis (more: more waves)", default=1.5, min=0.01, max=4.0, update=_changed
+        name="Span",
+        description="The fuse profile's argument at the vertex farthest along the axis (more: more waves)",
+        default=1.5,
+        min=0.01,
+        max=4.0,
+        update=_changed,
     )
-    fuse_axis: FloatVectorProperty(name="Axis", description="The fuse's axis of revolution (through the bounding-box centre)", size=3, default=(0.0, 0.0, 1.0), update=_changed)
+    fuse_axis: FloatVectorProperty(
+        name="Axis", description="The fuse's axis of revolution (through the bounding-box centre)", size=3, default=(0.0, 0.0, 1.0), update=_changed
+    )
     detail_children: IntProperty(
         name="Children", description="Seeds each dome's seed grows at the next level", min=0, max=64, default=S.ProceduralDetail.children, update=_changed
     )
@@ -488,7 +493,7 @@ class ThicketItem(bpy.types.PropertyGroup):
                 spacing=self.detail_spacing,
                 span=self.fuse_span,
                 axis=tuple(self.fuse_axis),
-                time=self.texture_time() if self.follow_frame else 0.0,
+                time=self.texture_time() if self.follows_frame() else 0.0,
                 seeds=self.detail_seeds.lower(),
                 vertex_group=self.vertex_group,
                 confirm_above=self.confirm_above,
@@ -519,11 +524,21 @@ class ThicketItem(bpy.types.PropertyGroup):
         """The local modification's center in the source's object space, or None."""
         if self.local_object is None:
             return None
-        return tuple(self.id_data.matrix_world.inverted() @ self.local_object.matrix_world.translation)
+        return tuple(self.id_data.matrix_world.inverted_safe() @ self.local_object.matrix_world.translation)
+
+    def follows_frame(self):
+        """Whether the scene frame changes this item's result (a texture's time, a
+        tentacle's turn)."""
+        if self.kind == "PROCEDURAL_DETAIL":
+            return self.follow_frame and self.detail_model == "TENTACLE"
+        return self.follow_frame and self.kind == "VOLUMETRIC_TEXTURE"
 
     def watched_objects(self):
         """Other objects whose change changes this item's result: a cutter, a local center."""
-        found = {"VOLUMETRIC_TEXTURE": self.cutter, "PROCEDURAL_DETAIL": self.local_object}.get(self.kind)
+        if self.kind == "PROCEDURAL_DETAIL" and self.local_object is not None:
+            # The center is read in the source's space: moving either moves it.
+            return [self.local_object, self.id_data]
+        found = self.cutter if self.kind == "VOLUMETRIC_TEXTURE" else None
         return [found] if found is not None and found != self.id_data else []
 
     def _cutter_arrays(self, depsgraph):
@@ -535,8 +550,8 @@ class ThicketItem(bpy.types.PropertyGroup):
 
 
 def _chosen_levels(flags):
-    """The levels (1-based) whose flag is on; () when all are (every level, however many)."""
-    return () if all(flags) else tuple(i + 1 for i, on in enumerate(flags) if on)
+    """The levels (1-based) whose flag is on; None when all are (every level)."""
+    return None if all(flags) else tuple(i + 1 for i, on in enumerate(flags) if on)
 
 
 class ThicketStack(bpy.types.PropertyGroup):

@@ -95,7 +95,7 @@ def faces_after(mesh: MeshArrays, levels: int) -> int:
 
 
 def seed_vertices(state: State, item: S.ProceduralDetail):
-    """The berry's seeds, as vertex indices of the current mesh: None for Poisson-disk
+    """The model's seeds, as vertex indices of the current mesh: None for Poisson-disk
     seeds; else the vertices of the item's group (weight at least one half) or of the
     source's selection."""
     if item.model not in SEEDED or item.seeds == "random":
@@ -103,10 +103,15 @@ def seed_vertices(state: State, item: S.ProceduralDetail):
     group = SELECTED_VERTICES if item.seeds == "selected" else item.vertex_group
     if not group:
         raise native.get().InvalidInput(f"'{item.label}': seeds from a vertex group need the group's name")
-    seeds = np.flatnonzero(group_weights(state.source, group, state.origin) >= 0.5)
+    chosen = group_weights(state.source, group, state.origin) >= 0.5
+    # One current vertex per source vertex: after an earlier Procedural Detail its
+    # vertices share their base vertex's weight blockwise (the base vertex, which keeps
+    # its index, comes first).
+    _, first = np.unique(state.origin, return_index=True)
+    seeds = np.sort(first[chosen[first]])
     if seeds.size == 0:
         where = "no vertex is selected" if group == SELECTED_VERTICES else f"vertex group '{group}' has no vertex of weight 0.5 or more"
-        raise native.get().InvalidInput(f"'{item.label}': {where}, so the berry has no seeds")
+        raise native.get().InvalidInput(f"'{item.label}': {where}, so the {item.model} has no seeds")
     return seeds
 
 
@@ -143,9 +148,14 @@ def _invalid(item, message):
     return native.get().InvalidInput(f"'{item.label}': {message}")
 
 
-def _levels(at):
-    """A level set as `thicket_native.procedural_detail` takes it (None: all)."""
-    return [int(level) for level in at] if at else None
+def _levels(item, at, what):
+    """A level set as `thicket_native.procedural_detail` takes it (None: all); none at
+    all is refused, naming the setting."""
+    if at is None:
+        return None
+    if not at:
+        raise _invalid(item, f"{what}: tick at least one level")
+    return [int(level) for level in at]
 
 
 def blend(state: State, item: S.ProceduralDetail):
@@ -179,7 +189,7 @@ def local(mesh: MeshArrays, item: S.ProceduralDetail):
     if mesh.vertex_count == 0:
         return None
     nearest = int(np.argmin(np.einsum("ij,ij->i", mesh.vertices - center, mesh.vertices - center)))
-    return [dict(center=nearest, radius=float(item.local_radius), gain=float(item.local_gain), levels=_levels(item.local_at))]
+    return [dict(center=nearest, radius=float(item.local_radius), gain=float(item.local_gain), levels=_levels(item, item.local_at, "Local At Levels"))]
 
 
 def shader(item: S.ProceduralDetail):
@@ -214,7 +224,10 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tupl
     if ask and triangles > item.confirm_above:
         raise NeedsConfirmation(item.label, triangles, item.confirm_above, making="subdivision")
     tn = native.get()
-    operations = dict(at=_levels(item.at), blend=blend(state, item), local=local(mesh, item), shader=shader(item))
+    at = _levels(item, item.at, "Detail At Levels")
+    if at is not None and min(at) > item.levels:
+        state.notes.append(f"'{item.label}': Detail At Levels names no level up to {item.levels}, so the model adds nothing")
+    operations = dict(at=at, blend=blend(state, item), local=local(mesh, item), shader=shader(item))
     out = tn.procedural_detail(mesh.vertices, mesh.face_sizes, mesh.corners, item.model, int(item.levels), int(item.seed), settings, **operations)
     result = MeshArrays.from_native(out)
     if "colors" in out:
