@@ -1,5 +1,7 @@
 """Draws one stack item's settings (shared by the Properties and sidebar panels)."""
 
+from ..pure.kinds.procedural_detail import API_NAMES, MODEL_SETTINGS
+
 
 def draw_item_settings(layout, obj, item):
     col = layout.column()
@@ -37,15 +39,9 @@ def _draw_solid_texture_settings(col, item):
         col.prop(item, "color_attribute")
 
 
-#: Each Procedural Detail model's own settings, as the panel shows them.
-DETAIL_PROPS = {
-    "ROCK": ("detail_amplitude",),
-    "BERRY": ("detail_radius", "detail_children"),
-    "TENTACLE": ("detail_length", "detail_theta", "detail_spacing"),
-    "SPUR": ("detail_length", "detail_spacing"),
-    "MUSHROOM": ("detail_radius", "detail_length"),
-    "FUSE": ("detail_amplitude", "fuse_span", "fuse_axis"),
-}
+#: Each Procedural Detail model's own settings, as the panel shows them (the item
+#: properties of the settings the model takes).
+DETAIL_PROPS = {model.upper(): tuple(API_NAMES[name] for name in names) for model, names in MODEL_SETTINGS.items()}
 
 
 def _draw_detail_settings(col, obj, item):
