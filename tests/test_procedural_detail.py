@@ -232,16 +232,19 @@ def test_local_modification_changes_only_around_its_center(scene):
 
 def test_placement_at_chosen_levels_and_the_planet_shader(scene):
     a, diag = sphere_arrays()
-    everywhere = detail(a, "rock", 2, 4, {"amplitude": 0.03})
-    only_two = detail(a, "rock", 2, 4, {"amplitude": 0.03}, at=[2])
+    # An amplitude under the fold guard's limits on this sphere (a quarter of the
+    # shortest edge at each level), so the levels' values are the model's own.
+    amplitude = 0.003
+    everywhere = detail(a, "rock", 2, 4, {"amplitude": amplitude})
+    only_two = detail(a, "rock", 2, 4, {"amplitude": amplitude}, at=[2])
     assert not np.array_equal(everywhere["vertices"], only_two["vertices"])
     # At level 2 only, the scalar is level 2's random values alone: at most amplitude / 2.
-    assert np.abs(only_two["scalar"]).max() <= 0.015 * diag * (1 + 1e-5)
-    assert np.abs(everywhere["scalar"]).max() > 0.015 * diag
+    assert np.abs(only_two["scalar"]).max() <= amplitude / 2 * diag * (1 + 1e-5)
+    assert np.abs(everywhere["scalar"]).max() > amplitude / 2 * diag
     # Sea and snow line from the heights' own quantiles, so every band shows for any seed.
     h = everywhere["scalar"] / diag
     sea_level, snow_line = float(np.quantile(h, 0.3)), float(np.quantile(h, 0.9))
-    out = detail(a, "rock", 2, 4, {"amplitude": 0.03}, shader={"name": "planet", "sea": sea_level, "snow": snow_line})
+    out = detail(a, "rock", 2, 4, {"amplitude": amplitude}, shader={"name": "planet", "sea": sea_level, "snow": snow_line})
     colors = out["colors"]
     band = snow_line - sea_level
     assert colors.shape == (len(h), 4) and (colors[:, 3] == 1).all()
@@ -290,3 +293,65 @@ def test_zero_area_faces_take_detail_without_nan(scene, model):
     out = tn.procedural_detail(v, sizes, corners, model, 2, 1)
     assert np.isfinite(out["vertices"]).all() and np.isfinite(out["scalar"]).all()
     assert len(out["face_sizes"]) == 6 * 4 * 4
+
+
+def crossing_pairs(out):
+    """Pairs of the result's triangles that intersect and share no vertex, by Blender's
+    own `BVHTree.overlap` (each quad split along a diagonal)."""
+    from mathutils.bvhtree import BVHTree
+
+    quads = np.asarray(out["corners"]).reshape(-1, 4)
+    tris = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    tree = BVHTree.FromPolygons(np.asarray(out["vertices"]).tolist(), tris.tolist(), all_triangles=True)
+    pairs = np.array(tree.overlap(tree), np.int64).reshape(-1, 2)
+    pairs = pairs[pairs[:, 0] < pairs[:, 1]]
+    a, b = tris[pairs[:, 0]], tris[pairs[:, 1]]
+    return int((~(a[:, :, None] == b[:, None, :]).any(axis=(1, 2))).sum())
+
+
+def imported(name):
+    from conftest import DATA
+
+    bpy.ops.wm.obj_import(filepath=str(DATA / ("bunny-3k.obj" if name == "bunny" else f"hard/{name}.obj")))
+    return mesh_io.read_mesh(bpy.context.selected_objects[0].data)
+
+
+# Meshes finer than the presets' detail (a scan, a UV sphere's poles) and with concave
+# parts narrower than a dome: without the fold guard the rock preset crossed itself in
+# 2,512 triangle pairs on this UV sphere and the berry preset in 15,258 on a cow scan.
+FOLD_CASES = [
+    ("uv_sphere", "rock", {"amplitude": 0.03}),
+    ("uv_sphere", "berry", {"radius": 0.12, "children": 3}),
+    ("bunny", "rock", {"amplitude": 0.03}),
+    ("bunny", "berry", {"radius": 0.12, "children": 3}),
+    ("comb", "berry", {"radius": 0.12, "children": 3}),
+    ("torus_knot", "rock", {"amplitude": 0.03}),
+    ("two_spheres", "rock", {"amplitude": 0.03}),
+]
+
+
+@pytest.mark.parametrize("name, model, params", FOLD_CASES)
+def test_the_presets_detail_does_not_fold_the_surface(scene, name, model, params):
+    """Rock and berry at the presets' sizes on meshes finer or narrower than the detail:
+    no two triangles of the result that share no vertex intersect (Blender's BVH
+    overlap), and the guard reports what it reduced (the rock's amplitude is over what
+    every one of these meshes takes; domes only where they meet concave parts or
+    another part)."""
+    a = mesh_io.read_mesh(add("uv_sphere", segments=32, ring_count=16).data) if name == "uv_sphere" else imported(name)
+    plain = detail(a, model, 2, 3, {**params, **({"amplitude": 0.0} if model == "rock" else {"radius": 1e-3})})
+    assert crossing_pairs(plain) == 0, "the plain subdivision is clean"
+    out = detail(a, model, 2, 3, params)
+    assert np.abs(out["scalar"]).max() > 1e-3 * float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
+    assert 0.0 <= out["limited"] <= 1.0
+    if model == "rock":
+        assert out["limited"] > 0.0, "the rock is over a quarter of these meshes' edges, so the guard acts"
+    assert crossing_pairs(out) == 0
+
+
+def test_detail_the_mesh_takes_is_not_limited(scene):
+    """A rock well under a quarter of the edges and level 1 domes on a convex sphere
+    (the levels after them make concave rims, where domes are flattened) are left
+    exactly as the model makes them."""
+    a, _ = sphere_arrays()
+    assert detail(a, "rock", 2, 1, {"amplitude": 0.001})["limited"] == 0.0
+    assert detail(a, "berry", 2, 1, {"radius": 0.1, "children": 0})["limited"] == 0.0

@@ -393,3 +393,24 @@ def test_seeds_after_an_earlier_detail_item_are_the_source_vertices_only(scene):
         {"length": f32(item.detail_length), "spacing": f32(item.detail_spacing), "seeds": [tip]},
     )
     np.testing.assert_allclose(positions(result), spur["vertices"], atol=1e-6)
+
+
+def test_a_rock_too_rough_for_a_dense_mesh_is_guarded_and_the_user_told(scene):
+    """The rock preset on a dense sphere would fold it; the item's result does not cross
+    itself (Blender's BVH overlap) and the panel's note says the detail was reduced and
+    how to keep it as set; a rock the mesh takes gets no such note."""
+    sphere = add("ico_sphere", subdivisions=5)
+    result = api.add_procedural_detail(sphere, preset="ROCK", levels=2)
+    assert "so the surface cannot fold" in sphere.thicket.last_note, sphere.thicket.last_note
+    bm = bmesh.new()
+    bm.from_mesh(result.data)
+    bmesh.ops.triangulate(bm, faces=bm.faces[:])
+    tree = BVHTree.FromBMesh(bm)
+    tris = np.array([[v.index for v in f.verts] for f in bm.faces], np.int64)
+    bm.free()
+    pairs = np.array(tree.overlap(tree), np.int64).reshape(-1, 2)
+    a, b = tris[pairs[:, 0]], tris[pairs[:, 1]]
+    assert not (~(a[:, :, None] == b[:, None, :]).any(axis=(1, 2))).any(), "no two triangles that share no vertex cross"
+    api.remove(sphere)
+    api.add_procedural_detail(sphere, model="ROCK", levels=2, amplitude=0.0005)
+    assert "cannot fold" not in sphere.thicket.last_note, sphere.thicket.last_note

@@ -316,4 +316,5 @@ def procedural_detail(
     """Procedural detail on Catmull-Clark levels (Velho et al. section 4): model "rock" (params amplitude) or "berry" (radius, seeds, children), lengths as fractions of the bounding-box diagonal.
     Operations (sections 5-6): `at` the levels the model acts at; `blend` a second model (model, params, seed, at, plane=(point, direction) or weights, width) blended level by level;
     `local` modifications (center, radius in base edges, gain, levels); `shader` {"name": "planet", "sea", "snow"} for colours.
-    Returns the finest level's vertices, face_sizes, corners (all quads), source_face, scalar (float32 per vertex: the detail added), blend (float32 per vertex) and, with a shader, colors ((n, 4) float32)."""
+    Returns the finest level's vertices, face_sizes, corners (all quads), source_face, scalar (float32 per vertex: the detail added), blend (float32 per vertex),
+    limited (float: the share of placed rock/berry detail the fold guard reduced so the surface cannot fold) and, with a shader, colors ((n, 4) float32)."""

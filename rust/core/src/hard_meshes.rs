@@ -296,7 +296,7 @@ pub fn normal_room(m: &Mesh) -> Vec<[f32; 2]> {
                 let mut best = len;
                 bvh.query_segment(o, o + dir * len, |t| {
                     if !tris[t as usize].contains(&(v as u32)) {
-                        if let Some(h) = ray_hit(o, dir, &pts[t as usize]) {
+                        if let Some(h) = crate::spatial::ray_triangle(o, dir, &pts[t as usize]) {
                             best = best.min(h);
                         }
                     }
@@ -305,22 +305,6 @@ pub fn normal_room(m: &Mesh) -> Vec<[f32; 2]> {
             })
         })
         .collect()
-}
-
-/// Möller–Trumbore: the ray parameter where `o + h d` meets the triangle, if ahead.
-fn ray_hit(o: DVec3, d: DVec3, t: &[DVec3; 3]) -> Option<f64> {
-    let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
-    let pv = d.cross(e2);
-    let det = e1.dot(pv);
-    if det == 0.0 {
-        return None;
-    }
-    let s = o - t[0];
-    let u = s.dot(pv) / det;
-    let q = s.cross(e1);
-    let v = d.dot(q) / det;
-    let h = e2.dot(q) / det;
-    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && h > 0.0).then_some(h)
 }
 
 /// Shortest distance between points of a closed curve `t ∈ [0, period)` at least

@@ -96,9 +96,12 @@ pub fn subdivide<'py>(
 /// 0.025}` (heights as fractions of the diagonal) for the planet's colours. Returns the
 /// finest level's vertices, face_sizes and corners (all quads), source_face (the base face
 /// of each face), `scalar`, float32 per vertex: the detail the levels added along their
-/// normals, `blend` (float32 per vertex, the blend parameter; 0 without a blend) and,
-/// with a shader, `colors` (float32 (n, 4) RGBA). Levels whose result would need more
-/// than 4 GB are refused before anything is made.
+/// normals, `blend` (float32 per vertex, the blend parameter; 0 without a blend),
+/// `limited` (the share of the placed rock and berry detail the fold guard made smaller
+/// so the surface cannot fold: a quarter of the local edge, half the radius of curvature;
+/// 0.0 when the model's sizes fit the mesh) and, with a shader, `colors` (float32 (n, 4)
+/// RGBA). Levels whose result would need more than 4 GB are refused before anything is
+/// made.
 #[pyfunction]
 #[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None, *, at=None, blend=None, local=None, shader=None))]
 #[allow(clippy::too_many_arguments)]
@@ -136,6 +139,7 @@ pub fn procedural_detail<'py>(
     d.set_item("source_face", arrays::u32_as_i32_array(py, out.detailed.source_face))?;
     d.set_item("scalar", out.detailed.scalar.into_pyarray(py))?;
     d.set_item("blend", out.blend.into_pyarray(py))?;
+    d.set_item("limited", out.tally.share())?;
     if let Some(c) = colors {
         let n = c.len();
         let flat: Vec<f32> = c.into_iter().flatten().collect();

@@ -88,6 +88,11 @@ def api_values(settings: dict) -> dict:
     return out
 
 
+#: The share of fold-guarded detail (`procedural_detail`'s `limited`) above which the
+#: user is told the model's size was reduced.
+LIMITED_NOTE = 0.01
+
+
 def faces_after(mesh: MeshArrays, levels: int) -> int:
     """Faces (quads) of the finest level: every corner of the base becomes a quad at
     level 1, and every quad four at each level after it."""
@@ -236,6 +241,13 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tupl
     if mesh.material_index is not None:
         result.material_index = mesh.material_index[out["source_face"]]
     result.point_attributes = {DETAIL_ATTRIBUTE: np.asarray(out["scalar"], dtype=np.float32)}
+    limited = float(out.get("limited", 0.0))
+    if limited > LIMITED_NOTE:
+        result.notes.append(
+            f"'{item.label}': the {item.model} detail was made smaller at {limited:.0%} of its vertices so the surface cannot fold"
+            " (at most a quarter of the local edge length, half the radius of curvature); a smaller amplitude or radius,"
+            " or a coarser base, keeps it as set"
+        )
     if item.blend_model:
         result.point_attributes[BLEND_ATTRIBUTE] = np.asarray(out["blend"], dtype=np.float32)
     if mesh.uv_maps or mesh.uvs is not None:

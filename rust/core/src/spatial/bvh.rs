@@ -15,6 +15,23 @@ use rayon::prelude::*;
 /// Most items in a leaf.
 const LEAF_SIZE: usize = 4;
 
+/// Möller–Trumbore: the ray parameter `h > 0` where `o + h d` meets triangle `t`, if
+/// it does.
+pub fn ray_triangle(o: DVec3, d: DVec3, t: &[DVec3; 3]) -> Option<f64> {
+    let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+    let pv = d.cross(e2);
+    let det = e1.dot(pv);
+    if det == 0.0 {
+        return None;
+    }
+    let s = o - t[0];
+    let u = s.dot(pv) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    let h = e2.dot(q) / det;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && h > 0.0).then_some(h)
+}
+
 /// The box of a triangle.
 #[inline]
 pub fn tri_box(t: &[DVec3; 3]) -> (DVec3, DVec3) {

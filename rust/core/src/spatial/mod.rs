@@ -4,4 +4,4 @@
 
 mod bvh;
 
-pub use bvh::{segment_meets_box, tri_box, Bvh};
+pub use bvh::{ray_triangle, segment_meets_box, tri_box, Bvh};

@@ -5,9 +5,11 @@
 //! modifies its own level; section 4.2: "it is only necessary to specify a random value at
 //! every control point"). Each model is deterministic for a seed.
 
+mod fold_guard;
 mod frames;
 mod growth;
 
+pub use fold_guard::{Tally, FOCAL_SHARE, FOLD_SLOPE};
 pub use frames::Frame;
 
 use super::{subdivide, Boundary, Options};
@@ -162,6 +164,9 @@ impl Model {
         if let Model::Fuse { center, axis, .. } = self {
             state.reach = growth::half_extent(base.positions(), *center, axis.normalize());
         }
+        if let Model::Berry { .. } = self {
+            state.clearance = Some(fold_guard::Clearance::of(base));
+        }
         state
     }
 }
@@ -173,6 +178,10 @@ pub(crate) struct State {
     seeds: Vec<u32>,
     rings: Vec<growth::Ring>,
     reach: f64,
+    /// What the fold guard reduced.
+    pub tally: Tally,
+    /// The base, for the room domes have before meeting another part of it.
+    clearance: Option<fold_guard::Clearance>,
 }
 
 /// A level's detail: displacements along the vertex normals, or world-space offsets.
@@ -248,7 +257,8 @@ impl Model {
         match self {
             Model::Rock { amplitude } => {
                 let key = mix(seed ^ (level as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-                Offsets::Normal((0..mesh.vertex_count() as u64).into_par_iter().map(|v| amplitude * octave * unit_random(mix(key ^ mix(v)))).collect())
+                let limits = fold_guard::Limits::of(mesh, normals);
+                Offsets::Normal(limits.random(amplitude * octave, |v| unit_random(mix(key ^ mix(v as u64))), &mut state.tally))
             }
             Model::Berry { radius, seeds: given, children } => {
                 let r = radius * octave;
@@ -256,7 +266,12 @@ impl Model {
                     1 => first_seeds(given, 2.0 * r),
                     _ => clusters(p, &state.seeds, 2.0 * r, *children, mix(seed ^ level as u64)),
                 };
-                Offsets::Normal(domes(p, &state.seeds, r))
+                let heights = domes(p, &state.seeds, r);
+                let mut limits = fold_guard::Limits::of(mesh, normals);
+                if let Some(clearance) = &state.clearance {
+                    limits.clear_of(clearance, p, normals, |v| heights[v].1 > 0.0);
+                }
+                Offsets::Normal(limits.scale_domes(heights, &mut state.tally))
             }
             Model::Tentacle { seeds: given, spacing, .. } | Model::Spur { seeds: given, spacing, .. } => {
                 if level == 1 {
@@ -281,18 +296,14 @@ impl Model {
     }
 }
 
-/// Dome heights `R (1 - r^2/R^2)^(1/2)` of every point over its nearest seed within `R`.
-fn domes(p: &[Vec3], seeds: &[u32], radius: f64) -> Vec<f64> {
+/// Dome heights `R (1 - r^2/R^2)^(1/2)` of every point over its nearest seed within `R`,
+/// with that seed's position in `seeds` (`u32::MAX` beyond every dome).
+fn domes(p: &[Vec3], seeds: &[u32], radius: f64) -> Vec<(u32, f64)> {
     let grid = Grid::new(seeds.iter().map(|&s| p[s as usize].as_dvec3()), radius);
     p.par_iter()
-        .map(|q| {
-            let q = q.as_dvec3();
-            let nearest = grid.nearest(q).map_or(f64::INFINITY, |(_, d)| d);
-            if nearest < radius {
-                radius * (1.0 - nearest * nearest / (radius * radius)).sqrt()
-            } else {
-                0.0
-            }
+        .map(|q| match grid.nearest(q.as_dvec3()) {
+            Some((k, nearest)) if nearest < radius => (k as u32, radius * (1.0 - nearest * nearest / (radius * radius)).sqrt()),
+            _ => (u32::MAX, 0.0),
         })
         .collect()
 }

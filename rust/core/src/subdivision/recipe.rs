@@ -3,7 +3,7 @@
 //! (Burt-Adelson), and modified locally; the blend parameter comes out beside the
 //! scalar for the post-processing shader.
 
-use super::detail::{self, Detailed, Model, Offsets, State};
+use super::detail::{self, Detailed, Model, Offsets, State, Tally};
 use super::operations::{Alpha, AlphaSource, Levels, Local};
 use crate::mesh::Incidence;
 use crate::{Error, Mesh, Result};
@@ -60,6 +60,8 @@ impl Recipe {
 pub struct Synthesized {
     pub detailed: Detailed,
     pub blend: Vec<f32>,
+    /// How much of the placed detail the fold guard reduced (both models).
+    pub tally: Tally,
 }
 
 /// Subdivides `base` by `levels` levels adding the recipe's detail at each (see
@@ -77,10 +79,20 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
     };
     let mut blend_out = Vec::new();
     let detailed = detail::synthesize(base, levels, State::default(), |level, mesh, normals, _| {
+        // A model runs at every level (its seeds and state evolve), but only its placed
+        // levels move the surface and count in its tally.
         let placed = |at: Levels, d: Offsets| if at.has(level) { d } else { Offsets::Normal(vec![0.0; mesh.vertex_count()]) };
-        let mut d = placed(recipe.at, recipe.model.displacements(level, mesh, normals, recipe.seed, &mut first));
+        let displaced = |model: &Model, at: Levels, seed: u64, state: &mut State| {
+            let before = state.tally;
+            let d = placed(at, model.displacements(level, mesh, normals, seed, state));
+            if !at.has(level) {
+                state.tally = before;
+            }
+            d
+        };
+        let mut d = displaced(&recipe.model, recipe.at, recipe.seed, &mut first);
         if let (Some(b), Some(state)) = (&recipe.blend, second.as_mut()) {
-            let other = placed(b.at, b.model.displacements(level, mesh, normals, b.seed, state));
+            let other = displaced(&b.model, b.at, b.seed, state);
             let carried = match painted.take() {
                 Some((parent, w)) => {
                     let w = detail::linear_child_values(&parent, mesh, &w);
@@ -108,7 +120,12 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
     if blend_out.is_empty() {
         blend_out = vec![0.0; detailed.mesh.vertex_count()];
     }
-    Ok(Synthesized { detailed, blend: blend_out })
+    let mut tally = first.tally;
+    if let Some(second) = second {
+        tally.placed += second.tally.placed;
+        tally.limited += second.tally.limited;
+    }
+    Ok(Synthesized { detailed, blend: blend_out, tally })
 }
 
 /// `(1 - alpha) a + alpha b`, per vertex (6.1: a linear combination of the two signals);

@@ -1,0 +1,222 @@
+//! How far a level's detail may move each vertex along its normal without folding the
+//! surface. Two limits, both from the level's mesh before its detail:
+//! - Focal distance: moving a surface by `d` along its normals keeps it a local
+//!   embedding while `d` stays under the radius of curvature on the side it moves to
+//!   (past it, offsets of a concave region cross over themselves; the normal part of a
+//!   varying offset's gradient cannot fold it). Curvature is measured per edge as
+//!   `k = (n_a - n_b) . (p_a - p_b) / |p_a - p_b|^2` (positive where the surface bends
+//!   away from its normals), and a vertex may move out by [`FOCAL_SHARE`] / (largest
+//!   `-k` at it) and in by [`FOCAL_SHARE`] / (largest `k`). A sharp concave crease
+//!   (`k` about 1/edge) allows about an edge.
+//! - Edge length, for per-vertex random detail (the rock): at most [`FOLD_SLOPE`] times
+//!   the vertex's shortest edge, so neighbours differ by a slope under 1/2 and the level
+//!   makes no spikes where the mesh is finer than the detail (a dense scan, a UV sphere's
+//!   poles). The limit halves with the edges from level to level, so a capped rock still
+//!   falls as 1/f.
+//!
+//! - Clearance, for domes: a berry dome rises at most [`CLEAR_SHARE`] of the way to
+//!   another part of the base surface along its normals (a thin part's other side, the
+//!   next card across a narrow gap), so two parts rising towards each other stay apart.
+//!   Rays go from the level's vertices to the base's triangles, counting only a part
+//!   met from the side the motion would cross (a front face moving out, a back face
+//!   moving in), so the vertex's own stretch of base, which the smoothed level lies
+//!   just inside or outside of, never counts. The rock's random detail, under a quarter
+//!   edge, is not cast for (a ray per vertex at every level would cost more than the
+//!   synthesis): surfaces closer than half an edge can still meet.
+
+use crate::shell::lp_distance::mesh_triangles;
+use crate::spatial::{ray_triangle, Bvh};
+use crate::Mesh;
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+/// The share of the radius of curvature a vertex may move towards its focal point.
+pub const FOCAL_SHARE: f64 = 0.5;
+/// The share of the distance to another part of the base a dome may rise.
+pub const CLEAR_SHARE: f64 = 0.4;
+
+/// The share of its shortest edge a vertex's random detail may move it.
+pub const FOLD_SLOPE: f64 = 0.25;
+
+/// The base surface, for how far a vertex may move before it meets another part of it.
+#[derive(Debug)]
+pub(crate) struct Clearance {
+    triangles: Vec<[DVec3; 3]>,
+    normals: Vec<DVec3>,
+    bvh: Bvh,
+    reach: f64,
+}
+
+impl Clearance {
+    pub(crate) fn of(base: &Mesh) -> Self {
+        let triangles = mesh_triangles(base);
+        let normals = triangles.iter().map(|t| (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero()).collect();
+        let bvh = Bvh::from_triangles(&triangles);
+        Self { triangles, normals, bvh, reach: base.bbox_diagonal() as f64 }
+    }
+
+    /// The distance from `o` along the unit `dir` to the first base triangle met from
+    /// the side `dir` crosses it towards: from its front when `out` (the vertex moving
+    /// out along its normal), from its back when moving in (the far side of a thin
+    /// part, seen from inside). `reach` (the base's diagonal) when there is none.
+    fn along(&self, o: DVec3, dir: DVec3, out: bool) -> f64 {
+        let mut best = self.reach;
+        self.bvh.query_segment(o, o + dir * self.reach, |t| {
+            let facing = self.normals[t as usize].dot(dir);
+            if (out && facing < 0.0) || (!out && facing > 0.0) {
+                if let Some(h) = ray_triangle(o, dir, &self.triangles[t as usize]) {
+                    best = best.min(h);
+                }
+            }
+        });
+        best
+    }
+}
+
+/// How much of a model's detail the guard reduced, over all levels: vertices given
+/// detail, and those of them whose detail was made smaller.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct Tally {
+    pub placed: u64,
+    pub limited: u64,
+}
+
+impl Tally {
+    /// The share of placed detail that was limited (0 when none was placed).
+    pub fn share(&self) -> f64 {
+        if self.placed == 0 {
+            0.0
+        } else {
+            self.limited as f64 / self.placed as f64
+        }
+    }
+}
+
+/// Per vertex: how far it may move out (along its normal), how far in, and its shortest
+/// edge.
+pub(crate) struct Limits {
+    pub out: Vec<f64>,
+    pub inward: Vec<f64>,
+    pub shortest: Vec<f64>,
+}
+
+impl Limits {
+    pub(crate) fn of(mesh: &Mesh, normals: &[Vec3]) -> Self {
+        let p = mesh.positions();
+        let n = p.len();
+        // Largest curvature bending away from (k > 0) and towards (k < 0) the normal.
+        let (mut convex, mut concave) = (vec![0.0f64; n], vec![0.0f64; n]);
+        let mut shortest = vec![f64::INFINITY; n];
+        for face in mesh.faces() {
+            for (i, &a) in face.iter().enumerate() {
+                let b = face[(i + 1) % face.len()];
+                let (a, b) = (a as usize, b as usize);
+                let e = (p[a] - p[b]).as_dvec3();
+                let length2 = e.length_squared();
+                if length2 == 0.0 {
+                    continue;
+                }
+                let k = (normals[a] - normals[b]).as_dvec3().dot(e) / length2;
+                for v in [a, b] {
+                    convex[v] = convex[v].max(k);
+                    concave[v] = concave[v].max(-k);
+                    shortest[v] = shortest[v].min(length2.sqrt());
+                }
+            }
+        }
+        let reach = |k: f64| if k > 0.0 { FOCAL_SHARE / k } else { f64::INFINITY };
+        Self { out: concave.into_iter().map(reach).collect(), inward: convex.into_iter().map(reach).collect(), shortest }
+    }
+
+    /// `d` (along vertex `v`'s normal) within what `v` may move.
+    pub(crate) fn clamp(&self, v: usize, d: f64) -> f64 {
+        d.clamp(-self.inward[v], self.out[v])
+    }
+
+    /// Lowers the outward limit of every vertex `rises` picks to [`CLEAR_SHARE`] of its
+    /// distance out to another part of the base.
+    pub(crate) fn clear_of(&mut self, clearance: &Clearance, p: &[Vec3], normals: &[Vec3], rises: impl Fn(usize) -> bool + Sync) {
+        let room: Vec<f64> = (0..p.len())
+            .into_par_iter()
+            .map(|v| match rises(v) {
+                true => CLEAR_SHARE * clearance.along(p[v].as_dvec3(), normals[v].as_dvec3(), true),
+                false => f64::INFINITY,
+            })
+            .collect();
+        self.out.iter_mut().zip(room).for_each(|(o, r)| *o = o.min(r));
+    }
+
+    /// Dome heights (the dome each vertex lies in, its height) scaled so each dome fits
+    /// under every one of its vertices' limits: a dome too tall for the curvature under
+    /// it is made flatter as a whole, never cut into a plateau (whose step would fold).
+    pub(crate) fn scale_domes(&self, heights: Vec<(u32, f64)>, tally: &mut Tally) -> Vec<f64> {
+        let domes = heights.iter().filter(|(k, _)| *k != u32::MAX).map(|(k, _)| *k as usize + 1).max().unwrap_or(0);
+        let mut factor = vec![1.0f64; domes];
+        for (v, &(k, h)) in heights.iter().enumerate() {
+            if k != u32::MAX && h > 0.0 {
+                let f = &mut factor[k as usize];
+                *f = f.min(self.out[v] / h);
+            }
+        }
+        for &(k, h) in &heights {
+            if k != u32::MAX && h > 0.0 {
+                tally.placed += 1;
+                tally.limited += (factor[k as usize] < 1.0) as u64;
+            }
+        }
+        heights.into_iter().map(|(k, h)| if k == u32::MAX { 0.0 } else { h * factor[k as usize] }).collect()
+    }
+
+    /// Random detail of `size` times `unit(v)` (in [-1, 1]) at every vertex, each at most
+    /// [`FOLD_SLOPE`] times its shortest edge and within its curvature limits.
+    pub(crate) fn random(&self, size: f64, unit: impl Fn(usize) -> f64 + Sync, tally: &mut Tally) -> Vec<f64> {
+        let out: Vec<(f64, bool)> = (0..self.out.len())
+            .into_par_iter()
+            .map(|v| {
+                let a = size.abs().min(self.random_reach(v)).copysign(size);
+                let d = self.clamp(v, a * unit(v));
+                (d, a.abs() < size.abs() || d != a * unit(v))
+            })
+            .collect();
+        if size != 0.0 {
+            tally.placed += out.len() as u64;
+            tally.limited += out.iter().filter(|(_, limited)| *limited).count() as u64;
+        }
+        out.into_iter().map(|(d, _)| d).collect()
+    }
+
+    /// The largest random detail vertex `v` may take: [`FOLD_SLOPE`] times its shortest
+    /// edge.
+    fn random_reach(&self, v: usize) -> f64 {
+        FOLD_SLOPE * self.shortest[v]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::vertex_normals;
+    use crate::testmeshes;
+
+    #[test]
+    fn a_sphere_lets_its_vertices_in_by_about_half_its_radius_and_out_freely() {
+        // A sphere of radius 2: k = 1/2 on every edge (bending away from the outward
+        // normals), so a vertex may move in by FOCAL_SHARE * 2 and out without limit
+        // (within 5%: angle-weighted vertex normals are not exactly radial).
+        let mut sphere = testmeshes::icosphere(3);
+        let scaled: Vec<Vec3> = sphere.positions().iter().map(|p| p.normalize() * 2.0).collect();
+        sphere = Mesh::new(scaled, &sphere.face_sizes(), sphere.corners().to_vec(), None).unwrap();
+        let limits = Limits::of(&sphere, &vertex_normals(&sphere));
+        for v in 0..sphere.vertex_count() {
+            assert!(limits.out[v].is_infinite(), "vertex {v}: out {}", limits.out[v]);
+            let expected = FOCAL_SHARE * 2.0;
+            assert!((limits.inward[v] - expected).abs() < 0.05 * expected, "vertex {v}: in {}", limits.inward[v]);
+        }
+        // Seen from inside (normals flipped), the same sphere is concave: out is limited.
+        let flipped: Vec<Vec3> = vertex_normals(&sphere).iter().map(|n| -*n).collect();
+        let inside = Limits::of(&sphere, &flipped);
+        assert!((0..sphere.vertex_count()).all(|v| inside.inward[v].is_infinite() && (inside.out[v] - FOCAL_SHARE * 2.0).abs() < 0.05));
+        assert_eq!(limits.clamp(0, 10.0), 10.0);
+        assert!((limits.clamp(0, -10.0) + limits.inward[0]).abs() < 1e-12);
+    }
+}
