@@ -5,7 +5,7 @@
 //! modifies its own level; section 4.2: "it is only necessary to specify a random value at
 //! every control point"). Each model is deterministic for a seed.
 
-mod frames;
+pub(crate) mod frames;
 mod growth;
 
 pub use frames::Frame;
