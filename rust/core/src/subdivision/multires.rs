@@ -49,12 +49,21 @@ pub(crate) fn validate_details(base: &Mesh, details: &[Vec<DVec3>]) -> Result<()
         if d.len() != n {
             return Err(Error::InvalidParameter(format!("level {} has {} details, but that level of the base has {n} vertices", l + 1, d.len())));
         }
-        if let Some(v) = d.iter().position(|x| !x.is_finite()) {
-            return Err(Error::InvalidParameter(format!("detail of vertex {v} at level {} is not finite", l + 1)));
+        let most = MAX_DETAIL * base.bbox_diagonal() as f64;
+        if let Some(v) = d.iter().position(|x| !(x.is_finite() && x.length() <= most)) {
+            return Err(Error::InvalidParameter(format!(
+                "detail of vertex {v} at level {} is not finite or longer than {MAX_DETAIL} times the base's size: {}",
+                l + 1,
+                d[v]
+            )));
         }
     }
     Ok(())
 }
+
+/// Details longer than this many times the base's bounding-box diagonal are refused (an
+/// analysed sculpt's are a small fraction of it).
+pub const MAX_DETAIL: f64 = 1e3;
 
 /// The world-space offsets of `local` details in the frames of `mesh` (normals `normals`).
 pub(crate) fn to_world(mesh: &Mesh, normals: &[Vec3], local: &[DVec3]) -> Vec<DVec3> {
