@@ -14,6 +14,7 @@
 use super::detail::frames::all_frames;
 use super::detail::{self, Offsets, State};
 use super::topology::{Level, NONE};
+use crate::spatial::Bvh;
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -134,6 +135,57 @@ fn levels_of(base: &Mesh, levels: u32) -> Result<Vec<Mesh>> {
         Offsets::Normal(vec![0.0; mesh.vertex_count()])
     })?;
     Ok(out)
+}
+
+/// [`analyze`] of the fine positions `fine` alone, the fine mesh's faces being those of
+/// `levels` subdivisions of `base_topology` (in [`synthesize`]'s numbering).
+pub fn analyze_positions(fine: Vec<Vec3>, base_topology: &Mesh, levels: u32) -> Result<Multires> {
+    if !(1..=super::MAX_LEVELS).contains(&levels) {
+        return Err(Error::InvalidParameter(format!("analysis levels must be 1 to {}, not {levels}", super::MAX_LEVELS)));
+    }
+    let want = *level_vertex_counts(base_topology, levels)?.last().expect("one level or more");
+    if fine.len() != want {
+        return Err(Error::InvalidMesh(format!("the fine mesh has {} vertices; {levels} subdivisions of the base have {want}", fine.len())));
+    }
+    let finest = levels_of(base_topology, levels)?.pop().expect("the finest level");
+    analyze(&Mesh::new(fine, &finest.face_sizes(), finest.corners().to_vec(), None)?, base_topology, levels)
+}
+
+/// The limit positions (Halstead, Kass and DeRose 1993) of the vertices of `levels` plain
+/// subdivisions of `base`, in [`synthesize`]'s numbering: where Blender's Subdivision
+/// Surface modifier with Use Limit Surface puts the same vertices, numbered its own way, so
+/// [`match_points`] finds its numbering.
+pub fn limit_positions(base: &Mesh, levels: u32) -> Result<Vec<Vec3>> {
+    let finest = levels_of(base, levels)?.pop().expect("the finest level");
+    Ok(Level::base(&finest)?.limit_positions(super::Boundary::SmoothAll).iter().map(|p| p.as_vec3()).collect())
+}
+
+/// The permutation that matches `query` to `reference` by position: `order[k]` is the
+/// reference point nearest to query point `k` (a search of a [`Bvh`] of the reference
+/// points). Refuses point sets of different sizes, a query point with no reference point
+/// within `tolerance`, and two query points with the same nearest reference point.
+pub fn match_points(reference: &[Vec3], query: &[Vec3], tolerance: f64) -> Result<Vec<u32>> {
+    if reference.len() != query.len() {
+        return Err(Error::InvalidMesh(format!("{} points cannot be matched one to one with {}", query.len(), reference.len())));
+    }
+    let points: Vec<DVec3> = reference.iter().map(|p| p.as_dvec3()).collect();
+    let bvh = Bvh::from_boxes(points.iter().map(|&p| (p, p)).collect());
+    let order: Vec<Option<u32>> =
+        query.par_iter().map(|q| bvh.closest(q.as_dvec3(), tolerance, |i| points[i as usize].distance(q.as_dvec3())).map(|(i, _)| i)).collect();
+    let mut taken = vec![u32::MAX; reference.len()];
+    for (k, o) in order.iter().enumerate() {
+        let Some(i) = *o else {
+            return Err(Error::InvalidMesh(format!("point {k} at {} has no match within {tolerance}", query[k])));
+        };
+        if taken[i as usize] != u32::MAX {
+            return Err(Error::InvalidMesh(format!(
+                "points {} and {k} both match point {i} (at {}): the meshes differ",
+                taken[i as usize], reference[i as usize]
+            )));
+        }
+        taken[i as usize] = k as u32;
+    }
+    Ok(order.into_iter().map(|o| o.expect("checked")).collect())
 }
 
 /// One Catmull-Clark step of a level's topology as a sparse matrix `S` (rows: the finer

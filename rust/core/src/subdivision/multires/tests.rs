@@ -148,4 +148,47 @@ fn bad_input_is_refused_with_a_message() {
     let mut nan = m.clone();
     nan.details[0][3].x = f64::NAN;
     assert!(matches!(synthesize(&nan), Err(Error::InvalidParameter(_))));
+    // From positions alone: the same as from the mesh; a wrong count or NaN refused.
+    assert_eq!(analyze_positions(fine.positions().to_vec(), &base, 2).unwrap(), m);
+    assert!(matches!(analyze_positions(fine.positions()[1..].to_vec(), &base, 2), Err(Error::InvalidMesh(_))));
+    let mut p = fine.positions().to_vec();
+    p[7].y = f32::NAN;
+    assert!(matches!(analyze_positions(p, &base, 2), Err(Error::NonFinite { index: 7, .. })));
+}
+
+#[test]
+fn limit_positions_and_matching_find_another_numbering() {
+    // subdivide() numbers a level's edge points by the child edges, the synthesis by sorted
+    // edges: the same limit points, another order, which matching recovers.
+    for (name, base) in meshes() {
+        let ours = limit_positions(&base, 3).unwrap();
+        let theirs = subdivide(&base, &Options { levels: 3, limit: true, boundary: Boundary::SmoothAll }).unwrap().mesh;
+        let order = match_points(theirs.positions(), &ours, 1e-5 * base.bbox_diagonal() as f64).unwrap();
+        let moved = (0..ours.len()).filter(|&k| order[k] as usize != k).count();
+        assert!(moved > 0 || name == "open grid", "{name}: the numberings differ");
+        for (k, &i) in order.iter().enumerate() {
+            assert!(ours[k].distance(theirs.positions()[i as usize]) < 1e-5 * base.bbox_diagonal(), "{name} vertex {k}");
+        }
+        // Their faces, renumbered, are ours.
+        let renumbered: Vec<u32> = theirs.corners().iter().map(|&c| order.iter().position(|&i| i == c).unwrap() as u32).collect();
+        let mine = plain(&base, 3);
+        let key = |c: &[u32]| {
+            let mut q: Vec<[u32; 4]> = c
+                .chunks(4)
+                .map(|q| {
+                    let k = (0..4).min_by_key(|&k| q[k]).unwrap();
+                    [q[k], q[(k + 1) % 4], q[(k + 2) % 4], q[(k + 3) % 4]]
+                })
+                .collect();
+            q.sort();
+            q
+        };
+        assert_eq!(key(&renumbered), key(mine.corners()), "{name}");
+    }
+    // Refusals: other sizes, too far, two on one.
+    let a = [Vec3::ZERO, Vec3::X];
+    assert!(match_points(&a, &[Vec3::ZERO], 0.1).is_err());
+    assert!(match_points(&a, &[Vec3::ZERO, Vec3::Y], 0.1).is_err());
+    assert!(match_points(&a, &[Vec3::ZERO, Vec3::new(0.01, 0.0, 0.0)], 0.1).is_err());
+    assert_eq!(match_points(&a, &[Vec3::new(0.99, 0.0, 0.0), Vec3::ZERO], 0.1).unwrap(), vec![1, 0]);
 }
