@@ -120,14 +120,23 @@ def test_native_refuses_bad_input():
             call()
 
 
-@pytest.mark.parametrize("primitive, levels", [("cube", 2), ("cube", 3), ("grid", 2)])
+PRIMITIVES = {
+    "cube": dict(size=2),
+    "grid": dict(x_subdivisions=4, y_subdivisions=3, size=2),
+    # Triangle fans at the poles; 10-gon caps.
+    "uv_sphere": dict(segments=12, ring_count=6, radius=1),
+    "cylinder": dict(vertices=10, radius=1, depth=2),
+}
+
+
+@pytest.mark.parametrize("primitive, levels", [("cube", 2), ("cube", 3), ("grid", 2), ("uv_sphere", 2), ("cylinder", 2)])
 def test_a_multires_sculpt_is_analysed_and_rebuilt(scene, primitive, levels):
-    obj = add(primitive, size=2) if primitive == "cube" else add("grid", x_subdivisions=4, y_subdivisions=3, size=2)
+    obj = add(primitive, **PRIMITIVES[primitive])
 
     def offset(p):
         bump = 0.05 * np.sin(9.0 * p[:, 0]) * np.cos(7.0 * p[:, 1]) + 0.03 * np.sin(11.0 * p[:, 2] + p[:, 0])
-        # Along the position on the cube, up on the grid.
-        return p * bump[:, None] if primitive == "cube" else np.outer(bump, [0.0, 0.0, 1.0])
+        # Up on the grid, along the position elsewhere.
+        return np.outer(bump, [0.0, 0.0, 1.0]) if primitive == "grid" else p * bump[:, None]
 
     sculpt = sculpted(obj, levels, offset)
     blender = evaluated(obj)
