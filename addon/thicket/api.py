@@ -62,6 +62,7 @@ __all__ = [
     "add_solid_texture",
     "render_field",
     "add_procedural_detail",
+    "analyze_multires",
     "ThicketError",  # noqa: F822 (module __getattr__)
     "BakeNeedsConfirmation",
 ]
@@ -344,6 +345,27 @@ def add_procedural_detail(obj, model=None, levels=None, preset=None, progress=No
     values.update(api_values(given))
     add_detail_item(obj, **values)
     return _regenerate(obj, progress=progress)
+
+
+def analyze_multires(obj):
+    """Multiresolution analysis (Velho, Perlin, Ying and Biermann, section 2) of `obj`'s
+    Multires sculpt: its evaluated mesh at the modifier's total levels, split into a coarse
+    mesh and per-level details in local frames. Returns `thicket_native.analyze`'s dict
+    (`vertices`, `face_sizes`, `corners` of the coarse mesh; `details`, a list of float64
+    (n_l, 3) arrays) plus `levels` and `order` (int32: Thicket's fine vertex i is the
+    Multires mesh's vertex `order[i]`). `thicket_native.synthesize_multires` of it rebuilds
+    the sculpt; `thicket_native.procedural_detail(..., sculpt=it)` adds procedural detail at
+    any level over it. The object is not modified."""
+    from . import mesh_io
+    from .stack.guard import suspended
+
+    _require_mesh(obj)
+    with suspended():
+        base, levels, fine, order = mesh_io.read_multires(obj)
+    out = native.get().analyze(base.vertices, base.face_sizes, base.corners, fine, levels)
+    out["levels"] = levels
+    out["order"] = order
+    return out
 
 
 def add_detail_item(obj, **values):

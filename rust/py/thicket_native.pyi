@@ -312,9 +312,24 @@ def procedural_detail(
     blend: dict[str, Any] | None = None,
     local: list[dict[str, Any]] | None = None,
     shader: dict[str, Any] | None = None,
+    sculpt: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Procedural detail on Catmull-Clark levels (Velho et al. section 4): model "rock" (params amplitude) or "berry" (radius, seeds, children), lengths as fractions of the bounding-box diagonal.
     Operations (sections 5-6): `at` the levels the model acts at; `blend` a second model (model, params, seed, at, plane=(point, direction) or weights, width) blended level by level;
     `local` modifications (center, radius in base edges, gain, levels); `shader` {"name": "planet", "sea", "snow"} for colours.
+    `sculpt`: a dict from analyze() of this base (its details are added at their levels, in local frames, before each level's procedural detail).
     Returns the finest level's vertices, face_sizes, corners (all quads), source_face, scalar (float32 per vertex: the detail added), blend (float32 per vertex),
     limited (float: the share of placed rock/berry detail the fold guard reduced so the surface cannot fold) and, with a shader, colors ((n, 4) float32)."""
+
+def analyze(vertices: Floats, face_sizes: Indices, corners: Indices, fine_vertices: Floats, levels: int) -> dict[str, Any]:
+    """Multiresolution analysis (Velho et al. section 2): fine_vertices are `levels` Catmull-Clark subdivisions of the base faces in procedural_detail's numbering.
+    Returns the coarse mesh (vertices, face_sizes, corners) and details: a list of float64 (n_l, 3) arrays, offsets in the local frames (tangent, bitangent, normal) of each subdivided coarser level."""
+
+def match_subdivision(
+    vertices: Floats, face_sizes: Indices, corners: Indices, levels: int, subdivided_vertices: Floats, tolerance: float = 1e-4
+) -> NDArray[np.int32]:
+    """Blender's numbering of `levels` subdivisions (Subdivision Surface with Use Limit Surface, or a Multires modifier's evaluated mesh): order (int32),
+    Thicket's vertex i is Blender's order[i], matched by nearest limit position within tolerance times the bounding-box diagonal; refused unless one to one."""
+
+def synthesize_multires(vertices: Floats, face_sizes: Indices, corners: Indices, details: list[Floats]) -> dict[str, Any]:
+    """Multiresolution synthesis: subdivide once per level of details, adding each level's offsets in its local frames. Returns vertices, face_sizes, corners."""

@@ -1,10 +1,11 @@
-use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyList};
 use thicket_core::glam::DVec3;
 use thicket_core::polygonize::DEFAULT_MAX_BYTES;
 use thicket_core::subdivision::budget;
 use thicket_core::subdivision::detail::Model;
+use thicket_core::subdivision::multires::{self, Multires};
 use thicket_core::subdivision::operations::{Alpha, AlphaSource, Levels, Local, Planet};
 use thicket_core::subdivision::recipe::{self, Blend, Recipe};
 use thicket_core::subdivision::{self, Boundary, Options, UvSmooth};
@@ -101,9 +102,11 @@ pub fn subdivide<'py>(
 /// so the surface cannot fold: a quarter of the local edge, half the radius of curvature;
 /// 0.0 when the model's sizes fit the mesh) and, with a shader, `colors` (float32 (n, 4)
 /// RGBA). Levels whose result would need more than 4 GB are refused before anything is
-/// made.
+/// made. `sculpt`, a dict from [`analyze`] of this base (its `details` are read;
+/// `vertices` may be an edited base), adds the analysed detail at its levels before each
+/// level's procedural detail (section 2).
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None, *, at=None, blend=None, local=None, shader=None))]
+#[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None, *, at=None, blend=None, local=None, shader=None, sculpt=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn procedural_detail<'py>(
     py: Python<'py>,
@@ -118,6 +121,7 @@ pub fn procedural_detail<'py>(
     blend: Option<&Bound<'py, PyDict>>,
     local: Option<Vec<Bound<'py, PyDict>>>,
     shader: Option<&Bound<'py, PyDict>>,
+    sculpt: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
     let diag = mesh.bbox_diagonal() as f64;
@@ -126,6 +130,7 @@ pub fn procedural_detail<'py>(
     recipe.blend = blend.map(|b| blend_from(b, &mesh)).transpose()?;
     recipe.local = local.unwrap_or_default().iter().map(local_from).collect::<PyResult<_>>()?;
     let planet = shader.map(|s| planet_from(s, diag)).transpose()?;
+    recipe.sculpt = sculpt.map(sculpt_from).transpose()?;
     if (1..=subdivision::MAX_LEVELS).contains(&levels) {
         budget::check_fits(&mesh, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
     }
@@ -146,6 +151,139 @@ pub fn procedural_detail<'py>(
         d.set_item("colors", flat.into_pyarray(py).reshape([n, 4])?)?;
     }
     Ok(d)
+}
+
+/// analyze(vertices, face_sizes, corners, fine_vertices, levels) -> dict
+///
+/// Multiresolution analysis (Velho, Perlin, Ying and Biermann, section 2, Figure 1):
+/// `fine_vertices` (float32 (m, 3)) are the positions of `levels` (1 to 6) Catmull-Clark
+/// subdivisions of the base faces (`vertices` gives the base's vertex count; its positions
+/// are not read) in `procedural_detail`'s numbering. Returns the coarse mesh (vertices,
+/// face_sizes, corners) and `details`, a list of float64 (n_l, 3) arrays, one per level,
+/// each vertex's offset in its local frame (tangent, bitangent, normal) of the subdivided
+/// coarser level. `synthesize_multires` of the result gives `fine_vertices` back.
+#[pyfunction]
+pub fn analyze<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+    fine_vertices: PyReadonlyArray2<'py, f32>,
+    levels: u32,
+) -> PyResult<Bound<'py, PyDict>> {
+    let base = arrays::mesh(&vertices, face_sizes, corners)?;
+    let fine = arrays::positions(&fine_vertices)?;
+    if (1..=subdivision::MAX_LEVELS).contains(&levels) {
+        budget::check_fits(&base, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
+    }
+    let m = run_detached(py, move || multires::analyze_positions(fine, &base, levels))?;
+    multires_dict(py, m)
+}
+
+/// synthesize_multires(vertices, face_sizes, corners, details) -> dict
+///
+/// Multiresolution synthesis (section 2): subdivides the base once per entry of `details`
+/// (a list of (n_l, 3) float64 or float32 arrays, as `analyze` returns), adding each
+/// level's offsets in the local frames of the subdivided coarser level. Returns the finest
+/// mesh's vertices, face_sizes and corners (all quads).
+#[pyfunction]
+pub fn synthesize_multires<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+    details: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let base = arrays::mesh(&vertices, face_sizes, corners)?;
+    let details = details_from(details)?;
+    if (1..=subdivision::MAX_LEVELS as usize).contains(&details.len()) {
+        budget::check_fits(&base, details.len() as u32, DEFAULT_MAX_BYTES).map_err(to_py)?;
+    }
+    let mesh = run_detached(py, move || multires::synthesize(&Multires { base, details }))?;
+    arrays::mesh_dict(py, mesh)
+}
+
+/// match_subdivision(vertices, face_sizes, corners, levels, subdivided_vertices, tolerance=1e-4) -> int32 array
+///
+/// Blender's numbering of `levels` subdivisions of the base, from `subdivided_vertices`:
+/// the positions its Subdivision Surface modifier makes (Use Limit Surface, Boundary
+/// Smooth "All"; a Multires modifier's evaluated mesh at as many levels shares its
+/// numbering). Returns `order`, int32: Thicket's vertex `i` is Blender's `order[i]`, so
+/// `blender_positions[order]` is in the numbering `analyze` takes. Matched by nearest limit
+/// position within `tolerance` times the base's bounding-box diagonal; refused unless one
+/// to one.
+#[pyfunction]
+#[pyo3(signature = (vertices, face_sizes, corners, levels, subdivided_vertices, tolerance=1e-4))]
+pub fn match_subdivision<'py>(
+    py: Python<'py>,
+    vertices: PyReadonlyArray2<'py, f32>,
+    face_sizes: &Bound<'py, PyAny>,
+    corners: &Bound<'py, PyAny>,
+    levels: u32,
+    subdivided_vertices: PyReadonlyArray2<'py, f32>,
+    tolerance: f64,
+) -> PyResult<Bound<'py, numpy::PyArray1<i32>>> {
+    let base = arrays::mesh(&vertices, face_sizes, corners)?;
+    let theirs = arrays::positions(&subdivided_vertices)?;
+    if !(tolerance.is_finite() && tolerance > 0.0) {
+        return Err(InvalidInput::new_err(format!("tolerance must be above 0, not {tolerance}")));
+    }
+    if let Some(k) = theirs.iter().position(|p| !p.is_finite()) {
+        return Err(InvalidInput::new_err(format!("subdivided vertex {k} is not finite")));
+    }
+    if (1..=subdivision::MAX_LEVELS).contains(&levels) {
+        budget::check_fits(&base, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
+    }
+    let order = run_detached(py, move || {
+        let ours = multires::limit_positions(&base, levels)?;
+        multires::match_points(&theirs, &ours, tolerance * base.bbox_diagonal() as f64)
+    })?;
+    Ok(arrays::u32_as_i32_array(py, order))
+}
+
+/// The dict `analyze` returns: the base mesh and its details.
+fn multires_dict(py: Python<'_>, m: Multires) -> PyResult<Bound<'_, PyDict>> {
+    let d = arrays::mesh_dict(py, m.base)?;
+    let levels = PyList::empty(py);
+    for level in m.details {
+        let n = level.len();
+        let flat: Vec<f64> = level.into_iter().flat_map(|v| v.to_array()).collect();
+        levels.append(flat.into_pyarray(py).reshape([n, 3])?)?;
+    }
+    d.set_item("details", levels)?;
+    Ok(d)
+}
+
+/// Per-level details: a sequence of (n_l, 3) float64 or float32 arrays.
+fn details_from(details: &Bound<'_, PyAny>) -> PyResult<Vec<Vec<DVec3>>> {
+    let bad = || InvalidInput::new_err("details must be a list of (n, 3) float64 or float32 arrays, one per level");
+    let list: Vec<Bound<'_, PyAny>> = details.extract().map_err(|_| bad())?;
+    list.iter()
+        .map(|level| {
+            let flat: Vec<f64> = if let Ok(a) = level.extract::<PyReadonlyArray2<'_, f64>>() {
+                if a.shape()[1] != 3 {
+                    return Err(bad());
+                }
+                a.as_slice().map_err(|_| bad())?.to_vec()
+            } else if let Ok(a) = level.extract::<PyReadonlyArray2<'_, f32>>() {
+                if a.shape()[1] != 3 {
+                    return Err(bad());
+                }
+                a.as_slice().map_err(|_| bad())?.iter().map(|&x| x as f64).collect()
+            } else {
+                return Err(bad());
+            };
+            Ok(flat.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])).collect())
+        })
+        .collect()
+}
+
+/// `procedural_detail`'s `sculpt` dict: its `details`.
+fn sculpt_from(s: &Bound<'_, PyDict>) -> PyResult<Vec<Vec<DVec3>>> {
+    match s.get_item("details")? {
+        Some(d) => details_from(&d),
+        None => Err(InvalidInput::new_err("sculpt must be the dict thicket_native.analyze returns (with its 'details')")),
+    }
 }
 
 /// A model from its name and `params` (lengths as fractions of `mesh`'s diagonal).

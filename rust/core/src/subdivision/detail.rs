@@ -6,7 +6,7 @@
 //! every control point"). Each model is deterministic for a seed.
 
 mod fold_guard;
-mod frames;
+pub(crate) mod frames;
 mod growth;
 
 pub use fold_guard::{Tally, FOCAL_SHARE, FOLD_SLOPE};

@@ -7,6 +7,7 @@
 pub mod budget;
 pub mod detail;
 mod face_varying;
+pub mod multires;
 pub mod operations;
 pub mod recipe;
 mod topology;

@@ -4,8 +4,9 @@
 //! scalar for the post-processing shader.
 
 use super::detail::{self, Detailed, Model, Offsets, State, Tally};
+use super::multires;
 use super::operations::{Alpha, AlphaSource, Levels, Local};
-use crate::mesh::Incidence;
+use crate::mesh::{vertex_normals, Incidence};
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
 
@@ -25,7 +26,10 @@ pub struct Blend {
 /// What [`synthesize`] builds: `model` (random values from `seed`) adding detail at the
 /// levels `at` only (5: features "placed at one level or simultaneously at different
 /// scales"), optionally blended with a second model, then scaled by each local
-/// modification.
+/// modification. `sculpt`, analysed detail ([`multires::Multires::details`] of this base),
+/// is added at its levels first, in the frames of each level's subdivided mesh (section 2);
+/// the procedural detail of that level then acts on the sculpted surface, so it can go at
+/// any level, coarser or finer than the sculpt's, and the sculpt follows it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Recipe {
     pub model: Model,
@@ -33,12 +37,13 @@ pub struct Recipe {
     pub at: Levels,
     pub blend: Option<Blend>,
     pub local: Vec<Local>,
+    pub sculpt: Option<Vec<Vec<DVec3>>>,
 }
 
 impl Recipe {
     /// `model` everywhere, at every level, alone.
     pub fn of(model: Model, seed: u64) -> Self {
-        Recipe { model, seed, at: Levels::ALL, blend: None, local: Vec::new() }
+        Recipe { model, seed, at: Levels::ALL, blend: None, local: Vec::new(), sculpt: None }
     }
 
     fn validate(&self, base: &Mesh) -> Result<()> {
@@ -50,7 +55,8 @@ impl Recipe {
         if self.local.len() > MAX_LOCAL {
             return Err(Error::InvalidParameter(format!("at most {MAX_LOCAL} local modifications, not {}", self.local.len())));
         }
-        self.local.iter().try_for_each(|l| l.validate(base))
+        self.local.iter().try_for_each(|l| l.validate(base))?;
+        self.sculpt.as_ref().map_or(Ok(()), |s| multires::validate_details(base, s))
     }
 }
 
@@ -69,6 +75,13 @@ pub struct Synthesized {
 /// some levels only, or blended, has the same features it has alone.
 pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesized> {
     recipe.validate(base)?;
+    let sculpt = recipe.sculpt.as_deref().unwrap_or_default();
+    if sculpt.len() > levels as usize {
+        return Err(Error::InvalidParameter(format!(
+            "the sculpt has {} levels, more than the {levels} synthesized; synthesize at least as many",
+            sculpt.len()
+        )));
+    }
     let mut first = recipe.model.initial_state(base);
     let mut second = recipe.blend.as_ref().map(|b| b.model.initial_state(base));
     // Painted alpha: the weights carried level by level, linearly (the parent level's
@@ -79,6 +92,18 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
     };
     let mut blend_out = Vec::new();
     let detailed = detail::synthesize(base, levels, State::default(), |level, mesh, normals, _| {
+        // The sculpt's detail of this level, and the sculpted surface the models then see.
+        let sculpted = sculpt.get(level as usize - 1).map(|local| {
+            let w = multires::to_world(mesh, normals, local);
+            let moved = mesh.positions().iter().zip(&w).map(|(p, w)| (p.as_dvec3() + *w).as_vec3()).collect();
+            let moved = Mesh::new(moved, &mesh.face_sizes(), mesh.corners().to_vec(), None).expect("the same topology, finite positions");
+            let n = vertex_normals(&moved);
+            (w, moved, n)
+        });
+        let (mesh, normals) = match &sculpted {
+            Some((_, m, n)) => (m, &n[..]),
+            None => (mesh, normals),
+        };
         // A model runs at every level (its seeds and state evolve), but only its placed
         // levels move the surface and count in its tally.
         let placed = |at: Levels, d: Offsets| if at.has(level) { d } else { Offsets::Normal(vec![0.0; mesh.vertex_count()]) };
@@ -115,7 +140,10 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
                 scaled(&mut d, &local.weights(level, levels, mesh, &incidence));
             }
         }
-        d
+        match &sculpted {
+            Some((w, _, _)) => Offsets::World(world(d, normals).iter().zip(w).map(|(d, w)| *d + *w).collect()),
+            None => d,
+        }
     })?;
     if blend_out.is_empty() {
         blend_out = vec![0.0; detailed.mesh.vertex_count()];
@@ -284,6 +312,68 @@ mod tests {
         .unwrap();
         assert_eq!(out, level2_only);
         assert_ne!(out, detail::procedural_detail(&base, 2, &rock(0.05), 4).unwrap());
+    }
+
+    /// A sphere sculpted at levels 1-3 (bumps and noise along the normals), analysed.
+    fn sculpt() -> (Mesh, Mesh, multires::Multires) {
+        let base = sphere();
+        let plain = detail::synthesize(&base, 3, State::default(), |_, m, _, _| Offsets::Normal(vec![0.0; m.vertex_count()])).unwrap().mesh;
+        let n = vertex_normals(&plain);
+        let moved = plain.positions().iter().zip(&n).map(|(p, n)| *p + *n * (0.006 * (25.0 * p.x).sin() * (21.0 * p.z).cos())).collect();
+        let fine = Mesh::new(moved, &plain.face_sizes(), plain.corners().to_vec(), None).unwrap();
+        let m = multires::analyze(&fine, &base, 3).unwrap();
+        (base, fine, m)
+    }
+
+    #[test]
+    fn a_sculpt_under_a_flat_model_is_the_sculpt() {
+        let (_, fine, m) = sculpt();
+        let recipe = Recipe { sculpt: Some(m.details.clone()), ..Recipe::of(rock(0.0), 4) };
+        for levels in [3, 4] {
+            let out = synthesize(&m.base, levels, &recipe).unwrap().detailed.mesh;
+            let want = if levels == 3 {
+                fine.clone()
+            } else {
+                detail::synthesize(&fine, 1, State::default(), |_, m, _, _| Offsets::Normal(vec![0.0; m.vertex_count()])).unwrap().mesh
+            };
+            let worst = out.positions().iter().zip(want.positions()).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+            assert!(worst < 1e-5 * fine.bbox_diagonal(), "{levels} levels: {worst}");
+        }
+        // Its levels must fit in those made, and it must be of this base.
+        assert!(matches!(synthesize(&m.base, 2, &recipe), Err(Error::InvalidParameter(_))));
+        let other = Recipe { sculpt: Some(m.details.clone()), ..Recipe::of(rock(0.0), 4) };
+        assert!(matches!(synthesize(&crate::mesh::fixtures::cube(), 3, &other), Err(Error::InvalidParameter(_))));
+    }
+
+    #[test]
+    fn a_coarser_rock_carries_the_finer_sculpt_along() {
+        let (_, fine, m) = sculpt();
+        // The sculpt at levels 2-3 only, the rock at level 1 only.
+        let mut details = m.details.clone();
+        details[0].iter_mut().for_each(|d| *d = DVec3::ZERO);
+        let rock1 = Recipe { at: Levels::of(&[1]).unwrap(), ..Recipe::of(rock(0.2), 4) };
+        let both = Recipe { sculpt: Some(details.clone()), ..rock1.clone() };
+        let flat_sculpt = Recipe { sculpt: Some(details), ..Recipe::of(rock(0.0), 4) };
+        let plain = synthesize(&m.base, 3, &Recipe::of(rock(0.0), 4)).unwrap().detailed.mesh;
+        let (r, b, s) = [&rock1, &both, &flat_sculpt].map(|x| synthesize(&m.base, 3, x).unwrap().detailed.mesh).into();
+        let diag = fine.bbox_diagonal();
+        // The rock moves the surface far more than the sculpt's features are high...
+        let size = |a: &Mesh, b: &Mesh| a.positions().iter().zip(b.positions()).map(|(p, q)| p.distance(*q)).fold(0.0, f32::max);
+        let feature = size(&s, &plain);
+        assert!(feature > 0.001 * diag && size(&r, &plain) > 2.0 * feature, "{feature} {}", size(&r, &plain));
+        // ... and the sculpted features ride on it: over the rock, the sculpted offsets keep
+        // their heights along the normal (to a fraction of them: the rock's curvature bends
+        // them), where world-space offsets (added as they are) would not.
+        let (nr, np) = (vertex_normals(&r), vertex_normals(&plain));
+        let rms = |x: &mut dyn Iterator<Item = f32>| {
+            let (sum, n) = x.fold((0.0f64, 0usize), |(s, n), e| (s + (e as f64).powi(2), n + 1));
+            (sum / n as f64).sqrt()
+        };
+        let height = |v: usize| (s.positions()[v] - plain.positions()[v]).dot(np[v]);
+        let heights = rms(&mut (0..r.vertex_count()).map(height));
+        let framed = rms(&mut (0..r.vertex_count()).map(|v| (b.positions()[v] - r.positions()[v]).dot(nr[v]) - height(v)));
+        let world = rms(&mut (0..r.vertex_count()).map(|v| (s.positions()[v] - plain.positions()[v]).dot(nr[v]) - height(v)));
+        assert!(framed < 0.2 * heights && world > 2.0 * framed, "rms heights {heights}, errors in frames {framed}, in world space {world}");
     }
 
     #[test]

@@ -69,6 +69,15 @@ pub fn frames_of(positions: &[Vec3], normals: &[Vec3], next: &[u32], vertices: &
         .collect()
 }
 
+/// The frame of every vertex of `mesh` with vertex normals `normals` ([`frames_of`] for all
+/// of them, in parallel).
+pub fn all_frames(mesh: &crate::Mesh, normals: &[Vec3]) -> Vec<Frame> {
+    use rayon::prelude::*;
+    let next = first_neighbours(mesh.faces(), mesh.vertex_count());
+    let p = mesh.positions();
+    (0..p.len()).into_par_iter().map(|v| Frame::new(normals[v].as_dvec3(), p[next[v] as usize].as_dvec3() - p[v].as_dvec3())).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
