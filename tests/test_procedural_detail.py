@@ -290,3 +290,56 @@ def test_zero_area_faces_take_detail_without_nan(scene, model):
     out = tn.procedural_detail(v, sizes, corners, model, 2, 1)
     assert np.isfinite(out["vertices"]).all() and np.isfinite(out["scalar"]).all()
     assert len(out["face_sizes"]) == 6 * 4 * 4
+
+
+def test_uvs_ride_through_the_levels_as_subdivide_carries_them(scene):
+    """UVs are face-varying: they do not depend on the positions, so the detail's are
+    those `subdivide` gives without the limit (the levels are control meshes), corner by
+    corner, with or without detail. Suzanne's map has islands (seams and boundaries);
+    a second, planar map of the vertices' x and y has none."""
+    obj = add("monkey")
+    a = mesh_io.read_mesh(obj.data)
+    planar = np.ascontiguousarray(a.vertices[a.corners, :2])
+    arrays = (a.vertices, a.face_sizes, a.corners)
+    expected = [tn.subdivide(*arrays, 3, False, uvs=uv)["uvs"] for uv in (a.uvs, planar)]
+    plain = tn.subdivide(*arrays, 3, False)
+    assert np.abs(expected[0] - expected[1]).max() > 0.1
+    for amplitude in (0.0, 0.03):
+        out = tn.procedural_detail(*arrays, "rock", 3, 5, {"amplitude": amplitude}, uvs=a.uvs)
+        assert out["uvs"].dtype == np.float32 and out["uvs"].shape == (len(out["corners"]), 2)
+        np.testing.assert_array_equal(out["uvs"], expected[0])
+        both = tn.procedural_detail(*arrays, "rock", 3, 5, {"amplitude": amplitude}, uvs=[a.uvs, planar])
+        assert isinstance(both["uvs"], list) and len(both["uvs"]) == 2
+        for got, want in zip(both["uvs"], expected):
+            np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(both["vertices"], out["vertices"])
+        # The same faces and corners as `subdivide`'s (its vertices numbered otherwise):
+        # one vertex of the detail per vertex of subdivide's, corner by corner.
+        pairs = np.unique(np.stack([out["corners"], plain["corners"]], axis=1), axis=0)
+        assert len(pairs) == len(out["vertices"]) == len(plain["vertices"])
+        if amplitude == 0.0:
+            np.testing.assert_allclose(out["vertices"][out["corners"]], plain["vertices"][plain["corners"]], atol=1e-5)
+    assert "uvs" not in tn.procedural_detail(*arrays, "rock", 1)
+    assert tn.procedural_detail(*arrays, "rock", 1, uvs=[])["uvs"] == []
+    linear = tn.procedural_detail(*arrays, "rock", 2, uvs=a.uvs, uv_smooth="NONE")["uvs"]
+    np.testing.assert_array_equal(linear, tn.subdivide(*arrays, 2, False, uvs=a.uvs, uv_smooth="NONE")["uvs"])
+
+
+def test_bad_uvs_are_refused(scene):
+    obj = add("cube")
+    a = mesh_io.read_mesh(obj.data)
+    arrays = (a.vertices, a.face_sizes, a.corners)
+    good = np.zeros((24, 2), np.float32)
+    for uvs, message in [
+        (np.zeros((23, 2), np.float32), r"uvs must have shape \(24, 2\)"),
+        (np.zeros((24, 3), np.float32), r"uvs must have shape \(24, 2\)"),
+        (np.zeros((24, 2), np.float64), "uvs must be a float32 array"),
+        ([good, np.zeros(48, np.float32)], "uvs must be a float32 array"),
+        ([good, np.zeros((12, 2), np.float32)], r"uvs must have shape \(24, 2\)"),
+        (np.full((24, 2), np.nan, np.float32), "UV of corner 0 is not finite"),
+        ("uv", "uvs must be a float32 array"),
+    ]:
+        with pytest.raises(tn.InvalidInput, match=message):
+            tn.procedural_detail(*arrays, "rock", 2, uvs=uvs)
+    with pytest.raises(tn.InvalidInput, match="uv_smooth must be"):
+        tn.procedural_detail(*arrays, "rock", 2, uvs=good, uv_smooth="SMOOTH_ALL")

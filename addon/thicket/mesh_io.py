@@ -79,6 +79,8 @@ def write_mesh(mesh: bpy.types.Mesh, arrays: MeshArrays) -> None:
     for name, uv in arrays.uv_maps.items():
         layer = mesh.uv_layers.new(name=name, do_init=False)
         layer.data.foreach_set("uv", np.ascontiguousarray(uv, dtype=np.float32).ravel())
+    if arrays.uv_name in mesh.uv_layers:
+        mesh.uv_layers.active = mesh.uv_layers[arrays.uv_name]
     if arrays.material_index is not None and f > 0:
         attr = mesh.attributes.get("material_index") or mesh.attributes.new("material_index", "INT", "FACE")
         attr.data.foreach_set("value", np.ascontiguousarray(arrays.material_index, dtype=np.int32))

@@ -312,8 +312,12 @@ def procedural_detail(
     blend: dict[str, Any] | None = None,
     local: list[dict[str, Any]] | None = None,
     shader: dict[str, Any] | None = None,
+    uvs: Floats | list[Floats] | None = None,
+    uv_smooth: str = "PRESERVE_BOUNDARIES",
 ) -> dict[str, Any]:
     """Procedural detail on Catmull-Clark levels (Velho et al. section 4): model "rock" (params amplitude) or "berry" (radius, seeds, children), lengths as fractions of the bounding-box diagonal.
     Operations (sections 5-6): `at` the levels the model acts at; `blend` a second model (model, params, seed, at, plane=(point, direction) or weights, width) blended level by level;
     `local` modifications (center, radius in base edges, gain, levels); `shader` {"name": "planet", "sea", "snow"} for colours.
-    Returns the finest level's vertices, face_sizes, corners (all quads), source_face, scalar (float32 per vertex: the detail added), blend (float32 per vertex) and, with a shader, colors ((n, 4) float32)."""
+    `uvs` (one float32 (corners, 2) map or a list of them) go through the levels by `uv_smooth` as subdivide's without the limit.
+    Returns the finest level's vertices, face_sizes, corners (all quads), source_face, scalar (float32 per vertex: the detail added), blend (float32 per vertex),
+    with a shader, colors ((n, 4) float32) and, with uvs, uvs per corner of the result (a list when a list was given)."""

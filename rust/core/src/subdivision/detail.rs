@@ -545,6 +545,32 @@ mod tests {
     }
 
     #[test]
+    fn uvs_on_the_connectivity_alone_are_subdivides() {
+        // `subdivide_uvs` (what the detail's UVs are) refines no position: its UVs are
+        // those `subdivide_with_uvs` gives without the limit, bit for bit, seams included
+        // (every fifth face's corners shifted off their neighbours').
+        use crate::subdivision::{subdivide_uvs, subdivide_with_uvs, UvSmooth};
+        use glam::Vec2;
+        let base = sphere();
+        let p = base.positions();
+        let uvs: Vec<Vec2> = base
+            .faces()
+            .enumerate()
+            .flat_map(|(f, face)| face.iter().map(move |&v| Vec2::new(p[v as usize].x, p[v as usize].y) + (f % 5 == 0) as u8 as f32 * 0.5))
+            .collect();
+        let planar: Vec<Vec2> = base.corners().iter().map(|&v| Vec2::new(p[v as usize].y, p[v as usize].z)).collect();
+        for smooth in [UvSmooth::PreserveBoundaries, UvSmooth::Linear] {
+            for levels in 1..=3 {
+                let options = Options { levels, limit: false, boundary: Boundary::SmoothAll };
+                let (_, want) = subdivide_with_uvs(&base, &options, smooth, &[&uvs, &planar]).unwrap();
+                assert_eq!(subdivide_uvs(&base, levels, smooth, &[&uvs, &planar]).unwrap(), want, "{smooth:?} level {levels}");
+            }
+        }
+        assert!(matches!(subdivide_uvs(&base, 2, UvSmooth::Linear, &[&uvs[1..]]), Err(Error::InvalidParameter(_))));
+        assert!(matches!(subdivide_uvs(&base, 0, UvSmooth::Linear, &[&uvs]), Err(Error::InvalidParameter(_))));
+    }
+
+    #[test]
     fn bad_parameters_are_refused() {
         let base = sphere();
         let refuse = |m: Model, levels: u32| assert!(matches!(procedural_detail(&base, levels, &m, 0), Err(Error::InvalidParameter(_))), "{m:?}");

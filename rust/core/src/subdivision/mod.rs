@@ -83,17 +83,7 @@ pub fn subdivide(mesh: &Mesh, options: &Options) -> Result<Subdivided> {
 /// UV Smooth option; returns each map per corner of the subdivided mesh. With
 /// `options.limit`, the UVs go to their limit as the positions do.
 pub fn subdivide_with_uvs(mesh: &Mesh, options: &Options, smooth: UvSmooth, uvs: &[&[Vec2]]) -> Result<(Subdivided, Vec<Vec<Vec2>>)> {
-    if !(1..=MAX_LEVELS).contains(&options.levels) {
-        return Err(Error::InvalidParameter(format!("subdivision levels must be 1 to {MAX_LEVELS}, not {}", options.levels)));
-    }
-    mesh.require_faces()?;
-    let out_corners = mesh.corners().len() as u64 * 4u64.pow(options.levels);
-    if out_corners > u32::MAX as u64 {
-        return Err(Error::OverLimit(format!(
-            "{} levels of subdivision would make {out_corners} face corners, more than a mesh can hold (2^32); use fewer levels",
-            options.levels
-        )));
-    }
+    check_levels(mesh, options.levels)?;
     let mut level = Level::base(mesh)?;
     let mut channels = uvs.iter().map(|uv| Channel::weld(&level, uv)).collect::<Result<Vec<_>>>()?;
     let mut source_face: Vec<u32> = (0..mesh.face_count() as u32).collect();
@@ -108,6 +98,39 @@ pub fn subdivide_with_uvs(mesh: &Mesh, options: &Options, smooth: UvSmooth, uvs:
     let sizes = vec![4u32; level.corners.len() / 4];
     let mesh = Mesh::new(positions, &sizes, level.corners, None)?;
     Ok((Subdivided { mesh, source_face }, uvs))
+}
+
+/// Per-corner UV maps (`uvs`, each one UV per corner of `mesh`) through `levels`
+/// Catmull-Clark levels by the `smooth` rule, on the connectivity alone: the UVs
+/// [`subdivide_with_uvs`] gives without the limit (face-varying values do not depend on
+/// the positions, so none are subdivided), one per corner of the subdivided mesh, whose
+/// corners [`detail::procedural_detail`] orders as [`subdivide`] does. The detail's
+/// levels are control meshes, never the limit surface, so the UVs are not taken to it.
+pub fn subdivide_uvs(mesh: &Mesh, levels: u32, smooth: UvSmooth, uvs: &[&[Vec2]]) -> Result<Vec<Vec<Vec2>>> {
+    check_levels(mesh, levels)?;
+    let mut level = Level::base(mesh)?;
+    let mut channels = uvs.iter().map(|uv| Channel::weld(&level, uv)).collect::<Result<Vec<_>>>()?;
+    for _ in 0..levels {
+        channels = channels.iter().map(|c| c.refine(&level, smooth)).collect();
+        level = level.child_topology();
+    }
+    Ok(channels.iter().map(|c| c.per_corner(&level, smooth, false)).collect())
+}
+
+/// Refuses levels outside 1 to [`MAX_LEVELS`], a mesh of no face, and outputs beyond 2^32
+/// corners.
+fn check_levels(mesh: &Mesh, levels: u32) -> Result<()> {
+    if !(1..=MAX_LEVELS).contains(&levels) {
+        return Err(Error::InvalidParameter(format!("subdivision levels must be 1 to {MAX_LEVELS}, not {levels}")));
+    }
+    mesh.require_faces()?;
+    let out_corners = mesh.corners().len() as u64 * 4u64.pow(levels);
+    if out_corners > u32::MAX as u64 {
+        return Err(Error::OverLimit(format!(
+            "{levels} levels of subdivision would make {out_corners} face corners, more than a mesh can hold (2^32); use fewer levels"
+        )));
+    }
+    Ok(())
 }
 
 /// What the subdivision rules average: positions and face-varying values.

@@ -146,6 +146,15 @@ impl Level {
     }
 }
 
+impl Level {
+    /// The next level's connectivity alone ([`Level::child`] with every position at the
+    /// origin): what face-varying data refines on.
+    pub fn child_topology(&self) -> Level {
+        let n = self.positions.len() + self.edges.len() + self.face_count();
+        self.child(vec![DVec3::ZERO; n])
+    }
+}
+
 /// The faces on each side of each edge, from the edge and face of each corner.
 fn edge_faces(edges: usize, corner_edge: &[u32], corner_face: &[u32]) -> Vec<[u32; 2]> {
     let mut sides = vec![[NONE; 2]; edges];
