@@ -234,6 +234,12 @@ impl Level {
     /// ((n-2)/n v + sum(e_i)/n^2 + sum(f_i)/n^2 inside; (e1 + 6 v + e2)/8 on a boundary, the
     /// cubic B-spline curve rule).
     fn refine(&self, boundary: Boundary) -> Level {
+        self.child(self.points(boundary))
+    }
+
+    /// The next level's positions as [`Level::refine`] makes them: vertex points, then one
+    /// edge point per edge, then one face point per face.
+    fn points(&self, boundary: Boundary) -> Vec<DVec3> {
         let p = &self.positions;
         let face_points: Vec<DVec3> = (0..self.face_count()).into_par_iter().map(|f| face_point(self.face(f).iter().map(|&v| p[v as usize]))).collect();
         let edge_points: Vec<DVec3> = self
@@ -251,7 +257,7 @@ impl Level {
             .collect();
         let rings = Rings::of(self, |c| face_points[self.corner_face[c] as usize]);
         let vertex_points = rings.each_vertex(p, boundary, |v, ends| (v * 6.0 + ends) / 8.0, vertex_point);
-        self.child([vertex_points, edge_points, face_points].concat())
+        [vertex_points, edge_points, face_points].concat()
     }
 
     /// The limit positions of an all-quad level's vertices: [`limit_point`] inside,
