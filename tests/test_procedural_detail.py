@@ -321,10 +321,11 @@ def imported(name):
 # 2,512 triangle pairs on this UV sphere and the berry preset in 15,258 on a cow scan.
 FOLD_CASES = [
     ("uv_sphere", "rock", {"amplitude": 0.03}),
-    ("uv_sphere", "berry", {"radius": 0.12, "children": 3}),
     ("bunny", "rock", {"amplitude": 0.03}),
     ("bunny", "berry", {"radius": 0.12, "children": 3}),
     ("comb", "berry", {"radius": 0.12, "children": 3}),
+    ("hand", "berry", {"radius": 0.12, "children": 3}),
+    ("torus_knot", "berry", {"radius": 0.12, "children": 3}),
     ("torus_knot", "rock", {"amplitude": 0.03}),
     ("two_spheres", "rock", {"amplitude": 0.03}),
 ]
@@ -346,6 +347,18 @@ def test_the_presets_detail_does_not_fold_the_surface(scene, name, model, params
     if model == "rock":
         assert out["limited"] > 0.0, "the rock is over a quarter of these meshes' edges, so the guard acts"
     assert crossing_pairs(out) == 0
+    # Nor does a rock turn any face over within its ring (which the pairs above, sharing
+    # a vertex, do not see): each quad's normal (cross product of its diagonals) still
+    # points the way the plain subdivision's does. (A berry dome's rim is vertical, the
+    # paper's profile: its wall faces can lean past it, an overhang, not a crossing.)
+    if model == "rock":
+        turned = np.einsum("ij,ij->i", quad_normals(out), quad_normals(plain)) <= 0
+        assert not turned.any(), f"{turned.sum()} of {len(turned)} faces turned over"
+
+
+def quad_normals(out):
+    p, q = np.asarray(out["vertices"], np.float64), np.asarray(out["corners"]).reshape(-1, 4)
+    return np.cross(p[q[:, 2]] - p[q[:, 0]], p[q[:, 3]] - p[q[:, 1]])
 
 
 def test_detail_the_mesh_takes_is_not_limited(scene):
@@ -355,3 +368,56 @@ def test_detail_the_mesh_takes_is_not_limited(scene):
     a, _ = sphere_arrays()
     assert detail(a, "rock", 2, 1, {"amplitude": 0.001})["limited"] == 0.0
     assert detail(a, "berry", 2, 1, {"radius": 0.1, "children": 0})["limited"] == 0.0
+
+
+def test_uvs_ride_through_the_levels_as_subdivide_carries_them(scene):
+    """UVs are face-varying: they do not depend on the positions, so the detail's are
+    those `subdivide` gives without the limit (the levels are control meshes), corner by
+    corner, with or without detail. Suzanne's map has islands (seams and boundaries);
+    a second, planar map of the vertices' x and y has none."""
+    obj = add("monkey")
+    a = mesh_io.read_mesh(obj.data)
+    planar = np.ascontiguousarray(a.vertices[a.corners, :2])
+    arrays = (a.vertices, a.face_sizes, a.corners)
+    expected = [tn.subdivide(*arrays, 3, False, uvs=uv)["uvs"] for uv in (a.uvs, planar)]
+    plain = tn.subdivide(*arrays, 3, False)
+    assert np.abs(expected[0] - expected[1]).max() > 0.1
+    for amplitude in (0.0, 0.03):
+        out = tn.procedural_detail(*arrays, "rock", 3, 5, {"amplitude": amplitude}, uvs=a.uvs)
+        assert out["uvs"].dtype == np.float32 and out["uvs"].shape == (len(out["corners"]), 2)
+        np.testing.assert_array_equal(out["uvs"], expected[0])
+        both = tn.procedural_detail(*arrays, "rock", 3, 5, {"amplitude": amplitude}, uvs=[a.uvs, planar])
+        assert isinstance(both["uvs"], list) and len(both["uvs"]) == 2
+        for got, want in zip(both["uvs"], expected):
+            np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(both["vertices"], out["vertices"])
+        # The same faces and corners as `subdivide`'s (its vertices numbered otherwise):
+        # one vertex of the detail per vertex of subdivide's, corner by corner.
+        pairs = np.unique(np.stack([out["corners"], plain["corners"]], axis=1), axis=0)
+        assert len(pairs) == len(out["vertices"]) == len(plain["vertices"])
+        if amplitude == 0.0:
+            np.testing.assert_allclose(out["vertices"][out["corners"]], plain["vertices"][plain["corners"]], atol=1e-5)
+    assert "uvs" not in tn.procedural_detail(*arrays, "rock", 1)
+    assert tn.procedural_detail(*arrays, "rock", 1, uvs=[])["uvs"] == []
+    linear = tn.procedural_detail(*arrays, "rock", 2, uvs=a.uvs, uv_smooth="NONE")["uvs"]
+    np.testing.assert_array_equal(linear, tn.subdivide(*arrays, 2, False, uvs=a.uvs, uv_smooth="NONE")["uvs"])
+
+
+def test_bad_uvs_are_refused(scene):
+    obj = add("cube")
+    a = mesh_io.read_mesh(obj.data)
+    arrays = (a.vertices, a.face_sizes, a.corners)
+    good = np.zeros((24, 2), np.float32)
+    for uvs, message in [
+        (np.zeros((23, 2), np.float32), r"uvs must have shape \(24, 2\)"),
+        (np.zeros((24, 3), np.float32), r"uvs must have shape \(24, 2\)"),
+        (np.zeros((24, 2), np.float64), "uvs must be a float32 array"),
+        ([good, np.zeros(48, np.float32)], "uvs must be a float32 array"),
+        ([good, np.zeros((12, 2), np.float32)], r"uvs must have shape \(24, 2\)"),
+        (np.full((24, 2), np.nan, np.float32), "UV of corner 0 is not finite"),
+        ("uv", "uvs must be a float32 array"),
+    ]:
+        with pytest.raises(tn.InvalidInput, match=message):
+            tn.procedural_detail(*arrays, "rock", 2, uvs=uvs)
+    with pytest.raises(tn.InvalidInput, match="uv_smooth must be"):
+        tn.procedural_detail(*arrays, "rock", 2, uvs=good, uv_smooth="SMOOTH_ALL")

@@ -401,7 +401,7 @@ def test_a_rock_too_rough_for_a_dense_mesh_is_guarded_and_the_user_told(scene):
     how to keep it as set; a rock the mesh takes gets no such note."""
     sphere = add("ico_sphere", subdivisions=5)
     result = api.add_procedural_detail(sphere, preset="ROCK", levels=2)
-    assert "so the surface cannot fold" in sphere.thicket.last_note, sphere.thicket.last_note
+    assert "so the surface does not fold" in sphere.thicket.last_note, sphere.thicket.last_note
     bm = bmesh.new()
     bm.from_mesh(result.data)
     bmesh.ops.triangulate(bm, faces=bm.faces[:])
@@ -413,4 +413,42 @@ def test_a_rock_too_rough_for_a_dense_mesh_is_guarded_and_the_user_told(scene):
     assert not (~(a[:, :, None] == b[:, None, :]).any(axis=(1, 2))).any(), "no two triangles that share no vertex cross"
     api.remove(sphere)
     api.add_procedural_detail(sphere, model="ROCK", levels=2, amplitude=0.0005)
-    assert "cannot fold" not in sphere.thicket.last_note, sphere.thicket.last_note
+    assert "does not fold" not in sphere.thicket.last_note, sphere.thicket.last_note
+
+
+def test_every_uv_map_goes_through_the_levels_as_blenders_modifier_takes_it(scene):
+    """Both UV maps of the source (the sphere's own, seams along a meridian and at the
+    poles, and a Smart UV Project of other islands, the active one) come out under their
+    names, the active one active, each equal corner by corner to Blender's Subdivision
+    Surface modifier's (limit surface off, the same levels, UV Smooth "Keep Boundaries")
+    on the source: UVs do not depend on the positions, so the rock's detail leaves them
+    as they are."""
+    from test_subdivision import blender_subdivided, corner_uv_difference
+
+    sphere = add("uv_sphere", segments=16, ring_count=8)
+    mesh = sphere.data
+    mesh.uv_layers.active = mesh.uv_layers.new(name="Smart")
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.uv.smart_project()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert [uv.name for uv in mesh.uv_layers] == ["UVMap", "Smart"] and mesh.uv_layers.active.name == "Smart"
+    levels = 3
+    result = api.add_procedural_detail(sphere, model="ROCK", levels=levels, amplitude=0.03, seed=2)
+    ours = mesh_io.read_mesh(result.data)
+    assert [uv.name for uv in result.data.uv_layers] == ["UVMap", "Smart"] and ours.uv_name == "Smart"
+    assert "UV" not in sphere.thicket.last_note
+    base = mesh_io.read_mesh(mesh)
+    # The result's faces and corners are `subdivide`'s (checked in test_procedural_detail):
+    # its level-3 control mesh places the faces for matching with the modifier's.
+    plain = tn.subdivide(base.vertices, base.face_sizes, base.corners, levels, False)
+    np.testing.assert_array_equal(ours.face_sizes, plain["face_sizes"])
+    assert len(np.unique(np.stack([ours.corners, plain["corners"]], axis=1), axis=0)) == len(plain["vertices"])
+    theirs = blender_subdivided(sphere, levels, False, uv_smooth="PRESERVE_BOUNDARIES")
+    assert set(theirs.uv_maps) == {"UVMap", "Smart"}
+    diagonal = float(np.linalg.norm(np.ptp(theirs.vertices, axis=0)))
+    for name in ("UVMap", "Smart"):
+        theirs.uvs = theirs.uv_maps[name]
+        difference = corner_uv_difference(dict(plain, uvs=ours.uv_maps[name]), theirs, diagonal)
+        assert difference <= 1e-5, f"{name}: {difference:.3g}"
+    assert np.abs(ours.uv_maps["UVMap"] - ours.uv_maps["Smart"]).max() > 0.1

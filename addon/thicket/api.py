@@ -354,8 +354,10 @@ def analyze_multires(obj):
     (`vertices`, `face_sizes`, `corners` of the coarse mesh; `details`, a list of float64
     (n_l, 3) arrays) plus `levels` and `order` (int32: Thicket's fine vertex i is the
     Multires mesh's vertex `order[i]`). `thicket_native.synthesize_multires` of it rebuilds
-    the sculpt; `thicket_native.procedural_detail(..., sculpt=it)` adds procedural detail at
-    any level over it. The object is not modified."""
+    the sculpt; `thicket_native.procedural_detail(it["vertices"], it["face_sizes"],
+    it["corners"], ..., sculpt=it)` adds procedural detail at any level over it (the base
+    must be the dict's own fitted coarse mesh, or an edit of it, not `obj.data`). The
+    object is not modified; an object in Sculpt Mode is refused."""
     from . import mesh_io
     from .stack.guard import suspended
 

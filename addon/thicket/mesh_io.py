@@ -79,6 +79,8 @@ def write_mesh(mesh: bpy.types.Mesh, arrays: MeshArrays) -> None:
     for name, uv in arrays.uv_maps.items():
         layer = mesh.uv_layers.new(name=name, do_init=False)
         layer.data.foreach_set("uv", np.ascontiguousarray(uv, dtype=np.float32).ravel())
+    if arrays.uv_name in mesh.uv_layers:
+        mesh.uv_layers.active = mesh.uv_layers[arrays.uv_name]
     if arrays.material_index is not None and f > 0:
         attr = mesh.attributes.get("material_index") or mesh.attributes.new("material_index", "INT", "FACE")
         attr.data.foreach_set("value", np.ascontiguousarray(arrays.material_index, dtype=np.int32))
@@ -195,13 +197,22 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
         bpy.context.view_layer.update()
 
 
-def _positions(obj, depsgraph) -> np.ndarray:
+def _evaluated_arrays(obj, depsgraph) -> MeshArrays:
     evaluated = obj.evaluated_get(depsgraph)
     mesh = evaluated.to_mesh()
     try:
-        return read_mesh(mesh).vertices
+        return read_mesh(mesh)
     finally:
         evaluated.to_mesh_clear()
+
+
+def _canonical_quads(corners) -> np.ndarray:
+    """Quads (rows of 4 vertex indices) each rotated to start at its smallest index, and
+    sorted: equal arrays for the same oriented faces in any order."""
+    quads = np.asarray(corners, dtype=np.int64).reshape(-1, 4)
+    start = np.argmin(quads, axis=1)
+    rotated = quads[np.arange(len(quads))[:, None], (start[:, None] + np.arange(4)) % 4]
+    return rotated[np.lexsort(rotated.T[::-1])]
 
 
 def read_multires(obj: bpy.types.Object):
@@ -225,15 +236,22 @@ def read_multires(obj: bpy.types.Object):
     levels = modifier.total_levels
     if levels < 1:
         raise ValueError(f"the Multires modifier of '{obj.name}' has no levels: subdivide it first")
+    if obj.mode == "SCULPT":
+        raise ValueError(f"'{obj.name}' is in Sculpt Mode: leave it (its latest strokes are kept in the sculpt) before reading the Multires")
+    if obj.mode == "EDIT":
+        obj.update_from_editmode()
     base = read_mesh(obj.data)
     collection = bpy.context.scene.collection
     # The sculpt: a copy of the object with its Multires at all its levels and every other
     # modifier off (none is removed: removing a Multires deletes the mesh's displacements).
-    sculpt = obj.copy()
     # The numbering: the base alone (the same mesh, no Multires) under a Subdivision Surface.
-    plain = bpy.data.objects.new(f".thicket numbering {obj.name}", obj.data)
-    probes = (sculpt, plain)
+    probes = []
     try:
+        sculpt = obj.copy()
+        probes.append(sculpt)
+        plain = bpy.data.objects.new(f".thicket numbering {obj.name}", obj.data)
+        probes.append(plain)
+        sculpt.hide_viewport = False
         sculpt.name = f".thicket sculpt {obj.name}"
         sculpt.parent = None
         sculpt.thicket.items.clear()
@@ -249,8 +267,10 @@ def read_multires(obj: bpy.types.Object):
         surface = plain.modifiers.new("thicket numbering", "SUBSURF")
         surface.levels = levels
         surface.use_limit_surface = True
-        surface.boundary_smooth = modifier.boundary_smooth
-        surface.use_creases = modifier.use_creases
+        # Thicket's limit positions: every boundary smoothed, no creases (the numbering
+        # does not depend on either).
+        surface.boundary_smooth = "ALL"
+        surface.use_creases = False
         # Quality below the levels approximates the patches (1e-3 of the size off the
         # limit); the numbering does not depend on it.
         surface.quality = max(modifier.quality, levels)
@@ -258,7 +278,8 @@ def read_multires(obj: bpy.types.Object):
             collection.objects.link(probe)
         depsgraph = bpy.context.evaluated_depsgraph_get()
         depsgraph.update()
-        fine, numbering = _positions(sculpt, depsgraph), _positions(plain, depsgraph)
+        sculpted, numbering = _evaluated_arrays(sculpt, depsgraph), _evaluated_arrays(plain, depsgraph).vertices
+        fine = sculpted.vertices
     finally:
         for probe in probes:
             if probe.name in collection.objects:
@@ -269,7 +290,15 @@ def read_multires(obj: bpy.types.Object):
         raise ValueError(f"the Multires of '{obj.name}' has {len(fine)} vertices at {levels} levels where a Subdivision Surface has {len(numbering)}")
     # Blender puts an open mesh's corners (Boundary Smooth "All") short of the limit, by
     # up to 5.5e-4 of the size at Quality 3: matched within 1e-3, one to one (checked).
-    order = native.get().match_subdivision(base.vertices, base.face_sizes, base.corners, levels, numbering, tolerance=1e-3)
+    tn = native.get()
+    order = tn.match_subdivision(base.vertices, base.face_sizes, base.corners, levels, numbering, tolerance=1e-3)
+    # Matched positions could still swap two close vertices: the sculpt's faces, renumbered,
+    # must be exactly Thicket's faces of those levels.
+    ours = np.empty_like(order)
+    ours[order] = np.arange(len(order), dtype=order.dtype)
+    made = tn.procedural_detail(base.vertices, base.face_sizes, base.corners, "rock", levels, params={"amplitude": 0.0})
+    if not np.array_equal(_canonical_quads(ours[sculpted.corners]), _canonical_quads(made["corners"])):
+        raise ValueError(f"the Multires of '{obj.name}' could not be matched face for face to Thicket's subdivision (vertices too close to tell apart)")
     return base, levels, np.ascontiguousarray(fine[order]), order
 
 

@@ -313,13 +313,17 @@ def procedural_detail(
     local: list[dict[str, Any]] | None = None,
     shader: dict[str, Any] | None = None,
     sculpt: dict[str, Any] | None = None,
+    uvs: Floats | list[Floats] | None = None,
+    uv_smooth: str = "PRESERVE_BOUNDARIES",
 ) -> dict[str, Any]:
     """Procedural detail on Catmull-Clark levels (Velho et al. section 4): model "rock" (params amplitude) or "berry" (radius, seeds, children), lengths as fractions of the bounding-box diagonal.
     Operations (sections 5-6): `at` the levels the model acts at; `blend` a second model (model, params, seed, at, plane=(point, direction) or weights, width) blended level by level;
     `local` modifications (center, radius in base edges, gain, levels); `shader` {"name": "planet", "sea", "snow"} for colours.
     `sculpt`: a dict from analyze() of this base (its details are added at their levels, in local frames, before each level's procedural detail).
+    `uvs` (one float32 (corners, 2) map or a list of them) go through the levels by `uv_smooth` as subdivide's without the limit.
     Returns the finest level's vertices, face_sizes, corners (all quads), source_face, scalar (float32 per vertex: the detail added), blend (float32 per vertex),
-    limited (float: the share of placed rock/berry detail the fold guard reduced so the surface cannot fold) and, with a shader, colors ((n, 4) float32)."""
+    limited (float: the share of placed rock/berry detail the fold guard reduced so the surface cannot fold), with a shader, colors ((n, 4) float32) and,
+    with uvs, uvs per corner of the result (a list when a list was given)."""
 
 def analyze(vertices: Floats, face_sizes: Indices, corners: Indices, fine_vertices: Floats, levels: int) -> dict[str, Any]:
     """Multiresolution analysis (Velho et al. section 2): fine_vertices are `levels` Catmull-Clark subdivisions of the base faces in procedural_detail's numbering.

@@ -1,7 +1,7 @@
 use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
-use thicket_core::glam::DVec3;
+use pyo3::types::{PyDict, PyList, PyTuple};
+use thicket_core::glam::{DVec3, Vec2};
 use thicket_core::polygonize::DEFAULT_MAX_BYTES;
 use thicket_core::subdivision::budget;
 use thicket_core::subdivision::detail::Model;
@@ -98,15 +98,19 @@ pub fn subdivide<'py>(
 /// finest level's vertices, face_sizes and corners (all quads), source_face (the base face
 /// of each face), `scalar`, float32 per vertex: the detail the levels added along their
 /// normals, `blend` (float32 per vertex, the blend parameter; 0 without a blend),
-/// `limited` (the share of the placed rock and berry detail the fold guard made smaller
-/// so the surface cannot fold: a quarter of the local edge, half the radius of curvature;
-/// 0.0 when the model's sizes fit the mesh) and, with a shader, `colors` (float32 (n, 4)
-/// RGBA). Levels whose result would need more than 4 GB are refused before anything is
-/// made. `sculpt`, a dict from [`analyze`] of this base (its `details` are read;
-/// `vertices` may be an edited base), adds the analysed detail at its levels before each
-/// level's procedural detail (section 2).
+/// `limited` (the share of the vertices given rock or berry detail whose detail the fold
+/// guard made smaller so the surface does not fold: a quarter of the local edge, half the
+/// radius of curvature, domes clear of other parts; 0.0 when the model's sizes fit the
+/// mesh; a local modification's gain above 1 scales the detail after the guard) and, with a shader, `colors` (float32 (n, 4)
+/// RGBA). `uvs`, one float32 (corners, 2) UV map or a list of them, are carried through
+/// the levels by `uv_smooth` as `subdivide` does without the limit (the levels are control
+/// meshes): `uvs` comes back in the same form, one UV per corner of the result. Levels
+/// whose result would need more than 4 GB are refused before anything is made. `sculpt`,
+/// a dict from [`analyze`] of this base (its `details` are read; `vertices` may be an
+/// edited base), adds the analysed detail at its levels before each level's procedural
+/// detail (section 2).
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None, *, at=None, blend=None, local=None, shader=None, sculpt=None))]
+#[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None, *, at=None, blend=None, local=None, shader=None, sculpt=None, uvs=None, uv_smooth="PRESERVE_BOUNDARIES"))]
 #[allow(clippy::too_many_arguments)]
 pub fn procedural_detail<'py>(
     py: Python<'py>,
@@ -122,8 +126,12 @@ pub fn procedural_detail<'py>(
     local: Option<Vec<Bound<'py, PyDict>>>,
     shader: Option<&Bound<'py, PyDict>>,
     sculpt: Option<&Bound<'py, PyDict>>,
+    uvs: Option<&Bound<'py, PyAny>>,
+    uv_smooth: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
+    let (uvs, uv_list) = uv_maps(uvs, mesh.corners().len())?;
+    let smooth = UvSmooth::parse(uv_smooth).map_err(to_py)?;
     let diag = mesh.bbox_diagonal() as f64;
     let mut recipe = Recipe::of(model_from(model, params, &mesh)?, seed);
     recipe.at = levels_from(at)?;
@@ -135,11 +143,16 @@ pub fn procedural_detail<'py>(
         budget::check_fits(&mesh, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
     }
     let out = run_detached(py, move || {
+        // The UVs first: their refinement's connectivity is gone before the synthesis starts.
+        let uvs = match uvs.is_empty() {
+            true => Vec::new(),
+            false => subdivision::subdivide_uvs(&mesh, levels, smooth, &uvs.iter().map(Vec::as_slice).collect::<Vec<_>>())?,
+        };
         let out = recipe::synthesize(&mesh, levels, &recipe)?;
         let colors = planet.map(|p| p.colors(&out.detailed.scalar, &out.blend));
-        Ok((out, colors))
+        Ok((out, colors, uvs))
     })?;
-    let (out, colors) = out;
+    let (out, colors, out_uvs) = out;
     let d = arrays::mesh_dict(py, out.detailed.mesh)?;
     d.set_item("source_face", arrays::u32_as_i32_array(py, out.detailed.source_face))?;
     d.set_item("scalar", out.detailed.scalar.into_pyarray(py))?;
@@ -149,6 +162,12 @@ pub fn procedural_detail<'py>(
         let n = c.len();
         let flat: Vec<f32> = c.into_iter().flatten().collect();
         d.set_item("colors", flat.into_pyarray(py).reshape([n, 4])?)?;
+    }
+    let mut maps = out_uvs.into_iter().map(|uv| arrays::vec2_array(py, uv)).collect::<PyResult<Vec<_>>>()?;
+    if uv_list {
+        d.set_item("uvs", PyList::new(py, maps)?)?;
+    } else if let Some(map) = maps.pop() {
+        d.set_item("uvs", map)?;
     }
     Ok(d)
 }
@@ -283,6 +302,21 @@ fn sculpt_from(s: &Bound<'_, PyDict>) -> PyResult<Vec<Vec<DVec3>>> {
     match s.get_item("details")? {
         Some(d) => details_from(&d),
         None => Err(InvalidInput::new_err("sculpt must be the dict thicket_native.analyze returns (with its 'details')")),
+    }
+}
+
+/// `procedural_detail`'s `uvs`: one float32 (corners, 2) array or a list (or tuple) of
+/// them, as UV maps, and whether a list was given (None: no maps, not a list).
+fn uv_maps(uvs: Option<&Bound<'_, PyAny>>, corners: usize) -> PyResult<(Vec<Vec<Vec2>>, bool)> {
+    let one = |u: &Bound<'_, PyAny>| {
+        let array: PyReadonlyArray2<f32> =
+            u.extract().map_err(|_| InvalidInput::new_err("uvs must be a float32 array of shape (corners, 2) or a list of them"))?;
+        arrays::uvs(&array, corners)
+    };
+    match uvs.filter(|u| !u.is_none()) {
+        None => Ok((Vec::new(), false)),
+        Some(u) if u.is_instance_of::<PyList>() || u.is_instance_of::<PyTuple>() => Ok((u.try_iter()?.map(|m| one(&m?)).collect::<PyResult<_>>()?, true)),
+        Some(u) => Ok((vec![one(u)?], false)),
     }
 }
 

@@ -219,8 +219,8 @@ def provenance(mesh: MeshArrays, out, levels: int) -> np.ndarray:
 
 
 def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tuple:
-    """The detailed mesh (material indices carried by face, the detail as a point
-    attribute) and each vertex's provenance in the current mesh. `ask`: raise
+    """The detailed mesh (material indices carried by face, every UV map through the
+    levels, the detail as a point attribute) and each vertex's provenance in the current mesh. `ask`: raise
     NeedsConfirmation first when the finest level is estimated over `confirm_above`
     triangles."""
     mesh = state.current
@@ -233,6 +233,12 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tupl
     if at is not None and min(at) > item.levels:
         state.notes.append(f"'{item.label}': Detail At Levels names no level up to {item.levels}, so the model adds nothing")
     operations = dict(at=at, blend=blend(state, item), local=local(mesh, item), shader=shader(item))
+    uv_maps = dict(mesh.uv_maps)
+    if mesh.uvs is not None and mesh.uv_name not in uv_maps:
+        uv_maps[mesh.uv_name] = mesh.uvs
+    if uv_maps:
+        # Every UV map through the levels as face-varying data (Blender's default UV smooth).
+        operations["uvs"] = [np.ascontiguousarray(uv, dtype=np.float32) for uv in uv_maps.values()]
     out = tn.procedural_detail(mesh.vertices, mesh.face_sizes, mesh.corners, item.model, int(item.levels), int(item.seed), settings, **operations)
     result = MeshArrays.from_native(out)
     if "colors" in out:
@@ -244,14 +250,16 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tupl
     limited = float(out.get("limited", 0.0))
     if limited > LIMITED_NOTE:
         result.notes.append(
-            f"'{item.label}': the {item.model} detail was made smaller at {limited:.0%} of its vertices so the surface cannot fold"
-            " (at most a quarter of the local edge length, half the radius of curvature); a smaller amplitude or radius,"
-            " or a coarser base, keeps it as set"
+            f"'{item.label}': the {item.model} detail was made smaller at {limited:.0%} of its vertices so the surface does not fold"
+            " (rock: at most a quarter of the local edge and half the radius of curvature; berry domes: flattened under the"
+            " curvature and clear of other parts); a smaller amplitude or radius, or a coarser base, keeps it as set"
         )
     if item.blend_model:
         result.point_attributes[BLEND_ATTRIBUTE] = np.asarray(out["blend"], dtype=np.float32)
-    if mesh.uv_maps or mesh.uvs is not None:
-        result.notes.append(f"'{item.label}': UV maps are not carried through the subdivision levels yet; the result has none")
+    if uv_maps:
+        result.uv_maps = dict(zip(uv_maps, out["uvs"]))
+        result.uvs = result.uv_maps.get(mesh.uv_name)
+        result.uv_name = mesh.uv_name
     return result, provenance(mesh, out, int(item.levels))
 
 

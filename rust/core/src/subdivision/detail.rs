@@ -12,7 +12,12 @@ mod growth;
 pub use fold_guard::{Tally, FOCAL_SHARE, FOLD_SLOPE};
 pub use frames::Frame;
 
-use super::{subdivide, Boundary, Options};
+use super::topology::Level;
+use super::Boundary;
+#[cfg(test)]
+use super::{subdivide, Options};
+use crate::mesh::newell_normal;
+#[cfg(test)]
 use crate::mesh::vertex_normals;
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
@@ -192,8 +197,9 @@ pub(crate) enum Offsets {
 
 /// Per-vertex values of `parent` carried to its subdivision `child` linearly: a vertex
 /// keeps its value, an edge point takes the mean of the edge's ends, a face point the mean
-/// of the face's corners. [`subdivide`] makes corner `c` into child quad `c`, (vertex, edge
-/// point after it, face point, edge point before it), and keeps the vertices' indices.
+/// of the face's corners. [`subdivide`](super::subdivide) makes corner `c` into child
+/// quad `c`, (vertex, edge point after it, face point, edge point before it), and keeps the
+/// vertices' indices.
 pub(crate) fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -> Vec<f32> {
     let mut out = values.to_vec();
     out.resize(child.vertex_count(), 0.0);
@@ -215,33 +221,109 @@ pub(crate) fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -
 
 /// The synthesis loop: subdivide one level, displace by `detail(level, mesh, normals,
 /// state)`, repeat. `scalar` sums the displacements' components along the normals.
+///
+/// One level's connectivity is derived from the last's ([`Level::child_as_base`]: no edge
+/// sorting or hashing, no manifold checks past the base) and the positions carried in it
+/// (rounded to f32 at every level, as the meshes the models see hold them). Each level's
+/// vertices and edges are numbered as [`subdivide`](super::subdivide) by one level would
+/// number them from the last level's mesh, and the arithmetic is the same, so the result
+/// is bit for bit what subdividing one level at a time makes (the vertex indices the
+/// rock's random values and the seeds hang on included).
 pub(crate) fn synthesize(base: &Mesh, levels: u32, mut state: State, mut detail: impl FnMut(u32, &Mesh, &[Vec3], &mut State) -> Offsets) -> Result<Detailed> {
     if !(1..=super::MAX_LEVELS).contains(&levels) {
         return Err(Error::InvalidParameter(format!("detail levels must be 1 to {}, not {levels}", super::MAX_LEVELS)));
     }
-    let options = Options { levels: 1, limit: false, boundary: Boundary::SmoothAll };
-    let mut mesh = base.clone();
+    super::check_levels(base, levels)?;
+    let boundary = Boundary::SmoothAll;
+    let mut parent = Level::base(base)?;
     let mut source_face: Vec<u32> = (0..base.face_count() as u32).collect();
     let mut scalar: Vec<f32> = vec![0.0; base.vertex_count()];
     for level in 1..=levels {
-        let next = subdivide(&mesh, &options)?;
-        scalar = linear_child_values(&mesh, &next.mesh, &scalar);
-        source_face = next.source_face.iter().map(|&f| source_face[f as usize]).collect();
-        mesh = next.mesh;
-        let normals = vertex_normals(&mesh);
-        let moved: Vec<Vec3> = match detail(level, &mesh, &normals, &mut state) {
+        let mut child = parent.child_as_base(parent.points(boundary));
+        scalar = carried(&parent, &scalar);
+        source_face = parent.corner_face.iter().map(|&f| source_face[f as usize]).collect();
+        drop(parent);
+        let positions: Vec<Vec3> = child.positions.par_iter().map(|p| p.as_vec3()).collect();
+        let corners = std::mem::take(&mut child.corners);
+        // The finest level's connectivity is done with: its memory goes before the detail's.
+        let mut child = (level < levels).then_some(child);
+        let faces = corners.len() / 4;
+        let mesh = Mesh::new(positions, &vec![4u32; faces], corners, None)?;
+        let normals = quad_normals(&mesh);
+        let offsets = detail(level, &mesh, &normals, &mut state);
+        let (mut moved, corners) = mesh.into_parts();
+        match offsets {
             Offsets::Normal(d) => {
-                scalar.iter_mut().zip(&d).for_each(|(s, &d)| *s += d as f32);
-                mesh.positions().par_iter().zip(&normals).zip(&d).map(|((&p, &n), &d)| p + n * d as f32).collect()
+                scalar.par_iter_mut().zip(&d).for_each(|(s, &d)| *s += d as f32);
+                moved.par_iter_mut().zip(&normals).zip(&d).for_each(|((p, &n), &d)| *p += n * d as f32);
             }
             Offsets::World(w) => {
-                scalar.iter_mut().zip(&w).zip(&normals).for_each(|((s, w), n)| *s += w.dot(n.as_dvec3()) as f32);
-                mesh.positions().par_iter().zip(&w).map(|(&p, w)| (p.as_dvec3() + w).as_vec3()).collect()
+                scalar.par_iter_mut().zip(&w).zip(&normals).for_each(|((s, w), n)| *s += w.dot(n.as_dvec3()) as f32);
+                moved.par_iter_mut().zip(&w).for_each(|(p, w)| *p = (p.as_dvec3() + w).as_vec3());
             }
+        }
+        drop(normals);
+        let Some(mut next) = child.take() else {
+            let mesh = Mesh::new(moved, &vec![4u32; faces], corners, None)?;
+            return Ok(Detailed { mesh, source_face, scalar });
         };
-        mesh = Mesh::new(moved, &mesh.face_sizes(), mesh.corners().to_vec(), None)?;
+        next.positions.par_iter_mut().zip(&moved).for_each(|(p, m)| *p = m.as_dvec3());
+        next.corners = corners;
+        parent = next;
     }
-    Ok(Detailed { mesh, source_face, scalar })
+    unreachable!("the finest level returns")
+}
+
+/// Per-vertex values of `parent` carried to its child level linearly, as
+/// [`linear_child_values`] carries them: a vertex keeps its value, edge point `nv + e` takes
+/// the mean of edge `e`'s ends, face point `nv + ne + f` the mean of face `f`'s corners.
+fn carried(parent: &Level, values: &[f32]) -> Vec<f32> {
+    let face_means = (0..parent.face_count()).into_par_iter().map(|f| {
+        let face = parent.face(f);
+        face.iter().map(|&v| values[v as usize]).sum::<f32>() / face.len() as f32
+    });
+    let edge_means = parent.edges.par_iter().map(|&[a, b]| 0.5 * (values[a as usize] + values[b as usize]));
+    let mut out = Vec::with_capacity(values.len() + parent.edges.len() + parent.face_count());
+    out.extend_from_slice(values);
+    out.par_extend(edge_means);
+    out.par_extend(face_means);
+    out
+}
+
+/// [`vertex_normals`](crate::mesh::vertex_normals) of an all-quad mesh, bit for bit, the
+/// costly part in parallel: block by block of faces, each corner's angle-weighted unit face
+/// normal is computed in parallel, then added to its vertex's sum in corner order, as
+/// `vertex_normals` adds them (no buffer the size of the mesh).
+fn quad_normals(mesh: &Mesh) -> Vec<Vec3> {
+    const BLOCK: usize = 1 << 14; // faces: 768 KiB of weights
+    let (p, corners) = (mesh.positions(), mesh.corners());
+    let mut n = vec![Vec3::ZERO; p.len()];
+    let mut weights: Vec<[Vec3; 4]> = Vec::with_capacity(BLOCK);
+    for block in corners.chunks(4 * BLOCK) {
+        // NaN: a corner the sum skips (a degenerate face, an undefined angle).
+        block
+            .par_chunks_exact(4)
+            .map(|quad| {
+                let pts: [Vec3; 4] = std::array::from_fn(|i| p[quad[i] as usize]);
+                let fnorm = newell_normal(&pts).normalize_or_zero();
+                std::array::from_fn(|i| {
+                    let angle = (pts[(i + 3) % 4] - pts[i]).angle_between(pts[(i + 1) % 4] - pts[i]);
+                    if fnorm == Vec3::ZERO || !angle.is_finite() {
+                        Vec3::NAN
+                    } else {
+                        fnorm * angle
+                    }
+                })
+            })
+            .collect_into_vec(&mut weights);
+        for (&v, w) in block.iter().zip(weights.as_flattened()) {
+            if !w.x.is_nan() {
+                n[v as usize] += *w;
+            }
+        }
+    }
+    n.par_iter_mut().for_each(|v| *v = v.normalize_or_zero());
+    n
 }
 
 impl Model {
@@ -269,7 +351,7 @@ impl Model {
                 let heights = domes(p, &state.seeds, r);
                 let mut limits = fold_guard::Limits::of(mesh, normals);
                 if let Some(clearance) = &state.clearance {
-                    limits.clear_of(clearance, p, normals, |v| heights[v].1 > 0.0);
+                    limits.clear_of(clearance, level, p, normals, |v| heights[v].1 > 0.0);
                 }
                 Offsets::Normal(limits.scale_domes(heights, &mut state.tally))
             }
@@ -553,6 +635,93 @@ mod tests {
         assert_ne!(a.mesh.positions(), procedural_detail(&base, 2, &rock, 12).unwrap().mesh.positions());
         let berry = Model::Berry { radius: 0.2, seeds: vec![], children: 3 };
         assert_eq!(procedural_detail(&base, 3, &berry, 4).unwrap(), procedural_detail(&base, 3, &berry, 4).unwrap());
+    }
+
+    /// The synthesis as it was before its stepper: [`subdivide`] one level at a time (the
+    /// connectivity rebuilt from each level's mesh), [`vertex_normals`], a new mesh per level.
+    fn one_level_at_a_time(base: &Mesh, levels: u32, model: &Model, seed: u64) -> Detailed {
+        let options = Options { levels: 1, limit: false, boundary: Boundary::SmoothAll };
+        let (mut mesh, mut state) = (base.clone(), model.initial_state(base));
+        let mut source_face: Vec<u32> = (0..base.face_count() as u32).collect();
+        let mut scalar: Vec<f32> = vec![0.0; base.vertex_count()];
+        for level in 1..=levels {
+            let next = subdivide(&mesh, &options).unwrap();
+            scalar = linear_child_values(&mesh, &next.mesh, &scalar);
+            source_face = next.source_face.iter().map(|&f| source_face[f as usize]).collect();
+            mesh = next.mesh;
+            let normals = vertex_normals(&mesh);
+            let moved: Vec<Vec3> = match model.displacements(level, &mesh, &normals, seed, &mut state) {
+                Offsets::Normal(d) => {
+                    scalar.iter_mut().zip(&d).for_each(|(s, &d)| *s += d as f32);
+                    mesh.positions().iter().zip(&normals).zip(&d).map(|((&p, &n), &d)| p + n * d as f32).collect()
+                }
+                Offsets::World(w) => {
+                    scalar.iter_mut().zip(&w).zip(&normals).for_each(|((s, w), n)| *s += w.dot(n.as_dvec3()) as f32);
+                    mesh.positions().iter().zip(&w).map(|(&p, w)| (p.as_dvec3() + w).as_vec3()).collect()
+                }
+            };
+            mesh = Mesh::new(moved, &mesh.face_sizes(), mesh.corners().to_vec(), None).unwrap();
+        }
+        Detailed { mesh, source_face, scalar }
+    }
+
+    #[test]
+    fn the_stepper_is_bit_for_bit_one_level_at_a_time() {
+        // Same vertex numbering, positions, normals and values: every model, on closed
+        // meshes with triangles, n-gons and open boundaries.
+        let models = [
+            Model::Rock { amplitude: 0.05 },
+            Model::Berry { radius: 0.2, seeds: vec![], children: 3 },
+            Model::Tentacle { length: 0.02, theta: 0.3, seeds: vec![], spacing: 0.4 },
+            Model::Mushroom { radius: 0.2, length: 0.05, seeds: vec![] },
+        ];
+        let meshes = [sphere(), crate::mesh::fixtures::grid(3), crate::mesh::fixtures::cube(), crate::hard_meshes::star_prism()];
+        for (m, base) in meshes.iter().enumerate() {
+            for model in &models {
+                for levels in [1, 3] {
+                    let want = one_level_at_a_time(base, levels, model, 5);
+                    let got = procedural_detail(base, levels, model, 5).unwrap();
+                    assert!(got == want, "mesh {m}, {model:?}, {levels} levels");
+                }
+            }
+        }
+        // The normals bit for bit, degenerate faces (all corners at one point) included,
+        // over more than one block of faces.
+        let bits = |n: Vec<Vec3>| n.iter().map(|v| v.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+        let quads = subdivide(&sphere(), &Options { levels: 4, limit: false, boundary: Boundary::SmoothAll }).unwrap().mesh;
+        assert!(quads.face_count() > 1 << 14);
+        assert_eq!(bits(quad_normals(&quads)), bits(vertex_normals(&quads)));
+        let (mut p, corners) = quads.into_parts();
+        let sizes = vec![4u32; corners.len() / 4];
+        corners[4 * 100..4 * 104].iter().for_each(|&v| p[v as usize] = Vec3::ZERO);
+        let flattened = Mesh::new(p, &sizes, corners, None).unwrap();
+        assert_eq!(bits(quad_normals(&flattened)), bits(vertex_normals(&flattened)));
+    }
+
+    #[test]
+    fn uvs_on_the_connectivity_alone_are_subdivides() {
+        // `subdivide_uvs` (what the detail's UVs are) refines no position: its UVs are
+        // those `subdivide_with_uvs` gives without the limit, bit for bit, seams included
+        // (every fifth face's corners shifted off their neighbours').
+        use crate::subdivision::{subdivide_uvs, subdivide_with_uvs, UvSmooth};
+        use glam::Vec2;
+        let base = sphere();
+        let p = base.positions();
+        let uvs: Vec<Vec2> = base
+            .faces()
+            .enumerate()
+            .flat_map(|(f, face)| face.iter().map(move |&v| Vec2::new(p[v as usize].x, p[v as usize].y) + (f % 5 == 0) as u8 as f32 * 0.5))
+            .collect();
+        let planar: Vec<Vec2> = base.corners().iter().map(|&v| Vec2::new(p[v as usize].y, p[v as usize].z)).collect();
+        for smooth in [UvSmooth::PreserveBoundaries, UvSmooth::Linear] {
+            for levels in 1..=3 {
+                let options = Options { levels, limit: false, boundary: Boundary::SmoothAll };
+                let (_, want) = subdivide_with_uvs(&base, &options, smooth, &[&uvs, &planar]).unwrap();
+                assert_eq!(subdivide_uvs(&base, levels, smooth, &[&uvs, &planar]).unwrap(), want, "{smooth:?} level {levels}");
+            }
+        }
+        assert!(matches!(subdivide_uvs(&base, 2, UvSmooth::Linear, &[&uvs[1..]]), Err(Error::InvalidParameter(_))));
+        assert!(matches!(subdivide_uvs(&base, 0, UvSmooth::Linear, &[&uvs]), Err(Error::InvalidParameter(_))));
     }
 
     #[test]

@@ -84,17 +84,7 @@ pub fn subdivide(mesh: &Mesh, options: &Options) -> Result<Subdivided> {
 /// UV Smooth option; returns each map per corner of the subdivided mesh. With
 /// `options.limit`, the UVs go to their limit as the positions do.
 pub fn subdivide_with_uvs(mesh: &Mesh, options: &Options, smooth: UvSmooth, uvs: &[&[Vec2]]) -> Result<(Subdivided, Vec<Vec<Vec2>>)> {
-    if !(1..=MAX_LEVELS).contains(&options.levels) {
-        return Err(Error::InvalidParameter(format!("subdivision levels must be 1 to {MAX_LEVELS}, not {}", options.levels)));
-    }
-    mesh.require_faces()?;
-    let out_corners = mesh.corners().len() as u64 * 4u64.pow(options.levels);
-    if out_corners > u32::MAX as u64 {
-        return Err(Error::OverLimit(format!(
-            "{} levels of subdivision would make {out_corners} face corners, more than a mesh can hold (2^32); use fewer levels",
-            options.levels
-        )));
-    }
+    check_levels(mesh, options.levels)?;
     let mut level = Level::base(mesh)?;
     let mut channels = uvs.iter().map(|uv| Channel::weld(&level, uv)).collect::<Result<Vec<_>>>()?;
     let mut source_face: Vec<u32> = (0..mesh.face_count() as u32).collect();
@@ -109,6 +99,39 @@ pub fn subdivide_with_uvs(mesh: &Mesh, options: &Options, smooth: UvSmooth, uvs:
     let sizes = vec![4u32; level.corners.len() / 4];
     let mesh = Mesh::new(positions, &sizes, level.corners, None)?;
     Ok((Subdivided { mesh, source_face }, uvs))
+}
+
+/// Per-corner UV maps (`uvs`, each one UV per corner of `mesh`) through `levels`
+/// Catmull-Clark levels by the `smooth` rule, on the connectivity alone: the UVs
+/// [`subdivide_with_uvs`] gives without the limit (face-varying values do not depend on
+/// the positions, so none are subdivided), one per corner of the subdivided mesh, whose
+/// corners [`detail::procedural_detail`] orders as [`subdivide`] does. The detail's
+/// levels are control meshes, never the limit surface, so the UVs are not taken to it.
+pub fn subdivide_uvs(mesh: &Mesh, levels: u32, smooth: UvSmooth, uvs: &[&[Vec2]]) -> Result<Vec<Vec<Vec2>>> {
+    check_levels(mesh, levels)?;
+    let mut level = Level::base(mesh)?;
+    let mut channels = uvs.iter().map(|uv| Channel::weld(&level, uv)).collect::<Result<Vec<_>>>()?;
+    for _ in 0..levels {
+        channels = channels.iter().map(|c| c.refine(&level, smooth)).collect();
+        level = level.child_topology();
+    }
+    Ok(channels.iter().map(|c| c.per_corner(&level, smooth, false)).collect())
+}
+
+/// Refuses levels outside 1 to [`MAX_LEVELS`], a mesh of no face, and outputs beyond 2^32
+/// corners.
+fn check_levels(mesh: &Mesh, levels: u32) -> Result<()> {
+    if !(1..=MAX_LEVELS).contains(&levels) {
+        return Err(Error::InvalidParameter(format!("subdivision levels must be 1 to {MAX_LEVELS}, not {levels}")));
+    }
+    mesh.require_faces()?;
+    let out_corners = mesh.corners().len() as u64 * 4u64.pow(levels);
+    if out_corners > u32::MAX as u64 {
+        return Err(Error::OverLimit(format!(
+            "{levels} levels of subdivision would make {out_corners} face corners, more than a mesh can hold (2^32); use fewer levels"
+        )));
+    }
+    Ok(())
 }
 
 /// What the subdivision rules average: positions and face-varying values.
@@ -212,6 +235,12 @@ impl Level {
     /// ((n-2)/n v + sum(e_i)/n^2 + sum(f_i)/n^2 inside; (e1 + 6 v + e2)/8 on a boundary, the
     /// cubic B-spline curve rule).
     fn refine(&self, boundary: Boundary) -> Level {
+        self.child(self.points(boundary))
+    }
+
+    /// The next level's positions as [`Level::refine`] makes them: vertex points, then one
+    /// edge point per edge, then one face point per face.
+    fn points(&self, boundary: Boundary) -> Vec<DVec3> {
         let p = &self.positions;
         let face_points: Vec<DVec3> = (0..self.face_count()).into_par_iter().map(|f| face_point(self.face(f).iter().map(|&v| p[v as usize]))).collect();
         let edge_points: Vec<DVec3> = self
@@ -229,7 +258,7 @@ impl Level {
             .collect();
         let rings = Rings::of(self, |c| face_points[self.corner_face[c] as usize]);
         let vertex_points = rings.each_vertex(p, boundary, |v, ends| (v * 6.0 + ends) / 8.0, vertex_point);
-        self.child([vertex_points, edge_points, face_points].concat())
+        [vertex_points, edge_points, face_points].concat()
     }
 
     /// The limit positions of an all-quad level's vertices: [`limit_point`] inside,

@@ -45,6 +45,11 @@ pub(crate) fn validate_details(base: &Mesh, details: &[Vec<DVec3>]) -> Result<()
     if details.len() > super::MAX_LEVELS as usize {
         return Err(Error::InvalidParameter(format!("at most {} detail levels, not {}", super::MAX_LEVELS, details.len())));
     }
+    // Detail up to MAX_DETAIL diagonals at up to MAX_LEVELS levels stays far inside f32.
+    let diagonal = base.bbox_diagonal();
+    if !(diagonal.is_finite() && diagonal <= 1e30) {
+        return Err(Error::InvalidParameter(format!("the base is {diagonal} across: too large for detail in f32")));
+    }
     let counts = level_vertex_counts(base, details.len() as u32)?;
     for (l, (d, &n)) in details.iter().zip(&counts).enumerate() {
         if d.len() != n {

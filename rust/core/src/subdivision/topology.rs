@@ -146,6 +146,78 @@ impl Level {
     }
 }
 
+impl Level {
+    /// [`Level::child`] with the edges numbered as [`Level::base`] numbers those of the
+    /// child mesh (sorted by their (lower, higher) vertex), derived without sorting: first
+    /// each vertex's halves of its edges in edge order (vertex by vertex), then each edge
+    /// point's edges to the face points of its faces (edge by edge, faces in order). Its
+    /// vertices are numbered as the child mesh's, so it is the level [`Level::base`] gives
+    /// for that mesh, without the checks the base mesh has passed.
+    pub fn child_as_base(&self, positions: Vec<DVec3>) -> Level {
+        let (nv, ne) = (self.positions.len(), self.edges.len());
+        // Group A: the half of edge e at its end k is edge `half[e][k]`.
+        let mut start = vec![0u32; nv + 1];
+        for &[a, b] in &self.edges {
+            start[a as usize + 1] += 1;
+            start[b as usize + 1] += 1;
+        }
+        for v in 0..nv {
+            start[v + 1] += start[v];
+        }
+        let mut half = vec![[0u32; 2]; ne];
+        for (e, &[a, b]) in self.edges.iter().enumerate() {
+            half[e] = [start[a as usize], start[b as usize]];
+            start[a as usize] += 1;
+            start[b as usize] += 1;
+        }
+        drop(start);
+        // Group B: the edges from edge point e to its faces' points start at `to_face[e]`.
+        let mut to_face = Vec::with_capacity(ne);
+        let mut next = 2 * ne as u32;
+        for &[_, f1] in &self.edge_faces {
+            to_face.push(next);
+            next += 1 + (f1 != NONE) as u32;
+        }
+        let (nv32, ne32) = (nv as u32, ne as u32);
+        let mut edges = vec![[0u32; 2]; next as usize];
+        for (e, &[a, b]) in self.edges.iter().enumerate() {
+            edges[half[e][0] as usize] = [a, nv32 + e as u32];
+            edges[half[e][1] as usize] = [b, nv32 + e as u32];
+            let [f0, f1] = self.edge_faces[e];
+            let first = if f1 == NONE { f0 } else { f0.min(f1) };
+            edges[to_face[e] as usize] = [nv32 + e as u32, nv32 + ne32 + first];
+            if f1 != NONE {
+                edges[to_face[e] as usize + 1] = [nv32 + e as u32, nv32 + ne32 + f0.max(f1)];
+            }
+        }
+        let half_at = |e: u32, v: u32| half[e as usize][(self.edges[e as usize][0] != v) as usize];
+        let face_edge = |e: u32, f: u32| {
+            let [f0, f1] = self.edge_faces[e as usize];
+            to_face[e as usize] + (f1 != NONE && f == f0.max(f1)) as u32
+        };
+        let (quads, quad_edges): (Vec<[u32; 4]>, Vec<[u32; 4]>) = (0..self.corners.len())
+            .into_par_iter()
+            .map(|c| {
+                let (p, v, f) = (self.prev(c), self.corners[c], self.corner_face[c]);
+                let (after, before) = (self.corner_edge[c], self.corner_edge[p]);
+                ([v, nv32 + after, nv32 + ne32 + f, nv32 + before], [half_at(after, v), face_edge(after, f), face_edge(before, f), half_at(before, v)])
+            })
+            .unzip();
+        let corner_edge = quad_edges.into_flattened();
+        let corner_face: Vec<u32> = (0..corner_edge.len() as u32).map(|c| c / 4).collect();
+        let edge_faces = edge_faces(edges.len(), &corner_edge, &corner_face);
+        let offsets = (0..=quads.len() as u32).map(|f| 4 * f).collect();
+        Level { positions, offsets, corners: quads.into_flattened(), corner_face, corner_edge, edges, edge_faces }
+    }
+
+    /// The next level's connectivity alone ([`Level::child`] with every position at the
+    /// origin): what face-varying data refines on.
+    pub fn child_topology(&self) -> Level {
+        let n = self.positions.len() + self.edges.len() + self.face_count();
+        self.child(vec![DVec3::ZERO; n])
+    }
+}
+
 /// The faces on each side of each edge, from the edge and face of each corner.
 fn edge_faces(edges: usize, corner_edge: &[u32], corner_face: &[u32]) -> Vec<[u32; 2]> {
     let mut sides = vec![[NONE; 2]; edges];

@@ -7,22 +7,23 @@
 //!   `k = (n_a - n_b) . (p_a - p_b) / |p_a - p_b|^2` (positive where the surface bends
 //!   away from its normals), and a vertex may move out by [`FOCAL_SHARE`] / (largest
 //!   `-k` at it) and in by [`FOCAL_SHARE`] / (largest `k`). A sharp concave crease
-//!   (`k` about 1/edge) allows about an edge.
+//!   (`k` about 1/edge) allows about half an edge.
 //! - Edge length, for per-vertex random detail (the rock): at most [`FOLD_SLOPE`] times
 //!   the vertex's shortest edge, so neighbours differ by a slope under 1/2 and the level
 //!   makes no spikes where the mesh is finer than the detail (a dense scan, a UV sphere's
 //!   poles). The limit halves with the edges from level to level, so a capped rock still
 //!   falls as 1/f.
 //!
-//! - Clearance, for domes: a berry dome rises at most [`CLEAR_SHARE`] of the way to
-//!   another part of the base surface along its normals (a thin part's other side, the
-//!   next card across a narrow gap), so two parts rising towards each other stay apart.
-//!   Rays go from the level's vertices to the base's triangles, counting only a part
-//!   met from the side the motion would cross (a front face moving out, a back face
-//!   moving in), so the vertex's own stretch of base, which the smoothed level lies
-//!   just inside or outside of, never counts. The rock's random detail, under a quarter
-//!   edge, is not cast for (a ray per vertex at every level would cost more than the
-//!   synthesis): surfaces closer than half an edge can still meet.
+//! - Clearance, for domes: level `l`'s domes rise at most [`CLEAR_SHARE`] `2^-l` of the
+//!   distance along their normals to another part of the base (a thin part's other
+//!   side, the next card across a narrow gap), measured from where the level's vertex is;
+//!   over all levels a part rises at most [`CLEAR_SHARE`] of the gap, so two parts
+//!   rising towards each other close at most 0.8 of it. Rays go from the level's
+//!   vertices to the base's triangles, counting only a part met from its front, so the
+//!   vertex's own stretch of base, which the smoothed level lies just inside of, never
+//!   counts. The rock's random detail, under a quarter edge, is not cast for (a ray per
+//!   vertex at every level would cost more than the synthesis): surfaces closer than half
+//!   an edge can still meet.
 
 use crate::shell::lp_distance::mesh_triangles;
 use crate::spatial::{ray_triangle, Bvh};
@@ -32,7 +33,7 @@ use rayon::prelude::*;
 
 /// The share of the radius of curvature a vertex may move towards its focal point.
 pub const FOCAL_SHARE: f64 = 0.5;
-/// The share of the distance to another part of the base a dome may rise.
+/// The share of the distance to another part of the base domes may rise over all levels.
 pub const CLEAR_SHARE: f64 = 0.4;
 
 /// The share of its shortest edge a vertex's random detail may move it.
@@ -55,15 +56,12 @@ impl Clearance {
         Self { triangles, normals, bvh, reach: base.bbox_diagonal() as f64 }
     }
 
-    /// The distance from `o` along the unit `dir` to the first base triangle met from
-    /// the side `dir` crosses it towards: from its front when `out` (the vertex moving
-    /// out along its normal), from its back when moving in (the far side of a thin
-    /// part, seen from inside). `reach` (the base's diagonal) when there is none.
-    fn along(&self, o: DVec3, dir: DVec3, out: bool) -> f64 {
+    /// The distance from `o` along the unit `dir` (a vertex's normal) to the first base
+    /// triangle met from its front; `reach` (the base's diagonal) when there is none.
+    fn along(&self, o: DVec3, dir: DVec3) -> f64 {
         let mut best = self.reach;
         self.bvh.query_segment(o, o + dir * self.reach, |t| {
-            let facing = self.normals[t as usize].dot(dir);
-            if (out && facing < 0.0) || (!out && facing > 0.0) {
+            if self.normals[t as usize].dot(dir) < 0.0 {
                 if let Some(h) = ray_triangle(o, dir, &self.triangles[t as usize]) {
                     best = best.min(h);
                 }
@@ -133,13 +131,14 @@ impl Limits {
         d.clamp(-self.inward[v], self.out[v])
     }
 
-    /// Lowers the outward limit of every vertex `rises` picks to [`CLEAR_SHARE`] of its
-    /// distance out to another part of the base.
-    pub(crate) fn clear_of(&mut self, clearance: &Clearance, p: &[Vec3], normals: &[Vec3], rises: impl Fn(usize) -> bool + Sync) {
+    /// Lowers the outward limit of every vertex `rises` picks to level `level`'s share,
+    /// [`CLEAR_SHARE`] `2^-level`, of its distance out to another part of the base.
+    pub(crate) fn clear_of(&mut self, clearance: &Clearance, level: u32, p: &[Vec3], normals: &[Vec3], rises: impl Fn(usize) -> bool + Sync) {
+        let share = CLEAR_SHARE * 0.5f64.powi(level as i32);
         let room: Vec<f64> = (0..p.len())
             .into_par_iter()
             .map(|v| match rises(v) {
-                true => CLEAR_SHARE * clearance.along(p[v].as_dvec3(), normals[v].as_dvec3(), true),
+                true => share * clearance.along(p[v].as_dvec3(), normals[v].as_dvec3()),
                 false => f64::INFINITY,
             })
             .collect();
