@@ -221,3 +221,16 @@ def blender_check(base, out, side, tris, written=None):
     inverted = inverted_cells(base + offset, base + offset + directors, tris, orientation)
     folding = folding_cells(base + offset, base + offset + directors, tris, orientation)
     return {**counts, "inverted": inverted, "folding": folding, "own": len(own)}
+
+
+def quad_crossings(vertices, corners):
+    """How many pairs of a quad mesh's triangles (each quad split along a diagonal)
+    intersect while sharing no vertex, by Blender's own `BVHTree.overlap`: a surface
+    crossing itself somewhere away from its own rings."""
+    quads = np.asarray(corners, np.int64).reshape(-1, 4)
+    tris = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    tree = BVHTree.FromPolygons(np.asarray(vertices, np.float64).tolist(), tris.tolist(), all_triangles=True)
+    pairs = np.array(tree.overlap(tree), np.int64).reshape(-1, 2)
+    pairs = pairs[pairs[:, 0] < pairs[:, 1]]
+    a, b = tris[pairs[:, 0]], tris[pairs[:, 1]]
+    return int((~(a[:, :, None] == b[:, None, :]).any(axis=(1, 2))).sum())

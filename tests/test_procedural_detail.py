@@ -7,6 +7,7 @@ import bmesh
 import bpy
 import numpy as np
 import pytest
+from blender_checks import quad_crossings
 from conftest import add, positions
 
 import thicket_native as tn
@@ -296,17 +297,7 @@ def test_zero_area_faces_take_detail_without_nan(scene, model):
 
 
 def crossing_pairs(out):
-    """Pairs of the result's triangles that intersect and share no vertex, by Blender's
-    own `BVHTree.overlap` (each quad split along a diagonal)."""
-    from mathutils.bvhtree import BVHTree
-
-    quads = np.asarray(out["corners"]).reshape(-1, 4)
-    tris = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
-    tree = BVHTree.FromPolygons(np.asarray(out["vertices"]).tolist(), tris.tolist(), all_triangles=True)
-    pairs = np.array(tree.overlap(tree), np.int64).reshape(-1, 2)
-    pairs = pairs[pairs[:, 0] < pairs[:, 1]]
-    a, b = tris[pairs[:, 0]], tris[pairs[:, 1]]
-    return int((~(a[:, :, None] == b[:, None, :]).any(axis=(1, 2))).sum())
+    return quad_crossings(out["vertices"], out["corners"])
 
 
 def imported(name):

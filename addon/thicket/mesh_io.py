@@ -158,12 +158,7 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
             arrays.point_attributes[weight_attribute(pseudo)] = weights(obj, arrays)
             return arrays
     if not vertex_groups:
-        evaluated = obj.evaluated_get(depsgraph)
-        mesh = evaluated.to_mesh()
-        try:
-            return read_mesh(mesh)
-        finally:
-            evaluated.to_mesh_clear()
+        return _evaluated_arrays(obj, depsgraph)
 
     missing = [g for g in vertex_groups if obj.vertex_groups.get(g) is None]
     if missing:
@@ -198,6 +193,7 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
 
 
 def _evaluated_arrays(obj, depsgraph) -> MeshArrays:
+    """`obj`'s mesh as `depsgraph` evaluates it (its modifiers applied)."""
     evaluated = obj.evaluated_get(depsgraph)
     mesh = evaluated.to_mesh()
     try:

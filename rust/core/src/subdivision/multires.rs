@@ -113,8 +113,14 @@ pub fn analyze(fine: &Mesh, base_topology: &Mesh, levels: u32) -> Result<Multire
             finest.face_count()
         )));
     }
+    analyze_on(fine.positions(), &topology, base_topology, levels)
+}
+
+/// [`analyze`] once the fine positions are known to be those of `topology` (the plain
+/// levels 0..=`levels` of `base_topology`, from [`levels_of`]).
+fn analyze_on(fine: &[Vec3], topology: &[Mesh], base_topology: &Mesh, levels: u32) -> Result<Multires> {
     // Coarse targets, finest first.
-    let mut targets: Vec<Vec<DVec3>> = vec![fine.positions().iter().map(|p| p.as_dvec3()).collect()];
+    let mut targets: Vec<Vec<DVec3>> = vec![fine.iter().map(|p| p.as_dvec3()).collect()];
     for l in (0..levels as usize).rev() {
         let step = Step::of(&topology[l], &topology[l + 1])?;
         targets.push(step.fit(targets.last().expect("a finer level")));
@@ -152,8 +158,11 @@ pub fn analyze_positions(fine: Vec<Vec3>, base_topology: &Mesh, levels: u32) -> 
     if fine.len() != want {
         return Err(Error::InvalidMesh(format!("the fine mesh has {} vertices; {levels} subdivisions of the base have {want}", fine.len())));
     }
-    let finest = levels_of(base_topology, levels)?.pop().expect("the finest level");
-    analyze(&Mesh::new(fine, &finest.face_sizes(), finest.corners().to_vec(), None)?, base_topology, levels)
+    if let Some(v) = fine.iter().position(|p| !p.is_finite()) {
+        return Err(Error::NonFinite { index: v, value: fine[v].to_array() });
+    }
+    // The levels are made once, here, not again by `analyze`.
+    analyze_on(&fine, &levels_of(base_topology, levels)?, base_topology, levels)
 }
 
 /// The limit positions (Halstead, Kass and DeRose 1993) of the vertices of `levels` plain

@@ -60,13 +60,12 @@ pub fn first_neighbours(faces: impl Iterator<Item = impl AsRef<[u32]>>, vertex_c
 /// The frames of `vertices` of a mesh with `positions`, `normals` and first neighbours
 /// `next` (from [`first_neighbours`]).
 pub fn frames_of(positions: &[Vec3], normals: &[Vec3], next: &[u32], vertices: &[u32]) -> Vec<Frame> {
-    vertices
-        .iter()
-        .map(|&v| {
-            let p = positions[v as usize].as_dvec3();
-            Frame::new(normals[v as usize].as_dvec3(), positions[next[v as usize] as usize].as_dvec3() - p)
-        })
-        .collect()
+    vertices.iter().map(|&v| frame_at(positions, normals, next, v as usize)).collect()
+}
+
+/// Vertex `v`'s frame: its normal, its tangent towards its first neighbour `next[v]`.
+fn frame_at(positions: &[Vec3], normals: &[Vec3], next: &[u32], v: usize) -> Frame {
+    Frame::new(normals[v].as_dvec3(), positions[next[v] as usize].as_dvec3() - positions[v].as_dvec3())
 }
 
 /// The frame of every vertex of `mesh` with vertex normals `normals` ([`frames_of`] for all
@@ -74,8 +73,7 @@ pub fn frames_of(positions: &[Vec3], normals: &[Vec3], next: &[u32], vertices: &
 pub fn all_frames(mesh: &crate::Mesh, normals: &[Vec3]) -> Vec<Frame> {
     use rayon::prelude::*;
     let next = first_neighbours(mesh.faces(), mesh.vertex_count());
-    let p = mesh.positions();
-    (0..p.len()).into_par_iter().map(|v| Frame::new(normals[v].as_dvec3(), p[next[v] as usize].as_dvec3() - p[v].as_dvec3())).collect()
+    (0..mesh.vertex_count()).into_par_iter().map(|v| frame_at(mesh.positions(), normals, &next, v)).collect()
 }
 
 #[cfg(test)]
