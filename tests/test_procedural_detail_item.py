@@ -206,17 +206,24 @@ def test_the_panel_draws_the_detail_settings(scene):
     drawn = []
     draw_item_settings(Layout(drawn), cube, item)
     tail = ["detail_at", "blend_model", "local_object", "detail_shader", "confirm_above"]
-    assert drawn == ["detail_model", "levels", "seed", "detail_amplitude", *tail]
+    assert drawn == ["detail_model", "levels", "seed", "detail_amplitude", "follow_frame", *tail]
     with suspended():
         item.detail_model, item.blend_model, item.detail_shader = "BERRY", "ROCK", "PLANET"
         item.local_object = bpy.data.objects.new("center", None)
     drawn.clear()
     draw_item_settings(Layout(drawn), cube, item)
     assert drawn == [
-        *["detail_model", "levels", "seed", "detail_radius", "detail_children", "detail_seeds", "detail_at"],
+        *["detail_model", "levels", "seed", "detail_radius", "detail_children", "follow_frame", "detail_seeds", "detail_at"],
         *["blend_model", "blend_seed", "blend_gain", "blend_alpha", "blend_point", "blend_direction", "blend_width"],
         *["local_object", "local_radius", "local_gain", "local_at", "detail_shader", "shader_sea", "shader_snow", "confirm_above"],
     ]
+    # Animated: each part's rate beside it (the berry does not grow).
+    with suspended():
+        item.detail_model, item.follow_frame = "TENTACLE", True
+    drawn.clear()
+    draw_item_settings(Layout(drawn), cube, item)
+    for near, rate in (("speed", "detail_spin"), ("detail_spin", "detail_grow"), ("blend_width", "blend_sweep"), ("shader_snow", "shader_sea_rate")):
+        assert drawn[drawn.index(near) + 1] == rate, drawn
 
 
 def test_a_saved_stack_reloads_with_its_detail(scene, tmp_path):

@@ -315,10 +315,12 @@ def procedural_detail(
     sculpt: dict[str, Any] | None = None,
     uvs: Floats | list[Floats] | None = None,
     uv_smooth: str = "PRESERVE_BOUNDARIES",
+    time: float = 0.0,
 ) -> dict[str, Any]:
     """Procedural detail on Catmull-Clark levels (Velho et al. section 4): model "rock" (params amplitude) or "berry" (radius, seeds, children), lengths as fractions of the bounding-box diagonal.
     Operations (sections 5-6): `at` the levels the model acts at; `blend` a second model (model, params, seed, at, plane=(point, direction) or weights, width) blended level by level;
-    `local` modifications (center, radius in base edges, gain, levels); `shader` {"name": "planet", "sea", "snow"} for colours.
+    `local` modifications (center, radius in base edges, gain, levels); `shader` {"name": "planet", "sea", "snow", "sea_rate", "snow_rate"} for colours.
+    `time` (section 3) moves the models (params spin: tentacle radians per unit time; grow: time to full size, all but berry), the blend (sweep per unit time) and the shader (rates).
     `sculpt`: a dict from analyze() of this base (its details are added at their levels, in local frames, before each level's procedural detail).
     `uvs` (one float32 (corners, 2) map or a list of them) go through the levels by `uv_smooth` as subdivide's without the limit.
     Returns the finest level's vertices, face_sizes, corners (all quads), source_face, scalar (float32 per vertex: the detail added), blend (float32 per vertex),

@@ -143,7 +143,7 @@ class ProceduralDetail(_Item):
     `levels` times and `model`'s detail added at every level ("rock": a random value
     per control point, amplitude halving per level; "berry": domes around seeds with
     smaller clusters at each finer level; "tentacle": seeds pulled out `length` times
-    the level, turning by `theta` plus `time` radians; "spur": the same, straight;
+    the level, turning by `theta` plus `spin` times `time` radians; "spur": the same, straight;
     "mushroom": a vortex ring of `radius` carrying the surface around each seed for
     `length` times the level; "fuse": the surface of revolution about `axis` with the
     fuse profile, `amplitude`, its argument reaching `span` at the farthest vertex).
@@ -166,6 +166,12 @@ class ProceduralDetail(_Item):
     base edges of the vertex nearest it scaled by `local_gain` at `local_at` (None:
     all). `shader` "planet": colours from the scalar and the blend parameter, oceans
     below `sea`, snow above `snow` (fractions of the diagonal).
+
+    Time (section 3 feeds it to the models, the alpha and the shader): at `time` a
+    tentacle has turned by `spin` times it; every model but the berry has grown to
+    `time / grow` of its size (full from `grow` on; `grow` 0: full at once); the blend's
+    second side has grown by `blend_sweep` times it; the sea level and snow line have
+    risen by `sea_rate` and `snow_rate` times it.
     """
 
     model: str = "rock"
@@ -180,6 +186,8 @@ class ProceduralDetail(_Item):
     span: float = 1.5
     axis: tuple = (0.0, 0.0, 1.0)
     time: float = 0.0
+    spin: float = 1.0
+    grow: float = 0.0
     seeds: str = "random"
     vertex_group: str = ""
     confirm_above: int = 3_000_000
@@ -191,6 +199,7 @@ class ProceduralDetail(_Item):
     blend_point: tuple = (0.0, 0.0, 0.0)
     blend_direction: tuple = (1.0, 2.0, 0.0)
     blend_width: float = 0.2
+    blend_sweep: float = 0.0
     blend_group: str = ""
     local_center: tuple | None = None
     local_radius: float = 2.0
@@ -199,6 +208,8 @@ class ProceduralDetail(_Item):
     shader: str = ""
     sea: float = 0.0
     snow: float = 0.025
+    sea_rate: float = 0.0
+    snow_rate: float = 0.0
 
     def vertex_groups(self):
         groups = [self.blend_group] if self.blend_model and self.blend_alpha == "group" and self.blend_group else []

@@ -309,6 +309,21 @@ class ThicketItem(bpy.types.PropertyGroup):
         update=_changed,
     )
     detail_theta: FloatProperty(name="Turn", description="The tentacle's rotation angle (animatable)", default=0.0, subtype="ANGLE", update=_changed)
+    detail_spin: FloatProperty(
+        name="Spin",
+        description="With Animate With Frame: the tentacle's turn per unit of time (radians per second times Speed)",
+        default=S.ProceduralDetail.spin,
+        subtype="ANGLE",
+        update=_changed,
+    )
+    detail_grow: FloatProperty(
+        name="Grow Time",
+        description="With Animate With Frame: the time the detail takes to grow from nothing to its full size (0: full size at once; the berry does not grow)",
+        default=S.ProceduralDetail.grow,
+        min=0.0,
+        soft_max=20.0,
+        update=_changed,
+    )
     detail_spacing: FloatProperty(
         name="Spacing",
         description="Random seeds' spacing, a fraction of the bounding-box diagonal",
@@ -390,6 +405,16 @@ class ThicketItem(bpy.types.PropertyGroup):
         soft_max=1.0,
         update=_changed,
     )
+    blend_sweep: FloatProperty(
+        name="Sweep",
+        description="With Animate With Frame: how far the second model's side grows per unit of time (a fraction of the bounding-box diagonal for a plane, of the weights for a group)",
+        default=S.ProceduralDetail.blend_sweep,
+        soft_min=-1.0,
+        soft_max=1.0,
+        step=0.1,
+        precision=3,
+        update=_changed,
+    )
     blend_group: StringProperty(name="Blend Group", description="Vertex group whose weight is the blend's alpha", update=_changed)
     local_object: PointerProperty(
         name="Local Center",
@@ -420,6 +445,23 @@ class ThicketItem(bpy.types.PropertyGroup):
     )
     shader_snow: FloatProperty(
         name="Snow Line", description="Height of the snow line, a fraction of the bounding-box diagonal", default=0.025, step=0.1, precision=4, update=_changed
+    )
+
+    shader_sea_rate: FloatProperty(
+        name="Sea Rise",
+        description="With Animate With Frame: how fast the sea level rises per unit of time (negative: falls), a fraction of the bounding-box diagonal",
+        default=S.ProceduralDetail.sea_rate,
+        step=0.01,
+        precision=4,
+        update=_changed,
+    )
+    shader_snow_rate: FloatProperty(
+        name="Snow Rise",
+        description="With Animate With Frame: how fast the snow line rises per unit of time (negative: the caps grow), a fraction of the bounding-box diagonal",
+        default=S.ProceduralDetail.snow_rate,
+        step=0.01,
+        precision=4,
+        update=_changed,
     )
 
     def tree_json(self):
@@ -494,6 +536,9 @@ class ThicketItem(bpy.types.PropertyGroup):
                 span=self.fuse_span,
                 axis=tuple(self.fuse_axis),
                 time=self.texture_time() if self.follows_frame() else 0.0,
+                spin=self.detail_spin,
+                # Not following the frame, the time is 0: the detail is shown full grown.
+                grow=self.detail_grow if self.follows_frame() else 0.0,
                 seeds=self.detail_seeds.lower(),
                 vertex_group=self.vertex_group,
                 confirm_above=self.confirm_above,
@@ -505,6 +550,7 @@ class ThicketItem(bpy.types.PropertyGroup):
                 blend_point=tuple(self.blend_point),
                 blend_direction=tuple(self.blend_direction),
                 blend_width=self.blend_width,
+                blend_sweep=self.blend_sweep,
                 blend_group=self.blend_group,
                 local_center=self._local_center(),
                 local_radius=self.local_radius,
@@ -513,6 +559,8 @@ class ThicketItem(bpy.types.PropertyGroup):
                 shader="" if self.detail_shader == "NONE" else self.detail_shader.lower(),
                 sea=self.shader_sea,
                 snow=self.shader_snow,
+                sea_rate=self.shader_sea_rate,
+                snow_rate=self.shader_snow_rate,
             )
         if self.kind == S.SolidTexture.kind:
             return S.SolidTexture(
@@ -527,11 +575,21 @@ class ThicketItem(bpy.types.PropertyGroup):
         return tuple(self.id_data.matrix_world.inverted_safe() @ self.local_object.matrix_world.translation)
 
     def follows_frame(self):
-        """Whether the scene frame changes this item's result (a texture's time, a
-        tentacle's turn)."""
+        """Whether the scene frame changes this item's result (a texture's time; a
+        procedural detail's models, blend or shader that time moves)."""
         if self.kind == "PROCEDURAL_DETAIL":
-            return self.follow_frame and self.detail_model == "TENTACLE"
+            return self.follow_frame and self._detail_animates()
         return self.follow_frame and self.kind == "VOLUMETRIC_TEXTURE"
+
+    def _detail_animates(self):
+        """Whether time moves this Procedural Detail (section 3: the models, the alpha,
+        the shader), so following the frame is worth a regeneration per frame."""
+        models = [m for m in (self.detail_model, self.blend_model) if m != "NONE"]
+        spins = "TENTACLE" in models and self.detail_spin != 0.0
+        grows = self.detail_grow > 0.0 and any(m != "BERRY" for m in models)
+        sweeps = self.blend_model != "NONE" and self.blend_sweep != 0.0
+        tides = self.detail_shader == "PLANET" and (self.shader_sea_rate != 0.0 or self.shader_snow_rate != 0.0)
+        return spins or grows or sweeps or tides
 
     def watched_objects(self):
         """Other objects whose change changes this item's result: a cutter, a local center."""

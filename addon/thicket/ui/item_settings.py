@@ -50,10 +50,14 @@ def _draw_detail_settings(col, obj, item):
     col.prop(item, "seed")
     for prop in DETAIL_PROPS[item.detail_model]:
         col.prop(item, prop)
-    if item.detail_model == "TENTACLE":
-        col.prop(item, "follow_frame", text="Turn With Frame")
-        if item.follow_frame:
-            col.prop(item, "speed")
+    # Time (section 3) moves the models, the blend and the shader, each by its rate.
+    col.prop(item, "follow_frame", text="Animate With Frame")
+    if item.follow_frame:
+        col.prop(item, "speed")
+        if item.detail_model == "TENTACLE":
+            col.prop(item, "detail_spin")
+        if item.detail_model != "BERRY":
+            col.prop(item, "detail_grow")
     if item.detail_model not in ("ROCK", "FUSE"):
         col.prop(item, "detail_seeds")
         if item.detail_seeds == "GROUP":
@@ -71,6 +75,8 @@ def _draw_detail_settings(col, obj, item):
         else:
             col.prop_search(item, "blend_group", obj, "vertex_groups")
         col.prop(item, "blend_width")
+        if item.follow_frame:
+            col.prop(item, "blend_sweep")
     col.separator()
     col.prop(item, "local_object")
     if item.local_object is not None:
@@ -82,6 +88,9 @@ def _draw_detail_settings(col, obj, item):
     if item.detail_shader == "PLANET":
         col.prop(item, "shader_sea")
         col.prop(item, "shader_snow")
+        if item.follow_frame:
+            col.prop(item, "shader_sea_rate")
+            col.prop(item, "shader_snow_rate")
     col.prop(item, "confirm_above")
 
 

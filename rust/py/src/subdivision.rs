@@ -7,7 +7,7 @@ use thicket_core::subdivision::budget;
 use thicket_core::subdivision::detail::Model;
 use thicket_core::subdivision::multires::{self, Multires};
 use thicket_core::subdivision::operations::{Alpha, AlphaSource, Levels, Local, Planet};
-use thicket_core::subdivision::recipe::{self, Blend, Recipe};
+use thicket_core::subdivision::recipe::{self, Blend, Motion, Recipe};
 use thicket_core::subdivision::{self, Boundary, Options, UvSmooth};
 use thicket_core::Mesh;
 
@@ -94,7 +94,12 @@ pub fn subdivide<'py>(
 /// level; `local`, a list of dicts of `center` (a vertex), `radius` (in base edges:
 /// nothing that far or farther changes), `gain` (0 removes the detail, 2 doubles it) and
 /// `levels` (all when absent); `shader`, a dict `{"name": "planet", "sea": 0.0, "snow":
-/// 0.025}` (heights as fractions of the diagonal) for the planet's colours. Returns the
+/// 0.025, "sea_rate": 0.0, "snow_rate": 0.0}` (heights as fractions of the diagonal,
+/// rates per unit of time) for the planet's colours. `time` (section 3) feeds the models
+/// (params `spin`, the tentacle's turn in radians per unit of time, and `grow`, the time
+/// all but the berry reach their full size from 0; both 0 by default), the blend's alpha
+/// (blend `sweep`: how far the second model's side grows per unit of time, a fraction
+/// of the diagonal for a plane, weight units for weights) and the shader. Returns the
 /// finest level's vertices, face_sizes and corners (all quads), source_face (the base face
 /// of each face), `scalar`, float32 per vertex: the detail the levels added along their
 /// normals, `blend` (float32 per vertex, the blend parameter; 0 without a blend),
@@ -110,7 +115,7 @@ pub fn subdivide<'py>(
 /// edited base), adds the analysed detail at its levels before each level's procedural
 /// detail (section 2).
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None, *, at=None, blend=None, local=None, shader=None, sculpt=None, uvs=None, uv_smooth="PRESERVE_BOUNDARIES"))]
+#[pyo3(signature = (vertices, face_sizes, corners, model, levels, seed=0, params=None, *, at=None, blend=None, local=None, shader=None, sculpt=None, uvs=None, uv_smooth="PRESERVE_BOUNDARIES", time=0.0))]
 #[allow(clippy::too_many_arguments)]
 pub fn procedural_detail<'py>(
     py: Python<'py>,
@@ -128,16 +133,20 @@ pub fn procedural_detail<'py>(
     sculpt: Option<&Bound<'py, PyDict>>,
     uvs: Option<&Bound<'py, PyAny>>,
     uv_smooth: &str,
+    time: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh = arrays::mesh(&vertices, face_sizes, corners)?;
     let (uvs, uv_list) = uv_maps(uvs, mesh.corners().len())?;
     let smooth = UvSmooth::parse(uv_smooth).map_err(to_py)?;
     let diag = mesh.bbox_diagonal() as f64;
-    let mut recipe = Recipe::of(model_from(model, params, &mesh)?, seed);
+    let (model, motion) = model_from(model, params, &mesh)?;
+    let mut recipe = Recipe::of(model, seed);
+    recipe.motion = motion;
+    recipe.time = time;
     recipe.at = levels_from(at)?;
     recipe.blend = blend.map(|b| blend_from(b, &mesh)).transpose()?;
     recipe.local = local.unwrap_or_default().iter().map(local_from).collect::<PyResult<_>>()?;
-    let planet = shader.map(|s| planet_from(s, diag)).transpose()?;
+    let planet = shader.map(|s| planet_from(s, diag, time)).transpose()?;
     recipe.sculpt = sculpt.map(sculpt_from).transpose()?;
     if (1..=subdivision::MAX_LEVELS).contains(&levels) {
         budget::check_fits(&mesh, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
@@ -320,8 +329,9 @@ fn uv_maps(uvs: Option<&Bound<'_, PyAny>>, corners: usize) -> PyResult<(Vec<Vec<
     }
 }
 
-/// A model from its name and `params` (lengths as fractions of `mesh`'s diagonal).
-fn model_from(model: &str, params: Option<&Bound<'_, PyDict>>, mesh: &Mesh) -> PyResult<Model> {
+/// A model from its name and `params` (lengths as fractions of `mesh`'s diagonal), and how
+/// time moves it (`spin` for the tentacle, `grow` for all but the berry).
+fn model_from(model: &str, params: Option<&Bound<'_, PyDict>>, mesh: &Mesh) -> PyResult<(Model, Motion)> {
     let diag = mesh.bbox_diagonal() as f64;
     let settings = Keywords::new("procedural_detail", params);
     let model = match model {
@@ -358,8 +368,12 @@ fn model_from(model: &str, params: Option<&Bound<'_, PyDict>>, mesh: &Mesh) -> P
         }
         _ => return Err(InvalidInput::new_err(format!("model must be 'rock', 'berry', 'tentacle', 'spur', 'mushroom' or 'fuse', not {model:?}"))),
     };
+    let motion = Motion {
+        spin: if matches!(model, Model::Tentacle { .. }) { settings.get("spin", 0.0f64)? } else { 0.0 },
+        grow: if matches!(model, Model::Berry { .. }) { 0.0 } else { settings.get("grow", 0.0f64)? },
+    };
     settings.finish()?;
-    Ok(model)
+    Ok((model, motion))
 }
 
 /// The levels a model or a modification acts at: all when None; an empty list is refused.
@@ -398,8 +412,13 @@ fn blend_from(b: &Bound<'_, PyDict>, mesh: &Mesh) -> PyResult<Blend> {
         AlphaSource::Plane { .. } => k.get("width", 0.2f64)? * diag,
         AlphaSource::Painted { .. } => k.get("width", 1.0f64)?,
     };
+    let sweep = match source {
+        AlphaSource::Plane { .. } => k.get("sweep", 0.0f64)? * diag,
+        AlphaSource::Painted { .. } => k.get("sweep", 0.0f64)?,
+    };
     k.finish()?;
-    Ok(Blend { model: model_from(&name, params.as_ref(), mesh)?, seed, at, alpha: Alpha { source, width } })
+    let (model, motion) = model_from(&name, params.as_ref(), mesh)?;
+    Ok(Blend { model, seed, at, alpha: Alpha { source, width, sweep }, motion })
 }
 
 /// One of `procedural_detail`'s `local` dicts.
@@ -413,14 +432,22 @@ fn local_from(l: &Bound<'_, PyDict>) -> PyResult<Local> {
     Ok(local)
 }
 
-/// `procedural_detail`'s `shader` dict (heights as fractions of `diag`).
-fn planet_from(s: &Bound<'_, PyDict>, diag: f64) -> PyResult<Planet> {
+/// `procedural_detail`'s `shader` dict (heights as fractions of `diag`), at `time`.
+fn planet_from(s: &Bound<'_, PyDict>, diag: f64, time: f64) -> PyResult<Planet> {
     let k = Keywords::new("procedural_detail shader", Some(s));
     let name: String = k.get("name", "planet".to_string())?;
     if name != "planet" {
         return Err(InvalidInput::new_err(format!("shader name must be 'planet', not {name:?}")));
     }
-    let planet = Planet { scale: diag, sea: k.get("sea", 0.0f64)?, snow: k.get("snow", 0.025f64)?, ..Planet::default() };
+    let planet = Planet {
+        scale: diag,
+        sea: k.get("sea", 0.0f64)?,
+        snow: k.get("snow", 0.025f64)?,
+        sea_rate: k.get("sea_rate", 0.0f64)?,
+        snow_rate: k.get("snow_rate", 0.0f64)?,
+        ..Planet::default()
+    }
+    .at_time(time);
     k.finish()?;
     planet.validate().map_err(to_py)?;
     Ok(planet)

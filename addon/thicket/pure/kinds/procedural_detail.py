@@ -69,6 +69,11 @@ API_NAMES = {
     "span": "fuse_span",
     "axis": "fuse_axis",
     "snow": "shader_snow",
+    "spin": "detail_spin",
+    "grow": "detail_grow",
+    "sweep": "blend_sweep",
+    "sea_rate": "shader_sea_rate",
+    "snow_rate": "shader_snow_rate",
 }
 #: Those given as names, which the item stores as Blender enum identifiers (upper case).
 API_ENUMS = ("model", "seeds", "blend_model", "blend_alpha", "shader")
@@ -121,11 +126,13 @@ def seed_vertices(state: State, item: S.ProceduralDetail):
 
 
 def model_params(item: S.ProceduralDetail, model: str, gain: float = 1.0) -> dict:
-    """`model`'s settings from the item, its lengths times `gain`; a tentacle turns by
-    `theta` plus the item's `time` (radians)."""
+    """`model`'s settings from the item, its lengths times `gain`, and how time moves it
+    (a tentacle's `spin`, every model's but the berry's `grow`)."""
     out = {name: getattr(item, name) * gain if name in LENGTHS else getattr(item, name) for name in MODEL_SETTINGS[model]}
-    if "theta" in out:
-        out["theta"] = float(out["theta"]) + float(item.time)
+    if model == "tentacle":
+        out["spin"] = float(item.spin)
+    if model != "berry":
+        out["grow"] = float(item.grow)
     if "axis" in out:
         out["axis"] = tuple(map(float, out["axis"]))
     return out
@@ -173,7 +180,7 @@ def blend(state: State, item: S.ProceduralDetail):
     if item.blend_alpha not in BLEND_ALPHAS:
         raise _invalid(item, f"the blend alpha must be one of {', '.join(BLEND_ALPHAS)}, not {item.blend_alpha!r}")
     partner = model_params(item, item.blend_model, float(item.blend_gain))
-    out = dict(model=item.blend_model, params=partner, seed=int(item.blend_seed), width=float(item.blend_width))
+    out = dict(model=item.blend_model, params=partner, seed=int(item.blend_seed), width=float(item.blend_width), sweep=float(item.blend_sweep))
     if item.blend_alpha == "plane":
         out["plane"] = (tuple(map(float, item.blend_point)), tuple(map(float, item.blend_direction)))
     elif not item.blend_group:
@@ -200,7 +207,9 @@ def local(mesh: MeshArrays, item: S.ProceduralDetail):
 def shader(item: S.ProceduralDetail):
     if item.shader not in SHADERS:
         raise _invalid(item, f"shader must be one of {', '.join(s for s in SHADERS if s)} or none, not {item.shader!r}")
-    return dict(name=item.shader, sea=float(item.sea), snow=float(item.snow)) if item.shader else None
+    if not item.shader:
+        return None
+    return dict(name=item.shader, sea=float(item.sea), snow=float(item.snow), sea_rate=float(item.sea_rate), snow_rate=float(item.snow_rate))
 
 
 def provenance(mesh: MeshArrays, out, levels: int) -> np.ndarray:
@@ -232,7 +241,7 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tupl
     at = _levels(item, item.at, "Detail At Levels")
     if at is not None and min(at) > item.levels:
         state.notes.append(f"'{item.label}': Detail At Levels names no level up to {item.levels}, so the model adds nothing")
-    operations = dict(at=at, blend=blend(state, item), local=local(mesh, item), shader=shader(item))
+    operations = dict(at=at, blend=blend(state, item), local=local(mesh, item), shader=shader(item), time=float(item.time))
     uv_maps = dict(mesh.uv_maps)
     if mesh.uvs is not None and mesh.uv_name not in uv_maps:
         uv_maps[mesh.uv_name] = mesh.uvs

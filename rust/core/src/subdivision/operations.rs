@@ -145,6 +145,11 @@ pub enum AlphaSource {
 pub struct Alpha {
     pub source: AlphaSource,
     pub width: f64,
+    /// How far the blend coordinate `s` moves per unit of time (section 3: time feeds
+    /// "the synthesized alpha"): `s + sweep t`, so the second model's side grows by
+    /// `sweep` (a length for a plane, weight units for painted weights) per unit of time
+    /// (shrinks where negative).
+    pub sweep: f64,
 }
 
 /// `3 x^2 - 2 x^3` of `x` clamped to [0, 1].
@@ -158,6 +163,9 @@ impl Alpha {
         let bad = |m: String| Err(Error::InvalidParameter(m));
         if !(self.width.is_finite() && self.width >= 0.0) {
             return bad(format!("blend width must be finite and not negative, not {}", self.width));
+        }
+        if !self.sweep.is_finite() {
+            return bad(format!("blend sweep must be finite, not {}", self.sweep));
         }
         match &self.source {
             AlphaSource::Plane { point, direction } => {
@@ -180,14 +188,15 @@ impl Alpha {
         Ok(())
     }
 
-    /// The alpha of each vertex at `level`: `positions` the level's (before its detail),
-    /// `painted` the painted weights carried to it (ignored for a plane). A width of 0
-    /// is a step (alpha 0 or 1 only).
-    pub fn at(&self, level: u32, positions: &[Vec3], painted: &[f32]) -> Vec<f64> {
+    /// The alpha of each vertex at `level` and `time`: `positions` the level's (before
+    /// its detail), `painted` the painted weights carried to it (ignored for a plane). A
+    /// width of 0 is a step (alpha 0 or 1 only).
+    pub fn at(&self, level: u32, positions: &[Vec3], painted: &[f32], time: f64) -> Vec<f64> {
         let w = self.width * 0.5f64.powi(level as i32 - 1);
+        let shift = self.sweep * time;
         let alpha = |s: f64| match w > 0.0 {
-            true => smoothstep(s / w + 0.5),
-            false => f64::from(u8::from(s >= 0.0)),
+            true => smoothstep((s + shift) / w + 0.5),
+            false => f64::from(u8::from(s + shift >= 0.0)),
         };
         match &self.source {
             AlphaSource::Plane { point, direction } => {
@@ -209,6 +218,11 @@ pub struct Planet {
     pub scale: f64,
     pub sea: f64,
     pub snow: f64,
+    /// How fast the sea level and the snow line rise per unit of time (section 3: time
+    /// feeds "the post-processing shader"), in the units of `sea` and `snow`: see
+    /// [`Planet::at_time`].
+    pub sea_rate: f64,
+    pub snow_rate: f64,
     /// Colours (linear RGB) of deep sea, shallow sea, lowland, mountain and snow for
     /// sub-planet 0 (`b = 0`) and 1.
     pub palettes: [[Vec3; 5]; 2],
@@ -219,13 +233,21 @@ impl Default for Planet {
         let earth = [Vec3::new(0.01, 0.03, 0.15), Vec3::new(0.05, 0.25, 0.45), Vec3::new(0.10, 0.35, 0.08), Vec3::new(0.30, 0.22, 0.15), Vec3::ONE];
         let mars =
             [Vec3::new(0.10, 0.02, 0.02), Vec3::new(0.35, 0.12, 0.05), Vec3::new(0.60, 0.30, 0.12), Vec3::new(0.40, 0.18, 0.10), Vec3::new(0.95, 0.85, 0.80)];
-        Planet { scale: 1.0, sea: 0.0, snow: 0.6, palettes: [earth, mars] }
+        Planet { scale: 1.0, sea: 0.0, snow: 0.6, sea_rate: 0.0, snow_rate: 0.0, palettes: [earth, mars] }
     }
 }
 
 impl Planet {
+    /// The shader at `time`: sea level `sea + sea_rate time`, snow line `snow +
+    /// snow_rate time` (rising seas, retreating snow caps...). Validate the result: the
+    /// snow line must stay above the sea.
+    pub fn at_time(&self, time: f64) -> Planet {
+        Planet { sea: self.sea + self.sea_rate * time, snow: self.snow + self.snow_rate * time, ..self.clone() }
+    }
+
     pub fn validate(&self) -> Result<()> {
-        let finite = [self.scale, self.sea, self.snow].iter().all(|x| x.is_finite()) && self.palettes.iter().flatten().all(|c| c.is_finite());
+        let finite = [self.scale, self.sea, self.snow, self.sea_rate, self.snow_rate].iter().all(|x| x.is_finite())
+            && self.palettes.iter().flatten().all(|c| c.is_finite());
         if !(finite && self.scale > 0.0 && self.snow > self.sea) {
             return Err(Error::InvalidParameter(format!(
                 "planet shader: scale must be above 0 and snow above sea, all finite (scale {}, sea {}, snow {})",
@@ -314,7 +336,9 @@ mod tests {
     #[test]
     fn plane_alpha_is_a_step_at_width_zero_and_halves_its_ramp_per_level() {
         let points: Vec<Vec3> = (-10..=10).map(|i| Vec3::new(i as f32 * 0.1, 0.0, 0.0)).collect();
-        let alpha = |width: f64, level| Alpha { source: AlphaSource::Plane { point: DVec3::ZERO, direction: DVec3::X * 3.0 }, width }.at(level, &points, &[]);
+        let alpha = |width: f64, level| {
+            Alpha { source: AlphaSource::Plane { point: DVec3::ZERO, direction: DVec3::X * 3.0 }, width, sweep: 0.0 }.at(level, &points, &[], 0.0)
+        };
         let step = alpha(0.0, 1);
         assert!(step.iter().zip(&points).all(|(&a, p)| a == if p.x >= 0.0 { 1.0 } else { 0.0 }));
         let ramp = |a: &[f64]| a.iter().filter(|&&a| a > 0.0 && a < 1.0).count();
@@ -326,9 +350,9 @@ mod tests {
 
     #[test]
     fn painted_alpha_reads_the_carried_weights() {
-        let a = Alpha { source: AlphaSource::Painted { weights: vec![0.0; 3] }, width: 1.0 };
-        assert_eq!(a.at(1, &[Vec3::ZERO; 3], &[0.0, 0.5, 1.0]), vec![0.0, 0.5, 1.0]);
-        let sharp = a.at(3, &[Vec3::ZERO; 3], &[0.3, 0.5, 0.7]);
+        let a = Alpha { source: AlphaSource::Painted { weights: vec![0.0; 3] }, width: 1.0, sweep: 0.0 };
+        assert_eq!(a.at(1, &[Vec3::ZERO; 3], &[0.0, 0.5, 1.0], 0.0), vec![0.0, 0.5, 1.0]);
+        let sharp = a.at(3, &[Vec3::ZERO; 3], &[0.3, 0.5, 0.7], 0.0);
         assert_eq!((sharp[0], sharp[2]), (0.0, 1.0), "width 1/4 at level 3: 0.3 and 0.7 lie beyond the ramp");
     }
 
@@ -346,5 +370,43 @@ mod tests {
         let mixed = planet.colors(&[0.0], &[0.5]);
         assert!(rgb(mixed[0]).abs_diff_eq(earth[2].lerp(planet.palettes[1][2], 0.5), 1e-6));
         assert!(Planet { snow: -1.0, ..Planet::default() }.validate().is_err());
+    }
+
+    #[test]
+    fn time_sweeps_the_alpha_as_moving_its_plane_or_its_weights() {
+        let points: Vec<Vec3> = (-10..=10).map(|i| Vec3::new(i as f32 * 0.1, 0.3, -0.2)).collect();
+        let dir = DVec3::new(2.0, 0.0, 0.0);
+        let plane = |point: DVec3, sweep: f64| Alpha { source: AlphaSource::Plane { point, direction: dir }, width: 0.4, sweep };
+        // At time 2 with sweep 0.15, the front has moved 0.3 against the direction: the
+        // second model's side grows, as a plane 0.3 back.
+        for level in 1..4 {
+            let swept = plane(DVec3::ZERO, 0.15).at(level, &points, &[], 2.0);
+            let moved = plane(DVec3::new(-0.3, 0.0, 0.0), 0.0).at(level, &points, &[], 0.0);
+            for (a, b) in swept.iter().zip(&moved) {
+                assert!((a - b).abs() < 1e-12, "level {level}: {a} {b}");
+            }
+            assert_eq!(plane(DVec3::ZERO, 0.15).at(level, &points, &[], 0.0), plane(DVec3::ZERO, 0.0).at(level, &points, &[], 0.0));
+        }
+        let painted = |sweep| Alpha { source: AlphaSource::Painted { weights: vec![0.0; 3] }, width: 1.0, sweep };
+        let w = [0.1f32, 0.4, 0.6];
+        let shifted: Vec<f32> = w.iter().map(|x| x + 0.25).collect();
+        let (a, b) = (painted(0.5).at(2, &[Vec3::ZERO; 3], &w, 0.5), painted(0.0).at(2, &[Vec3::ZERO; 3], &shifted, 0.0));
+        assert!(a.iter().zip(&b).all(|(a, b)| (a - b).abs() < 1e-6) && a[0] > 0.0 && a[0] < 1.0, "{a:?} {b:?}");
+        assert!(plane(DVec3::ZERO, f64::NAN).validate(&fixtures::cube()).is_err());
+    }
+
+    #[test]
+    fn the_planet_at_a_time_has_its_sea_and_snow_moved_by_their_rates() {
+        let planet = Planet { sea_rate: 0.1, snow_rate: -0.05, ..Planet::default() };
+        let later = planet.at_time(2.0);
+        assert!((later.sea - 0.2).abs() < 1e-12 && (later.snow - 0.5).abs() < 1e-12);
+        let h = [0.1f32, 0.3, 0.55];
+        let want = Planet { sea: 0.2, snow: 0.5, ..Planet::default() }.colors(&h, &[0.0; 3]);
+        assert!(later.colors(&h, &[0.0; 3]).iter().flatten().zip(want.iter().flatten()).all(|(a, b)| (a - b).abs() < 1e-6));
+        // Flooded: a lowland at time 0 is sea at time 2.
+        let (now, then) = (planet.colors(&[0.1], &[0.0]), later.colors(&[0.1], &[0.0]));
+        assert!(now[0][1] > now[0][2] && then[0][2] > then[0][1], "green land, then blue sea: {now:?} {then:?}");
+        // The snow line may not sink under the sea.
+        assert!(planet.at_time(5.0).validate().is_err() && planet.at_time(3.0).validate().is_ok());
     }
 }

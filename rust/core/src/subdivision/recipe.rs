@@ -21,6 +21,7 @@ pub struct Blend {
     pub seed: u64,
     pub at: Levels,
     pub alpha: Alpha,
+    pub motion: Motion,
 }
 
 /// What [`synthesize`] builds: `model` (random values from `seed`) adding detail at the
@@ -38,18 +39,72 @@ pub struct Recipe {
     pub blend: Option<Blend>,
     pub local: Vec<Local>,
     pub sculpt: Option<Vec<Vec<DVec3>>>,
+    /// The animation time (section 3): it moves the models by their [`Motion`] and the
+    /// blend's alpha by its sweep ([`Alpha::sweep`]); the shader takes it too
+    /// ([`super::operations::Planet::at_time`]).
+    pub time: f64,
+    pub motion: Motion,
+}
+
+/// The largest animation time taken (in the scene's seconds times a speed).
+pub const MAX_TIME: f64 = 1e6;
+
+/// How time moves a model (section 3: "an animation time parameter can feed into (i) any
+/// synthesized shape definition"; 4.2: the tentacle's "parameters can be time-varying
+/// and be used for animation"): a tentacle turns by `spin` radians per unit of time, and
+/// the model's size (a rock's or fuse's amplitude, a tentacle's, spur's or mushroom
+/// cloud's length) grows from 0 at time 0 to its full value at time `grow` (0: full at
+/// every time). A berry does not grow: its radius also sets its seeds' spacing, so its
+/// domes would jump from place to place.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Motion {
+    pub spin: f64,
+    pub grow: f64,
+}
+
+impl Motion {
+    pub fn validate(&self) -> Result<()> {
+        if !(self.spin.is_finite() && self.spin.abs() <= MAX_TIME && self.grow.is_finite() && (0.0..=MAX_TIME).contains(&self.grow)) {
+            return Err(Error::InvalidParameter(format!(
+                "spin must be finite and grow between 0 and {MAX_TIME}, not spin {} and grow {}",
+                self.spin, self.grow
+            )));
+        }
+        Ok(())
+    }
+
+    /// `model` as it is at `time`.
+    pub fn at(&self, model: &Model, time: f64) -> Model {
+        let g = match self.grow > 0.0 {
+            true => (time / self.grow).clamp(0.0, 1.0),
+            false => 1.0,
+        };
+        match model.clone() {
+            Model::Rock { amplitude } => Model::Rock { amplitude: amplitude * g },
+            Model::Tentacle { length, theta, seeds, spacing } => Model::Tentacle { length: length * g, theta: theta + self.spin * time, seeds, spacing },
+            Model::Spur { length, seeds, spacing } => Model::Spur { length: length * g, seeds, spacing },
+            Model::Mushroom { radius, length, seeds } => Model::Mushroom { radius, length: length * g, seeds },
+            Model::Fuse { amplitude, span, center, axis } => Model::Fuse { amplitude: amplitude * g, span, center, axis },
+            berry @ Model::Berry { .. } => berry,
+        }
+    }
 }
 
 impl Recipe {
     /// `model` everywhere, at every level, alone.
     pub fn of(model: Model, seed: u64) -> Self {
-        Recipe { model, seed, at: Levels::ALL, blend: None, local: Vec::new(), sculpt: None }
+        Recipe { model, seed, at: Levels::ALL, blend: None, local: Vec::new(), sculpt: None, time: 0.0, motion: Motion::default() }
     }
 
     fn validate(&self, base: &Mesh) -> Result<()> {
-        self.model.validate(base)?;
+        if !(self.time.is_finite() && self.time.abs() <= MAX_TIME) {
+            return Err(Error::InvalidParameter(format!("time must be finite and at most {MAX_TIME} in size, not {}", self.time)));
+        }
+        self.motion.validate()?;
+        self.motion.at(&self.model, self.time).validate(base)?;
         if let Some(b) = &self.blend {
-            b.model.validate(base)?;
+            b.motion.validate()?;
+            b.motion.at(&b.model, self.time).validate(base)?;
             b.alpha.validate(base)?;
         }
         if self.local.len() > MAX_LOCAL {
@@ -82,8 +137,11 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
             sculpt.len()
         )));
     }
-    let mut first = recipe.model.initial_state(base);
-    let mut second = recipe.blend.as_ref().map(|b| b.model.initial_state(base));
+    // The models as they are at this time.
+    let model = recipe.motion.at(&recipe.model, recipe.time);
+    let other = recipe.blend.as_ref().map(|b| b.motion.at(&b.model, recipe.time));
+    let mut first = model.initial_state(base);
+    let mut second = other.as_ref().map(|m| m.initial_state(base));
     // Painted alpha: the weights carried level by level, linearly (the parent level's
     // topology is kept for it).
     let mut painted = match recipe.blend.as_ref().map(|b| &b.alpha.source) {
@@ -115,9 +173,9 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
             }
             d
         };
-        let mut d = displaced(&recipe.model, recipe.at, recipe.seed, &mut first);
-        if let (Some(b), Some(state)) = (&recipe.blend, second.as_mut()) {
-            let other = displaced(&b.model, b.at, b.seed, state);
+        let mut d = displaced(&model, recipe.at, recipe.seed, &mut first);
+        if let (Some(b), Some(other), Some(state)) = (&recipe.blend, &other, second.as_mut()) {
+            let other = displaced(other, b.at, b.seed, state);
             let carried = match painted.take() {
                 Some((parent, w)) => {
                     let w = detail::linear_child_values(&parent, mesh, &w);
@@ -128,7 +186,7 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
                 }
                 None => Vec::new(),
             };
-            let alpha = b.alpha.at(level, mesh.positions(), &carried);
+            let alpha = b.alpha.at(level, mesh.positions(), &carried, recipe.time);
             d = mixed(d, other, &alpha, normals);
             if level == levels {
                 blend_out = alpha.iter().map(|&a| a as f32).collect();
@@ -200,7 +258,13 @@ mod tests {
     }
 
     fn plane_blend(model: Model, width: f64, point: DVec3) -> Blend {
-        Blend { model, seed: 2, at: Levels::ALL, alpha: Alpha { source: AlphaSource::Plane { point, direction: DVec3::new(1.0, 2.0, 0.0) }, width } }
+        Blend {
+            model,
+            seed: 2,
+            at: Levels::ALL,
+            alpha: Alpha { source: AlphaSource::Plane { point, direction: DVec3::new(1.0, 2.0, 0.0) }, width, sweep: 0.0 },
+            motion: Motion::default(),
+        }
     }
 
     #[test]
@@ -230,7 +294,8 @@ mod tests {
                 model: berry.clone(),
                 seed: 2,
                 at: Levels::ALL,
-                alpha: Alpha { source: AlphaSource::Painted { weights: vec![w; base.vertex_count()] }, width: 0.5 },
+                alpha: Alpha { source: AlphaSource::Painted { weights: vec![w; base.vertex_count()] }, width: 0.5, sweep: 0.0 },
+                motion: Motion::default(),
             }),
             ..Recipe::of(rock(0.05), 4)
         };
@@ -393,5 +458,45 @@ mod tests {
         refuse(Recipe { blend: Some(short), ..Recipe::of(rock(0.05), 1) });
         refuse(Recipe { blend: Some(plane_blend(rock(f64::INFINITY), 1.0, DVec3::ZERO)), ..Recipe::of(rock(0.05), 1) });
         assert!(Levels::of(&[0]).is_err() && Levels::of(&[32]).is_err());
+    }
+
+    #[test]
+    fn time_moves_the_models_by_their_motion_and_the_alpha_by_its_sweep() {
+        let base = sphere();
+        let tentacle = |theta| Model::Tentacle { length: 0.05, theta, seeds: vec![3, 17], spacing: 0.5 };
+        let at = |model: Model, motion: Motion, time: f64| synthesize(&base, 3, &Recipe { time, motion, ..Recipe::of(model, 4) }).unwrap().detailed;
+        // A tentacle spinning 0.5 radians per unit of time, at time 3, is the tentacle
+        // turned by 1.5; without spin, time changes nothing.
+        let spun = at(tentacle(0.2), Motion { spin: 0.5, grow: 0.0 }, 3.0);
+        assert_eq!(spun, at(tentacle(1.7), Motion::default(), 0.0));
+        assert_ne!(spun, at(tentacle(0.2), Motion::default(), 0.0));
+        assert_eq!(at(tentacle(0.2), Motion::default(), 3.0), at(tentacle(0.2), Motion::default(), 0.0));
+        // Growing over 4 units of time: a quarter of the rock at time 1, the whole from 4 on.
+        let grow = Motion { spin: 0.0, grow: 4.0 };
+        assert_eq!(at(rock(0.05), grow, 1.0), at(rock(0.0125), Motion::default(), 0.0));
+        assert_eq!(at(rock(0.05), grow, 9.0), at(rock(0.05), Motion::default(), 0.0));
+        let flat = at(rock(0.05), grow, 0.0);
+        assert!(flat.scalar.iter().all(|&h| h == 0.0), "nothing grown at time 0");
+        // A sweeping plane at time 2 is the plane moved back by 2 sweeps.
+        let sweep = |point: DVec3, sweep: f64, time: f64| {
+            let mut b = plane_blend(rock(0.0), 0.3, point);
+            b.alpha.sweep = sweep;
+            synthesize(&base, 3, &Recipe { blend: Some(b), time, ..Recipe::of(rock(0.05), 4) }).unwrap()
+        };
+        let dir = DVec3::new(1.0, 2.0, 0.0).normalize();
+        let (swept, moved) = (sweep(DVec3::ZERO, 0.1, 2.0), sweep(-0.2 * dir, 0.0, 0.0));
+        assert!(swept.blend.iter().zip(&moved.blend).all(|(a, b)| (a - b).abs() < 1e-5));
+        let p = |m: &Mesh| m.positions().to_vec();
+        let worst = p(&swept.detailed.mesh).iter().zip(p(&moved.detailed.mesh)).map(|(a, b)| a.distance(b)).fold(0.0, f32::max);
+        assert!(worst < 1e-5, "{worst}");
+        assert!(swept.blend.iter().sum::<f32>() > sweep(DVec3::ZERO, 0.1, 0.0).blend.iter().sum::<f32>() + 1.0, "the second model's side grows");
+        // Bad times and motions are refused.
+        for r in [
+            Recipe { time: f64::NAN, ..Recipe::of(rock(0.05), 1) },
+            Recipe { motion: Motion { spin: 0.0, grow: -1.0 }, ..Recipe::of(rock(0.05), 1) },
+            Recipe { motion: Motion { spin: f64::INFINITY, grow: 0.0 }, ..Recipe::of(rock(0.05), 1) },
+        ] {
+            assert!(matches!(synthesize(&base, 1, &r), Err(Error::InvalidParameter(_))), "{r:?}");
+        }
     }
 }
