@@ -1,6 +1,6 @@
 """Settings of each stack item kind as plain data, independent of Blender."""
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .arrays import SELECTED_VERTICES
 
@@ -166,6 +166,12 @@ class ProceduralDetail(_Item):
     base edges of the vertex nearest it scaled by `local_gain` at `local_at` (None:
     all). `shader` "planet": colours from the scalar and the blend parameter, oceans
     below `sea`, snow above `snow` (fractions of the diagonal).
+
+    `use_sculpt`: the item starts from the source's Multires sculpt (section 2): the
+    stack reads the sculpt's fitted coarse mesh as the source and sets `sculpt` (the
+    analysis, `thicket_native.analyze`'s dict plus `levels`), whose details are added
+    at their levels under the model's; `sculpt_notes` are passed on to the user.
+    Without `sculpt` (no Multires on the source) the item works as without it.
     """
 
     model: str = "rock"
@@ -199,6 +205,9 @@ class ProceduralDetail(_Item):
     shader: str = ""
     sea: float = 0.0
     snow: float = 0.025
+    use_sculpt: bool = False
+    sculpt: dict | None = field(default=None, compare=False, repr=False)
+    sculpt_notes: tuple = ()
 
     def vertex_groups(self):
         groups = [self.blend_group] if self.blend_model and self.blend_alpha == "group" and self.blend_group else []
