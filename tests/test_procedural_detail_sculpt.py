@@ -316,7 +316,7 @@ def test_bad_input_is_refused_with_the_reason_and_the_source_untouched(scene):
     cube.modifiers.new("Multires", "MULTIRES")
     with pytest.raises(ValueError, match="Use Sculpt.*no levels: subdivide it first"):
         api.add_procedural_detail(cube, model="ROCK", use_sculpt=True)
-    assert not cube.thicket.items[0].use_sculpt or cube.thicket.result is None
+    assert cube.thicket.items[0].use_sculpt and cube.thicket.result is None
     # No Multires at all.
     plain = add("cube", size=2, location=(8, 0, 0))
     with pytest.raises(ValueError, match="no Multires"):
@@ -381,3 +381,23 @@ def test_the_panel_shows_use_sculpt_only_with_a_multires(scene):
     drawn.clear()
     draw_item_settings(Layout(drawn), cube, cube.thicket.items[0])
     assert drawn[:3] == ["detail_model", "levels", "use_sculpt"]
+
+
+def test_a_saved_sculpt_item_reloads_and_the_renderers_read_the_sculpt(scene, tmp_path):
+    from thicket.render import preview
+
+    obj = add("cube", size=2)
+    sculpted(obj, 2, wavy)
+    flat = positions(api.add_procedural_detail(obj, model="ROCK", amplitude=0.0, levels=2)).copy()
+    # The renderers read the source as a regeneration does: the coarse mesh and the sculpt.
+    source, items, _ = preview.render_inputs(obj)
+    assert source.vertex_count == 8 and items[0].sculpt is not None and items[0].sculpt["levels"] == 2
+    path = str(tmp_path / "sculpt.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    assert sculpt._cache == {}, "dropped on load"
+    obj = bpy.data.objects["Cube"]
+    assert obj.thicket.items[0].use_sculpt
+    analysed = sculpt.analyses
+    np.testing.assert_array_equal(positions(api.regenerate(obj)), flat)
+    assert sculpt.analyses == analysed + 1
