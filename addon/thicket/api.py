@@ -332,7 +332,9 @@ def add_procedural_detail(obj, model=None, levels=None, preset=None, progress=No
     `blend_point` and `blend_direction`, or "GROUP" with `blend_group`),
     `blend_width`; a local modification: `local_object` (its location the center),
     `local_radius` (base edges), `local_gain`, `local_at`; `shader` ("PLANET") with
-    `sea` and `snow`; or any `ThicketItem` name. Results over 4 GB are refused with a ThicketError before
+    `sea` and `snow`; `use_sculpt` (on by default where the item comes first and `obj` has
+    a Multires sculpt): start from the sculpt, the model's detail added on top of it at
+    its levels (`levels`, when not given, is raised to the sculpt's); or any `ThicketItem` name. Results over 4 GB are refused with a ThicketError before
     anything is made; `regenerate(obj, ask=True)` raises `BakeNeedsConfirmation` over
     `confirm_above` triangles. The source mesh is never modified."""
     from .pure.kinds.procedural_detail import PRESETS, api_values
@@ -343,7 +345,12 @@ def add_procedural_detail(obj, model=None, levels=None, preset=None, progress=No
     values = dict(PRESETS[preset.upper()]) if preset is not None else {}
     given = {key: value for key, value in dict(settings, model=model, levels=levels).items() if value is not None}
     values.update(api_values(given))
-    add_detail_item(obj, **values)
+    if values.get("use_sculpt"):
+        from .mesh_io import multires_modifier
+
+        if multires_modifier(obj) is None:
+            raise ValueError(f"'{obj.name}' has no Multires modifier whose sculpt the detail could use (use_sculpt)")
+    add_detail_item(obj, fit_levels=levels is None, **values)
     return _regenerate(obj, progress=progress)
 
 
@@ -370,12 +377,25 @@ def analyze_multires(obj):
     return out
 
 
-def add_detail_item(obj, **values):
+def add_detail_item(obj, fit_levels=True, **values):
     """Adds a Procedural Detail item with `values` (names of `ThicketItem`) before the
     first item of `obj`'s stack that is not one (the detail shapes the shells' base);
-    returns it, active, without regenerating."""
+    returns it, active, without regenerating.
+
+    `use_sculpt`, when not given, is on where the item comes first and `obj` has a
+    Multires sculpt (levels above 0): an artist who sculpted wants detail on the sculpt,
+    not Catmull-Clark levels on its already dense mesh. With it on, `fit_levels` raises
+    the item's levels to the sculpt's when fewer (a preset's levels are a start)."""
+    from .sculpt import has_sculpt
+
     stack = obj.thicket
     at = next((i for i, item in enumerate(stack.items) if item.kind != S.ProceduralDetail.kind), None)
+    first = (len(stack.items) if at is None else at) == 0
+    values.setdefault("use_sculpt", first and has_sculpt(obj))
+    if values["use_sculpt"] and fit_levels and has_sculpt(obj):
+        from .mesh_io import multires_modifier
+
+        values["levels"] = max(int(values.get("levels", S.ProceduralDetail.levels)), multires_modifier(obj).total_levels)
     item = add_item(obj, S.ProceduralDetail.kind, **values)
     if at is not None:
         from .stack.guard import suspended

@@ -141,8 +141,9 @@ def _weight_capture_group(group_names) -> bpy.types.NodeTree:
     return tree
 
 
-def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshArrays:
-    """The object's mesh after its own modifiers, in object space.
+def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=(), modifiers=True) -> MeshArrays:
+    """The object's mesh after its own modifiers (`modifiers` True; else its own mesh,
+    the modifiers' cage), in object space.
 
     Each named vertex group comes back as point attribute `weight_attribute(name)`
     (0 where a vertex is not in the group). Blender exposes vertex-group weights to
@@ -154,11 +155,11 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
     selections = {SELECTED_FACES: _selected_face_weights, SELECTED_VERTICES: _selected_vertex_weights}
     for pseudo, weights in selections.items():
         if pseudo in vertex_groups:
-            arrays = read_evaluated(obj, depsgraph, [g for g in vertex_groups if g != pseudo])
+            arrays = read_evaluated(obj, depsgraph, [g for g in vertex_groups if g != pseudo], modifiers)
             arrays.point_attributes[weight_attribute(pseudo)] = weights(obj, arrays)
             return arrays
     if not vertex_groups:
-        return _evaluated_arrays(obj, depsgraph)
+        return _evaluated_arrays(obj, depsgraph) if modifiers else read_own_mesh(obj)
 
     missing = [g for g in vertex_groups if obj.vertex_groups.get(g) is None]
     if missing:
@@ -172,6 +173,10 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
         probe.parent = None
         probe.thicket.items.clear()
         probe.thicket.result = None
+        if not modifiers:
+            # Off, not removed: removing a Multires deletes the shared mesh's displacements.
+            for m in probe.modifiers:
+                m.show_viewport = False
         modifier = probe.modifiers.new("thicket weights", "NODES")
         modifier.node_group = tree
         depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -190,6 +195,19 @@ def read_evaluated(obj: bpy.types.Object, depsgraph, vertex_groups=()) -> MeshAr
         # (callers suspend Thicket's handler) instead of reaching the next handler call
         # as dangling IDs, which crashed Blender when read.
         bpy.context.view_layer.update()
+
+
+def read_own_mesh(obj: bpy.types.Object) -> MeshArrays:
+    """`obj`'s own mesh (no modifiers). In Edit Mode the edits are flushed first and a
+    copy is read: an edited mesh's UV maps have no data until the mode is left."""
+    if obj.mode != "EDIT":
+        return read_mesh(obj.data)
+    obj.update_from_editmode()
+    copy = obj.data.copy()
+    try:
+        return read_mesh(copy)
+    finally:
+        bpy.data.meshes.remove(copy)
 
 
 def _evaluated_arrays(obj, depsgraph) -> MeshArrays:
@@ -211,22 +229,15 @@ def _canonical_quads(corners) -> np.ndarray:
     return rotated[np.lexsort(rotated.T[::-1])]
 
 
-def read_multires(obj: bpy.types.Object):
-    """An object's Multires sculpt in Thicket's numbering: `(base, levels, fine, order)`,
-    `base` the object's own mesh (MeshArrays), `levels` the modifier's total levels,
-    `fine` float32 (m, 3) the modifier's evaluated positions at those levels (the modifier
-    alone, before any other) in the numbering `thicket_native.analyze` takes, and `order`
-    (int32) the permutation: Thicket's vertex i is the Multires mesh's vertex `order[i]`.
+def multires_modifier(obj: bpy.types.Object):
+    """The object's first Multires modifier (the one Blender sculpts), or None."""
+    return next((m for m in obj.modifiers if m.type == "MULTIRES"), None)
 
-    Blender numbers the subdivided vertices its own way (OpenSubdiv's). Its Subdivision
-    Surface modifier (Use Limit Surface, same levels and boundary smoothing) on
-    the same base numbers them as Multires does, and Thicket's limit positions match its
-    positions, so `thicket_native.match_subdivision` finds the permutation by nearest
-    position. Both are evaluated on temporary objects; the user's object, its modifiers
-    and its sculpt are not modified. Call it with auto-update suspended."""
-    from .pure import native
 
-    modifier = next((m for m in obj.modifiers if m.type == "MULTIRES"), None)
+def _checked_multires(obj: bpy.types.Object):
+    """`obj`'s Multires modifier and its total levels, once it can be read: refused
+    without one, with no levels or in Sculpt Mode; Edit Mode is flushed first."""
+    modifier = multires_modifier(obj)
     if modifier is None:
         raise ValueError(f"'{obj.name}' has no Multires modifier")
     levels = modifier.total_levels
@@ -236,17 +247,35 @@ def read_multires(obj: bpy.types.Object):
         raise ValueError(f"'{obj.name}' is in Sculpt Mode: leave it (its latest strokes are kept in the sculpt) before reading the Multires")
     if obj.mode == "EDIT":
         obj.update_from_editmode()
-    base = read_mesh(obj.data)
+    return modifier, levels
+
+
+def _probes_removed(probes):
     collection = bpy.context.scene.collection
-    # The sculpt: a copy of the object with its Multires at all its levels and every other
-    # modifier off (none is removed: removing a Multires deletes the mesh's displacements).
-    # The numbering: the base alone (the same mesh, no Multires) under a Subdivision Surface.
-    probes = []
+    for probe in probes:
+        if probe.name in collection.objects:
+            collection.objects.unlink(probe)
+        bpy.data.objects.remove(probe, do_unlink=True)
+    bpy.context.view_layer.update()
+
+
+def read_sculpt(obj: bpy.types.Object, depsgraph=None) -> MeshArrays:
+    """`obj`'s Multires sculpt at the modifier's total levels, in Blender's numbering: the
+    modifier alone, before any other. The object's own evaluated mesh when that is it
+    (Object Mode, the Multires its only modifier shown, at its total levels); else a
+    copy of the object with its Multires at all its levels and every other modifier
+    off (none is removed: removing a Multires deletes the mesh's displacements). Call
+    it with auto-update suspended, after `_checked_multires`."""
+    modifier = multires_modifier(obj)
+    shown = [m for m in obj.modifiers if m.show_viewport]
+    if obj.mode == "OBJECT" and shown == [modifier] and modifier.levels == modifier.total_levels:
+        return _evaluated_arrays(obj, depsgraph or bpy.context.evaluated_depsgraph_get())
+    sculpt = obj.copy()
+    if obj.mode == "EDIT":
+        # An edited mesh evaluates as its edit cage, without the Multires: a copy of the
+        # flushed mesh (its displacements with it) is read instead.
+        sculpt.data = obj.data.copy()
     try:
-        sculpt = obj.copy()
-        probes.append(sculpt)
-        plain = bpy.data.objects.new(f".thicket numbering {obj.name}", obj.data)
-        probes.append(plain)
         sculpt.hide_viewport = False
         sculpt.name = f".thicket sculpt {obj.name}"
         sculpt.parent = None
@@ -260,6 +289,33 @@ def read_multires(obj: bpy.types.Object):
                 first = False
             else:
                 m.show_viewport = False
+        bpy.context.scene.collection.objects.link(sculpt)
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        depsgraph.update()
+        return _evaluated_arrays(sculpt, depsgraph)
+    finally:
+        copied = sculpt.data if sculpt.data != obj.data else None
+        _probes_removed([sculpt])
+        if copied is not None:
+            bpy.data.meshes.remove(copied)
+
+
+def multires_order(obj: bpy.types.Object, base: MeshArrays, levels: int, sculpted: MeshArrays):
+    """The permutation from Blender's Multires numbering of `base` at `levels` (the
+    sculpt `sculpted`, from `read_sculpt`) to Thicket's: Thicket's vertex i is the
+    Multires mesh's vertex `order[i]` (int32).
+
+    Blender numbers the subdivided vertices its own way (OpenSubdiv's). Its Subdivision
+    Surface modifier (Use Limit Surface, same levels and boundary smoothing) on
+    the same base numbers them as Multires does, and Thicket's limit positions match its
+    positions, so `thicket_native.match_subdivision` finds the permutation by nearest
+    position. It is evaluated on a temporary object sharing `obj`'s mesh."""
+    from .pure import native
+
+    modifier = multires_modifier(obj)
+    mesh = obj.data.copy() if obj.mode == "EDIT" else obj.data  # as in `read_sculpt`
+    plain = bpy.data.objects.new(f".thicket numbering {obj.name}", mesh)
+    try:
         surface = plain.modifiers.new("thicket numbering", "SUBSURF")
         surface.levels = levels
         surface.use_limit_surface = True
@@ -270,20 +326,18 @@ def read_multires(obj: bpy.types.Object):
         # Quality below the levels approximates the patches (1e-3 of the size off the
         # limit); the numbering does not depend on it.
         surface.quality = max(modifier.quality, levels)
-        for probe in probes:
-            collection.objects.link(probe)
+        bpy.context.scene.collection.objects.link(plain)
         depsgraph = bpy.context.evaluated_depsgraph_get()
         depsgraph.update()
-        sculpted, numbering = _evaluated_arrays(sculpt, depsgraph), _evaluated_arrays(plain, depsgraph).vertices
-        fine = sculpted.vertices
+        numbering = _evaluated_arrays(plain, depsgraph).vertices
     finally:
-        for probe in probes:
-            if probe.name in collection.objects:
-                collection.objects.unlink(probe)
-            bpy.data.objects.remove(probe, do_unlink=True)
-        bpy.context.view_layer.update()
-    if len(fine) != len(numbering):
-        raise ValueError(f"the Multires of '{obj.name}' has {len(fine)} vertices at {levels} levels where a Subdivision Surface has {len(numbering)}")
+        _probes_removed([plain])
+        if mesh != obj.data:
+            bpy.data.meshes.remove(mesh)
+    if len(sculpted.vertices) != len(numbering):
+        raise ValueError(
+            f"the Multires of '{obj.name}' has {len(sculpted.vertices)} vertices at {levels} levels where a Subdivision Surface has {len(numbering)}"
+        )
     # Blender puts an open mesh's corners (Boundary Smooth "All") short of the limit, by
     # up to 5.5e-4 of the size at Quality 3: matched within 1e-3, one to one (checked).
     tn = native.get()
@@ -295,7 +349,23 @@ def read_multires(obj: bpy.types.Object):
     made = tn.procedural_detail(base.vertices, base.face_sizes, base.corners, "rock", levels, params={"amplitude": 0.0})
     if not np.array_equal(_canonical_quads(ours[sculpted.corners]), _canonical_quads(made["corners"])):
         raise ValueError(f"the Multires of '{obj.name}' could not be matched face for face to Thicket's subdivision (vertices too close to tell apart)")
-    return base, levels, np.ascontiguousarray(fine[order]), order
+    return order
+
+
+def read_multires(obj: bpy.types.Object):
+    """An object's Multires sculpt in Thicket's numbering: `(base, levels, fine, order)`,
+    `base` the object's own mesh (MeshArrays), `levels` the modifier's total levels,
+    `fine` float32 (m, 3) the modifier's evaluated positions at those levels (the modifier
+    alone, before any other) in the numbering `thicket_native.analyze` takes, and `order`
+    (int32) the permutation: Thicket's vertex i is the Multires mesh's vertex `order[i]`
+    (`read_sculpt`, `multires_order`). Both are evaluated on temporary objects; the
+    user's object, its modifiers and its sculpt are not modified. Call it with
+    auto-update suspended."""
+    _, levels = _checked_multires(obj)
+    base = read_own_mesh(obj)
+    sculpted = read_sculpt(obj)
+    order = multires_order(obj, base, levels, sculpted)
+    return base, levels, np.ascontiguousarray(sculpted.vertices[order]), order
 
 
 def _original_selection(obj, arrays: MeshArrays, what):

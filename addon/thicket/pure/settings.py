@@ -1,6 +1,6 @@
 """Settings of each stack item kind as plain data, independent of Blender."""
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .arrays import SELECTED_VERTICES
 
@@ -172,6 +172,12 @@ class ProceduralDetail(_Item):
     `time / grow` of its size (full from `grow` on; `grow` 0: full at once); the blend's
     second side has grown by `blend_sweep` times it; the sea level and snow line have
     risen by `sea_rate` and `snow_rate` times it.
+
+    `use_sculpt`: the item starts from the source's Multires sculpt (section 2): the
+    stack reads the sculpt's fitted coarse mesh as the source and sets `sculpt` (the
+    analysis, `thicket_native.analyze`'s dict plus `levels`), whose details are added
+    at their levels under the model's; `sculpt_notes` are passed on to the user.
+    Without `sculpt` (no Multires on the source) the item works as without it.
     """
 
     model: str = "rock"
@@ -210,6 +216,9 @@ class ProceduralDetail(_Item):
     snow: float = 0.025
     sea_rate: float = 0.0
     snow_rate: float = 0.0
+    use_sculpt: bool = False
+    sculpt: dict | None = field(default=None, compare=False, repr=False)
+    sculpt_notes: tuple = ()
 
     def vertex_groups(self):
         groups = [self.blend_group] if self.blend_model and self.blend_alpha == "group" and self.blend_group else []

@@ -111,19 +111,17 @@ def _prepared(obj):
     frame, made again only when its `content_key` changed (the shell, the native
     read and checks, and the renderers' scene, which the handle makes on its first
     frame and keeps, are the expensive parts)."""
-    from .. import mesh_io
     from ..pure.evaluate import render_setup
     from ..stack.guard import suspended
-    from ..stack.regenerate import enabled_settings
+    from ..stack.regenerate import enabled_settings, read_source
 
     items = enabled_settings(obj)
     key = content_key(obj)
     cached = _state["prepared"]
     if cached is None or cached[0] != key:
         with suspended():
-            depsgraph = bpy.context.evaluated_depsgraph_get()
-            groups = sorted({g for item in items for g in item.vertex_groups()})
-            source = mesh_io.read_evaluated(obj, depsgraph, groups)
+            # As a regeneration reads it (a Procedural Detail's sculpt included).
+            source, items = read_source(obj, bpy.context.evaluated_depsgraph_get(), items)
         _state["prepared"] = (key, render_setup(source, items).handle())
     return _state["prepared"]
 

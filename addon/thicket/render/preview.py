@@ -5,10 +5,9 @@ import time
 import bpy
 import numpy as np
 
-from .. import mesh_io
 from ..pure.evaluate import cancelled_error, render_setup
 from ..stack.guard import suspended
-from ..stack.regenerate import enabled_settings
+from ..stack.regenerate import read_source
 from . import lights
 
 PREVIEW_IMAGE = "Thicket Preview"
@@ -26,13 +25,12 @@ def render_arrays(obj, view, projection, width, height, depsgraph=None, method="
 
 
 def render_inputs(obj, depsgraph=None, light=None):
-    """What a render reads from Blender (main thread only): the evaluated source mesh,
-    the enabled items' settings and the light direction, all plain data."""
+    """What a render reads from Blender (main thread only): the source mesh and the
+    enabled items' settings as a regeneration reads them (`read_source`: a Procedural
+    Detail's sculpt included) and the light direction, all plain data."""
     with suspended():
         depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
-        items = enabled_settings(obj, depsgraph)
-        groups = sorted({g for item in items for g in item.vertex_groups()})
-        source = mesh_io.read_evaluated(obj, depsgraph, groups)
+        source, items = read_source(obj, depsgraph)
         if light is None:
             light = lights.scene_light(depsgraph, obj)
     return source, items, light

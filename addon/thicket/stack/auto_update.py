@@ -98,8 +98,12 @@ def on_frame_change(scene, depsgraph=None):
 
 @persistent
 def on_load(*_args):
-    """Shells kept for incremental updates belong to the file that was open."""
+    """Shells kept for incremental updates and analysed sculpts belong to the file that
+    was open."""
+    from .. import sculpt
+
     live_shells.clear()
+    sculpt.clear()
 
 
 HANDLERS = (
@@ -121,3 +125,6 @@ def unregister_handlers():
             handler_list.remove(fn)
     _sources.pending.clear()
     live_shells.clear()
+    from .. import sculpt
+
+    sculpt.clear()

@@ -434,6 +434,16 @@ class ThicketItem(bpy.types.PropertyGroup):
         update=_changed,
     )
     local_at: BoolVectorProperty(name="Local At Levels", description="The levels the modification acts at", size=6, default=(True,) * 6, update=_changed)
+    use_sculpt: BoolProperty(
+        name="Use Sculpt",
+        description=(
+            "Start from the source's Multires sculpt: its base mesh with the sculpt's details at their levels, the procedural detail"
+            " added on top (the sculpt follows it); Levels must reach the sculpt's. Only for the first item; the source's other"
+            " modifiers are not applied"
+        ),
+        default=False,
+        update=_changed,
+    )
     detail_shader: EnumProperty(
         name="Shader",
         items=[("NONE", "None", "No colours"), ("PLANET", "Planet", "Oceans, lowlands, mountains and snow caps from the detail's height and the blend (6.2)")],
@@ -561,6 +571,7 @@ class ThicketItem(bpy.types.PropertyGroup):
                 snow=self.shader_snow,
                 sea_rate=self.shader_sea_rate,
                 snow_rate=self.shader_snow_rate,
+                use_sculpt=self.use_sculpt,
             )
         if self.kind == S.SolidTexture.kind:
             return S.SolidTexture(

@@ -1,10 +1,14 @@
 """Source object -> result object: the bpy side of `pure.evaluate`."""
 
+import dataclasses
+
 import bpy
 
-from .. import mesh_io
+from .. import mesh_io, sculpt
+from ..pure import settings as S
 from ..pure.evaluate import evaluate_stack
 from ..pure.kinds.shell import summary_text
+from ..pure.state import StackError
 from .guard import suspended
 from .versioning import ensure_upgraded
 
@@ -59,7 +63,13 @@ def read_source(source: bpy.types.Object, depsgraph=None, items=None):
     """What evaluating the stack needs, read on the main thread: the evaluated source
     mesh (with the vertex groups its items use) and the enabled items' settings, or
     `items` (settings of a stack not added yet). Both are plain data, so
-    `evaluate_stack` may run on another thread."""
+    `evaluate_stack` may run on another thread.
+
+    When the first item is a Procedural Detail with Use Sculpt and the source has a
+    Multires modifier, the source read is the sculpt's fitted coarse mesh instead (the
+    modifiers' cage, other modifiers not applied: the item notes it) and the item's
+    settings carry the analysed sculpt (`sculpt.read`, cached). A later item with Use
+    Sculpt is refused: only the first item starts from the source."""
     if source.type != "MESH":
         raise TypeError(f"'{source.name}' is a {source.type.lower()}, not a mesh")
     with suspended():
@@ -67,7 +77,18 @@ def read_source(source: bpy.types.Object, depsgraph=None, items=None):
         if items is None:
             items = enabled_settings(source, depsgraph)
         groups = sorted({g for item in items for g in item.vertex_groups()})
-        return mesh_io.read_evaluated(source, depsgraph, groups), items
+        takes = [i for i, item in enumerate(items) if isinstance(item, S.ProceduralDetail) and item.use_sculpt]
+        if not takes or mesh_io.multires_modifier(source) is None:
+            sculpt.forget(source)
+            return mesh_io.read_evaluated(source, depsgraph, groups), items
+        if takes[-1] > 0:
+            raise StackError(
+                f"'{items[takes[-1]].label}' uses the Multires sculpt (Use Sculpt) but is item {takes[-1] + 1} of the enabled stack:"
+                " only the first item starts from the source; move it to the top or turn its Use Sculpt off"
+            )
+        base, analysis, notes = sculpt.read(source, depsgraph, groups, items[0].label)
+        items = [dataclasses.replace(items[0], sculpt=analysis, sculpt_notes=tuple(notes)), *items[1:]]
+        return base, items
 
 
 def write_result(source: bpy.types.Object, result_arrays) -> bpy.types.Object:

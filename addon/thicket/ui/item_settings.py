@@ -1,5 +1,6 @@
 """Draws one stack item's settings (shared by the Properties and sidebar panels)."""
 
+from ..mesh_io import multires_modifier
 from ..pure.kinds.procedural_detail import API_NAMES, MODEL_SETTINGS
 
 
@@ -47,6 +48,14 @@ DETAIL_PROPS = {model.upper(): tuple(API_NAMES[name] for name in names) for mode
 def _draw_detail_settings(col, obj, item):
     col.prop(item, "detail_model")
     col.prop(item, "levels")
+    modifier = multires_modifier(obj)
+    if modifier is not None:
+        # Use Sculpt: only where the source has a Multires to start from.
+        col.prop(item, "use_sculpt")
+        if item.use_sculpt and item.levels < modifier.total_levels:
+            row = col.row()
+            row.alert = True
+            row.label(text=f"Levels must be at least the sculpt's {modifier.total_levels}", icon="ERROR")
     col.prop(item, "seed")
     for prop in DETAIL_PROPS[item.detail_model]:
         col.prop(item, prop)

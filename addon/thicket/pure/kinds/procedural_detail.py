@@ -2,7 +2,9 @@
 issue 18): the current mesh subdivided by Catmull-Clark levels with a procedural
 model's detail added at each, by `thicket_native.procedural_detail`. It comes before
 the shells in a stack: its vertices keep a source vertex each (the base vertex whose
-quarter of a base face they lie in), so the vertex groups of later items still apply."""
+quarter of a base face they lie in), so the vertex groups of later items still apply.
+With Use Sculpt the current mesh is an artist's analysed Multires sculpt's coarse mesh
+and its details go in at their levels under the model's (section 2; `thicket.sculpt`)."""
 
 import numpy as np
 
@@ -234,6 +236,12 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tupl
     triangles."""
     mesh = state.current
     settings = params(state, item)
+    sculpt = item.sculpt if item.use_sculpt else None
+    if sculpt is not None and int(sculpt["levels"]) > int(item.levels):
+        raise _invalid(
+            item,
+            f"the Multires sculpt has {sculpt['levels']} levels, more than the item's {item.levels}: set Levels to {sculpt['levels']} or more, or turn Use Sculpt off",
+        )
     triangles = 2 * faces_after(mesh, item.levels)
     if ask and triangles > item.confirm_above:
         raise NeedsConfirmation(item.label, triangles, item.confirm_above, making="subdivision")
@@ -242,6 +250,9 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tupl
     if at is not None and min(at) > item.levels:
         state.notes.append(f"'{item.label}': Detail At Levels names no level up to {item.levels}, so the model adds nothing")
     operations = dict(at=at, blend=blend(state, item), local=local(mesh, item), shader=shader(item), time=float(item.time))
+    if sculpt is not None:
+        # The sculpt's details at their levels, in local frames, under the model's (2).
+        operations["sculpt"] = sculpt
     uv_maps = dict(mesh.uv_maps)
     if mesh.uvs is not None and mesh.uv_name not in uv_maps:
         uv_maps[mesh.uv_name] = mesh.uvs
@@ -276,6 +287,7 @@ def procedural_detail_step(state: State, item: S.ProceduralDetail, ask, progress
     if progress is not None and progress(0.0) is False:
         raise native.get().Cancelled("cancelled")
     result, origin = procedural_detail(state, item, ask)
+    state.notes.extend(item.sculpt_notes if item.use_sculpt else ())
     state.notes.extend(result.notes)
     result.notes = []
     state.current, state.origin = result, state.origin[origin]
