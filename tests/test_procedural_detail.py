@@ -412,3 +412,17 @@ def test_bad_uvs_are_refused(scene):
             tn.procedural_detail(*arrays, "rock", 2, uvs=uvs)
     with pytest.raises(tn.InvalidInput, match="uv_smooth must be"):
         tn.procedural_detail(*arrays, "rock", 2, uvs=good, uv_smooth="SMOOTH_ALL")
+
+
+def test_the_subdivision_estimate_counts_what_the_levels_make(scene):
+    obj = add("monkey")
+    a = mesh_io.read_mesh(obj.data)
+    for levels in (1, 2, 3):
+        made = tn.procedural_detail(a.vertices, a.face_sizes, a.corners, "rock", levels, 0, {"amplitude": 0.0})
+        estimate = tn.subdivision_estimate(a.face_sizes, levels)
+        assert estimate["faces"] == len(made["face_sizes"]) == len(tn.subdivide(a.vertices, a.face_sizes, a.corners, levels)["face_sizes"])
+        assert estimate["bytes"] >= 150 * estimate["faces"]
+    with pytest.raises(tn.InvalidInput):
+        tn.subdivision_estimate(a.face_sizes, 0)
+    with pytest.raises(tn.InvalidInput):
+        tn.subdivision_estimate(np.array([4, -1], np.int32), 2)

@@ -327,6 +327,9 @@ def procedural_detail(
     limited (float: the share of placed rock/berry detail the fold guard reduced so the surface cannot fold), with a shader, colors ((n, 4) float32) and,
     with uvs, uvs per corner of the result (a list when a list was given)."""
 
+def subdivision_estimate(face_sizes: Indices, levels: int) -> dict[str, int]:
+    """What `levels` (1 or more) Catmull-Clark levels of a mesh with these face sizes make: faces (all quads) and bytes, the peak memory subdivide and procedural_detail hold (their 4 GB check)."""
+
 def analyze(vertices: Floats, face_sizes: Indices, corners: Indices, fine_vertices: Floats, levels: int) -> dict[str, Any]:
     """Multiresolution analysis (Velho et al. section 2): fine_vertices are `levels` Catmull-Clark subdivisions of the base faces in procedural_detail's numbering.
     Returns the coarse mesh (vertices, face_sizes, corners) and details: a list of float64 (n_l, 3) arrays, offsets in the local frames (tangent, bitangent, normal) of each subdivided coarser level."""

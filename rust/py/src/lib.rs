@@ -59,6 +59,7 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(field_render::field_render, m)?)?;
     m.add_function(wrap_pyfunction!(subdivision::subdivide, m)?)?;
     m.add_function(wrap_pyfunction!(subdivision::procedural_detail, m)?)?;
+    m.add_function(wrap_pyfunction!(subdivision::subdivision_estimate, m)?)?;
     m.add_function(wrap_pyfunction!(subdivision::analyze, m)?)?;
     m.add_function(wrap_pyfunction!(subdivision::synthesize_multires, m)?)?;
     m.add_function(wrap_pyfunction!(subdivision::match_subdivision, m)?)?;

@@ -1,4 +1,4 @@
-use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 use thicket_core::glam::{DVec3, Vec2};
@@ -169,8 +169,7 @@ pub fn procedural_detail<'py>(
     d.set_item("limited", out.tally.share())?;
     if let Some(c) = colors {
         let n = c.len();
-        let flat: Vec<f32> = c.into_iter().flatten().collect();
-        d.set_item("colors", flat.into_pyarray(py).reshape([n, 4])?)?;
+        d.set_item("colors", c.into_flattened().into_pyarray(py).reshape([n, 4])?)?;
     }
     let mut maps = out_uvs.into_iter().map(|uv| arrays::vec2_array(py, uv)).collect::<PyResult<Vec<_>>>()?;
     if uv_list {
@@ -451,4 +450,22 @@ fn planet_from(s: &Bound<'_, PyDict>, diag: f64, time: f64) -> PyResult<Planet> 
     k.finish()?;
     planet.validate().map_err(to_py)?;
     Ok(planet)
+}
+
+/// What `levels` Catmull-Clark levels (1 or more) of a mesh with these `face_sizes` make,
+/// before anything is made: `faces` (all quads) and `bytes`, the peak memory `subdivide`
+/// and `procedural_detail` hold for them (what their 4 GB check reads).
+#[pyfunction]
+pub fn subdivision_estimate<'py>(py: Python<'py>, face_sizes: &Bound<'py, PyAny>, levels: u32) -> PyResult<Bound<'py, PyDict>> {
+    if !(1..=subdivision::MAX_LEVELS).contains(&levels) {
+        return Err(InvalidInput::new_err(format!("levels must be 1 to {}, not {levels}", subdivision::MAX_LEVELS)));
+    }
+    let sizes: PyReadonlyArray1<i32> = face_sizes.extract().map_err(|_| InvalidInput::new_err("face_sizes must be a one-dimensional int32 array"))?;
+    let corners = sizes.as_slice()?.iter().try_fold(0u64, |sum, &n| u64::try_from(n).ok().map(|n| sum + n));
+    let Some(corners) = corners else { return Err(InvalidInput::new_err("face sizes must not be negative")) };
+    let faces = budget::faces_from_corners(corners, levels);
+    let d = PyDict::new(py);
+    d.set_item("faces", faces)?;
+    d.set_item("bytes", faces.saturating_mul(budget::BYTES_PER_FACE))?;
+    Ok(d)
 }

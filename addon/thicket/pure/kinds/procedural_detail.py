@@ -100,12 +100,6 @@ def api_values(settings: dict) -> dict:
 LIMITED_NOTE = 0.01
 
 
-def faces_after(mesh: MeshArrays, levels: int) -> int:
-    """Faces (quads) of the finest level: every corner of the base becomes a quad at
-    level 1, and every quad four at each level after it."""
-    return int(np.sum(mesh.face_sizes, dtype=np.int64)) * 4 ** (int(levels) - 1)
-
-
 def seed_vertices(state: State, item: S.ProceduralDetail):
     """The model's seeds, as vertex indices of the current mesh: None for Poisson-disk
     seeds; else the vertices of the item's group (weight at least one half) or of the
@@ -242,7 +236,7 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tupl
             item,
             f"the Multires sculpt has {sculpt['levels']} levels, more than the item's {item.levels}: set Levels to {sculpt['levels']} or more, or turn Use Sculpt off",
         )
-    triangles = 2 * faces_after(mesh, item.levels)
+    triangles = 2 * native.get().subdivision_estimate(mesh.face_sizes, int(item.levels))["faces"]
     if ask and triangles > item.confirm_above:
         raise NeedsConfirmation(item.label, triangles, item.confirm_above, making="subdivision")
     tn = native.get()

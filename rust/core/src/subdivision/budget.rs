@@ -15,10 +15,16 @@ pub const BYTES_PER_FACE: u64 = 200;
 /// Faces of `levels` Catmull-Clark levels of `mesh`: each face corner becomes a quad at
 /// the first level, each quad four at every further one.
 pub fn faces_at(mesh: &Mesh, levels: u32) -> u64 {
-    if levels == 0 {
-        return mesh.face_count() as u64;
+    match levels {
+        0 => mesh.face_count() as u64,
+        _ => faces_from_corners(mesh.corners().len() as u64, levels),
     }
-    (mesh.corners().len() as u64).saturating_mul(4u64.saturating_pow(levels - 1))
+}
+
+/// Faces of `levels >= 1` Catmull-Clark levels of a mesh with `corners` face corners
+/// (what callers holding only face sizes can tell).
+pub fn faces_from_corners(corners: u64, levels: u32) -> u64 {
+    corners.saturating_mul(4u64.saturating_pow(levels.max(1) - 1))
 }
 
 /// Refuses `levels` of `mesh` where the refinement would hold more than `max_bytes`
