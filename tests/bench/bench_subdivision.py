@@ -17,6 +17,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path[:0] = [str(ROOT / "addon"), str(ROOT / "build" / "site"), str(ROOT / "tests" / "bench")]
 
 import bpy  # noqa: E402
+import numpy as np  # noqa: E402
 from bench_offset import median_time  # noqa: E402
 
 import thicket_native as tn  # noqa: E402
@@ -60,7 +61,57 @@ def main():
             faces = len(base.face_sizes)
             print(f"{name:10s} {faces:7d} {levels:5d} {len(out['face_sizes']):10d} {ours * 1e3:11.1f} {theirs * 1e3:11.1f} {ours / theirs:6.2f}x")
             del out
+        far_perf_beside(name, base, arrays)
     rock_synthesis()
+
+
+def far_perf_times(path, levels):
+    """OpenSubdiv's `far_perf` on an OBJ file: {level: (refine s, total s)} for levels 1
+    to `levels`, or None where it is not installed (`make bench` installs Debian's
+    opensubdiv-tools when it can)."""
+    import re
+    import shutil
+    import subprocess
+
+    tool = shutil.which("far_perf")
+    if tool is None:
+        return None
+    text = subprocess.run([tool, "-l", str(levels), str(path)], capture_output=True, text=True, timeout=300).stdout
+    out, level = {}, None
+    for line in text.splitlines():
+        if m := re.match(r"\s*level (\d+):", line):
+            level = int(m.group(1))
+        elif level and (m := re.match(r"\s*(TopologyRefiner::Refine|Total)\s+([0-9.]+)", line)):
+            refine, total = out.get(level, (None, None))
+            out[level] = (float(m.group(2)), total) if m.group(1) != "Total" else (refine, float(m.group(2)))
+    return out
+
+
+def far_perf_beside(name, base, arrays):
+    """`far_perf` (OpenSubdiv's own timing tool) on the same mesh beside `subdivide`: it
+    refines feature-adaptively (only around extraordinary vertices, down to the level)
+    and builds the patch and stencil tables a renderer evaluates, where `subdivide`
+    refines uniformly and computes every vertex; so its Refine line is topology alone
+    and its Total a different product. Printed as measured, in this run."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = pathlib.Path(folder) / f"{name}.obj"
+        lines = [f"v {x:.7g} {y:.7g} {z:.7g}" for x, y, z in base.vertices]
+        starts = np.concatenate([[0], np.cumsum(base.face_sizes)[:-1]])
+        lines += ["f " + " ".join(str(i + 1) for i in base.corners[s : s + n]) for s, n in zip(starts, base.face_sizes)]
+        path.write_text("\n".join(lines) + "\n")
+        times = far_perf_times(path, 4)
+    if times is None:
+        print(f"{'':10s} far_perf (OpenSubdiv) not installed: no peer figure")
+        return
+    for levels in (3, 4):
+        refine, total = times.get(levels, (float("nan"), float("nan")))
+        ours = median_time(lambda levels=levels: tn.subdivide(*arrays, levels, limit=True), 3)
+        print(
+            f"{'':10s} far_perf level {levels}: refine {refine * 1e3:8.1f} ms, total (adaptive patches + stencils) {total * 1e3:8.1f} ms;"
+            f" subdivide {ours * 1e3:8.1f} ms ({ours / total:5.2f}x its total)"
+        )
 
 
 def _status_kb(field):
