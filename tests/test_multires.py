@@ -120,6 +120,71 @@ def test_native_refuses_bad_input():
             call()
 
 
+def test_native_checks_the_fine_faces_when_given():
+    base = cube_arrays()
+    rocky = tn.procedural_detail(*base, "rock", 2, seed=5, params={"amplitude": 0.05})
+    fine, sizes, corners = rocky["vertices"], rocky["face_sizes"], rocky["corners"]
+    # Thicket's own faces pass, with or without their sizes, and change nothing.
+    want = tn.analyze(*base, fine, 2)
+    for m in (tn.analyze(*base, fine, 2, fine_corners=corners), tn.analyze(*base, fine, 2, fine_face_sizes=sizes, fine_corners=corners)):
+        np.testing.assert_array_equal(m["vertices"], want["vertices"])
+        assert all(np.array_equal(a, b) for a, b in zip(m["details"], want["details"]))
+    # Another numbering of the same quads (each quad's corners rotated by one) is refused
+    # and named; so are faces that are not quads, and sizes without corners.
+    rotated = np.roll(corners.reshape(-1, 4), 1, axis=1).ravel()
+    with pytest.raises(tn.InvalidInput, match="corner 0 .*numbered otherwise"):
+        tn.analyze(*base, fine, 2, fine_corners=rotated)
+    triangles = np.concatenate([corners[:-4], corners[-4:-1], corners[-4:][[0, 2, 3]]])
+    with pytest.raises(tn.InvalidInput, match="has 3 corners"):
+        tn.analyze(*base, fine, 2, fine_face_sizes=np.r_[sizes[:-1], 3, 3], fine_corners=triangles)
+    with pytest.raises(tn.InvalidInput, match="without fine_corners"):
+        tn.analyze(*base, fine, 2, fine_face_sizes=sizes)
+    with pytest.raises(tn.InvalidInput):
+        tn.analyze(*base, fine, 2, fine_corners=corners[:-1])
+
+
+def test_a_blender_subdivision_with_its_own_numbering_is_refused_when_its_faces_are_given(scene):
+    # Blender's Subdivision Surface (no limit) has Thicket's vertex count and positions up
+    # to numbering: its positions alone pass as a fine mesh (and analyse to noise), its
+    # faces show it is not in Thicket's numbering.
+    obj = add("cube", size=2)
+    base = mesh_io.read_mesh(obj.data)
+    base = (base.vertices, base.face_sizes, base.corners)
+    modifier = obj.modifiers.new("Subdivision", "SUBSURF")
+    modifier.levels, modifier.use_limit_surface = 2, False
+    blender = evaluated(obj)
+    ours = plain_fine(base, 2)
+    assert len(blender.vertices) == len(ours["vertices"]) and not np.array_equal(blender.corners, ours["corners"])
+    by_position = [p[np.lexsort(np.round(p, 4).T)] for p in (blender.vertices, ours["vertices"])]
+    assert np.abs(by_position[0] - by_position[1]).max() < 1e-5, "the same points"
+    m = tn.analyze(*base, blender.vertices, 2)
+    assert max(np.abs(d).max() for d in m["details"]) > 0.01 * diagonal(base[0]), "Blender's numbering analyses to noise"
+    with pytest.raises(tn.InvalidInput, match="numbered otherwise"):
+        tn.analyze(*base, blender.vertices, 2, fine_face_sizes=blender.face_sizes, fine_corners=blender.corners)
+    # Thicket's numbering of the same surface passes and has no details.
+    m = tn.analyze(*base, ours["vertices"], 2, fine_face_sizes=ours["face_sizes"], fine_corners=ours["corners"])
+    assert max(np.abs(d).max() for d in m["details"]) < 1e-6 * diagonal(base[0])
+
+
+def test_an_analysis_past_its_memory_budget_is_refused_before_it_starts():
+    # A 60 x 50 grid at 6 levels: 12.3 M fine faces. Plain subdivision's budget (200 bytes
+    # a face, 2.5 GB) fits the 4 GB default; the analysis' (about 900 a face, 11 GB) does
+    # not, and is refused before the fine mesh is even checked.
+    n, m = 60, 50
+    x, y = np.meshgrid(np.arange(n + 1), np.arange(m + 1), indexing="ij")
+    v = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], axis=1).astype(np.float32)
+    i, j = np.meshgrid(np.arange(n), np.arange(m), indexing="ij")
+    a = (i * (m + 1) + j).ravel()
+    corners = np.stack([a, a + m + 1, a + m + 2, a + 1], axis=1).ravel().astype(np.int32)
+    sizes = np.full(n * m, 4, np.int32)
+    with pytest.raises(tn.OverLimit, match="the analysis of 6 subdivision levels .* 12288000 faces"):
+        tn.analyze(v, sizes, corners, v, 6)
+    # Plain subdivision to those levels passes its own check (refused only after it,
+    # for the count of levels in the fine mesh).
+    with pytest.raises(tn.InvalidInput, match="level 1 has 1 details"):
+        tn.synthesize_multires(v, sizes, corners, [np.zeros((1, 3))] * 6)
+
+
 PRIMITIVES = {
     "cube": dict(size=2),
     "grid": dict(x_subdivisions=4, y_subdivisions=3, size=2),

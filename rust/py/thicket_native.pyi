@@ -330,8 +330,18 @@ def procedural_detail(
 def subdivision_estimate(face_sizes: Indices, levels: int) -> dict[str, int]:
     """What `levels` (1 or more) Catmull-Clark levels of a mesh with these face sizes make: faces (all quads) and bytes, the peak memory subdivide and procedural_detail hold (their 4 GB check)."""
 
-def analyze(vertices: Floats, face_sizes: Indices, corners: Indices, fine_vertices: Floats, levels: int) -> dict[str, Any]:
+def analyze(
+    vertices: Floats,
+    face_sizes: Indices,
+    corners: Indices,
+    fine_vertices: Floats,
+    levels: int,
+    fine_face_sizes: Indices | None = None,
+    fine_corners: Indices | None = None,
+) -> dict[str, Any]:
     """Multiresolution analysis (Velho et al. section 2): fine_vertices are `levels` Catmull-Clark subdivisions of the base faces in procedural_detail's numbering.
+    With fine_corners (and fine_face_sizes, all 4 when left out) the fine mesh's faces are checked against that numbering: InvalidInput when they differ.
+    OverLimit when the analysis would need more memory than allowed (about 900 bytes per fine face).
     Returns the coarse mesh (vertices, face_sizes, corners) and details: a list of float64 (n_l, 3) arrays, offsets in the local frames (tangent, bitangent, normal) of each subdivided coarser level."""
 
 def match_subdivision(

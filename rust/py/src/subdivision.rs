@@ -180,16 +180,22 @@ pub fn procedural_detail<'py>(
     Ok(d)
 }
 
-/// analyze(vertices, face_sizes, corners, fine_vertices, levels) -> dict
+/// analyze(vertices, face_sizes, corners, fine_vertices, levels, fine_face_sizes=None, fine_corners=None) -> dict
 ///
 /// Multiresolution analysis (Velho, Perlin, Ying and Biermann, section 2, Figure 1):
 /// `fine_vertices` (float32 (m, 3)) are the positions of `levels` (1 to 6) Catmull-Clark
 /// subdivisions of the base faces (`vertices` gives the base's vertex count; its positions
-/// are not read) in `procedural_detail`'s numbering. Returns the coarse mesh (vertices,
+/// are not read) in `procedural_detail`'s numbering. With `fine_corners` (and
+/// `fine_face_sizes`, all 4 when left out) the fine mesh's faces are checked against that
+/// numbering, and a mesh numbered otherwise is refused instead of analysed as noise.
+/// Refused with OverLimit where the analysis would need more memory than allowed
+/// (`budget::ANALYSIS_BYTES_PER_FACE` per fine face). Returns the coarse mesh (vertices,
 /// face_sizes, corners) and `details`, a list of float64 (n_l, 3) arrays, one per level,
 /// each vertex's offset in its local frame (tangent, bitangent, normal) of the subdivided
 /// coarser level. `synthesize_multires` of the result gives `fine_vertices` back.
 #[pyfunction]
+#[pyo3(signature = (vertices, face_sizes, corners, fine_vertices, levels, fine_face_sizes=None, fine_corners=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn analyze<'py>(
     py: Python<'py>,
     vertices: PyReadonlyArray2<'py, f32>,
@@ -197,13 +203,30 @@ pub fn analyze<'py>(
     corners: &Bound<'py, PyAny>,
     fine_vertices: PyReadonlyArray2<'py, f32>,
     levels: u32,
+    fine_face_sizes: Option<&Bound<'py, PyAny>>,
+    fine_corners: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let base = arrays::mesh(&vertices, face_sizes, corners)?;
     let fine = arrays::positions(&fine_vertices)?;
+    let fine_faces = match (fine_face_sizes, fine_corners) {
+        (None, None) => None,
+        (sizes, Some(c)) => {
+            let c = arrays::indices(c, "fine_corners")?;
+            let sizes = match sizes {
+                Some(s) => arrays::indices(s, "fine_face_sizes")?,
+                None => vec![4; c.len() / 4 + (c.len() % 4 != 0) as usize],
+            };
+            Some((sizes, c))
+        }
+        (Some(_), None) => return Err(InvalidInput::new_err("fine_face_sizes was given without fine_corners")),
+    };
     if (1..=subdivision::MAX_LEVELS).contains(&levels) {
-        budget::check_fits(&base, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
+        budget::check_analysis_fits(&base, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
     }
-    let m = run_detached(py, move || multires::analyze_positions(fine, &base, levels))?;
+    let m = run_detached(py, move || match fine_faces {
+        None => multires::analyze_positions(fine, &base, levels),
+        Some((sizes, c)) => multires::analyze(&Mesh::new(fine, &sizes, c, None)?, &base, levels),
+    })?;
     multires_dict(py, m)
 }
 

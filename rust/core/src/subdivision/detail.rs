@@ -224,7 +224,8 @@ pub(crate) fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -
 ///
 /// One level's connectivity is derived from the last's ([`Level::child_as_base`]: no edge
 /// sorting or hashing, no manifold checks past the base) and the positions carried in it
-/// (rounded to f32 at every level, as the meshes the models see hold them). Each level's
+/// (rounded to f32 at every level, as the meshes the models see hold them); the finest
+/// level gets its quads alone ([`child_quads`]), no edges for a level after it. Each level's
 /// vertices and edges are numbered as [`subdivide`](super::subdivide) by one level would
 /// number them from the last level's mesh, and the arithmetic is the same, so the result
 /// is bit for bit what subdividing one level at a time makes (the vertex indices the
@@ -239,14 +240,23 @@ pub(crate) fn synthesize(base: &Mesh, levels: u32, mut state: State, mut detail:
     let mut source_face: Vec<u32> = (0..base.face_count() as u32).collect();
     let mut scalar: Vec<f32> = vec![0.0; base.vertex_count()];
     for level in 1..=levels {
-        let mut child = parent.child_as_base(parent.points(boundary));
+        let points = parent.points(boundary);
+        let positions: Vec<Vec3> = points.par_iter().map(|p| p.as_vec3()).collect();
+        // The finest level needs its quads alone: no edges or faces for a level after it.
+        let (mut child, corners) = match level < levels {
+            true => {
+                let mut child = parent.child_as_base(points);
+                let corners = std::mem::take(&mut child.corners);
+                (Some(child), corners)
+            }
+            false => {
+                drop(points);
+                (None, child_quads(&parent))
+            }
+        };
         scalar = carried(&parent, &scalar);
-        source_face = parent.corner_face.iter().map(|&f| source_face[f as usize]).collect();
+        source_face = parent.corner_face.par_iter().map(|&f| source_face[f as usize]).collect();
         drop(parent);
-        let positions: Vec<Vec3> = child.positions.par_iter().map(|p| p.as_vec3()).collect();
-        let corners = std::mem::take(&mut child.corners);
-        // The finest level's connectivity is done with: its memory goes before the detail's.
-        let mut child = (level < levels).then_some(child);
         let faces = corners.len() / 4;
         let mesh = Mesh::new(positions, &vec![4u32; faces], corners, None)?;
         let normals = quad_normals(&mesh);
@@ -274,6 +284,18 @@ pub(crate) fn synthesize(base: &Mesh, levels: u32, mut state: State, mut detail:
     unreachable!("the finest level returns")
 }
 
+/// The quads of `parent`'s child level as [`Level::child_as_base`] numbers them, without
+/// the edges and faces a level after it would need: corner `c` at vertex `v` of face `f`
+/// becomes quad `c`, (v, edge point after v, face point of f, edge point before v).
+fn child_quads(parent: &Level) -> Vec<u32> {
+    let (nv, ne) = (parent.positions.len() as u32, parent.edges.len() as u32);
+    let quads: Vec<[u32; 4]> = (0..parent.corners.len())
+        .into_par_iter()
+        .map(|c| [parent.corners[c], nv + parent.corner_edge[c], nv + ne + parent.corner_face[c], nv + parent.corner_edge[parent.prev(c)]])
+        .collect();
+    quads.into_flattened()
+}
+
 /// Per-vertex values of `parent` carried to its child level linearly, as
 /// [`linear_child_values`] carries them: a vertex keeps its value, edge point `nv + e` takes
 /// the mean of edge `e`'s ends, face point `nv + ne + f` the mean of face `f`'s corners.
@@ -293,7 +315,7 @@ fn carried(parent: &Level, values: &[f32]) -> Vec<f32> {
 /// [`vertex_normals`](crate::mesh::vertex_normals) of an all-quad mesh, bit for bit, the
 /// costly part in parallel: block by block of faces, each corner's angle-weighted unit face
 /// normal is computed in parallel, then added to its vertex's sum in corner order, as
-/// `vertex_normals` adds them (no buffer the size of the mesh).
+/// `vertex_normals` adds them ([`scatter`], in parallel; no buffer the size of the mesh).
 fn quad_normals(mesh: &Mesh) -> Vec<Vec3> {
     const BLOCK: usize = 1 << 14; // faces: 768 KiB of weights
     let (p, corners) = (mesh.positions(), mesh.corners());
@@ -316,14 +338,30 @@ fn quad_normals(mesh: &Mesh) -> Vec<Vec3> {
                 })
             })
             .collect_into_vec(&mut weights);
-        for (&v, w) in block.iter().zip(weights.as_flattened()) {
+        scatter(&mut n, block, weights.as_flattened(), |n, w| {
             if !w.x.is_nan() {
-                n[v as usize] += *w;
+                *n += *w;
             }
-        }
+        });
     }
     n.par_iter_mut().for_each(|v| *v = v.normalize_or_zero());
     n
+}
+
+/// Adds each corner's value into its vertex's record, `add(record, value)`, in parallel
+/// and without atomics, at every vertex in corner order (so bit for bit what one pass over
+/// the corners gives): each thread owns one range of the vertices and walks all of
+/// `corners`, updating its own.
+fn scatter<T: Send, R: Sync>(records: &mut [T], corners: &[u32], values: &[R], add: impl Fn(&mut T, &R) + Sync) {
+    let size = records.len().div_ceil(rayon::current_num_threads()).max(1);
+    records.par_chunks_mut(size).enumerate().for_each(|(i, mine)| {
+        let lo = i * size;
+        for (&v, x) in corners.iter().zip(values) {
+            if let Some(r) = (v as usize).checked_sub(lo).and_then(|j| mine.get_mut(j)) {
+                add(r, x);
+            }
+        }
+    });
 }
 
 impl Model {

@@ -104,14 +104,31 @@ pub fn analyze(fine: &Mesh, base_topology: &Mesh, levels: u32) -> Result<Multire
     }
     let topology = levels_of(base_topology, levels)?;
     let finest = &topology[levels as usize];
-    if fine.vertex_count() != finest.vertex_count() || fine.corners() != finest.corners() || fine.face_sizes().iter().any(|&s| s != 4) {
-        return Err(Error::InvalidMesh(format!(
-            "the fine mesh ({} vertices, {} faces) is not {levels} Catmull-Clark subdivisions of the base ({} vertices, {} faces) in Thicket's numbering",
+    let not_ours = |why: String| {
+        Err(Error::InvalidMesh(format!(
+            "the fine mesh ({} vertices, {} faces) is not {levels} Catmull-Clark subdivisions of the base ({} vertices, {} faces) in Thicket's numbering: {why}",
             fine.vertex_count(),
             fine.face_count(),
             finest.vertex_count(),
             finest.face_count()
-        )));
+        )))
+    };
+    if fine.vertex_count() != finest.vertex_count() {
+        return not_ours(format!("those have {} vertices", finest.vertex_count()));
+    }
+    if let Some(f) = fine.faces().position(|face| face.len() != 4) {
+        return not_ours(format!("its face {f} has {} corners, where those are all quads", fine.face(f).len()));
+    }
+    if fine.face_count() != finest.face_count() {
+        return not_ours(format!("those have {} quads", finest.face_count()));
+    }
+    if let Some(c) = fine.corners().iter().zip(finest.corners()).position(|(a, b)| a != b) {
+        return not_ours(format!(
+            "its corner {c} (face {}) is vertex {} where theirs is vertex {} (a mesh numbered otherwise, such as Blender's: match_subdivision gives the order)",
+            c / 4,
+            fine.corners()[c],
+            finest.corners()[c]
+        ));
     }
     analyze_on(fine.positions(), &topology, base_topology, levels)
 }

@@ -90,24 +90,37 @@ impl Tally {
     }
 }
 
+/// [`FOCAL_SHARE`] of the radius of curvature `1 / k` (none where the surface does not bend
+/// that way).
+fn reach(k: f64) -> f64 {
+    if k > 0.0 {
+        FOCAL_SHARE / k
+    } else {
+        f64::INFINITY
+    }
+}
+
 /// Per vertex: how far it may move out (along its normal), how far in, and its shortest
-/// edge.
+/// edge, kept as one record of the curvatures and length they come from (read by
+/// [`Limits::out`], [`Limits::inward`], [`Limits::shortest`]: no array per limit).
 pub(crate) struct Limits {
-    pub out: Vec<f64>,
-    pub inward: Vec<f64>,
-    pub shortest: Vec<f64>,
+    /// The largest curvature bending away from (k > 0) and towards (k < 0) the normal, and
+    /// the shortest edge squared.
+    at: Vec<[f64; 3]>,
+    /// Outward limits [`Limits::clear_of`] lowered (empty until then).
+    room: Vec<f64>,
 }
 
 impl Limits {
+    /// The limits of every vertex of `mesh` (vertex normals `normals`): one pass over the
+    /// faces' edges into one record per vertex (one cache line for both ends of an edge,
+    /// not three; a parallel pass gathering per-corner records was slower on 2 busy cores).
     pub(crate) fn of(mesh: &Mesh, normals: &[Vec3]) -> Self {
         let p = mesh.positions();
-        let n = p.len();
-        // Largest curvature bending away from (k > 0) and towards (k < 0) the normal.
-        let (mut convex, mut concave) = (vec![0.0f64; n], vec![0.0f64; n]);
-        let mut shortest = vec![f64::INFINITY; n];
+        let mut at = vec![[0.0f64, 0.0, f64::INFINITY]; p.len()];
         for face in mesh.faces() {
             for (i, &a) in face.iter().enumerate() {
-                let b = face[(i + 1) % face.len()];
+                let b = face[if i + 1 == face.len() { 0 } else { i + 1 }];
                 let (a, b) = (a as usize, b as usize);
                 let e = (p[a] - p[b]).as_dvec3();
                 let length2 = e.length_squared();
@@ -116,19 +129,34 @@ impl Limits {
                 }
                 let k = (normals[a] - normals[b]).as_dvec3().dot(e) / length2;
                 for v in [a, b] {
-                    convex[v] = convex[v].max(k);
-                    concave[v] = concave[v].max(-k);
-                    shortest[v] = shortest[v].min(length2.sqrt());
+                    let r = &mut at[v];
+                    *r = [r[0].max(k), r[1].max(-k), r[2].min(length2)];
                 }
             }
         }
-        let reach = |k: f64| if k > 0.0 { FOCAL_SHARE / k } else { f64::INFINITY };
-        Self { out: concave.into_iter().map(reach).collect(), inward: convex.into_iter().map(reach).collect(), shortest }
+        Self { at, room: Vec::new() }
+    }
+
+    /// How far vertex `v` may move out along its normal: [`FOCAL_SHARE`] of its radius of
+    /// curvature towards that side, and its room from [`Limits::clear_of`].
+    pub(crate) fn out(&self, v: usize) -> f64 {
+        let focal = reach(self.at[v][1]);
+        self.room.get(v).map_or(focal, |&r| focal.min(r))
+    }
+
+    /// How far vertex `v` may move in.
+    pub(crate) fn inward(&self, v: usize) -> f64 {
+        reach(self.at[v][0])
+    }
+
+    /// Vertex `v`'s shortest edge (infinite when it has none of nonzero length).
+    pub(crate) fn shortest(&self, v: usize) -> f64 {
+        self.at[v][2].sqrt()
     }
 
     /// `d` (along vertex `v`'s normal) within what `v` may move.
     pub(crate) fn clamp(&self, v: usize, d: f64) -> f64 {
-        d.clamp(-self.inward[v], self.out[v])
+        d.clamp(-self.inward(v), self.out(v))
     }
 
     /// Lowers the outward limit of every vertex `rises` picks to level `level`'s share,
@@ -142,7 +170,10 @@ impl Limits {
                 false => f64::INFINITY,
             })
             .collect();
-        self.out.iter_mut().zip(room).for_each(|(o, r)| *o = o.min(r));
+        match self.room.is_empty() {
+            true => self.room = room,
+            false => self.room.iter_mut().zip(room).for_each(|(o, r)| *o = o.min(r)),
+        }
     }
 
     /// Dome heights (the dome each vertex lies in, its height) scaled so each dome fits
@@ -154,7 +185,7 @@ impl Limits {
         for (v, &(k, h)) in heights.iter().enumerate() {
             if k != u32::MAX && h > 0.0 {
                 let f = &mut factor[k as usize];
-                *f = f.min(self.out[v] / h);
+                *f = f.min(self.out(v) / h);
             }
         }
         for &(k, h) in &heights {
@@ -169,25 +200,19 @@ impl Limits {
     /// Random detail of `size` times `unit(v)` (in [-1, 1]) at every vertex, each at most
     /// [`FOLD_SLOPE`] times its shortest edge and within its curvature limits.
     pub(crate) fn random(&self, size: f64, unit: impl Fn(usize) -> f64 + Sync, tally: &mut Tally) -> Vec<f64> {
-        let out: Vec<(f64, bool)> = (0..self.out.len())
-            .into_par_iter()
-            .map(|v| {
-                let a = size.abs().min(self.random_reach(v)).copysign(size);
-                let d = self.clamp(v, a * unit(v));
-                (d, a.abs() < size.abs() || d != a * unit(v))
-            })
-            .collect();
+        let wanted = |v: usize| size.abs().min(self.random_reach(v)).copysign(size);
+        let out: Vec<f64> = (0..self.at.len()).into_par_iter().map(|v| self.clamp(v, wanted(v) * unit(v))).collect();
         if size != 0.0 {
             tally.placed += out.len() as u64;
-            tally.limited += out.iter().filter(|(_, limited)| *limited).count() as u64;
+            tally.limited += out.par_iter().enumerate().filter(|&(v, &d)| wanted(v).abs() < size.abs() || d != wanted(v) * unit(v)).count() as u64;
         }
-        out.into_iter().map(|(d, _)| d).collect()
+        out
     }
 
     /// The largest random detail vertex `v` may take: [`FOLD_SLOPE`] times its shortest
     /// edge.
     fn random_reach(&self, v: usize) -> f64 {
-        FOLD_SLOPE * self.shortest[v]
+        FOLD_SLOPE * self.shortest(v)
     }
 }
 
@@ -207,15 +232,15 @@ mod tests {
         sphere = Mesh::new(scaled, &sphere.face_sizes(), sphere.corners().to_vec(), None).unwrap();
         let limits = Limits::of(&sphere, &vertex_normals(&sphere));
         for v in 0..sphere.vertex_count() {
-            assert!(limits.out[v].is_infinite(), "vertex {v}: out {}", limits.out[v]);
+            assert!(limits.out(v).is_infinite(), "vertex {v}: out {}", limits.out(v));
             let expected = FOCAL_SHARE * 2.0;
-            assert!((limits.inward[v] - expected).abs() < 0.05 * expected, "vertex {v}: in {}", limits.inward[v]);
+            assert!((limits.inward(v) - expected).abs() < 0.05 * expected, "vertex {v}: in {}", limits.inward(v));
         }
         // Seen from inside (normals flipped), the same sphere is concave: out is limited.
         let flipped: Vec<Vec3> = vertex_normals(&sphere).iter().map(|n| -*n).collect();
         let inside = Limits::of(&sphere, &flipped);
-        assert!((0..sphere.vertex_count()).all(|v| inside.inward[v].is_infinite() && (inside.out[v] - FOCAL_SHARE * 2.0).abs() < 0.05));
+        assert!((0..sphere.vertex_count()).all(|v| inside.inward(v).is_infinite() && (inside.out(v) - FOCAL_SHARE * 2.0).abs() < 0.05));
         assert_eq!(limits.clamp(0, 10.0), 10.0);
-        assert!((limits.clamp(0, -10.0) + limits.inward[0]).abs() < 1e-12);
+        assert!((limits.clamp(0, -10.0) + limits.inward(0)).abs() < 1e-12);
     }
 }
