@@ -319,18 +319,30 @@ FOLD_CASES = [
     ("torus_knot", "berry", {"radius": 0.12, "children": 3}),
     ("torus_knot", "rock", {"amplitude": 0.03}),
     ("two_spheres", "rock", {"amplitude": 0.03}),
+    # Small domes: clusters drawn apart only within each overlapped their neighbours',
+    # and child domes on their parents' walls leaned past vertical.
+    ("uv_sphere", "berry", {"radius": 0.12, "children": 3}),
+    ("coil", "berry", {"radius": 0.04, "children": 3}),
+    ("torus_knot", "berry", {"radius": 0.04, "children": 3}),
+    # Growth: tentacles pulled across a knot's loop, a fuse carried across its axis.
+    ("torus_knot", "tentacle", {"length": 0.012, "theta": 0.0, "spacing": 0.25}),
+    ("uv_sphere", "fuse", {"amplitude": 0.03, "span": 1.5}),
+    ("bunny", "fuse", {"amplitude": 0.03, "span": 1.5}),
 ]
+
+#: Parameters that leave each model's surface the plain subdivision's.
+PLAIN = {"rock": {"amplitude": 0.0}, "berry": {"radius": 1e-3}, "tentacle": {"length": 0.0}, "fuse": {"amplitude": 0.0}}
 
 
 @pytest.mark.parametrize("name, model, params", FOLD_CASES)
 def test_the_presets_detail_does_not_fold_the_surface(scene, name, model, params):
-    """Rock and berry at the presets' sizes on meshes finer or narrower than the detail:
-    no two triangles of the result that share no vertex intersect (Blender's BVH
-    overlap), and the guard reports what it reduced (the rock's amplitude is over what
-    every one of these meshes takes; domes only where they meet concave parts or
-    another part)."""
+    """Rock, berry (the preset's radius and a third of it), tentacle and fuse on meshes
+    finer or narrower than the detail: no two triangles of the result that share no
+    vertex intersect (Blender's BVH overlap), and the guard reports what it reduced (the
+    rock's amplitude is over what every one of these meshes takes; domes only where
+    they meet concave parts or another part)."""
     a = mesh_io.read_mesh(add("uv_sphere", segments=32, ring_count=16).data) if name == "uv_sphere" else imported(name)
-    plain = detail(a, model, 2, 3, {**params, **({"amplitude": 0.0} if model == "rock" else {"radius": 1e-3})})
+    plain = detail(a, model, 2, 3, {**params, **PLAIN[model]})
     assert crossing_pairs(plain) == 0, "the plain subdivision is clean"
     out = detail(a, model, 2, 3, params)
     assert np.abs(out["scalar"]).max() > 1e-3 * float(np.linalg.norm(np.ptp(a.vertices, axis=0)))
@@ -338,11 +350,12 @@ def test_the_presets_detail_does_not_fold_the_surface(scene, name, model, params
     if model == "rock":
         assert out["limited"] > 0.0, "the rock is over a quarter of these meshes' edges, so the guard acts"
     assert crossing_pairs(out) == 0
-    # Nor does a rock turn any face over within its ring (which the pairs above, sharing
-    # a vertex, do not see): each quad's normal (cross product of its diagonals) still
-    # points the way the plain subdivision's does. (A berry dome's rim is vertical, the
-    # paper's profile: its wall faces can lean past it, an overhang, not a crossing.)
-    if model == "rock":
+    # Nor does a rock or a berry turn any face over within its ring (which the pairs
+    # above, sharing a vertex, do not see): each quad's normal (cross product of its
+    # diagonals) still points the way the plain subdivision's does (before the overhang
+    # guard the berry preset turned 208 of 7,936 faces over on this UV sphere, all on
+    # child domes). Tentacles lean by design.
+    if model in ("rock", "berry"):
         turned = np.einsum("ij,ij->i", quad_normals(out), quad_normals(plain)) <= 0
         assert not turned.any(), f"{turned.sum()} of {len(turned)} faces turned over"
 

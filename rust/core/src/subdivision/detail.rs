@@ -8,6 +8,8 @@
 mod fold_guard;
 pub(crate) mod frames;
 mod growth;
+mod growth_guard;
+mod overhang;
 
 pub use fold_guard::{Tally, FOCAL_SHARE, FOLD_SLOPE};
 pub use frames::Frame;
@@ -39,7 +41,9 @@ pub enum Model {
     /// nearest seed, `R_l = radius * 2^(1-l)`. Level 1's seeds are `seeds` (vertex
     /// indices of the base mesh) or, if empty, Poisson-disk points `2 radius` apart; at
     /// each finer level every seed of the last one grows a cluster of up to `children`
-    /// seeds within its radius, `2 R_l` apart. A dome reads as round where `R_l` spans
+    /// seeds within its radius, `2 R_l` from every other seed of the level. A dome that
+    /// would lean a face past vertical against the base (a child on its parent's steep
+    /// wall) is flattened as a whole (see [`overhang`]). A dome reads as round where `R_l` spans
     /// several edges of level `l` (the subdivision then reconstructs it); one or two
     /// edges across, its steep rim makes a spike.
     Berry { radius: f64, seeds: Vec<u32>, children: u32 },
@@ -169,7 +173,7 @@ impl Model {
         if let Model::Fuse { center, axis, .. } = self {
             state.reach = growth::half_extent(base.positions(), *center, axis.normalize());
         }
-        if let Model::Berry { .. } = self {
+        if let Model::Berry { .. } | Model::Tentacle { .. } | Model::Spur { .. } = self {
             state.clearance = Some(fold_guard::Clearance::of(base));
         }
         state
@@ -187,6 +191,18 @@ pub(crate) struct State {
     pub tally: Tally,
     /// The base, for the room domes have before meeting another part of it.
     clearance: Option<fold_guard::Clearance>,
+    /// The base's normals at the level's vertices, for domes' overhangs.
+    reference: Vec<Vec3>,
+}
+
+impl State {
+    /// The growth models' fold guard ([`growth_guard`]) on a level's offsets.
+    fn guard_growth(&mut self, level: u32, mesh: &Mesh, normals: &[Vec3], group: &[u32], offsets: &mut [DVec3]) {
+        if let Some(clearance) = &self.clearance {
+            let limits = fold_guard::Limits::of(mesh, normals);
+            growth_guard::guard(offsets, group, mesh.positions(), normals, &limits, clearance, level, &mut self.tally);
+        }
+    }
 }
 
 /// A level's detail: displacements along the vertex normals, or world-space offsets.
@@ -391,7 +407,16 @@ impl Model {
                 if let Some(clearance) = &state.clearance {
                     limits.clear_of(clearance, level, p, normals, |v| heights[v].1 > 0.0);
                 }
-                Offsets::Normal(limits.scale_domes(heights, &mut state.tally))
+                let (dome, full): (Vec<u32>, Vec<f64>) = heights.iter().copied().unzip();
+                let scaled = limits.scale_domes(heights, &mut state.tally);
+                state.reference = match level {
+                    1 => normals.to_vec(),
+                    _ => overhang::carried_normals(mesh, &state.reference),
+                };
+                let mut d = scaled.clone();
+                overhang::upright(p, normals, mesh.corners(), &state.reference, &dome, &mut d);
+                state.tally.limited += (0..d.len()).filter(|&v| d[v] < scaled[v] && scaled[v] == full[v]).count() as u64;
+                Offsets::Normal(d)
             }
             Model::Tentacle { seeds: given, spacing, .. } | Model::Spur { seeds: given, spacing, .. } => {
                 if level == 1 {
@@ -402,7 +427,11 @@ impl Model {
                     Model::Spur { length, .. } => growth::spur_local(level, length),
                     _ => unreachable!("a growth model"),
                 };
-                Offsets::World(growth::at_seeds(mesh, normals, &state.seeds, local))
+                let mut offsets = growth::at_seeds(mesh, normals, &state.seeds, local);
+                let mut group = vec![u32::MAX; p.len()];
+                state.seeds.iter().enumerate().for_each(|(i, &s)| group[s as usize] = i as u32);
+                state.guard_growth(level, mesh, normals, &group, &mut offsets);
+                Offsets::World(offsets)
             }
             Model::Mushroom { radius, length, seeds: given } => {
                 if level == 1 {
@@ -411,7 +440,9 @@ impl Model {
                 }
                 Offsets::World(growth::advect(p, &state.rings, length * level as f64))
             }
-            Model::Fuse { amplitude, span, center, axis } => Offsets::World(growth::fuse(p, level, *amplitude, *span, *center, axis.normalize(), state.reach)),
+            Model::Fuse { amplitude, span, center, axis } => {
+                Offsets::World(growth::fuse(p, level, *amplitude, *span, *center, axis.normalize(), state.reach, &mut state.tally))
+            }
         }
     }
 }
@@ -429,8 +460,10 @@ fn domes(p: &[Vec3], seeds: &[u32], radius: f64) -> Vec<(u32, f64)> {
 }
 
 /// Seeds of the next level: around each seed of the last, up to `children` vertices within
-/// `spacing` (`2 R_l`, the last level's radius) of it, at least `spacing` apart from each
-/// other (Poisson-disk among the cluster's candidates).
+/// `spacing` (`2 R_l`, the last level's radius) of it, at least `spacing` apart from every
+/// other seed of the level, its own cluster's or a neighbouring one's (domes of one
+/// radius `R_l` then never overlap; clusters drawn apart only within each came as close
+/// as they liked across, and their domes crossed).
 fn clusters(p: &[Vec3], parents: &[u32], spacing: f64, children: u32, seed: u64) -> Vec<u32> {
     let reach = spacing; // the parent's radius: 2 R_l = R_(l-1)
     let near = Grid::new(parents.iter().map(|&s| p[s as usize].as_dvec3()), reach);
@@ -443,11 +476,25 @@ fn clusters(p: &[Vec3], parents: &[u32], spacing: f64, children: u32, seed: u64)
             }
         }
     }
+    // Dart throwing over each cluster's candidates in a seeded random order against the
+    // seeds kept in every cluster, so no two domes of the level overlap.
+    let mut kept = Grid { cell: spacing, cells: HashMap::new(), points: Vec::new() };
     let mut out = Vec::new();
-    for (k, m) in members.into_iter().enumerate() {
-        let mut chosen = poisson_disk(p, m, spacing, mix(seed ^ k as u64));
-        chosen.truncate(children as usize);
-        out.extend(chosen);
+    for (k, mut m) in members.into_iter().enumerate() {
+        let key = mix(seed ^ k as u64);
+        m.sort_unstable_by_key(|&v| (mix(key ^ v as u64), v));
+        let mut grown = 0;
+        for v in m {
+            if grown == children {
+                break;
+            }
+            let q = p[v as usize].as_dvec3();
+            if kept.nearest(q).is_none_or(|(_, d)| d >= spacing) {
+                kept.insert(q);
+                out.push(v);
+                grown += 1;
+            }
+        }
     }
     out.sort_unstable();
     out
@@ -651,9 +698,9 @@ mod tests {
             for (i, &a) in seeds.iter().enumerate() {
                 for &b in &seeds[i + 1..] {
                     let d = p[a as usize].distance(p[b as usize]) as f64;
-                    // Level 1: 2 R apart. Finer: 2 R apart within a cluster; clusters of
-                    // neighbouring parents may come closer.
-                    assert!(level > 1 || d >= 2.0 * r - 1e-9, "level {level}: seeds {a}, {b} {d} apart");
+                    // 2 R apart at every level, across clusters too, so no two domes of a
+                    // level overlap (neighbouring clusters once came closer and crossed).
+                    assert!(d >= 2.0 * r - 1e-6, "level {level}: seeds {a}, {b} {d} apart");
                 }
             }
             assert!(d.iter().all(|&h| (0.0..=r + 1e-12).contains(&h)));

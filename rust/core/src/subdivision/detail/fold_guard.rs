@@ -216,6 +216,14 @@ impl Limits {
     }
 }
 
+impl Clearance {
+    /// The distance from `o` along the unit `dir` to the first base triangle met from
+    /// its front, for the growth models' offsets (see `growth_guard`).
+    pub(crate) fn distance_along(&self, o: DVec3, dir: DVec3) -> f64 {
+        self.along(o, dir)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

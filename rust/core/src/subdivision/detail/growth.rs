@@ -12,6 +12,7 @@
 //! then `pi/3 + pi`, a steady twist of 120 degrees about the normal (counterclockwise seen
 //! from outside), and the normal part always grows outward.
 
+use super::fold_guard::Tally;
 use super::frames::{first_neighbours, frames_of};
 use super::Grid;
 use crate::Mesh;
@@ -107,6 +108,11 @@ pub fn advect(p: &[Vec3], rings: &[Ring], time: f64) -> Vec<DVec3> {
         .collect()
 }
 
+/// The share of its distance to the fuse's axis a point may move towards it: the radial
+/// map `rho -> rho + step(z)` is one to one while `rho + step > 0`, and a step past the
+/// axis (on a flat end, near where the surface meets the axis) turns the faces there over.
+pub const FUSE_AXIS_SHARE: f64 = 0.5;
+
 /// The fuse profile with its first `terms` terms, `sin(sum_{i < terms} 2^-i sin(t^(2^i)))`.
 pub fn fuse_profile(t: f64, terms: u32) -> f64 {
     let (mut power, mut sum) = (t, 0.0);
@@ -125,22 +131,50 @@ pub fn half_extent(positions: &[Vec3], center: DVec3, axis: DVec3) -> f64 {
 /// The fuse's level `level`: each point moves away from the axis (through `center`, unit
 /// `axis`) by `amplitude * (profile(t, l) - profile(t, l - 1))`, `t = span * z / reach`,
 /// `z` its axial coordinate, so after `L` levels the radial offsets sum to `amplitude *
-/// profile(t, L)` (less what the subdivision in between smooths). Points on the axis stay.
-pub fn fuse(p: &[Vec3], level: u32, amplitude: f64, span: f64, center: DVec3, axis: DVec3, reach: f64) -> Vec<DVec3> {
-    p.par_iter()
+/// profile(t, L)` (less what the subdivision in between smooths). Points on the axis stay,
+/// and a point moves towards the axis by at most [`FUSE_AXIS_SHARE`] of its distance to
+/// it (the fold guard's part for the fuse, counted in `tally`): `rho + step` stays
+/// positive and increasing in `rho`, so no face is carried across the axis.
+#[allow(clippy::too_many_arguments)]
+pub fn fuse(p: &[Vec3], level: u32, amplitude: f64, span: f64, center: DVec3, axis: DVec3, reach: f64, tally: &mut Tally) -> Vec<DVec3> {
+    let moved: Vec<(DVec3, bool)> = p
+        .par_iter()
         .map(|q| {
             let o = q.as_dvec3() - center;
             let z = o.dot(axis);
             let t = span * z / reach;
             let step = amplitude * (fuse_profile(t, level) - fuse_profile(t, level - 1));
-            (o - z * axis).try_normalize().map_or(DVec3::ZERO, |e| e * step)
+            let radial = o - z * axis;
+            let floor = -FUSE_AXIS_SHARE * radial.length();
+            radial.try_normalize().map_or((DVec3::ZERO, false), |e| (e * step.max(floor), step < floor))
         })
-        .collect()
+        .collect();
+    if amplitude != 0.0 {
+        tally.placed += moved.iter().filter(|(w, _)| *w != DVec3::ZERO).count() as u64;
+        tally.limited += moved.iter().filter(|(_, limited)| *limited).count() as u64;
+    }
+    moved.into_iter().map(|(w, _)| w).collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_fuse_never_carries_a_point_across_its_axis() {
+        // At the far end (t = -span) level 1's step is amplitude * sin(sin(-1.5)), 0.84
+        // of it towards the axis: a point 0.01 from the axis would land 0.83 past it; it
+        // moves to half its distance instead, on its own side, and the tally counts it.
+        // A point 2 from the axis takes the whole step.
+        let p = [Vec3::new(0.01, 0.0, -1.0), Vec3::new(0.0, 2.0, -1.0), Vec3::new(0.0, 0.0, -1.0)];
+        let mut tally = Tally::default();
+        let w = fuse(&p, 1, 1.0, 1.5, DVec3::ZERO, DVec3::Z, 1.0, &mut tally);
+        let step = (-1.5f64).sin().sin();
+        assert!((w[0] - DVec3::new(-0.005, 0.0, 0.0)).length() < 1e-9, "{}", w[0]);
+        assert!((w[1] - DVec3::new(0.0, step, 0.0)).length() < 1e-9, "{}", w[1]);
+        assert_eq!(w[2], DVec3::ZERO);
+        assert_eq!(tally, Tally { placed: 2, limited: 1 });
+    }
 
     #[test]
     fn the_vortex_ring_keeps_volume_and_turns_the_right_way() {
