@@ -266,7 +266,8 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False) -> tupl
         result.notes.append(
             f"'{item.label}': the {item.model} detail was made smaller at {limited:.0%} of its vertices so the surface does not fold"
             " (rock: at most a quarter of the local edge and half the radius of curvature; berry domes: flattened under the"
-            " curvature and clear of other parts); a smaller amplitude or radius, or a coarser base, keeps it as set"
+            " curvature, clear of other parts and lowered where a face would overhang; tentacles and spurs: shortened likewise); a"
+            " smaller amplitude, radius or length, or a coarser base, keeps it as set"
         )
     if item.blend_model:
         result.point_attributes[BLEND_ATTRIBUTE] = np.asarray(out["blend"], dtype=np.float32)
