@@ -130,6 +130,9 @@ pub fn run_watched<T: Send>(
         return Err(e);
     }
     match result {
+        // Asked to cancel while the work was finishing: the caller asked for a cancel,
+        // and gets one (never a result it said it did not want).
+        Ok(Ok(Ok(_))) if progress.is_cancelled() => Err(to_py(thicket_core::Error::Cancelled)),
         Ok(Ok(Ok(value))) => {
             // Finished: the callback hears 1.0 (its answer no longer matters).
             callback.call1((1.0,))?;
