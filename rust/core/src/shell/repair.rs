@@ -54,15 +54,6 @@ pub const SNAP: f32 = 1e-3;
 /// Shortening in one final-check round: a defect's corners, then each ring around.
 pub const FALL_OFF: [f32; 3] = [0.5, 0.7, 0.85];
 
-/// The skin tree is built anew (not refitted) once the base triangles whose skin
-/// moved since it was built reach one in this many. A refit keeps the grouping of the
-/// traced, tangled skin; after the first repair rounds have pulled most of it in
-/// (beast, 32k vertices: 20-90k flagged triangles in rounds 1-8) its loose nodes made
-/// each later query visit far more candidates. Built anew, the same defects are found
-/// (the same shells) with about 11% less CPU time for the whole build on beast
-/// (`examples/shell_stages.rs`).
-const REBUILD_SHARE: usize = 4;
-
 /// Final-check rounds that halve; later ones set defect corners to zero.
 pub const HALVING_ROUNDS: u32 = 60;
 
@@ -165,8 +156,6 @@ impl Repair<'_> {
         let mut shortened = vec![false; mesh.vertex_count()];
         let mut streak = Streaks { last: vec![0; mesh.vertex_count()], length: vec![0; mesh.vertex_count()] };
         let mut scale = vec![1.0f32; mesh.vertex_count()];
-        // Base triangles whose skin moved since the skin tree was built.
-        let mut moved = 0;
         for round in 0.. {
             if self.cancelled() {
                 break;
@@ -193,16 +182,9 @@ impl Repair<'_> {
                 true => done.rounds += 1,
                 false => done.check_rounds += 1,
             }
-            // Only the skin triangles around shortened directors moved: refitted,
-            // or built anew once a share of them moved since the last build.
+            // Only the skin triangles around shortened directors moved.
             let _t = super::timing::Stage::start("untangle: refit");
-            moved += next.tri_list.len();
-            if moved * REBUILD_SHARE >= checker.tris.len() {
-                outer = checker.outer_tree(mesh, shell, None);
-                moved = 0;
-            } else {
-                checker.refit_outer(mesh, shell, &mut outer, &next.tri_list);
-            }
+            checker.refit_outer(mesh, shell, &mut outer, &next.tri_list);
             match dirty.as_mut() {
                 Some(d) => std::mem::swap(d, &mut next),
                 None => dirty = Some(std::mem::replace(&mut next, checker.clean())),
