@@ -506,6 +506,7 @@ impl Checker {
         // Per skin triangle: (kind, item, other), kind 0 a self pair, 1 a base pair,
         // 2 an inherited pair of either kind.
         let many = dirty.is_none_or(|d| d.tri_list.len() * JOIN_SHARE >= self.tris.len());
+        let timer = super::timing::Stage::start(if many { "find: pairs (tree join)" } else { "find: pairs (per triangle)" });
         let hits: Vec<(u8, u32, u32)> = match outer_tree {
             // Everything, or much: each tree traversed against itself and against the
             // base's, which visits each pair of overlapping nodes once.
@@ -524,8 +525,12 @@ impl Checker {
             }
             _ => self.find_around(mesh, shell, dirty, outer_tree),
         };
+        drop(timer);
+        let timer = super::timing::Stage::start("find: star");
         let mut hits = hits;
         hits.extend(self.find_star(mesh, shell, dirty, outer_tree.is_some()));
+        drop(timer);
+        let _timer = super::timing::Stage::start("find: cells");
         let pairs = |k: u8| hits.iter().filter(|h| h.0 == k).map(|h| (h.1, h.2)).collect();
         let cell_list: Cow<[u32]> = match dirty {
             Some(d) => Cow::Borrowed(&d.cell_list),

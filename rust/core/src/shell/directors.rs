@@ -583,12 +583,16 @@ fn build_in_order(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPara
     // runs (its serial parts would leave a core idle after it).
     let (traced, checker) = rayon::join(
         || -> Result<_> {
+            let _t = super::timing::Stage::start("trace");
             let (tracer, _) = Tracer::new(mesh, &lengths, params);
             let all: Vec<u32> = (0..mesh.vertex_count() as u32).collect();
             let traces = trace_vertices(&tracer, mesh, &lengths, side, params, &all, progress)?;
             Ok((tracer, traces))
         },
-        || repairs.then(|| super::defects::Checker::new(mesh)),
+        || {
+            let _t = super::timing::Stage::start("checker");
+            repairs.then(|| super::defects::Checker::new(mesh))
+        },
     );
     let (tracer, traces) = traced?;
     let mut shell = assemble(mesh, thickness, side, &traces);

@@ -12,6 +12,7 @@
 //! - [`defects`], [`repair`], `restore`, [`report`]: finding folds, shortening
 //!   directors around them, giving thickness back where normals have room, and
 //!   counting shell quality.
+//! - [`timing`]: per-stage build times for benchmarks (`examples/shell_stages.rs`).
 
 pub mod defects;
 pub mod directors;
@@ -25,6 +26,7 @@ pub mod repair;
 pub mod report;
 pub(crate) mod restore;
 pub mod thickness;
+pub mod timing;
 
 pub use directors::{build_shell, build_shell_watched, Shell, ShellParams, Side};
 pub use geometry::{build_geometry, prisms, shell_geometry, Cell, ShellMesh, ShellOutput};

@@ -160,7 +160,10 @@ impl Repair<'_> {
             if self.cancelled() {
                 break;
             }
-            let found = checker.find(mesh, shell, dirty.as_ref(), Some(&outer));
+            let found = {
+                let _t = super::timing::Stage::start(if round == 0 { "untangle: find (round 0)" } else { "untangle: find (later)" });
+                checker.find(mesh, shell, dirty.as_ref(), Some(&outer))
+            };
             if found.is_clean() {
                 done.clean = true;
                 break;
@@ -180,6 +183,7 @@ impl Repair<'_> {
                 false => done.check_rounds += 1,
             }
             // Only the skin triangles around shortened directors moved.
+            let _t = super::timing::Stage::start("untangle: refit");
             checker.refit_outer(mesh, shell, &mut outer, &next.tri_list);
             match dirty.as_mut() {
                 Some(d) => std::mem::swap(d, &mut next),
@@ -198,7 +202,10 @@ impl Repair<'_> {
         let mut folded: Vec<u32> = found.inverted.iter().flat_map(|&c| checker.cells[c as usize].base()).copied().collect();
         folded.sort_unstable();
         let corners = self.corners_to_shorten(found, &shell.achieved);
-        let (aims, _) = self.crossing_scales(found, shell, &corners, None, true);
+        let (aims, _) = {
+            let _t = super::timing::Stage::start("untangle: crossing scales");
+            self.crossing_scales(found, shell, &corners, None, true)
+        };
         let mut any = false;
         for (v, aim) in corners.into_iter().zip(aims) {
             let folds = folded.binary_search(&v).is_ok();

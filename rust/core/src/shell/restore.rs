@@ -64,7 +64,11 @@ impl Repair<'_> {
             return ShellCheck::default();
         }
         let before = seeds.map(|_| shell.directors.clone());
-        let done = self.untangle(outer, shell, seeds);
+        let done = {
+            let _t = super::timing::Stage::start("untangle");
+            self.untangle(outer, shell, seeds)
+        };
+        let _t = super::timing::Stage::start("restore");
         let Some(tree) = outer.as_mut().filter(|_| !self.cancelled()) else { return done };
         let scope = seeds.zip(before).map(|(seeds, before)| {
             // The seeds, what the repair shortened or turned, and their neighbours.
@@ -98,7 +102,10 @@ pub(crate) fn restore(
     if short.is_empty() {
         return Restored::default();
     }
-    let with_room = room.among(short.clone(), Some(outer));
+    let with_room = {
+        let _t = super::timing::Stage::start("restore: normal room");
+        room.among(short.clone(), Some(outer))
+    };
     // Short neighbours are tried too: beside a fold a vertex often fits only once
     // they have their length back.
     let mut tries: Vec<u32> =
@@ -111,6 +118,7 @@ pub(crate) fn restore(
     tries.sort_unstable_by_key(|&v| (code[v as usize], v));
     let mut attempt = Attempts { checker, outer, mesh, stamp: vec![0u32; checker.cells.len()], batch_id: 0, dirty: checker.clean(), cancel, tried: 0 };
     let mut restored = 0;
+    let timer = super::timing::Stage::start("restore: whole targets");
     for (level, &(t, rings, reach)) in ATTEMPTS.iter().enumerate() {
         if level == NEIGHBOUR_ATTEMPTS {
             tries.retain(|c| with_room.binary_search(c).is_ok());
@@ -123,6 +131,8 @@ pub(crate) fn restore(
     // Then part of the target, where the whole does not fit: the vertices left
     // (nearly) flat, smallest share first; a vertex whose share did not fit is not
     // tried at the larger ones.
+    drop(timer);
+    let _timer = super::timing::Stage::start("restore: shares");
     let before_partial = attempt.tried;
     let flat: Vec<u32> = short.iter().copied().filter(|&v| shell.achieved[v as usize] < FLAT * shell.target[v as usize]).collect();
     let mut refused = vec![false; shell.target.len()];

@@ -1072,3 +1072,20 @@ fn incremental_update_of_a_sliver_part_refits_its_pieces_and_matches_a_rebuild()
     let err = worst(&inc.traced_directors(), &traced(&edited, &t, Side::Exterior, &params));
     assert!(err <= 1e-4 * t[0], "worst {err}");
 }
+
+/// The stage timer (`examples/shell_stages.rs`) records every stage of a build while
+/// on (other tests' builds may add to the sums, never remove a stage).
+#[test]
+fn stage_times_cover_a_build() {
+    let m = tm::comb(1);
+    let t = Thickness::relative(0.1).per_vertex(&m, None).unwrap();
+    timing::enable(true);
+    let s = build_shell(&m, &t, Side::Exterior, &ShellParams::default()).unwrap();
+    timing::enable(false);
+    assert!(s.check.clean);
+    let stages = timing::summed(&timing::take());
+    for name in ["trace", "checker", "untangle", "untangle: find (round 0)", "restore"] {
+        let found = stages.iter().find(|s| s.0 == name);
+        assert!(found.is_some_and(|s| s.1 >= 0.0), "{name} missing from {stages:?}");
+    }
+}
