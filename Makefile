@@ -108,7 +108,7 @@ $(STAMP_BENCH):
 # OpenSubdiv's own far_perf, the subdivision benchmark's peer, where apt can install it
 # (the benchmark says so and goes on where it cannot).
 far-perf:
-	@command -v far_perf >/dev/null || { SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+	@command -v far_perf >/dev/null || { SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo -n); \
 		$$SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq opensubdiv-tools >/dev/null 2>&1 || \
 		echo "== far_perf (opensubdiv-tools) could not be installed: the subdivision benchmark runs without it"; }
 

@@ -435,6 +435,7 @@ def test_the_subdivision_estimate_counts_what_the_levels_make(scene):
         estimate = tn.subdivision_estimate(a.face_sizes, levels)
         assert estimate["faces"] == len(made["face_sizes"]) == len(tn.subdivide(a.vertices, a.face_sizes, a.corners, levels)["face_sizes"])
         assert estimate["bytes"] >= 150 * estimate["faces"]
+        assert tn.subdivision_estimate(a.face_sizes.astype(np.uint32), levels) == estimate
     with pytest.raises(tn.InvalidInput):
         tn.subdivision_estimate(a.face_sizes, 0)
     with pytest.raises(tn.InvalidInput):

@@ -401,3 +401,21 @@ def test_a_saved_sculpt_item_reloads_and_the_renderers_read_the_sculpt(scene, tm
     analysed = sculpt.analyses
     np.testing.assert_array_equal(positions(api.regenerate(obj)), flat)
     assert sculpt.analyses == analysed + 1
+
+
+def test_the_default_levels_rise_to_a_deeper_sculpt_and_chosen_levels_keep_it_off(scene):
+    obj = add("cube", size=2)
+    sculpted(obj, 4, wavy)  # deeper than the default's 3 levels
+    result = api.add_procedural_detail(obj, model="ROCK", amplitude=0.0)
+    item = obj.thicket.items[0]
+    assert item.use_sculpt and item.levels == 4, "the default's levels are raised to the sculpt's"
+    assert len(result.data.polygons) == 6 * 4**4
+    api.remove(obj)
+    # Levels the caller chose below the sculpt's: detail on the evaluated mesh, as before.
+    result = api.add_procedural_detail(obj, model="ROCK", amplitude=0.0, levels=1)
+    assert not obj.thicket.items[0].use_sculpt
+    assert len(result.data.polygons) == 4 * 6 * 4**4, "one level over the dense sculpt"
+    api.remove(obj)
+    # Asked for explicitly, they are refused.
+    with pytest.raises(api.ThicketError, match="more than the item's 1"):
+        api.add_procedural_detail(obj, model="ROCK", amplitude=0.0, levels=1, use_sculpt=True)

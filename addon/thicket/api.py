@@ -384,14 +384,22 @@ def add_detail_item(obj, fit_levels=True, **values):
 
     `use_sculpt`, when not given, is on where the item comes first and `obj` has a
     Multires sculpt (levels above 0): an artist who sculpted wants detail on the sculpt,
-    not Catmull-Clark levels on its already dense mesh. With it on, `fit_levels` raises
-    the item's levels to the sculpt's when fewer (a preset's levels are a start)."""
+    not Catmull-Clark levels on its already dense mesh; but not where the caller chose
+    levels (`fit_levels` False) below the sculpt's. With it on, `fit_levels` raises the
+    item's levels to the sculpt's when fewer (a preset's levels are a start)."""
     from .sculpt import has_sculpt
 
     stack = obj.thicket
     at = next((i for i, item in enumerate(stack.items) if item.kind != S.ProceduralDetail.kind), None)
     first = (len(stack.items) if at is None else at) == 0
-    values.setdefault("use_sculpt", first and has_sculpt(obj))
+    if "use_sculpt" not in values and first and has_sculpt(obj):
+        from .mesh_io import multires_modifier
+
+        # Levels the caller chose below the sculpt's keep the item off the sculpt (as
+        # before Use Sculpt existed): only an explicit use_sculpt=True refuses them.
+        sculpt_levels = multires_modifier(obj).total_levels
+        values["use_sculpt"] = fit_levels or int(values.get("levels", S.ProceduralDetail.levels)) >= sculpt_levels
+    values.setdefault("use_sculpt", False)
     if values["use_sculpt"] and fit_levels and has_sculpt(obj):
         from .mesh_io import multires_modifier
 

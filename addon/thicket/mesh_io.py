@@ -267,9 +267,13 @@ def read_sculpt(obj: bpy.types.Object, depsgraph=None) -> MeshArrays:
     off (none is removed: removing a Multires deletes the mesh's displacements). Call
     it with auto-update suspended, after `_checked_multires`."""
     modifier = multires_modifier(obj)
-    shown = [m for m in obj.modifiers if m.show_viewport]
-    if obj.mode == "OBJECT" and shown == [modifier] and modifier.levels == modifier.total_levels:
-        return _evaluated_arrays(obj, depsgraph or bpy.context.evaluated_depsgraph_get())
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    # A render depsgraph evaluates the modifiers shown in renders, at their render levels.
+    render = depsgraph.mode == "RENDER"
+    shown = [m for m in obj.modifiers if (m.show_render if render else m.show_viewport)]
+    levels = modifier.render_levels if render else modifier.levels
+    if obj.mode == "OBJECT" and shown == [modifier] and levels == modifier.total_levels:
+        return _evaluated_arrays(obj, depsgraph)
     sculpt = obj.copy()
     if obj.mode == "EDIT":
         # An edited mesh evaluates as its edit cage, without the Multires: a copy of the

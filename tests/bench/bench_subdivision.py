@@ -76,7 +76,11 @@ def far_perf_times(path, levels):
     tool = shutil.which("far_perf")
     if tool is None:
         return None
-    text = subprocess.run([tool, "-l", str(levels), str(path)], capture_output=True, text=True, timeout=300).stdout
+    try:
+        text = subprocess.run([tool, "-l", str(levels), str(path)], capture_output=True, text=True, timeout=300).stdout
+    except (OSError, subprocess.SubprocessError) as error:
+        print(f"far_perf did not run: {error}")
+        return None
     out, level = {}, None
     for line in text.splitlines():
         if m := re.match(r"\s*level (\d+):", line):
@@ -106,7 +110,7 @@ def far_perf_beside(name, base, arrays):
         print(f"{'':10s} far_perf (OpenSubdiv) not installed: no peer figure")
         return
     for levels in (3, 4):
-        refine, total = times.get(levels, (float("nan"), float("nan")))
+        refine, total = (float("nan") if t is None else t for t in times.get(levels, (None, None)))
         ours = median_time(lambda levels=levels: tn.subdivide(*arrays, levels, limit=True), 3)
         print(
             f"{'':10s} far_perf level {levels}: refine {refine * 1e3:8.1f} ms, total (adaptive patches + stencils) {total * 1e3:8.1f} ms;"

@@ -459,7 +459,7 @@ class ThicketItem(bpy.types.PropertyGroup):
 
     shader_sea_rate: FloatProperty(
         name="Sea Rise",
-        description="With Animate With Frame: how fast the sea level rises per unit of time (negative: falls), a fraction of the bounding-box diagonal",
+        description="With Animate With Frame: how fast the sea level rises per unit of time (negative: falls), a fraction of the bounding-box diagonal; once the sea reaches the snow line the frame is refused with a message",
         default=S.ProceduralDetail.sea_rate,
         step=0.01,
         precision=4,
@@ -467,7 +467,7 @@ class ThicketItem(bpy.types.PropertyGroup):
     )
     shader_snow_rate: FloatProperty(
         name="Snow Rise",
-        description="With Animate With Frame: how fast the snow line rises per unit of time (negative: the caps grow), a fraction of the bounding-box diagonal",
+        description="With Animate With Frame: how fast the snow line rises per unit of time (negative: the caps grow), a fraction of the bounding-box diagonal; once it reaches the sea the frame is refused with a message",
         default=S.ProceduralDetail.snow_rate,
         step=0.01,
         precision=4,

@@ -63,9 +63,11 @@ def _draw_detail_settings(col, obj, item):
     col.prop(item, "follow_frame", text="Animate With Frame")
     if item.follow_frame:
         col.prop(item, "speed")
-        if item.detail_model == "TENTACLE":
+        # Both models take them (the blend's second one has the item's settings).
+        models = {item.detail_model, item.blend_model} - {"NONE"}
+        if "TENTACLE" in models:
             col.prop(item, "detail_spin")
-        if item.detail_model != "BERRY":
+        if models - {"BERRY"}:
             col.prop(item, "detail_grow")
     if item.detail_model not in ("ROCK", "FUSE"):
         col.prop(item, "detail_seeds")

@@ -11,8 +11,8 @@ use thicket_core::{Error, Mesh};
 #[path = "../examples/common/counting_alloc.rs"]
 mod counting_alloc;
 
-/// A torus of `major` x `minor` quads with a triangle fan cap swapped in at one quad (a
-/// pole of valence 5, n-gons' corners): radii 1 and 0.3.
+/// A torus of `major` x `minor` quads (all regular: n-gons and irregular vertices are not
+/// measured here): radii 1 and 0.3.
 fn torus(major: u32, minor: u32) -> Mesh {
     let mut p = Vec::new();
     for i in 0..major {

@@ -1,4 +1,4 @@
-use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 use thicket_core::glam::{DVec3, Vec2};
@@ -483,9 +483,7 @@ pub fn subdivision_estimate<'py>(py: Python<'py>, face_sizes: &Bound<'py, PyAny>
     if !(1..=subdivision::MAX_LEVELS).contains(&levels) {
         return Err(InvalidInput::new_err(format!("levels must be 1 to {}, not {levels}", subdivision::MAX_LEVELS)));
     }
-    let sizes: PyReadonlyArray1<i32> = face_sizes.extract().map_err(|_| InvalidInput::new_err("face_sizes must be a one-dimensional int32 array"))?;
-    let corners = sizes.as_slice()?.iter().try_fold(0u64, |sum, &n| u64::try_from(n).ok().map(|n| sum + n));
-    let Some(corners) = corners else { return Err(InvalidInput::new_err("face sizes must not be negative")) };
+    let corners = arrays::indices(face_sizes, "face_sizes")?.iter().map(|&n| u64::from(n)).sum();
     let faces = budget::faces_from_corners(corners, levels);
     let d = PyDict::new(py);
     d.set_item("faces", faces)?;
