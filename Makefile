@@ -117,6 +117,7 @@ bench: vulkan setup $(STAMP_BENCH) far-perf
 	$(PY) tests/bench/bench_shell.py
 	$(PY) tests/bench/bench_render.py
 	$(PY) tests/bench/bench_subdivision.py
+	cargo run --release -q -p thicket-core --example detail_bench -- --runs 3
 	cargo run --release -q -p thicket-core --features test-support --example shell_bench
 	cargo run --release -q -p thicket-core --features test-support --example cards_scaling -- --n 2000,8000,32000 $(BENCH_FLAGS)
 	cargo run --release -q -p thicket-core --features test-support --example bake_bench

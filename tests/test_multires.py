@@ -31,6 +31,27 @@ def evaluated(obj):
     return mesh_io.read_evaluated(obj, bpy.context.evaluated_depsgraph_get())
 
 
+def reshape_to(obj, modifier, target, topology):
+    """Sets the finest level of `obj`'s Multires `modifier` to the positions `target` on
+    `topology` (the mesh arrays of its finest level) with `object.multires_reshape`
+    (Blender's "Reshape" from a second object of the same topology)."""
+    mesh = bpy.data.meshes.new("target")
+    mesh.vertices.add(len(target))
+    mesh.vertices.foreach_set("co", target.astype(np.float32).ravel())
+    mesh.loops.add(len(topology.corners))
+    mesh.loops.foreach_set("vertex_index", topology.corners)
+    mesh.polygons.add(len(topology.face_sizes))
+    mesh.polygons.foreach_set("loop_start", np.concatenate([[0], np.cumsum(topology.face_sizes)[:-1]]).astype(np.int32))
+    mesh.polygons.foreach_set("loop_total", topology.face_sizes)
+    mesh.update()
+    other = bpy.data.objects.new("target", mesh)
+    bpy.context.scene.collection.objects.link(other)
+    chosen = [obj, other]
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=chosen, selected_editable_objects=chosen):
+        assert bpy.ops.object.multires_reshape(modifier=modifier.name) == {"FINISHED"}
+    bpy.data.objects.remove(other)
+
+
 def sculpted(obj, levels, offset):
     """`obj` with a Multires modifier of `levels` levels whose finest level is its own
     evaluated mesh moved by `offset(positions)` ((n, 3) per vertex)."""
@@ -40,21 +61,7 @@ def sculpted(obj, levels, offset):
             assert bpy.ops.object.multires_subdivide(modifier=modifier.name, mode="CATMULL_CLARK") == {"FINISHED"}
     plain = evaluated(obj)
     target = plain.vertices + offset(plain.vertices)
-    mesh = bpy.data.meshes.new("target")
-    mesh.vertices.add(len(target))
-    mesh.vertices.foreach_set("co", target.astype(np.float32).ravel())
-    mesh.loops.add(len(plain.corners))
-    mesh.loops.foreach_set("vertex_index", plain.corners)
-    mesh.polygons.add(len(plain.face_sizes))
-    mesh.polygons.foreach_set("loop_start", np.concatenate([[0], np.cumsum(plain.face_sizes)[:-1]]).astype(np.int32))
-    mesh.polygons.foreach_set("loop_total", plain.face_sizes)
-    mesh.update()
-    other = bpy.data.objects.new("target", mesh)
-    bpy.context.scene.collection.objects.link(other)
-    chosen = [obj, other]
-    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=chosen, selected_editable_objects=chosen):
-        assert bpy.ops.object.multires_reshape(modifier=modifier.name) == {"FINISHED"}
-    bpy.data.objects.remove(other)
+    reshape_to(obj, modifier, target, plain)
     out = evaluated_positions(obj)
     assert np.abs(out - target).max() < 1e-5 * diagonal(target), "the reshape took"
     return out

@@ -14,7 +14,7 @@ import bpy
 import numpy as np
 import pytest
 from conftest import add, positions, select_only
-from test_multires import diagonal, evaluated, quads, sculpted
+from test_multires import diagonal, evaluated, quads, reshape_to, sculpted
 
 import thicket_native as tn
 from thicket import api, mesh_io, sculpt
@@ -45,22 +45,8 @@ def reshaped(obj, offset):
         surface.levels, surface.quality = levels, max(levels, 3)
         p = evaluated(plain)
         bpy.data.objects.remove(plain)
-        mesh = bpy.data.meshes.new("target")
         target = p.vertices + offset(p.vertices)
-        mesh.vertices.add(len(target))
-        mesh.vertices.foreach_set("co", target.astype(np.float32).ravel())
-        mesh.loops.add(len(p.corners))
-        mesh.loops.foreach_set("vertex_index", p.corners)
-        mesh.polygons.add(len(p.face_sizes))
-        mesh.polygons.foreach_set("loop_start", np.concatenate([[0], np.cumsum(p.face_sizes)[:-1]]).astype(np.int32))
-        mesh.polygons.foreach_set("loop_total", p.face_sizes)
-        mesh.update()
-        other = bpy.data.objects.new("target", mesh)
-        bpy.context.scene.collection.objects.link(other)
-        chosen = [obj, other]
-        with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=chosen, selected_editable_objects=chosen):
-            assert bpy.ops.object.multires_reshape(modifier=modifier.name) == {"FINISHED"}
-        bpy.data.objects.remove(other)
+        reshape_to(obj, modifier, target, p)
     out = evaluated(obj).vertices
     assert np.abs(out - target).max() < 1e-4 * diagonal(target), "the reshape took"
     return out

@@ -5,29 +5,14 @@
 
 #[path = "common/counting_alloc.rs"]
 mod counting_alloc;
+#[path = "common/torus.rs"]
+mod torus;
+use torus::torus;
 
 use std::time::Instant;
-use thicket_core::glam::Vec3;
 use thicket_core::subdivision::detail::{procedural_detail, Model};
 use thicket_core::subdivision::{subdivide, Boundary, Options};
 use thicket_core::Mesh;
-
-/// `bpy.ops.mesh.primitive_torus_add(major_segments=200, minor_segments=150)`: major
-/// radius 1, minor 0.25, quads wound outward.
-fn torus(major: u32, minor: u32) -> Mesh {
-    let mut p = Vec::new();
-    for i in 0..major {
-        let u = i as f32 / major as f32 * std::f32::consts::TAU;
-        for j in 0..minor {
-            let v = j as f32 / minor as f32 * std::f32::consts::TAU;
-            let r = 1.0 + 0.25 * v.cos();
-            p.push(Vec3::new(r * u.cos(), r * u.sin(), 0.25 * v.sin()));
-        }
-    }
-    let at = |i: u32, j: u32| (i % major) * minor + j % minor;
-    let corners: Vec<u32> = (0..major).flat_map(|i| (0..minor).flat_map(move |j| [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)])).collect();
-    Mesh::new(p, &vec![4; (major * minor) as usize], corners, None).unwrap()
-}
 
 /// The process's CPU seconds (user and system, all threads), from /proc/self/stat: with
 /// the machine shared, a figure the other load inflates less than the wall clock.
@@ -41,7 +26,7 @@ fn cpu_seconds() -> f64 {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let runs = args.iter().position(|a| a == "--runs").map_or(3, |i| args[i + 1].parse().unwrap());
-    let base = torus(200, 150);
+    let base = torus(200, 150, 0.25);
     println!(
         "Procedural rock at level 4 vs plain subdivision to level 4, torus of {} quads, {} threads (target: rock under 2 s)",
         base.face_count(),
