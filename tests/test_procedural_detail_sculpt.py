@@ -6,19 +6,25 @@ level set from a displaced copy of its own evaluated mesh with `object.multires_
 With zero procedural amplitude the item's result is Blender's own evaluated Multires
 mesh, vertex for vertex through the matched numbering; detail lands on top of it; the
 analysis is cached (counted by `thicket.sculpt.analyses`) and re-run only when the sculpt
-or its base changes; bad input is refused with the source untouched.
+or its base changes; it runs in the stack's evaluation (a worker in the interface), with
+progress and cancel, not while Blender is read; bad input is refused with the source
+untouched.
 """
 
 import bmesh
 import bpy
 import numpy as np
 import pytest
-from conftest import add, positions, select_only
+from conftest import add, positions, run_modal, select_only
 from test_multires import diagonal, evaluated, quads, reshape_to, sculpted
 
 import thicket_native as tn
 from thicket import api, mesh_io, sculpt
+from thicket.operators.regenerate import watched_regeneration
+from thicket.pure.evaluate import evaluate_stack
+from thicket.pure.kinds.procedural_detail import ANALYSIS_SHARE
 from thicket.stack.guard import suspended
+from thicket.stack.regenerate import read_source
 
 
 def wavy(p):
@@ -377,7 +383,7 @@ def test_a_saved_sculpt_item_reloads_and_the_renderers_read_the_sculpt(scene, tm
     flat = positions(api.add_procedural_detail(obj, model="ROCK", amplitude=0.0, levels=2)).copy()
     # The renderers read the source as a regeneration does: the coarse mesh and the sculpt.
     source, items, _ = preview.render_inputs(obj)
-    assert source.vertex_count == 8 and items[0].sculpt is not None and items[0].sculpt["levels"] == 2
+    assert source.vertex_count == 8 and items[0].sculpt is not None and items[0].sculpt.levels == 2
     path = str(tmp_path / "sculpt.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
     bpy.ops.wm.open_mainfile(filepath=path)
@@ -405,3 +411,110 @@ def test_the_default_levels_rise_to_a_deeper_sculpt_and_chosen_levels_keep_it_of
     # Asked for explicitly, they are refused.
     with pytest.raises(api.ThicketError, match="more than the item's 1"):
         api.add_procedural_detail(obj, model="ROCK", amplitude=0.0, levels=1, use_sculpt=True)
+
+
+def big_sculpt():
+    """A sculpt whose analysis (131k vertices) outlasts several progress ticks (0.1 s),
+    its item added (zero amplitude) but not evaluated, auto-update off."""
+    obj = add("uv_sphere", segments=32, ring_count=16, radius=1)
+    sculpted(obj, 4, wavy)
+    obj.thicket.auto_update = False
+    api.add_detail_item(obj, detail_model="ROCK", detail_amplitude=0.0)
+    assert obj.thicket.items[0].use_sculpt and obj.thicket.result is None
+    return obj
+
+
+def rising(seen):
+    return all(a <= b for a, b in zip(seen, seen[1:]))
+
+
+def test_the_analysis_runs_in_the_evaluation_with_progress_and_cancel(scene):
+    obj = big_sculpt()
+    analysed, numbered = sculpt.analyses, sculpt.numberings
+    source, items = read_source(obj)
+    # Blender is read (the cage, the sculpt, the numbering's positions), nothing analysed.
+    assert sculpt.analyses == analysed and sculpt.numberings == numbered
+    np.testing.assert_array_equal(source.vertices, mesh_io.read_mesh(obj.data).vertices)
+    assert obj.session_uid not in sculpt._cache
+    # Cancelled at the first progress tick inside the analysis: Cancelled, nothing cached.
+    seen = []
+
+    def cancel_inside(fraction):
+        seen.append(fraction)
+        return fraction == 0.0
+
+    with pytest.raises(tn.Cancelled):
+        evaluate_stack(source, items, cancel_inside)
+    assert rising(seen) and 0.0 < seen[-1] < ANALYSIS_SHARE, seen
+    assert sculpt.analyses == analysed + 1 and obj.session_uid not in sculpt._cache
+    # Evaluated again (the same read): analysed again (matched once), the progress rising
+    # through it to 1.
+    seen = []
+    result = evaluate_stack(source, items, seen.append)
+    assert sculpt.analyses == analysed + 2 and sculpt.numberings == numbered + 1
+    assert rising(seen) and seen[-1] == 1.0 and any(0.0 < f < ANALYSIS_SHARE for f in seen), seen
+    assert obj.session_uid in sculpt._cache
+    written = api.regenerate(obj)  # from the cache: nothing analysed
+    assert sculpt.analyses == analysed + 2
+    np.testing.assert_array_equal(positions(written), result.vertices)
+    blender = in_thicket_order(obj, written)
+    assert np.linalg.norm(result.vertices - blender, axis=1).max() < 1e-5 * diagonal(blender)
+
+
+def test_the_regenerate_job_analyses_on_its_worker_and_esc_keeps_the_previous_result(scene):
+    obj = big_sculpt()
+    kept = positions(api.regenerate(obj)).copy()  # headless: the same code, synchronously
+    entry = sculpt._cache[obj.session_uid]
+    analysed = sculpt.analyses
+    new = reshaped(obj, bumpy)
+    reports = []
+    watch = watched_regeneration(bpy.context, obj, False, lambda kind, text: reports.append((kind, text)))
+    assert sculpt.analyses == analysed, "the main thread only read Blender"
+    watch.job.start()
+    while watch.job.fraction == 0.0 and not watch.job.done:
+        watch.job._thread.join(0.01)
+    assert sculpt.analyses == analysed + 1 and not watch.job.done, "analysing on the worker"
+    status = watch.event(bpy.context, "ESC", "PRESS")
+    while status == {"RUNNING_MODAL"}:
+        watch.job._thread.join(0.05)
+        status = watch.event(bpy.context, "TIMER")
+    assert status == {"CANCELLED"} and watch.job.fraction < ANALYSIS_SHARE
+    assert any(kind == {"WARNING"} and "cancelled" in text for kind, text in reports), reports
+    np.testing.assert_array_equal(positions(obj.thicket.result), kept)
+    assert sculpt._cache[obj.session_uid] is entry, "the entry before the cancel stays"
+    # The next regeneration analyses again, as an uncancelled one does.
+    watch = watched_regeneration(bpy.context, obj, False, lambda kind, text: reports.append((kind, text)))
+    assert run_modal(watch) == {"FINISHED"} and sculpt.analyses == analysed + 2
+    after = positions(obj.thicket.result).copy()
+    assert np.linalg.norm(after - in_thicket_order(obj, obj.thicket.result), axis=1).max() < 1e-5 * diagonal(new)
+    sculpt.clear()
+    np.testing.assert_array_equal(positions(api.regenerate(obj)), after)
+    assert sculpt.analyses == analysed + 3
+    # A cache hit does no analysis.
+    np.testing.assert_array_equal(positions(api.regenerate(obj)), after)
+    assert sculpt.analyses == analysed + 3
+
+
+def test_only_the_latest_read_of_a_sculpt_is_cached(scene):
+    obj = add("cube", size=2)
+    sculpted(obj, 2, wavy)
+    obj.thicket.auto_update = False
+    api.add_detail_item(obj, detail_model="ROCK", detail_amplitude=0.0)
+    older = read_source(obj)
+    reshaped(obj, bumpy)
+    newer = read_source(obj)
+    # The older read's analysis (a job that finished late) is used but not stored.
+    analysed = sculpt.analyses
+    first = evaluate_stack(*older)
+    assert sculpt.analyses == analysed + 1 and obj.session_uid not in sculpt._cache
+    second = evaluate_stack(*newer)
+    assert sculpt.analyses == analysed + 2 and sculpt._cache[obj.session_uid].fine_key == newer[1][0].sculpt.fine_key
+    assert np.abs(first.vertices - second.vertices).max() > 1e-3
+    np.testing.assert_array_equal(evaluate_stack(*newer).vertices, second.vertices)
+    assert sculpt.analyses == analysed + 2, "a hit"
+    # Forgotten while it was analysed (Use Sculpt turned off, a file loaded): not stored.
+    reshaped(obj, up)
+    pending = read_source(obj)
+    sculpt.forget(obj)
+    evaluate_stack(*pending)
+    assert sculpt.analyses == analysed + 3 and obj.session_uid not in sculpt._cache

@@ -220,15 +220,6 @@ def _evaluated_arrays(obj, depsgraph) -> MeshArrays:
         evaluated.to_mesh_clear()
 
 
-def _canonical_quads(corners) -> np.ndarray:
-    """Quads (rows of 4 vertex indices) each rotated to start at its smallest index, and
-    sorted: equal arrays for the same oriented faces in any order."""
-    quads = np.asarray(corners, dtype=np.int64).reshape(-1, 4)
-    start = np.argmin(quads, axis=1)
-    rotated = quads[np.arange(len(quads))[:, None], (start[:, None] + np.arange(4)) % 4]
-    return rotated[np.lexsort(rotated.T[::-1])]
-
-
 def multires_modifier(obj: bpy.types.Object):
     """The object's first Multires modifier (the one Blender sculpts), or None."""
     return next((m for m in obj.modifiers if m.type == "MULTIRES"), None)
@@ -307,15 +298,22 @@ def read_sculpt(obj: bpy.types.Object, depsgraph=None) -> MeshArrays:
 def multires_order(obj: bpy.types.Object, base: MeshArrays, levels: int, sculpted: MeshArrays):
     """The permutation from Blender's Multires numbering of `base` at `levels` (the
     sculpt `sculpted`, from `read_sculpt`) to Thicket's: Thicket's vertex i is the
-    Multires mesh's vertex `order[i]` (int32).
+    Multires mesh's vertex `order[i]` (int32). Blender's numbering read here
+    (`multires_numbering`), matched by `procedural_detail_sculpt.match_numbering`."""
+    from .pure.kinds.procedural_detail_sculpt import match_numbering
+
+    return match_numbering(base, levels, sculpted, multires_numbering(obj, levels), obj.name)
+
+
+def multires_numbering(obj: bpy.types.Object, levels: int) -> np.ndarray:
+    """Blender's Subdivision Surface (Use Limit Surface) of `obj`'s base at `levels`:
+    its positions (float32 (m, 3)) in the numbering Blender gives Multires.
 
     Blender numbers the subdivided vertices its own way (OpenSubdiv's). Its Subdivision
     Surface modifier (Use Limit Surface, same levels and boundary smoothing) on
     the same base numbers them as Multires does, and Thicket's limit positions match its
     positions, so `thicket_native.match_subdivision` finds the permutation by nearest
     position. It is evaluated on a temporary object sharing `obj`'s mesh."""
-    from .pure import native
-
     modifier = multires_modifier(obj)
     mesh = obj.data.copy() if obj.mode == "EDIT" else obj.data  # as in `read_sculpt`
     plain = bpy.data.objects.new(f".thicket numbering {obj.name}", mesh)
@@ -333,27 +331,11 @@ def multires_order(obj: bpy.types.Object, base: MeshArrays, levels: int, sculpte
         bpy.context.scene.collection.objects.link(plain)
         depsgraph = bpy.context.evaluated_depsgraph_get()
         depsgraph.update()
-        numbering = _evaluated_arrays(plain, depsgraph).vertices
+        return _evaluated_arrays(plain, depsgraph).vertices
     finally:
         _probes_removed([plain])
         if mesh != obj.data:
             bpy.data.meshes.remove(mesh)
-    if len(sculpted.vertices) != len(numbering):
-        raise ValueError(
-            f"the Multires of '{obj.name}' has {len(sculpted.vertices)} vertices at {levels} levels where a Subdivision Surface has {len(numbering)}"
-        )
-    # Blender puts an open mesh's corners (Boundary Smooth "All") short of the limit, by
-    # up to 5.5e-4 of the size at Quality 3: matched within 1e-3, one to one (checked).
-    tn = native.get()
-    order = tn.match_subdivision(base.vertices, base.face_sizes, base.corners, levels, numbering, tolerance=1e-3)
-    # Matched positions could still swap two close vertices: the sculpt's faces, renumbered,
-    # must be exactly Thicket's faces of those levels.
-    ours = np.empty_like(order)
-    ours[order] = np.arange(len(order), dtype=order.dtype)
-    made = tn.procedural_detail(base.vertices, base.face_sizes, base.corners, "rock", levels, params={"amplitude": 0.0})
-    if not np.array_equal(_canonical_quads(ours[sculpted.corners]), _canonical_quads(made["corners"])):
-        raise ValueError(f"the Multires of '{obj.name}' could not be matched face for face to Thicket's subdivision (vertices too close to tell apart)")
-    return order
 
 
 def read_multires(obj: bpy.types.Object):

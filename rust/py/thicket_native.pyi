@@ -338,11 +338,13 @@ def analyze(
     levels: int,
     fine_face_sizes: Indices | None = None,
     fine_corners: Indices | None = None,
+    progress: Progress = None,
 ) -> dict[str, Any]:
     """Multiresolution analysis (Velho et al. section 2): fine_vertices are `levels` Catmull-Clark subdivisions of the base faces in procedural_detail's numbering.
     With fine_corners (and fine_face_sizes, all 4 when left out) the fine mesh's faces are checked against that numbering: InvalidInput when they differ.
     OverLimit when the analysis would need more memory than allowed (about 900 bytes per fine face).
-    Returns the coarse mesh (vertices, face_sizes, corners) and details: a list of float64 (n_l, 3) arrays, offsets in the local frames (tangent, bitangent, normal) of each subdivided coarser level."""
+    Returns the coarse mesh (vertices, face_sizes, corners) and details: a list of float64 (n_l, 3) arrays, offsets in the local frames (tangent, bitangent, normal) of each subdivided coarser level.
+    progress: called with the share done about ten times a second; returning False (or raising) cancels with Cancelled."""
 
 def match_subdivision(
     vertices: Floats, face_sizes: Indices, corners: Indices, levels: int, subdivided_vertices: Floats, tolerance: float = 1e-4

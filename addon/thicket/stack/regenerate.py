@@ -66,10 +66,11 @@ def read_source(source: bpy.types.Object, depsgraph=None, items=None):
     `evaluate_stack` may run on another thread.
 
     When the first item is a Procedural Detail with Use Sculpt and the source has a
-    Multires modifier, the source read is the sculpt's fitted coarse mesh instead (the
-    modifiers' cage, other modifiers not applied: the item notes it) and the item's
-    settings carry the analysed sculpt (`sculpt.read`, cached). A later item with Use
-    Sculpt is refused: only the first item starts from the source."""
+    Multires modifier, the source read is the modifiers' cage instead (other modifiers
+    not applied: the item notes it) and the item's settings carry the sculpt as Blender
+    gives it (`sculpt.read`): its analysis, cached, runs in the evaluation, which puts
+    the sculpt's fitted coarse positions in the cage's. A later item with Use Sculpt is
+    refused: only the first item starts from the source."""
     if source.type != "MESH":
         raise TypeError(f"'{source.name}' is a {source.type.lower()}, not a mesh")
     with suspended():
@@ -86,8 +87,8 @@ def read_source(source: bpy.types.Object, depsgraph=None, items=None):
                 f"'{items[takes[-1]].label}' uses the Multires sculpt (Use Sculpt) but is item {takes[-1] + 1} of the enabled stack:"
                 " only the first item starts from the source; move it to the top or turn its Use Sculpt off"
             )
-        base, analysis, notes = sculpt.read(source, depsgraph, groups, items[0].label)
-        items = [dataclasses.replace(items[0], sculpt=analysis, sculpt_notes=tuple(notes)), *items[1:]]
+        base, read, notes = sculpt.read(source, depsgraph, groups, items[0].label)
+        items = [dataclasses.replace(items[0], sculpt=read, sculpt_notes=tuple(notes)), *items[1:]]
         return base, items
 
 

@@ -12,7 +12,7 @@ use thicket_core::subdivision::{self, Boundary, Options, UvSmooth};
 use thicket_core::Mesh;
 
 use crate::arrays;
-use crate::errors::{run_detached, to_py, InvalidInput};
+use crate::errors::{run_detached, run_maybe_watched, to_py, InvalidInput};
 use crate::keywords::Keywords;
 
 /// subdivide(vertices, face_sizes, corners, levels=1, limit=False, uvs=None, *,
@@ -180,7 +180,7 @@ pub fn procedural_detail<'py>(
     Ok(d)
 }
 
-/// analyze(vertices, face_sizes, corners, fine_vertices, levels, fine_face_sizes=None, fine_corners=None) -> dict
+/// analyze(vertices, face_sizes, corners, fine_vertices, levels, fine_face_sizes=None, fine_corners=None, progress=None) -> dict
 ///
 /// Multiresolution analysis (Velho, Perlin, Ying and Biermann, section 2, Figure 1):
 /// `fine_vertices` (float32 (m, 3)) are the positions of `levels` (1 to 6) Catmull-Clark
@@ -193,8 +193,10 @@ pub fn procedural_detail<'py>(
 /// face_sizes, corners) and `details`, a list of float64 (n_l, 3) arrays, one per level,
 /// each vertex's offset in its local frame (tangent, bitangent, normal) of the subdivided
 /// coarser level. `synthesize_multires` of the result gives `fine_vertices` back.
+/// `progress`: a callable given the share done (0 to 1) about ten times a second;
+/// returning False (or raising) cancels with `Cancelled`, as for `shell()`.
 #[pyfunction]
-#[pyo3(signature = (vertices, face_sizes, corners, fine_vertices, levels, fine_face_sizes=None, fine_corners=None))]
+#[pyo3(signature = (vertices, face_sizes, corners, fine_vertices, levels, fine_face_sizes=None, fine_corners=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn analyze<'py>(
     py: Python<'py>,
@@ -205,6 +207,7 @@ pub fn analyze<'py>(
     levels: u32,
     fine_face_sizes: Option<&Bound<'py, PyAny>>,
     fine_corners: Option<&Bound<'py, PyAny>>,
+    progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let base = arrays::mesh(&vertices, face_sizes, corners)?;
     let fine = arrays::positions(&fine_vertices)?;
@@ -223,9 +226,9 @@ pub fn analyze<'py>(
     if (1..=subdivision::MAX_LEVELS).contains(&levels) {
         budget::check_analysis_fits(&base, levels, DEFAULT_MAX_BYTES).map_err(to_py)?;
     }
-    let m = run_detached(py, move || match fine_faces {
-        None => multires::analyze_positions(fine, &base, levels),
-        Some((sizes, c)) => multires::analyze(&Mesh::new(fine, &sizes, c, None)?, &base, levels),
+    let m = run_maybe_watched(py, progress.as_ref(), move |watch| match fine_faces {
+        None => multires::analyze_positions_watched(fine, &base, levels, watch),
+        Some((sizes, c)) => multires::analyze_watched(&Mesh::new(fine, &sizes, c, None)?, &base, levels, watch),
     })?;
     multires_dict(py, m)
 }

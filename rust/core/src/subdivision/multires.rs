@@ -14,6 +14,7 @@
 use super::detail::frames::all_frames;
 use super::detail::{self, Offsets, State};
 use super::topology::{Level, NONE};
+use crate::progress::Progress;
 use crate::spatial::Bvh;
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec3};
@@ -96,13 +97,20 @@ pub fn synthesize(m: &Multires) -> Result<Mesh> {
 /// the subdivision of the rebuilt coarser level, exactly as [`synthesize`] adds them, so
 /// rounding does not build up: `synthesize(&analyze(..))` is `fine` to float precision.
 pub fn analyze(fine: &Mesh, base_topology: &Mesh, levels: u32) -> Result<Multires> {
+    analyze_watched(fine, base_topology, levels, None)
+}
+
+/// [`analyze`] reporting to `progress` (see [`Stages`]) and stopping with
+/// [`Error::Cancelled`] at its next check once cancelling was asked for.
+pub fn analyze_watched(fine: &Mesh, base_topology: &Mesh, levels: u32, progress: Option<&Progress>) -> Result<Multires> {
     if !(1..=super::MAX_LEVELS).contains(&levels) {
         return Err(Error::InvalidParameter(format!("analysis levels must be 1 to {}, not {levels}", super::MAX_LEVELS)));
     }
     if let Some(v) = fine.positions().iter().position(|p| !p.is_finite()) {
         return Err(Error::NonFinite { index: v, value: fine.positions()[v].to_array() });
     }
-    let topology = levels_of(base_topology, levels)?;
+    let stages = Stages::start(progress, base_topology, levels)?;
+    let topology = levels_of_watched(base_topology, levels, &stages)?;
     let finest = &topology[levels as usize];
     let not_ours = |why: String| {
         Err(Error::InvalidMesh(format!(
@@ -130,17 +138,19 @@ pub fn analyze(fine: &Mesh, base_topology: &Mesh, levels: u32) -> Result<Multire
             finest.corners()[c]
         ));
     }
-    analyze_on(fine.positions(), &topology, base_topology, levels)
+    analyze_on(fine.positions(), &topology, base_topology, levels, &stages)
 }
 
 /// [`analyze`] once the fine positions are known to be those of `topology` (the plain
 /// levels 0..=`levels` of `base_topology`, from [`levels_of`]).
-fn analyze_on(fine: &[Vec3], topology: &[Mesh], base_topology: &Mesh, levels: u32) -> Result<Multires> {
+fn analyze_on(fine: &[Vec3], topology: &[Mesh], base_topology: &Mesh, levels: u32, stages: &Stages) -> Result<Multires> {
     // Coarse targets, finest first.
     let mut targets: Vec<Vec<DVec3>> = vec![fine.iter().map(|p| p.as_dvec3()).collect()];
     for l in (0..levels as usize).rev() {
         let step = Step::of(&topology[l], &topology[l + 1])?;
-        targets.push(step.fit(targets.last().expect("a finer level")));
+        let n = topology[l + 1].vertex_count();
+        stages.advance(STEP_WEIGHT * n)?;
+        targets.push(step.fit(targets.last().expect("a finer level"), stages, FIT_WEIGHT * n)?);
     }
     targets.reverse();
     let base = Mesh::new(targets[0].iter().map(|p| p.as_vec3()).collect(), &base_topology.face_sizes(), base_topology.corners().to_vec(), None)?;
@@ -148,26 +158,82 @@ fn analyze_on(fine: &[Vec3], topology: &[Mesh], base_topology: &Mesh, levels: u3
     detail::synthesize(&base, levels, State::default(), |level, mesh, normals, _| {
         let target = &targets[level as usize];
         let w: Vec<DVec3> = mesh.positions().iter().zip(target).map(|(p, t)| *t - p.as_dvec3()).collect();
-        details.push(all_frames(mesh, normals).iter().zip(&w).map(|(f, &w)| f.to_local(w)).collect());
+        if stages.advance(mesh.vertex_count()).is_ok() {
+            // Once cancelled the remaining levels only subdivide (checked below).
+            details.push(all_frames(mesh, normals).iter().zip(&w).map(|(f, &w)| f.to_local(w)).collect());
+        }
         Offsets::World(w)
     })?;
+    stages.check()?;
     Ok(Multires { base, details })
 }
 
 /// The plain subdivisions of `base` at levels 0..=`levels`, numbered as [`synthesize`]
 /// numbers them (they come from the same loop).
 fn levels_of(base: &Mesh, levels: u32) -> Result<Vec<Mesh>> {
+    levels_of_watched(base, levels, &Stages::default())
+}
+
+/// [`levels_of`], each level counted in `stages` (stopping at a cancel).
+fn levels_of_watched(base: &Mesh, levels: u32, stages: &Stages) -> Result<Vec<Mesh>> {
     let mut out = vec![base.clone()];
     detail::synthesize(base, levels, State::default(), |_, mesh, _, _| {
-        out.push(mesh.clone());
+        if stages.advance(mesh.vertex_count()).is_ok() {
+            out.push(mesh.clone());
+        }
         Offsets::Normal(vec![0.0; mesh.vertex_count()])
     })?;
+    stages.check()?;
     Ok(out)
+}
+
+/// Weights of an analysis' stages in [`Stages`], per vertex of the finer level of a step
+/// (the subdivisions and the synthesis of the details count one per vertex): building
+/// the step's matrix, and its least-squares fit (timed on a 126k-vertex sculpt: plain
+/// levels 0.1 s, matrices 0.3 s, fits 0.55 s, details 0.05 s).
+const STEP_WEIGHT: usize = 3;
+const FIT_WEIGHT: usize = 6;
+
+/// An analysis' progress: the plain levels, each level's step and fit, the details'
+/// synthesis, weighted by vertex counts ([`STEP_WEIGHT`], [`FIT_WEIGHT`]); nothing
+/// reported without a [`Progress`].
+#[derive(Default)]
+struct Stages<'a> {
+    progress: Option<&'a Progress>,
+}
+
+impl<'a> Stages<'a> {
+    fn start(progress: Option<&'a Progress>, base: &Mesh, levels: u32) -> Result<Self> {
+        if let Some(p) = progress {
+            let counts = level_vertex_counts(base, levels)?;
+            let each: usize = counts.iter().sum();
+            p.start(2 * each + (STEP_WEIGHT + FIT_WEIGHT) * each);
+            p.check()?;
+        }
+        Ok(Stages { progress })
+    }
+
+    /// `n` more units done, then [`Self::check`].
+    fn advance(&self, n: usize) -> Result<()> {
+        if let Some(p) = self.progress {
+            p.advance(n);
+        }
+        self.check()
+    }
+
+    fn check(&self) -> Result<()> {
+        self.progress.map_or(Ok(()), Progress::check)
+    }
 }
 
 /// [`analyze`] of the fine positions `fine` alone, the fine mesh's faces being those of
 /// `levels` subdivisions of `base_topology` (in [`synthesize`]'s numbering).
 pub fn analyze_positions(fine: Vec<Vec3>, base_topology: &Mesh, levels: u32) -> Result<Multires> {
+    analyze_positions_watched(fine, base_topology, levels, None)
+}
+
+/// [`analyze_positions`] reporting to `progress`, as [`analyze_watched`].
+pub fn analyze_positions_watched(fine: Vec<Vec3>, base_topology: &Mesh, levels: u32, progress: Option<&Progress>) -> Result<Multires> {
     if !(1..=super::MAX_LEVELS).contains(&levels) {
         return Err(Error::InvalidParameter(format!("analysis levels must be 1 to {}, not {levels}", super::MAX_LEVELS)));
     }
@@ -179,7 +245,8 @@ pub fn analyze_positions(fine: Vec<Vec3>, base_topology: &Mesh, levels: u32) -> 
         return Err(Error::NonFinite { index: v, value: fine[v].to_array() });
     }
     // The levels are made once, here, not again by `analyze`.
-    analyze_on(&fine, &levels_of(base_topology, levels)?, base_topology, levels)
+    let stages = Stages::start(progress, base_topology, levels)?;
+    analyze_on(&fine, &levels_of_watched(base_topology, levels, &stages)?, base_topology, levels, &stages)
 }
 
 /// The limit positions (Halstead, Kass and DeRose 1993) of the vertices of `levels` plain
@@ -329,8 +396,10 @@ impl Step {
 
     /// The coarse positions `P` minimising `|S P - fine|^2`: conjugate gradients on
     /// `S^T S P = S^T fine`, from the fine level's own base vertices (which `S` keeps in
-    /// place and index).
-    fn fit(&self, fine: &[DVec3]) -> Vec<DVec3> {
+    /// place and index). Counts `weight` units in `stages` as it goes (the larger of the
+    /// share of steps taken and of the residual's way down to the tolerance, on a log
+    /// scale), checking for a cancel at every step.
+    fn fit(&self, fine: &[DVec3], stages: &Stages, weight: usize) -> Result<Vec<DVec3>> {
         let nv = self.cols.start.len() - 1;
         let normal = |x: &[DVec3]| self.cols.apply(&self.rows.apply(x));
         let dot = |a: &[DVec3], b: &[DVec3]| a.par_iter().zip(b).map(|(a, b)| a.dot(*b)).sum::<f64>();
@@ -341,10 +410,16 @@ impl Step {
         let mut p = r.clone();
         let mut rr = dot(&r, &r);
         let stop = (FIT_TOLERANCE * FIT_TOLERANCE) * dot(&rhs, &rhs);
-        for _ in 0..FIT_ITERATIONS {
+        let (first, mut given) = (rr, 0usize);
+        for step in 0..FIT_ITERATIONS {
             if rr <= stop {
                 break;
             }
+            let converged = if first > stop { (first / rr).ln() / (first / stop).ln() } else { 1.0 };
+            let share = converged.max(step as f64 / FIT_ITERATIONS as f64).clamp(0.0, 1.0);
+            let due = ((share * weight as f64) as usize).max(given);
+            stages.advance(due - given)?;
+            given = due;
             let ap = normal(&p);
             let alpha = rr / dot(&p, &ap);
             x.par_iter_mut().zip(&p).for_each(|(x, p)| *x += *p * alpha);
@@ -354,7 +429,8 @@ impl Step {
             rr = next;
             p.par_iter_mut().zip(&r).for_each(|(p, r)| *p = *r + *p * beta);
         }
-        x
+        stages.advance(weight - given)?;
+        Ok(x)
     }
 }
 

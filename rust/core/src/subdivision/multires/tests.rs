@@ -192,3 +192,60 @@ fn limit_positions_and_matching_find_another_numbering() {
     assert!(match_points(&a, &[Vec3::ZERO, Vec3::new(0.01, 0.0, 0.0)], 0.1).is_err());
     assert_eq!(match_points(&a, &[Vec3::new(0.99, 0.0, 0.0), Vec3::ZERO], 0.1).unwrap(), vec![1, 0]);
 }
+
+#[test]
+fn a_watched_analysis_counts_up_to_one_and_equals_the_plain_one() {
+    let base = testmeshes::icosphere(2);
+    let levels = 3;
+    let fine = sculpted(&base, levels, 0.005);
+    let progress = crate::progress::Progress::default();
+    let seen = std::sync::Mutex::new(Vec::new());
+    let finished = std::sync::atomic::AtomicBool::new(false);
+    let m = std::thread::scope(|s| {
+        s.spawn(|| {
+            while !finished.load(std::sync::atomic::Ordering::Acquire) {
+                seen.lock().unwrap().push(progress.fraction());
+                std::thread::sleep(std::time::Duration::from_micros(100));
+            }
+        });
+        let m = analyze_positions_watched(fine.positions().to_vec(), &base, levels, Some(&progress));
+        finished.store(true, std::sync::atomic::Ordering::Release);
+        m.unwrap()
+    });
+    assert_eq!(progress.fraction(), 1.0, "every stage counted to its end");
+    let seen = seen.into_inner().unwrap();
+    assert!(seen.windows(2).all(|w| w[0] <= w[1]), "not monotone: {seen:?}");
+    assert!(seen.iter().any(|&f| f > 0.0 && f < 1.0), "no fraction between 0 and 1 seen");
+    assert!(m == analyze_positions(fine.positions().to_vec(), &base, levels).unwrap());
+    // With the faces checked too.
+    let watched = crate::progress::Progress::default();
+    assert!(analyze_watched(&fine, &base, levels, Some(&watched)).unwrap() == m);
+    assert_eq!(watched.fraction(), 1.0);
+}
+
+#[test]
+fn a_cancel_stops_the_analysis_at_its_next_check() {
+    let base = testmeshes::icosphere(2);
+    let levels = 4;
+    let fine = sculpted(&base, levels, 0.005);
+    let progress = crate::progress::Progress::default();
+    let (result, at_cancel) = std::thread::scope(|s| {
+        let canceller = s.spawn(|| {
+            while progress.fraction() < 0.2 {
+                std::thread::yield_now();
+            }
+            progress.cancel();
+            progress.fraction()
+        });
+        let result = analyze_positions_watched(fine.positions().to_vec(), &base, levels, Some(&progress));
+        (result, canceller.join().unwrap())
+    });
+    assert_eq!(result.unwrap_err(), Error::Cancelled);
+    // At most the stage under way when it was asked (the finest fit: under half the work) goes on.
+    assert!(progress.fraction() < at_cancel + 0.5, "stopped at {}, cancelled at {at_cancel}", progress.fraction());
+    // Cancelled before it starts: nothing done.
+    let early = crate::progress::Progress::default();
+    early.cancel();
+    assert_eq!(analyze_watched(&fine, &base, levels, Some(&early)).unwrap_err(), Error::Cancelled);
+    assert_eq!(early.fraction(), 0.0);
+}
