@@ -173,3 +173,16 @@ def test_selecting_result_acts_on_source(scene):
     assert bpy.ops.thicket.add_thick_surface.poll()
     bpy.ops.thicket.add_thick_surface()
     assert len(result.thicket.items) == 0, "a result never gets a stack of its own"
+
+
+def test_a_misspelt_setting_is_refused_and_adds_no_item(scene):
+    """A keyword that is no stack item setting (a typo) used to land as a plain Python
+    attribute on the item and change nothing; it is refused, with the near name."""
+    obj = add("cube")
+    with pytest.raises(TypeError, match="detail_modl.*did you mean 'detail_model'"):
+        api.add_item(obj, "PROCEDURAL_DETAIL", detail_modl="BERRY")
+    with pytest.raises(TypeError, match="not a stack item setting: 'model'"):
+        api.add_detail_item(obj, model="BERRY")
+    assert len(obj.thicket.items) == 0
+    item = api.add_item(obj, "PROCEDURAL_DETAIL", detail_model="BERRY")
+    assert item.detail_model == "BERRY"

@@ -107,6 +107,7 @@ def add_item(obj, kind="OFFSET_SHELL", **settings):
     from .stack.versioning import current_names
 
     settings = current_names(settings)
+    _refuse_unknown(settings)
     with suspended():
         item = obj.thicket.items.add()
         try:
@@ -119,6 +120,23 @@ def add_item(obj, kind="OFFSET_SHELL", **settings):
             raise
         obj.thicket.active_index = len(obj.thicket.items) - 1
     return item
+
+
+def _refuse_unknown(settings):
+    """A TypeError naming each setting that is not a property of a stack item (a typo
+    would otherwise land as a plain Python attribute on the item and change nothing)."""
+    import difflib
+
+    from .stack.properties import ThicketItem
+
+    known = {p.identifier for p in ThicketItem.bl_rna.properties if p.identifier != "rna_type"}
+    unknown = sorted(set(settings) - known)
+    if unknown:
+        hints = []
+        for name in unknown:
+            close = difflib.get_close_matches(name, sorted(known), n=1)
+            hints.append(f"'{name}'" + (f" (did you mean '{close[0]}'?)" if close else ""))
+        raise TypeError(f"not a stack item setting: {', '.join(hints)}")
 
 
 def add_thick_surface(
