@@ -1,7 +1,7 @@
 //! Per-stage times of shell builds on public scans (issue 14's speed target: a
 //! 26k-vertex scan with thin parts in 0.5 s on 2 cores), with the machine's load:
 //! `cargo run --release -p thicket-core --example shell_stages -- [mesh.obj ...]
-//! [--runs N]` (default /tmp/pub/{beast,homer,spot,cheburashka,fandisk}.obj),
+//! [--runs N] [--cases exterior:0.1,interior:0.05] [--no-medial-stop]` (default /tmp/pub/{beast,homer,spot,cheburashka,fandisk}.obj),
 //! exterior 10% and interior 5% of the bounding-box diagonal. Prints the build time,
 //! its stages ([`thicket_core::shell::timing`]; the tracing and the checker run
 //! side by side, the untangle's sub-stages are inside it), the repair's rounds and
@@ -27,14 +27,37 @@ fn main() {
     }
     println!("{} threads, load {}", rayon::current_num_threads(), load());
     timing::enable(true);
-    let params = ShellParams::default();
+    // `--no-medial-stop`: the traced directors go to the repair unbounded (as before
+    // the medial stop), to compare the two in one binary.
+    let medial_stop = match args.iter().position(|a| a == "--no-medial-stop") {
+        Some(i) => {
+            args.remove(i);
+            false
+        }
+        None => true,
+    };
+    // `--cases exterior:0.1,exterior:0.2,interior:0.05` (the default: exterior 10% and
+    // interior 5%).
+    let mut cases = vec![(Side::Exterior, 0.1f32), (Side::Interior, 0.05)];
+    if let Some(i) = args.iter().position(|a| a == "--cases") {
+        let list = args.get(i + 1).expect("--cases side:fraction,...").clone();
+        cases = list
+            .split(',')
+            .map(|c| {
+                let (side, f) = c.split_once(':').expect("side:fraction");
+                (Side::parse(side).expect("a side"), f.parse().expect("a fraction"))
+            })
+            .collect();
+        args.drain(i..i + 2);
+    }
+    let params = ShellParams { medial_stop, ..ShellParams::default() };
     for path in &args {
         let Ok(text) = std::fs::read_to_string(path) else {
             println!("{path}: not readable, skipped");
             continue;
         };
         let mesh = thicket_core::mesh::obj::parse_obj(&text).expect("valid OBJ");
-        for (side, fraction) in [(Side::Exterior, 0.1f32), (Side::Interior, 0.05)] {
+        for &(side, fraction) in &cases {
             let t = Thickness::relative(fraction).per_vertex(&mesh, None).unwrap();
             for run in 0..runs {
                 timing::take();

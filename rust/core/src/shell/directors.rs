@@ -89,6 +89,10 @@ pub struct ShellParams {
     /// displacement has room and nothing folds, the restore pass gives compressed
     /// directors their full thickness back.
     pub compression_onset: f64,
+    /// Bound each traced director by the room along its chord before the repair
+    /// ([`room`](super::room): the medial stop), so that opposing sheets stop short of
+    /// each other instead of crossing and being repaired. Only with `repair_rounds`.
+    pub medial_stop: bool,
 }
 
 /// Per-round shortening of the repair pass. Not from the thesis: small enough steps
@@ -115,6 +119,7 @@ impl Default for ShellParams {
             boundary_faces: true,
             repair_rounds: 80,
             compression_onset: 0.7,
+            medial_stop: true,
         }
     }
 }
@@ -597,6 +602,9 @@ fn build_in_order(mesh: &Mesh, thickness: &[f32], side: Side, params: &ShellPara
     let (tracer, traces) = traced?;
     let mut shell = assemble(mesh, thickness, side, &traces);
     if let Some(checker) = checker {
+        if params.medial_stop {
+            super::room::stop_at_room(&checker, mesh, &mut shell, None);
+        }
         let repair = Repair::for_build(&checker, mesh, &tracer.normals, params.repair_rounds, progress);
         shell.check = repair.settle(&mut None, &mut shell, None);
     }

@@ -125,6 +125,9 @@ impl Tracked {
         let mut shell = assemble(&mesh, &thickness, side, &traces);
         let checker = Checker::new(&mesh);
         let mut outer_bvh = None;
+        if params.medial_stop && params.repair_rounds > 0 {
+            super::room::stop_at_room(&checker, &mesh, &mut shell, None);
+        }
         let repair = Repair::for_build(&checker, &mesh, &tracer.normals, params.repair_rounds, progress);
         shell.check = repair.settle(&mut outer_bvh, &mut shell, None);
         if let Some(p) = progress {
@@ -185,6 +188,7 @@ impl Tracked {
         }
         let (mut seeds, held) = self.reset_repaired(&dirty);
         let resettled = seeds.len();
+        let reset = seeds.clone();
         let flipped = if retriangulated {
             self.checker = Checker::new(&self.mesh);
             self.outer_bvh = None;
@@ -200,6 +204,11 @@ impl Tracked {
         // change: those cells are checked again.
         let reach = self.shell.base_offset.iter().zip(&self.shell.directors).map(|(b, d)| (b.length() + d.length()) as f64).fold(0.0, f64::max);
         seeds.extend(self.checker.cells_near_probes(&self.mesh, &moved, &flipped, reach));
+        if self.params.medial_stop && self.params.repair_rounds > 0 {
+            // The reset directors are bounded as a build bounds them (the others keep
+            // their bound or repair).
+            super::room::stop_at_room(&self.checker, &self.mesh, &mut self.shell, Some(&reset));
+        }
         let repair = Repair { held: Some(&held), ..Repair::for_build(&self.checker, &self.mesh, &self.tracer.normals, self.params.repair_rounds, None) };
         self.shell.check = repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
         Ok(UpdateStats { changed, retraced: dirty.len(), kept, resettled, rebuilt: false, field_rebuilt })

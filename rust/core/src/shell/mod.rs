@@ -25,6 +25,7 @@ pub mod offset;
 pub mod repair;
 pub mod report;
 pub(crate) mod restore;
+pub(crate) mod room;
 pub mod thickness;
 pub mod timing;
 

@@ -592,7 +592,7 @@ fn shorten(shell: &mut Shell, v: usize, f: f32) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::shell::report::shell_report;
     use crate::shell::Side;
@@ -600,7 +600,7 @@ mod tests {
 
     /// Two unit spheres 0.05 apart with normal directors of length `length`: their
     /// outer layers cross wide around the gap.
-    fn nearly_touching(length: f32) -> (Mesh, Shell) {
+    pub(crate) fn nearly_touching(length: f32) -> (Mesh, Shell) {
         let ball = tm::icosphere(3);
         let n = ball.vertex_count();
         let positions: Vec<Vec3> = [-1.025f32, 1.025].iter().flat_map(|&x| ball.positions().iter().map(move |p| *p + Vec3::X * x)).collect();

@@ -269,6 +269,27 @@ impl Bvh {
         )
     }
 
+    /// The nearest hit along the ray `origin + t dir`, `t ∈ [0, t_far]`: the least
+    /// `hit(item)` (the ray parameter where it meets the item, `None` where it does
+    /// not) over the items whose boxes the ray crosses, boxes beyond the best hit so
+    /// far skipped. `None` when no item is hit.
+    pub fn first_on_ray(&self, origin: DVec3, dir: DVec3, t_far: f64, mut hit: impl FnMut(u32) -> Option<f64>) -> Option<(u32, f64)> {
+        let inv = dir.recip();
+        let best = std::cell::Cell::new((u32::MAX, t_far));
+        self.walk(
+            |lo, hi| ray_span(origin, inv, best.get().1, lo, hi).is_some(),
+            |i, b| {
+                if ray_span(origin, inv, best.get().1, b.0, b.1).is_some() {
+                    if let Some(t) = hit(i).filter(|&t| t <= best.get().1) {
+                        best.set((i, t));
+                    }
+                }
+                false
+            },
+        );
+        Some(best.get()).filter(|b| b.0 != u32::MAX)
+    }
+
     /// The item nearest to `p` and its distance, by `distance(item)` (the exact
     /// distance to the item, at least the distance to its box), among those nearer
     /// than `max`: nodes are visited nearest box first and skipped once their box is
