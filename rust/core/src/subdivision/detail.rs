@@ -407,15 +407,16 @@ impl Model {
                 if let Some(clearance) = &state.clearance {
                     limits.clear_of(clearance, level, p, normals, |v| heights[v].1 > 0.0);
                 }
-                let (dome, full): (Vec<u32>, Vec<f64>) = heights.iter().copied().unzip();
-                let scaled = limits.scale_domes(heights, &mut state.tally);
+                let (dome, full): (Vec<u32>, Vec<f64>) = heights.into_iter().unzip();
+                // Each dome flattened as a whole to fit under its vertices' limits.
+                let factor = fold_guard::scale_groups(&dome, |v| if full[v] > 0.0 { limits.out(v) / full[v] } else { 1.0 });
+                let mut d: Vec<f64> = full.par_iter().zip(&dome).map(|(&h, &k)| if k == u32::MAX { 0.0 } else { h * factor[k as usize] }).collect();
                 state.reference = match level {
                     1 => normals.to_vec(),
                     _ => overhang::carried_normals(mesh, &state.reference),
                 };
-                let mut d = scaled.clone();
                 overhang::upright(p, normals, mesh.corners(), &state.reference, &dome, &mut d);
-                state.tally.limited += (0..d.len()).filter(|&v| d[v] < scaled[v] && scaled[v] == full[v]).count() as u64;
+                state.tally.count(&full, &d);
                 Offsets::Normal(d)
             }
             Model::Tentacle { seeds: given, spacing, .. } | Model::Spur { seeds: given, spacing, .. } => {
@@ -683,6 +684,71 @@ mod tests {
             far += (r >= radius) as usize;
         }
         assert!(far > p.len() / 2);
+    }
+
+    /// Blender's default UV sphere (32 segments, 16 rings, radius 1): triangles at the
+    /// poles, quads between, edges short at the poles.
+    fn uv_sphere() -> Mesh {
+        let (segments, rings) = (32u32, 16u32);
+        let mut p = vec![Vec3::Z, -Vec3::Z];
+        for r in 1..rings {
+            let phi = std::f32::consts::PI * r as f32 / rings as f32;
+            p.extend((0..segments).map(|s| {
+                let theta = std::f32::consts::TAU * s as f32 / segments as f32;
+                Vec3::new(phi.sin() * theta.cos(), phi.sin() * theta.sin(), phi.cos())
+            }));
+        }
+        let at = |r: u32, s: u32| 2 + (r - 1) * segments + s % segments;
+        let (mut sizes, mut corners) = (Vec::new(), Vec::new());
+        for s in 0..segments {
+            sizes.extend([3, 3]);
+            corners.extend([0, at(1, s), at(1, s + 1), 1, at(rings - 1, s + 1), at(rings - 1, s)]);
+            for r in 1..rings - 1 {
+                sizes.push(4);
+                corners.extend([at(r, s), at(r + 1, s), at(r + 1, s + 1), at(r, s + 1)]);
+            }
+        }
+        Mesh::new(p, &sizes, corners, None).unwrap()
+    }
+
+    #[test]
+    fn the_tally_counts_each_reduced_vertex_once_a_level() {
+        // The berry preset on the UV sphere: at every level, the domes the seeds ask for
+        // (unguarded, from the same seeds on the same mesh) against what the guards left,
+        // vertex by vertex; the tally is that count, however many times a dome was halved.
+        // The rock likewise, against its unguarded random values.
+        let base = uv_sphere();
+        for (model, mut want) in
+            [(Model::Berry { radius: 0.12, seeds: vec![], children: 3 }, Tally::default()), (Model::Rock { amplitude: 0.05 }, Tally::default())]
+        {
+            let mut reduced_much = 0;
+            synthesize(&base, 3, model.initial_state(&base), |level, mesh, normals, state| {
+                let offsets = model.displacements(level, mesh, normals, 0, state);
+                let Offsets::Normal(d) = &offsets else { unreachable!() };
+                let octave = 0.5f64.powi(level as i32 - 1);
+                let full: Vec<f64> = match &model {
+                    Model::Berry { radius, .. } => domes(mesh.positions(), &state.seeds, radius * octave).into_iter().map(|(_, h)| h).collect(),
+                    Model::Rock { amplitude } => {
+                        let key = mix((level as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+                        (0..d.len()).map(|v| amplitude * octave * unit_random(mix(key ^ mix(v as u64)))).collect()
+                    }
+                    _ => unreachable!(),
+                };
+                for (f, k) in full.iter().zip(d) {
+                    if *f != 0.0 {
+                        want.placed += 1;
+                        want.limited += (k != f) as u64;
+                        reduced_much += (k.abs() < 0.9 * f.abs()) as u64;
+                    }
+                    assert!(k.abs() <= f.abs() && k * f >= 0.0, "the guard only lowers detail");
+                }
+                offsets
+            })
+            .unwrap();
+            let tally = crate::subdivision::recipe::synthesize(&base, 3, &crate::subdivision::recipe::Recipe::of(model.clone(), 0)).unwrap().tally;
+            assert_eq!(tally, want, "{model:?}");
+            eprintln!("{model:?}: {want:?} share {:.3}, reduced by over 10%: {reduced_much}", want.share());
+        }
     }
 
     #[test]

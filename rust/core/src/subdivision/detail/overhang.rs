@@ -12,6 +12,7 @@
 //! a point's position) and flattens, as a whole, every dome that would tip a face of its
 //! past [`MAX_TILT_COS`] against the base's normal (or further than it already was).
 
+use super::fold_guard::scale_groups;
 use crate::Mesh;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -73,20 +74,21 @@ pub(crate) fn upright(p: &[Vec3], normals: &[Vec3], corners: &[u32], reference: 
             u32::MAX => p[v].as_dvec3(),
             k => p[v].as_dvec3() + normals[v].as_dvec3() * d[v] * factor[k as usize],
         };
-        let mut tipped: Vec<u32> = corners
+        let tipped: Vec<u32> = corners
             .par_chunks_exact(4)
             .zip(&before)
             .filter(|(quad, &was)| quad.iter().any(|&v| dome[v as usize] != u32::MAX && d[v as usize] > 0.0) && cosine(&moved, quad) < was.min(MAX_TILT_COS))
-            .flat_map_iter(|(quad, _)| quad.iter().map(|&v| dome[v as usize]).filter(|&k| k != u32::MAX))
+            .flat_map_iter(|(quad, _)| quad.iter().copied())
             .collect();
         if tipped.is_empty() {
             break;
         }
-        tipped.sort_unstable();
-        tipped.dedup();
-        for k in tipped {
-            factor[k as usize] = if round == ROUNDS { 0.0 } else { 0.5 * factor[k as usize] };
-        }
+        // Every dome with a vertex on a tipped face is halved (left out after the last round).
+        let mut on_tipped = vec![false; p.len()];
+        tipped.into_iter().for_each(|v| on_tipped[v as usize] = true);
+        let cut = if round == ROUNDS { 0.0 } else { 0.5 };
+        let halved = scale_groups(dome, |v| if on_tipped[v] { cut } else { 1.0 });
+        factor.iter_mut().zip(halved).for_each(|(f, h)| *f *= h);
     }
     d.par_iter_mut().zip(dome).for_each(|(h, &k)| {
         if k != u32::MAX {
