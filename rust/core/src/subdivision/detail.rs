@@ -193,6 +193,28 @@ pub(crate) struct State {
     clearance: Option<fold_guard::Clearance>,
     /// The base's normals at the level's vertices, for domes' overhangs.
     reference: Vec<Vec3>,
+    /// Painted per-vertex weights (a blend's alpha), carried to each level.
+    pub painted: Vec<f32>,
+    /// A second model's state (a blend's), carried along.
+    pub second: Option<Box<State>>,
+}
+
+impl State {
+    /// Carries the per-vertex values the state keeps to `parent`'s child level (see
+    /// [`carried`]).
+    fn carry(&mut self, parent: &Level) {
+        for values in [&mut self.painted] {
+            if !values.is_empty() {
+                *values = carried(parent, values);
+            }
+        }
+        if !self.reference.is_empty() {
+            self.reference = carried(parent, &self.reference);
+        }
+        if let Some(second) = &mut self.second {
+            second.carry(parent);
+        }
+    }
 }
 
 impl State {
@@ -211,28 +233,11 @@ pub(crate) enum Offsets {
     World(Vec<DVec3>),
 }
 
-/// Per-vertex values of `parent` carried to its subdivision `child` linearly: a vertex
-/// keeps its value, an edge point takes the mean of the edge's ends, a face point the mean
-/// of the face's corners. [`subdivide`](super::subdivide) makes corner `c` into child
-/// quad `c`, (vertex, edge point after it, face point, edge point before it), and keeps the
-/// vertices' indices.
-pub(crate) fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -> Vec<f32> {
-    let mut out = values.to_vec();
-    out.resize(child.vertex_count(), 0.0);
-    let quads = child.corners();
-    let mut c = 0;
-    for face in parent.faces() {
-        let mean = face.iter().map(|&v| values[v as usize]).sum::<f32>() / face.len() as f32;
-        for (k, &v) in face.iter().enumerate() {
-            let next = face[(k + 1) % face.len()];
-            let quad = &quads[4 * (c + k)..4 * (c + k) + 4];
-            debug_assert_eq!(quad[0], v);
-            out[quad[1] as usize] = 0.5 * (values[v as usize] + values[next as usize]);
-            out[quad[2] as usize] = mean;
-        }
-        c += face.len();
-    }
-    out
+/// Per-vertex values of `parent` carried to its subdivision (one level, numbered as
+/// [`subdivide`](super::subdivide) numbers it) by [`carried`].
+#[cfg(test)]
+pub(crate) fn linear_child_values<T: Carried>(parent: &Mesh, values: &[T]) -> Vec<T> {
+    carried(&Level::base(parent).expect("a mesh that subdivides"), values)
 }
 
 /// The synthesis loop: subdivide one level, displace by `detail(level, mesh, normals,
@@ -246,7 +251,18 @@ pub(crate) fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -
 /// number them from the last level's mesh, and the arithmetic is the same, so the result
 /// is bit for bit what subdividing one level at a time makes (the vertex indices the
 /// rock's random values and the seeds hang on included).
-pub(crate) fn synthesize(base: &Mesh, levels: u32, mut state: State, mut detail: impl FnMut(u32, &Mesh, &[Vec3], &mut State) -> Offsets) -> Result<Detailed> {
+pub(crate) fn synthesize(base: &Mesh, levels: u32, mut state: State, detail: impl FnMut(u32, &Mesh, &[Vec3], &mut State) -> Offsets) -> Result<Detailed> {
+    synthesize_in(base, levels, &mut state, detail)
+}
+
+/// [`synthesize`] with a state the caller keeps (for its tally), carried level by level
+/// ([`State::carry`]).
+pub(crate) fn synthesize_in(
+    base: &Mesh,
+    levels: u32,
+    state: &mut State,
+    mut detail: impl FnMut(u32, &Mesh, &[Vec3], &mut State) -> Offsets,
+) -> Result<Detailed> {
     if !(1..=super::MAX_LEVELS).contains(&levels) {
         return Err(Error::InvalidParameter(format!("detail levels must be 1 to {}, not {levels}", super::MAX_LEVELS)));
     }
@@ -271,12 +287,13 @@ pub(crate) fn synthesize(base: &Mesh, levels: u32, mut state: State, mut detail:
             }
         };
         scalar = carried(&parent, &scalar);
+        state.carry(&parent);
         source_face = parent.corner_face.par_iter().map(|&f| source_face[f as usize]).collect();
         drop(parent);
         let faces = corners.len() / 4;
         let mesh = Mesh::new(positions, &vec![4u32; faces], corners, None)?;
         let normals = quad_normals(&mesh);
-        let offsets = detail(level, &mesh, &normals, &mut state);
+        let offsets = detail(level, &mesh, &normals, state);
         let (mut moved, corners) = mesh.into_parts();
         match offsets {
             Offsets::Normal(d) => {
@@ -312,15 +329,42 @@ fn child_quads(parent: &Level) -> Vec<u32> {
     quads.into_flattened()
 }
 
-/// Per-vertex values of `parent` carried to its child level linearly, as
-/// [`linear_child_values`] carries them: a vertex keeps its value, edge point `nv + e` takes
-/// the mean of edge `e`'s ends, face point `nv + ne + f` the mean of face `f`'s corners.
-fn carried(parent: &Level, values: &[f32]) -> Vec<f32> {
+/// A per-vertex value carried from level to level linearly.
+pub(crate) trait Carried: Copy + Send + Sync {
+    /// The mean of `values` (`n` of them).
+    fn mean(values: impl Iterator<Item = Self>, n: usize) -> Self;
+    /// The mean of `a` and `b`.
+    fn midpoint(a: Self, b: Self) -> Self {
+        Self::mean([a, b].into_iter(), 2)
+    }
+}
+
+impl Carried for f32 {
+    fn mean(values: impl Iterator<Item = f32>, n: usize) -> f32 {
+        values.sum::<f32>() / n as f32
+    }
+    fn midpoint(a: f32, b: f32) -> f32 {
+        0.5 * (a + b)
+    }
+}
+
+/// Unit vectors (normals): the mean's direction, summed in f64 and normalized.
+impl Carried for Vec3 {
+    fn mean(values: impl Iterator<Item = Vec3>, n: usize) -> Vec3 {
+        (values.map(|v| v.as_dvec3()).sum::<DVec3>() / n as f64).normalize_or_zero().as_vec3()
+    }
+}
+
+/// Per-vertex values of `parent` carried to its child level linearly: a vertex keeps its
+/// value, edge point `nv + e` takes the mean of edge `e`'s ends, face point `nv + ne + f`
+/// the mean of face `f`'s corners (the scalar, a berry's reference normals, painted
+/// weights).
+fn carried<T: Carried>(parent: &Level, values: &[T]) -> Vec<T> {
     let face_means = (0..parent.face_count()).into_par_iter().map(|f| {
         let face = parent.face(f);
-        face.iter().map(|&v| values[v as usize]).sum::<f32>() / face.len() as f32
+        T::mean(face.iter().map(|&v| values[v as usize]), face.len())
     });
-    let edge_means = parent.edges.par_iter().map(|&[a, b]| 0.5 * (values[a as usize] + values[b as usize]));
+    let edge_means = parent.edges.par_iter().map(|&[a, b]| T::midpoint(values[a as usize], values[b as usize]));
     let mut out = Vec::with_capacity(values.len() + parent.edges.len() + parent.face_count());
     out.extend_from_slice(values);
     out.par_extend(edge_means);
@@ -411,10 +455,9 @@ impl Model {
                 // Each dome flattened as a whole to fit under its vertices' limits.
                 let factor = fold_guard::scale_groups(&dome, |v| if full[v] > 0.0 { limits.out(v) / full[v] } else { 1.0 });
                 let mut d: Vec<f64> = full.par_iter().zip(&dome).map(|(&h, &k)| if k == u32::MAX { 0.0 } else { h * factor[k as usize] }).collect();
-                state.reference = match level {
-                    1 => normals.to_vec(),
-                    _ => overhang::carried_normals(mesh, &state.reference),
-                };
+                if level == 1 {
+                    state.reference = normals.to_vec(); // carried to finer levels by the synthesis
+                }
                 overhang::upright(p, normals, mesh.corners(), &state.reference, &dome, &mut d);
                 state.tally.count(&full, &d);
                 Offsets::Normal(d)
@@ -612,12 +655,38 @@ mod tests {
         let grid = crate::mesh::fixtures::grid(3);
         let child = subdivide(&grid, &Options { levels: 1, limit: false, boundary: Boundary::SmoothAll }).unwrap().mesh;
         let x: Vec<f32> = grid.positions().iter().map(|p| p.x).collect();
-        let carried = linear_child_values(&grid, &child, &x);
+        let carried = linear_child_values(&grid, &x);
         assert_eq!(carried.len(), child.vertex_count());
         for (v, (c, p)) in carried.iter().zip(child.positions()).enumerate().skip(grid.vertex_count()) {
             assert!((c - p.x).abs() < 1e-6, "vertex {v}: {c} against {}", p.x);
         }
         assert_eq!(&carried[..x.len()], &x[..]);
+    }
+
+    #[test]
+    fn normals_carried_are_the_quad_means_and_near_the_finer_levels_own() {
+        // A berry's reference normals: level 1's carried to level 2 equal, bit for bit,
+        // each new point's mean over the child quads around it of their first corners'
+        // normals (summed in f64, normalized: how they were carried before), and stand
+        // within a few degrees of level 2's own normals.
+        let base = sphere();
+        let options = Options { levels: 1, limit: false, boundary: Boundary::SmoothAll };
+        let one = subdivide(&base, &options).unwrap().mesh;
+        let two = subdivide(&one, &options).unwrap().mesh;
+        let n1 = vertex_normals(&one);
+        let carried = linear_child_values(&one, &n1);
+        let (mut sum, mut count) = (vec![DVec3::ZERO; two.vertex_count()], vec![0u32; two.vertex_count()]);
+        for quad in two.corners().chunks_exact(4) {
+            for &c in &quad[1..] {
+                sum[c as usize] += n1[quad[0] as usize].as_dvec3();
+                count[c as usize] += 1;
+            }
+        }
+        for (v, (c, n)) in carried.iter().zip(vertex_normals(&two)).enumerate() {
+            let want = if v < n1.len() { n1[v] } else { (sum[v] / count[v] as f64).normalize().as_vec3() };
+            assert_eq!(c.to_array().map(f32::to_bits), want.to_array().map(f32::to_bits), "vertex {v}");
+            assert!(c.dot(n) > 0.99, "{c} {n}");
+        }
     }
 
     #[test]
@@ -797,7 +866,8 @@ mod tests {
         let mut scalar: Vec<f32> = vec![0.0; base.vertex_count()];
         for level in 1..=levels {
             let next = subdivide(&mesh, &options).unwrap();
-            scalar = linear_child_values(&mesh, &next.mesh, &scalar);
+            scalar = linear_child_values(&mesh, &scalar);
+            state.carry(&Level::base(&mesh).unwrap());
             source_face = next.source_face.iter().map(|&f| source_face[f as usize]).collect();
             mesh = next.mesh;
             let normals = vertex_normals(&mesh);

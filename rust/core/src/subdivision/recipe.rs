@@ -141,15 +141,13 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
     let model = recipe.motion.at(&recipe.model, recipe.time);
     let other = recipe.blend.as_ref().map(|b| b.motion.at(&b.model, recipe.time));
     let mut first = model.initial_state(base);
-    let mut second = other.as_ref().map(|m| m.initial_state(base));
-    // Painted alpha: the weights carried level by level, linearly (the parent level's
-    // topology is kept for it).
-    let mut painted = match recipe.blend.as_ref().map(|b| &b.alpha.source) {
-        Some(AlphaSource::Painted { weights }) => Some((base.clone(), weights.clone())),
-        _ => None,
-    };
+    first.second = other.as_ref().map(|m| Box::new(m.initial_state(base)));
+    // Painted alpha: the weights, carried level by level by the synthesis.
+    if let Some(AlphaSource::Painted { weights }) = recipe.blend.as_ref().map(|b| &b.alpha.source) {
+        first.painted = weights.clone();
+    }
     let mut blend_out = Vec::new();
-    let detailed = detail::synthesize(base, levels, State::default(), |level, mesh, normals, _| {
+    let detailed = detail::synthesize_in(base, levels, &mut first, |level, mesh, normals, first| {
         // The sculpt's detail of this level, and the sculpted surface the models then see.
         let sculpted = sculpt.get(level as usize - 1).map(|local| {
             let w = multires::to_world(mesh, normals, local);
@@ -173,20 +171,10 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
             }
             d
         };
-        let mut d = displaced(&model, recipe.at, recipe.seed, &mut first);
-        if let (Some(b), Some(other), Some(state)) = (&recipe.blend, &other, second.as_mut()) {
+        let mut d = displaced(&model, recipe.at, recipe.seed, first);
+        if let (Some(b), Some(other), Some(state)) = (&recipe.blend, &other, first.second.as_deref_mut()) {
             let other = displaced(other, b.at, b.seed, state);
-            let carried = match painted.take() {
-                Some((parent, w)) => {
-                    let w = detail::linear_child_values(&parent, mesh, &w);
-                    if level < levels {
-                        painted = Some((mesh.clone(), w.clone())); // the next level's parent
-                    }
-                    w
-                }
-                None => Vec::new(),
-            };
-            let alpha = b.alpha.at(level, mesh.positions(), &carried, recipe.time);
+            let alpha = b.alpha.at(level, mesh.positions(), &first.painted, recipe.time);
             d = mixed(d, other, &alpha, normals);
             if level == levels {
                 blend_out = alpha.iter().map(|&a| a as f32).collect();
@@ -207,7 +195,7 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
         blend_out = vec![0.0; detailed.mesh.vertex_count()];
     }
     let mut tally = first.tally;
-    if let Some(second) = second {
+    if let Some(second) = first.second {
         tally.placed += second.tally.placed;
         tally.limited += second.tally.limited;
     }
