@@ -193,6 +193,10 @@ pub(crate) struct State {
     clearance: Option<fold_guard::Clearance>,
     /// The base's normals at the level's vertices, for domes' overhangs.
     reference: Vec<Vec3>,
+    /// Per-vertex factors on the level's detail before the guard (a local modification's
+    /// gain above 1, section 5), so an enhancement stays within the guard's limits; empty
+    /// for 1.
+    pub gain: Vec<f64>,
     /// Painted per-vertex weights (a blend's alpha), carried to each level.
     pub painted: Vec<f32>,
     /// A second model's state (a blend's), carried along.
@@ -200,6 +204,11 @@ pub(crate) struct State {
 }
 
 impl State {
+    /// Vertex `v`'s factor from [`State::gain`].
+    fn gain(&self, v: usize) -> f64 {
+        self.gain.get(v).copied().unwrap_or(1.0)
+    }
+
     /// Carries the per-vertex values the state keeps to `parent`'s child level (see
     /// [`carried`]).
     fn carry(&mut self, parent: &Level) {
@@ -438,7 +447,10 @@ impl Model {
             Model::Rock { amplitude } => {
                 let key = mix(seed ^ (level as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
                 let limits = fold_guard::Limits::of(mesh, normals);
-                Offsets::Normal(limits.random(amplitude * octave, |v| unit_random(mix(key ^ mix(v as u64))), &mut state.tally))
+                let size = amplitude * octave;
+                let gain = &state.gain;
+                let size = |v: usize| size * gain.get(v).copied().unwrap_or(1.0);
+                Offsets::Normal(limits.random(size, |v| unit_random(mix(key ^ mix(v as u64))), &mut state.tally))
             }
             Model::Berry { radius, seeds: given, children } => {
                 let r = radius * octave;
@@ -446,7 +458,10 @@ impl Model {
                     1 => first_seeds(given, 2.0 * r),
                     _ => clusters(p, &state.seeds, 2.0 * r, *children, mix(seed ^ level as u64)),
                 };
-                let heights = domes(p, &state.seeds, r);
+                let mut heights = domes(p, &state.seeds, r);
+                if !state.gain.is_empty() {
+                    heights.iter_mut().enumerate().for_each(|(v, (_, h))| *h *= state.gain(v));
+                }
                 let mut limits = fold_guard::Limits::of(mesh, normals);
                 if let Some(clearance) = &state.clearance {
                     limits.clear_of(clearance, level, p, normals, |v| heights[v].1 > 0.0);
@@ -472,6 +487,7 @@ impl Model {
                     _ => unreachable!("a growth model"),
                 };
                 let mut offsets = growth::at_seeds(mesh, normals, &state.seeds, local);
+                state.seeds.iter().for_each(|&s| offsets[s as usize] *= state.gain(s as usize));
                 let mut group = vec![u32::MAX; p.len()];
                 state.seeds.iter().enumerate().for_each(|(i, &s)| group[s as usize] = i as u32);
                 state.guard_growth(level, mesh, normals, &group, &mut offsets);
@@ -482,10 +498,14 @@ impl Model {
                     state.seeds = first_seeds(given, 2.0 * radius);
                     state.rings = state.seeds.iter().map(|&s| growth::Ring::over(p[s as usize], normals[s as usize], *radius)).collect();
                 }
-                Offsets::World(growth::advect(p, &state.rings, length * level as f64))
+                let mut offsets = growth::advect(p, &state.rings, length * level as f64);
+                if !state.gain.is_empty() {
+                    offsets.par_iter_mut().zip(&state.gain).for_each(|(w, g)| *w *= *g);
+                }
+                Offsets::World(offsets)
             }
             Model::Fuse { amplitude, span, center, axis } => {
-                Offsets::World(growth::fuse(p, level, *amplitude, *span, *center, axis.normalize(), state.reach, &mut state.tally))
+                Offsets::World(growth::fuse(p, level, *amplitude, &state.gain, *span, *center, axis.normalize(), state.reach, &mut state.tally))
             }
         }
     }
@@ -817,6 +837,52 @@ mod tests {
             let tally = crate::subdivision::recipe::synthesize(&base, 3, &crate::subdivision::recipe::Recipe::of(model.clone(), 0)).unwrap().tally;
             assert_eq!(tally, want, "{model:?}");
             eprintln!("{model:?}: {want:?} share {:.3}, reduced by over 10%: {reduced_much}", want.share());
+        }
+    }
+
+    #[test]
+    fn a_local_gain_above_one_stays_within_the_guard() {
+        // Gain 3 around a vertex of the UV sphere's equator: every level's displacement
+        // stays within the guard's limits vertex by vertex (the rock within a quarter of
+        // the shortest edge too), the gain raises detail where the guard leaves room, and
+        // the result crosses itself no more than at gain 1.
+        use crate::mesh::Incidence;
+        use crate::subdivision::operations::{Levels, Local};
+        use crate::subdivision::recipe::{synthesize as recipe, Recipe};
+        let base = uv_sphere();
+        let local = Local { center: 2 + 8 * 32, radius: 4.0, gain: 3.0, levels: Levels::ALL };
+        for model in [Model::Rock { amplitude: 0.01 }, Model::Berry { radius: 0.12, seeds: vec![], children: 3 }] {
+            let (mut raised, mut checked) = (0, 0);
+            synthesize(&base, 3, model.initial_state(&base), |level, mesh, normals, state| {
+                let plain = match level {
+                    1 => model.displacements(level, mesh, normals, 4, &mut model.initial_state(&base)),
+                    _ => Offsets::Normal(Vec::new()),
+                };
+                state.gain = local.weights(level, 3, mesh, &Incidence::faces(mesh));
+                let offsets = model.displacements(level, mesh, normals, 4, state);
+                let (Offsets::Normal(d), Offsets::Normal(_)) = (&offsets, &plain) else { unreachable!() };
+                let limits = fold_guard::Limits::of(mesh, normals);
+                for (v, &d) in d.iter().enumerate() {
+                    assert!(d <= limits.out(v) * (1.0 + 1e-12) && -d <= limits.inward(v) * (1.0 + 1e-12), "{model:?} level {level} vertex {v}: {d}");
+                    if let Model::Rock { .. } = model {
+                        assert!(d.abs() <= FOLD_SLOPE * limits.shortest(v) * (1.0 + 1e-12));
+                    }
+                    checked += (state.gain[v] > 1.0) as usize;
+                }
+                if level == 1 {
+                    let Offsets::Normal(p) = &plain else { unreachable!() };
+                    raised += d.iter().zip(p).filter(|(d, p)| d.abs() > p.abs() * 1.5).count();
+                }
+                offsets
+            })
+            .unwrap();
+            assert!(checked > 100 && raised > 0, "{model:?}: {checked} vertices under the gain, {raised} raised");
+            let crossings = |gain| {
+                let r = Recipe { local: vec![Local { gain, ..local.clone() }], ..Recipe::of(model.clone(), 4) };
+                crate::hard_meshes::self_intersections(&recipe(&base, 3, &r).unwrap().detailed.mesh)
+            };
+            let (one, three) = (crossings(1.0), crossings(3.0));
+            assert!(three <= one, "{model:?}: {three} crossing pairs at gain 3, {one} at gain 1");
         }
     }
 

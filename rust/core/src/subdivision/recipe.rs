@@ -27,7 +27,8 @@ pub struct Blend {
 /// What [`synthesize`] builds: `model` (random values from `seed`) adding detail at the
 /// levels `at` only (5: features "placed at one level or simultaneously at different
 /// scales"), optionally blended with a second model, then scaled by each local
-/// modification. `sculpt`, analysed detail ([`multires::Multires::details`] of this base),
+/// modification (a gain above 1 before the models' fold guards, so it stays within their
+/// limits). `sculpt`, analysed detail ([`multires::Multires::details`] of this base),
 /// is added at its levels first, in the frames of each level's subdivided mesh (section 2);
 /// the procedural detail of that level then acts on the sculpted surface, so it can go at
 /// any level, coarser or finer than the sculpt's, and the sculpt follows it.
@@ -171,6 +172,27 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
             }
             d
         };
+        // Local modifications: each vertex's gain (the product of their weights). Its
+        // part above 1 goes into each model's detail before the fold guard clamps it, so
+        // an enhancement cannot take the detail past the guard's limits; its part below 1
+        // scales the guarded detail (lowering detail within its limits folds nothing, and
+        // gain 0 removes it exactly).
+        let gain = (!recipe.local.is_empty()).then(|| {
+            let incidence = Incidence::faces(mesh);
+            let mut gain = vec![1.0; mesh.vertex_count()];
+            for local in &recipe.local {
+                gain.iter_mut().zip(local.weights(level, levels, mesh, &incidence)).for_each(|(g, w)| *g *= w);
+            }
+            gain
+        });
+        let above: Vec<f64> = match &gain {
+            Some(g) if g.iter().any(|&g| g > 1.0) => g.iter().map(|&g| g.max(1.0)).collect(),
+            _ => Vec::new(),
+        };
+        if let Some(second) = first.second.as_deref_mut() {
+            second.gain = above.clone();
+        }
+        first.gain = above;
         let mut d = displaced(&model, recipe.at, recipe.seed, first);
         if let (Some(b), Some(other), Some(state)) = (&recipe.blend, &other, first.second.as_deref_mut()) {
             let other = displaced(other, b.at, b.seed, state);
@@ -180,11 +202,8 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
                 blend_out = alpha.iter().map(|&a| a as f32).collect();
             }
         }
-        if !recipe.local.is_empty() {
-            let incidence = Incidence::faces(mesh);
-            for local in &recipe.local {
-                scaled(&mut d, &local.weights(level, levels, mesh, &incidence));
-            }
+        if let Some(gain) = gain {
+            scaled(&mut d, &gain.iter().map(|&g| g.min(1.0)).collect::<Vec<_>>());
         }
         match &sculpted {
             Some((w, _, _)) => Offsets::World(world(d, normals).iter().zip(w).map(|(d, w)| *d + *w).collect()),

@@ -197,12 +197,12 @@ impl Limits {
         }
     }
 
-    /// Random detail of `size` times `unit(v)` (in [-1, 1]) at every vertex, each at most
-    /// [`FOLD_SLOPE`] times its shortest edge and within its curvature limits.
-    pub(crate) fn random(&self, size: f64, unit: impl Fn(usize) -> f64 + Sync, tally: &mut Tally) -> Vec<f64> {
-        let wanted = |v: usize| size.abs().min(self.random_reach(v)).copysign(size);
+    /// Random detail of `size(v)` times `unit(v)` (in [-1, 1]) at every vertex, each at
+    /// most [`FOLD_SLOPE`] times its shortest edge and within its curvature limits.
+    pub(crate) fn random(&self, size: impl Fn(usize) -> f64 + Sync, unit: impl Fn(usize) -> f64 + Sync, tally: &mut Tally) -> Vec<f64> {
+        let wanted = |v: usize| size(v).abs().min(self.random_reach(v)).copysign(size(v));
         let out: Vec<f64> = (0..self.at.len()).into_par_iter().map(|v| self.clamp(v, wanted(v) * unit(v))).collect();
-        tally.count_with(out.len(), |v| (size * unit(v), out[v]));
+        tally.count_with(out.len(), |v| (size(v) * unit(v), out[v]));
         out
     }
 
