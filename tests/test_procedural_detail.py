@@ -226,9 +226,14 @@ def test_local_modification_changes_only_around_its_center(scene):
     distance = np.linalg.norm(plain["vertices"] - plain["vertices"][7], axis=1)
     assert moved[7] > 1e-4 * diag and abs(out["scalar"][7]) < 1e-6
     assert (moved[distance > 0.3 * diag] == 0).all() and (distance > 0.3 * diag).sum() > len(distance) // 4
-    doubled = detail(a, "rock", 1, 4, {"amplitude": 0.03}, local=[{"center": 7, "radius": 1.0, "gain": 2.0}])
-    once = detail(a, "rock", 1, 4, {"amplitude": 0.03})
-    assert abs(doubled["scalar"][7] - 2 * once["scalar"][7]) < 1e-6 * diag
+    # A gain above 1 goes in before the fold guard: it doubles detail the guard leaves
+    # room for, and detail already at the guard's limit (0.03 is over a quarter of this
+    # sphere's edges at vertex 7) stays there.
+    for amplitude, factor in ((0.003, 2.0), (0.03, 1.0)):
+        doubled = detail(a, "rock", 1, 4, {"amplitude": amplitude}, local=[{"center": 7, "radius": 1.0, "gain": 2.0}])
+        once = detail(a, "rock", 1, 4, {"amplitude": amplitude})
+        assert abs(once["scalar"][7]) > 0.1 * amplitude
+        assert abs(doubled["scalar"][7] - factor * once["scalar"][7]) < 1e-6 * diag, amplitude
 
 
 def test_placement_at_chosen_levels_and_the_planet_shader(scene):

@@ -453,3 +453,20 @@ def test_every_uv_map_goes_through_the_levels_as_blenders_modifier_takes_it(scen
         difference = corner_uv_difference(dict(plain, uvs=ours.uv_maps[name]), theirs, diagonal)
         assert difference <= 1e-5, f"{name}: {difference:.3g}"
     assert np.abs(ours.uv_maps["UVMap"] - ours.uv_maps["Smart"]).max() > 0.1
+
+
+def test_the_made_smaller_note_states_the_share_the_guard_reduced(scene):
+    """The note reports `limited` (each level's detail against what the fold guard left,
+    once per vertex and level) and stays silent where the guard reduced nothing: level-1
+    domes on a convex sphere. The berry preset's child domes, on the concave rims their
+    parents make, are flattened at most of their vertices."""
+    from thicket.pure.kinds.procedural_detail import LIMITED_NOTE
+
+    calm = add("uv_sphere")
+    api.add_procedural_detail(calm, model="BERRY", levels=2, radius=0.1, children=0)
+    assert native_detail(calm, "berry", 2, radius=0.1, children=0)["limited"] == 0.0
+    assert "made smaller" not in calm.thicket.last_note
+    busy = add("uv_sphere", location=(4.0, 0.0, 0.0))
+    api.add_procedural_detail(busy, model="BERRY", levels=3, radius=0.12, children=3)
+    share = native_detail(busy, "berry", 3, radius=0.12, children=3)["limited"]
+    assert share > LIMITED_NOTE and f"made smaller at {share:.0%} of its vertices" in busy.thicket.last_note

@@ -74,6 +74,13 @@ def test_the_shader_moves_its_sea_and_snow_by_their_rates(scene):
     # The rising sea floods land: more vertices are blue-dominant later.
     sea = lambda c: int(np.sum(c[:, 2] > c[:, 1]))  # noqa: E731
     assert sea(later["colors"]) > sea(now["colors"])
+    # A sea risen past the snow line (0.03 against 0.02 at time 3) carries the snow line
+    # up to a tenth of the land band (0.002) above it: the frame renders as that static
+    # shader, not refused.
+    flooded = detail(a, "rock", 3, {"amplitude": 0.03}, shader=shader(sea_rate=0.01), time=3.0)
+    static = detail(a, "rock", 3, {"amplitude": 0.03}, shader=dict(name="planet", sea=0.03, snow=0.032))
+    np.testing.assert_allclose(flooded["colors"], static["colors"], atol=1e-5)
+    assert np.isfinite(flooded["colors"]).all() and sea(flooded["colors"]) > sea(later["colors"])
 
 
 def test_bad_times_and_motions_are_refused(scene):
@@ -83,7 +90,7 @@ def test_bad_times_and_motions_are_refused(scene):
     with pytest.raises(tn.InvalidInput, match="grow"):
         detail(a, "rock", 1, {"amplitude": 0.02, "grow": -1.0}, time=1.0)
     with pytest.raises(tn.InvalidInput, match="snow above sea"):
-        detail(a, "rock", 1, {"amplitude": 0.02}, shader=dict(name="planet", sea=0.0, snow=0.02, sea_rate=0.01), time=3.0)
+        detail(a, "rock", 1, {"amplitude": 0.02}, shader=dict(name="planet", sea=0.02, snow=0.0, sea_rate=0.01), time=3.0)
     with pytest.raises(TypeError, match="spin"):
         detail(a, "berry", 1, {"radius": 0.1, "spin": 1.0})
 

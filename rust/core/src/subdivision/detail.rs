@@ -193,6 +193,37 @@ pub(crate) struct State {
     clearance: Option<fold_guard::Clearance>,
     /// The base's normals at the level's vertices, for domes' overhangs.
     reference: Vec<Vec3>,
+    /// Per-vertex factors on the level's detail before the guard (a local modification's
+    /// gain above 1, section 5), so an enhancement stays within the guard's limits; empty
+    /// for 1.
+    pub gain: Vec<f64>,
+    /// Painted per-vertex weights (a blend's alpha), carried to each level.
+    pub painted: Vec<f32>,
+    /// A second model's state (a blend's), carried along.
+    pub second: Option<Box<State>>,
+}
+
+impl State {
+    /// Vertex `v`'s factor from [`State::gain`].
+    fn gain(&self, v: usize) -> f64 {
+        self.gain.get(v).copied().unwrap_or(1.0)
+    }
+
+    /// Carries the per-vertex values the state keeps to `parent`'s child level (see
+    /// [`carried`]).
+    fn carry(&mut self, parent: &Level) {
+        for values in [&mut self.painted] {
+            if !values.is_empty() {
+                *values = carried(parent, values);
+            }
+        }
+        if !self.reference.is_empty() {
+            self.reference = carried(parent, &self.reference);
+        }
+        if let Some(second) = &mut self.second {
+            second.carry(parent);
+        }
+    }
 }
 
 impl State {
@@ -211,28 +242,11 @@ pub(crate) enum Offsets {
     World(Vec<DVec3>),
 }
 
-/// Per-vertex values of `parent` carried to its subdivision `child` linearly: a vertex
-/// keeps its value, an edge point takes the mean of the edge's ends, a face point the mean
-/// of the face's corners. [`subdivide`](super::subdivide) makes corner `c` into child
-/// quad `c`, (vertex, edge point after it, face point, edge point before it), and keeps the
-/// vertices' indices.
-pub(crate) fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -> Vec<f32> {
-    let mut out = values.to_vec();
-    out.resize(child.vertex_count(), 0.0);
-    let quads = child.corners();
-    let mut c = 0;
-    for face in parent.faces() {
-        let mean = face.iter().map(|&v| values[v as usize]).sum::<f32>() / face.len() as f32;
-        for (k, &v) in face.iter().enumerate() {
-            let next = face[(k + 1) % face.len()];
-            let quad = &quads[4 * (c + k)..4 * (c + k) + 4];
-            debug_assert_eq!(quad[0], v);
-            out[quad[1] as usize] = 0.5 * (values[v as usize] + values[next as usize]);
-            out[quad[2] as usize] = mean;
-        }
-        c += face.len();
-    }
-    out
+/// Per-vertex values of `parent` carried to its subdivision (one level, numbered as
+/// [`subdivide`](super::subdivide) numbers it) by [`carried`].
+#[cfg(test)]
+pub(crate) fn linear_child_values<T: Carried>(parent: &Mesh, values: &[T]) -> Vec<T> {
+    carried(&Level::base(parent).expect("a mesh that subdivides"), values)
 }
 
 /// The synthesis loop: subdivide one level, displace by `detail(level, mesh, normals,
@@ -246,7 +260,18 @@ pub(crate) fn linear_child_values(parent: &Mesh, child: &Mesh, values: &[f32]) -
 /// number them from the last level's mesh, and the arithmetic is the same, so the result
 /// is bit for bit what subdividing one level at a time makes (the vertex indices the
 /// rock's random values and the seeds hang on included).
-pub(crate) fn synthesize(base: &Mesh, levels: u32, mut state: State, mut detail: impl FnMut(u32, &Mesh, &[Vec3], &mut State) -> Offsets) -> Result<Detailed> {
+pub(crate) fn synthesize(base: &Mesh, levels: u32, mut state: State, detail: impl FnMut(u32, &Mesh, &[Vec3], &mut State) -> Offsets) -> Result<Detailed> {
+    synthesize_in(base, levels, &mut state, detail)
+}
+
+/// [`synthesize`] with a state the caller keeps (for its tally), carried level by level
+/// ([`State::carry`]).
+pub(crate) fn synthesize_in(
+    base: &Mesh,
+    levels: u32,
+    state: &mut State,
+    mut detail: impl FnMut(u32, &Mesh, &[Vec3], &mut State) -> Offsets,
+) -> Result<Detailed> {
     if !(1..=super::MAX_LEVELS).contains(&levels) {
         return Err(Error::InvalidParameter(format!("detail levels must be 1 to {}, not {levels}", super::MAX_LEVELS)));
     }
@@ -271,12 +296,13 @@ pub(crate) fn synthesize(base: &Mesh, levels: u32, mut state: State, mut detail:
             }
         };
         scalar = carried(&parent, &scalar);
+        state.carry(&parent);
         source_face = parent.corner_face.par_iter().map(|&f| source_face[f as usize]).collect();
         drop(parent);
         let faces = corners.len() / 4;
         let mesh = Mesh::new(positions, &vec![4u32; faces], corners, None)?;
         let normals = quad_normals(&mesh);
-        let offsets = detail(level, &mesh, &normals, &mut state);
+        let offsets = detail(level, &mesh, &normals, state);
         let (mut moved, corners) = mesh.into_parts();
         match offsets {
             Offsets::Normal(d) => {
@@ -312,15 +338,42 @@ fn child_quads(parent: &Level) -> Vec<u32> {
     quads.into_flattened()
 }
 
-/// Per-vertex values of `parent` carried to its child level linearly, as
-/// [`linear_child_values`] carries them: a vertex keeps its value, edge point `nv + e` takes
-/// the mean of edge `e`'s ends, face point `nv + ne + f` the mean of face `f`'s corners.
-fn carried(parent: &Level, values: &[f32]) -> Vec<f32> {
+/// A per-vertex value carried from level to level linearly.
+pub(crate) trait Carried: Copy + Send + Sync {
+    /// The mean of `values` (`n` of them).
+    fn mean(values: impl Iterator<Item = Self>, n: usize) -> Self;
+    /// The mean of `a` and `b`.
+    fn midpoint(a: Self, b: Self) -> Self {
+        Self::mean([a, b].into_iter(), 2)
+    }
+}
+
+impl Carried for f32 {
+    fn mean(values: impl Iterator<Item = f32>, n: usize) -> f32 {
+        values.sum::<f32>() / n as f32
+    }
+    fn midpoint(a: f32, b: f32) -> f32 {
+        0.5 * (a + b)
+    }
+}
+
+/// Unit vectors (normals): the mean's direction, summed in f64 and normalized.
+impl Carried for Vec3 {
+    fn mean(values: impl Iterator<Item = Vec3>, n: usize) -> Vec3 {
+        (values.map(|v| v.as_dvec3()).sum::<DVec3>() / n as f64).normalize_or_zero().as_vec3()
+    }
+}
+
+/// Per-vertex values of `parent` carried to its child level linearly: a vertex keeps its
+/// value, edge point `nv + e` takes the mean of edge `e`'s ends, face point `nv + ne + f`
+/// the mean of face `f`'s corners (the scalar, a berry's reference normals, painted
+/// weights).
+fn carried<T: Carried>(parent: &Level, values: &[T]) -> Vec<T> {
     let face_means = (0..parent.face_count()).into_par_iter().map(|f| {
         let face = parent.face(f);
-        face.iter().map(|&v| values[v as usize]).sum::<f32>() / face.len() as f32
+        T::mean(face.iter().map(|&v| values[v as usize]), face.len())
     });
-    let edge_means = parent.edges.par_iter().map(|&[a, b]| 0.5 * (values[a as usize] + values[b as usize]));
+    let edge_means = parent.edges.par_iter().map(|&[a, b]| T::midpoint(values[a as usize], values[b as usize]));
     let mut out = Vec::with_capacity(values.len() + parent.edges.len() + parent.face_count());
     out.extend_from_slice(values);
     out.par_extend(edge_means);
@@ -394,7 +447,10 @@ impl Model {
             Model::Rock { amplitude } => {
                 let key = mix(seed ^ (level as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
                 let limits = fold_guard::Limits::of(mesh, normals);
-                Offsets::Normal(limits.random(amplitude * octave, |v| unit_random(mix(key ^ mix(v as u64))), &mut state.tally))
+                let size = amplitude * octave;
+                let gain = &state.gain;
+                let size = |v: usize| size * gain.get(v).copied().unwrap_or(1.0);
+                Offsets::Normal(limits.random(size, |v| unit_random(mix(key ^ mix(v as u64))), &mut state.tally))
             }
             Model::Berry { radius, seeds: given, children } => {
                 let r = radius * octave;
@@ -402,20 +458,23 @@ impl Model {
                     1 => first_seeds(given, 2.0 * r),
                     _ => clusters(p, &state.seeds, 2.0 * r, *children, mix(seed ^ level as u64)),
                 };
-                let heights = domes(p, &state.seeds, r);
+                let mut heights = domes(p, &state.seeds, r);
+                if !state.gain.is_empty() {
+                    heights.iter_mut().enumerate().for_each(|(v, (_, h))| *h *= state.gain(v));
+                }
                 let mut limits = fold_guard::Limits::of(mesh, normals);
                 if let Some(clearance) = &state.clearance {
                     limits.clear_of(clearance, level, p, normals, |v| heights[v].1 > 0.0);
                 }
-                let (dome, full): (Vec<u32>, Vec<f64>) = heights.iter().copied().unzip();
-                let scaled = limits.scale_domes(heights, &mut state.tally);
-                state.reference = match level {
-                    1 => normals.to_vec(),
-                    _ => overhang::carried_normals(mesh, &state.reference),
-                };
-                let mut d = scaled.clone();
+                let (dome, full): (Vec<u32>, Vec<f64>) = heights.into_iter().unzip();
+                // Each dome flattened as a whole to fit under its vertices' limits.
+                let factor = fold_guard::scale_groups(&dome, |v| if full[v] > 0.0 { limits.out(v) / full[v] } else { 1.0 });
+                let mut d: Vec<f64> = full.par_iter().zip(&dome).map(|(&h, &k)| if k == u32::MAX { 0.0 } else { h * factor[k as usize] }).collect();
+                if level == 1 {
+                    state.reference = normals.to_vec(); // carried to finer levels by the synthesis
+                }
                 overhang::upright(p, normals, mesh.corners(), &state.reference, &dome, &mut d);
-                state.tally.limited += (0..d.len()).filter(|&v| d[v] < scaled[v] && scaled[v] == full[v]).count() as u64;
+                state.tally.count(&full, &d);
                 Offsets::Normal(d)
             }
             Model::Tentacle { seeds: given, spacing, .. } | Model::Spur { seeds: given, spacing, .. } => {
@@ -428,6 +487,7 @@ impl Model {
                     _ => unreachable!("a growth model"),
                 };
                 let mut offsets = growth::at_seeds(mesh, normals, &state.seeds, local);
+                state.seeds.iter().for_each(|&s| offsets[s as usize] *= state.gain(s as usize));
                 let mut group = vec![u32::MAX; p.len()];
                 state.seeds.iter().enumerate().for_each(|(i, &s)| group[s as usize] = i as u32);
                 state.guard_growth(level, mesh, normals, &group, &mut offsets);
@@ -438,10 +498,14 @@ impl Model {
                     state.seeds = first_seeds(given, 2.0 * radius);
                     state.rings = state.seeds.iter().map(|&s| growth::Ring::over(p[s as usize], normals[s as usize], *radius)).collect();
                 }
-                Offsets::World(growth::advect(p, &state.rings, length * level as f64))
+                let mut offsets = growth::advect(p, &state.rings, length * level as f64);
+                if !state.gain.is_empty() {
+                    offsets.par_iter_mut().zip(&state.gain).for_each(|(w, g)| *w *= *g);
+                }
+                Offsets::World(offsets)
             }
             Model::Fuse { amplitude, span, center, axis } => {
-                Offsets::World(growth::fuse(p, level, *amplitude, *span, *center, axis.normalize(), state.reach, &mut state.tally))
+                Offsets::World(growth::fuse(p, level, *amplitude, &state.gain, *span, *center, axis.normalize(), state.reach, &mut state.tally))
             }
         }
     }
@@ -611,12 +675,38 @@ mod tests {
         let grid = crate::mesh::fixtures::grid(3);
         let child = subdivide(&grid, &Options { levels: 1, limit: false, boundary: Boundary::SmoothAll }).unwrap().mesh;
         let x: Vec<f32> = grid.positions().iter().map(|p| p.x).collect();
-        let carried = linear_child_values(&grid, &child, &x);
+        let carried = linear_child_values(&grid, &x);
         assert_eq!(carried.len(), child.vertex_count());
         for (v, (c, p)) in carried.iter().zip(child.positions()).enumerate().skip(grid.vertex_count()) {
             assert!((c - p.x).abs() < 1e-6, "vertex {v}: {c} against {}", p.x);
         }
         assert_eq!(&carried[..x.len()], &x[..]);
+    }
+
+    #[test]
+    fn normals_carried_are_the_quad_means_and_near_the_finer_levels_own() {
+        // A berry's reference normals: level 1's carried to level 2 equal, bit for bit,
+        // each new point's mean over the child quads around it of their first corners'
+        // normals (summed in f64, normalized: how they were carried before), and stand
+        // within a few degrees of level 2's own normals.
+        let base = sphere();
+        let options = Options { levels: 1, limit: false, boundary: Boundary::SmoothAll };
+        let one = subdivide(&base, &options).unwrap().mesh;
+        let two = subdivide(&one, &options).unwrap().mesh;
+        let n1 = vertex_normals(&one);
+        let carried = linear_child_values(&one, &n1);
+        let (mut sum, mut count) = (vec![DVec3::ZERO; two.vertex_count()], vec![0u32; two.vertex_count()]);
+        for quad in two.corners().chunks_exact(4) {
+            for &c in &quad[1..] {
+                sum[c as usize] += n1[quad[0] as usize].as_dvec3();
+                count[c as usize] += 1;
+            }
+        }
+        for (v, (c, n)) in carried.iter().zip(vertex_normals(&two)).enumerate() {
+            let want = if v < n1.len() { n1[v] } else { (sum[v] / count[v] as f64).normalize().as_vec3() };
+            assert_eq!(c.to_array().map(f32::to_bits), want.to_array().map(f32::to_bits), "vertex {v}");
+            assert!(c.dot(n) > 0.99, "{c} {n}");
+        }
     }
 
     #[test]
@@ -685,6 +775,117 @@ mod tests {
         assert!(far > p.len() / 2);
     }
 
+    /// Blender's default UV sphere (32 segments, 16 rings, radius 1): triangles at the
+    /// poles, quads between, edges short at the poles.
+    fn uv_sphere() -> Mesh {
+        let (segments, rings) = (32u32, 16u32);
+        let mut p = vec![Vec3::Z, -Vec3::Z];
+        for r in 1..rings {
+            let phi = std::f32::consts::PI * r as f32 / rings as f32;
+            p.extend((0..segments).map(|s| {
+                let theta = std::f32::consts::TAU * s as f32 / segments as f32;
+                Vec3::new(phi.sin() * theta.cos(), phi.sin() * theta.sin(), phi.cos())
+            }));
+        }
+        let at = |r: u32, s: u32| 2 + (r - 1) * segments + s % segments;
+        let (mut sizes, mut corners) = (Vec::new(), Vec::new());
+        for s in 0..segments {
+            sizes.extend([3, 3]);
+            corners.extend([0, at(1, s), at(1, s + 1), 1, at(rings - 1, s + 1), at(rings - 1, s)]);
+            for r in 1..rings - 1 {
+                sizes.push(4);
+                corners.extend([at(r, s), at(r + 1, s), at(r + 1, s + 1), at(r, s + 1)]);
+            }
+        }
+        Mesh::new(p, &sizes, corners, None).unwrap()
+    }
+
+    #[test]
+    fn the_tally_counts_each_reduced_vertex_once_a_level() {
+        // The berry preset on the UV sphere: at every level, the domes the seeds ask for
+        // (unguarded, from the same seeds on the same mesh) against what the guards left,
+        // vertex by vertex; the tally is that count, however many times a dome was halved.
+        // The rock likewise, against its unguarded random values.
+        let base = uv_sphere();
+        for (model, mut want) in
+            [(Model::Berry { radius: 0.12, seeds: vec![], children: 3 }, Tally::default()), (Model::Rock { amplitude: 0.05 }, Tally::default())]
+        {
+            let mut reduced_much = 0;
+            synthesize(&base, 3, model.initial_state(&base), |level, mesh, normals, state| {
+                let offsets = model.displacements(level, mesh, normals, 0, state);
+                let Offsets::Normal(d) = &offsets else { unreachable!() };
+                let octave = 0.5f64.powi(level as i32 - 1);
+                let full: Vec<f64> = match &model {
+                    Model::Berry { radius, .. } => domes(mesh.positions(), &state.seeds, radius * octave).into_iter().map(|(_, h)| h).collect(),
+                    Model::Rock { amplitude } => {
+                        let key = mix((level as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+                        (0..d.len()).map(|v| amplitude * octave * unit_random(mix(key ^ mix(v as u64)))).collect()
+                    }
+                    _ => unreachable!(),
+                };
+                for (f, k) in full.iter().zip(d) {
+                    if *f != 0.0 {
+                        want.placed += 1;
+                        want.limited += (k != f) as u64;
+                        reduced_much += (k.abs() < 0.9 * f.abs()) as u64;
+                    }
+                    assert!(k.abs() <= f.abs() && k * f >= 0.0, "the guard only lowers detail");
+                }
+                offsets
+            })
+            .unwrap();
+            let tally = crate::subdivision::recipe::synthesize(&base, 3, &crate::subdivision::recipe::Recipe::of(model.clone(), 0)).unwrap().tally;
+            assert_eq!(tally, want, "{model:?}");
+            eprintln!("{model:?}: {want:?} share {:.3}, reduced by over 10%: {reduced_much}", want.share());
+        }
+    }
+
+    #[test]
+    fn a_local_gain_above_one_stays_within_the_guard() {
+        // Gain 3 around a vertex of the UV sphere's equator: every level's displacement
+        // stays within the guard's limits vertex by vertex (the rock within a quarter of
+        // the shortest edge too), the gain raises detail where the guard leaves room, and
+        // the result crosses itself no more than at gain 1.
+        use crate::mesh::Incidence;
+        use crate::subdivision::operations::{Levels, Local};
+        use crate::subdivision::recipe::{synthesize as recipe, Recipe};
+        let base = uv_sphere();
+        let local = Local { center: 2 + 8 * 32, radius: 4.0, gain: 3.0, levels: Levels::ALL };
+        for model in [Model::Rock { amplitude: 0.01 }, Model::Berry { radius: 0.12, seeds: vec![], children: 3 }] {
+            let (mut raised, mut checked) = (0, 0);
+            synthesize(&base, 3, model.initial_state(&base), |level, mesh, normals, state| {
+                let plain = match level {
+                    1 => model.displacements(level, mesh, normals, 4, &mut model.initial_state(&base)),
+                    _ => Offsets::Normal(Vec::new()),
+                };
+                state.gain = local.weights(level, 3, mesh, &Incidence::faces(mesh));
+                let offsets = model.displacements(level, mesh, normals, 4, state);
+                let (Offsets::Normal(d), Offsets::Normal(_)) = (&offsets, &plain) else { unreachable!() };
+                let limits = fold_guard::Limits::of(mesh, normals);
+                for (v, &d) in d.iter().enumerate() {
+                    assert!(d <= limits.out(v) * (1.0 + 1e-12) && -d <= limits.inward(v) * (1.0 + 1e-12), "{model:?} level {level} vertex {v}: {d}");
+                    if let Model::Rock { .. } = model {
+                        assert!(d.abs() <= FOLD_SLOPE * limits.shortest(v) * (1.0 + 1e-12));
+                    }
+                    checked += (state.gain[v] > 1.0) as usize;
+                }
+                if level == 1 {
+                    let Offsets::Normal(p) = &plain else { unreachable!() };
+                    raised += d.iter().zip(p).filter(|(d, p)| d.abs() > p.abs() * 1.5).count();
+                }
+                offsets
+            })
+            .unwrap();
+            assert!(checked > 100 && raised > 0, "{model:?}: {checked} vertices under the gain, {raised} raised");
+            let crossings = |gain| {
+                let r = Recipe { local: vec![Local { gain, ..local.clone() }], ..Recipe::of(model.clone(), 4) };
+                crate::hard_meshes::self_intersections(&recipe(&base, 3, &r).unwrap().detailed.mesh)
+            };
+            let (one, three) = (crossings(1.0), crossings(3.0));
+            assert!(three <= one, "{model:?}: {three} crossing pairs at gain 3, {one} at gain 1");
+        }
+    }
+
     #[test]
     fn berry_seeds_are_a_poisson_disk_set_and_clusters_grow() {
         let base = sphere();
@@ -731,7 +932,8 @@ mod tests {
         let mut scalar: Vec<f32> = vec![0.0; base.vertex_count()];
         for level in 1..=levels {
             let next = subdivide(&mesh, &options).unwrap();
-            scalar = linear_child_values(&mesh, &next.mesh, &scalar);
+            scalar = linear_child_values(&mesh, &scalar);
+            state.carry(&Level::base(&mesh).unwrap());
             source_face = next.source_face.iter().map(|&f| source_face[f as usize]).collect();
             mesh = next.mesh;
             let normals = vertex_normals(&mesh);

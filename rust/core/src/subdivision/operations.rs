@@ -237,12 +237,20 @@ impl Default for Planet {
     }
 }
 
+/// The least share of its land band at time 0 a planet keeps between its sea and its snow
+/// line at any time ([`Planet::at_time`]).
+pub const MIN_LAND: f64 = 0.1;
+
 impl Planet {
     /// The shader at `time`: sea level `sea + sea_rate time`, snow line `snow +
-    /// snow_rate time` (rising seas, retreating snow caps...). Validate the result: the
-    /// snow line must stay above the sea.
+    /// snow_rate time` (rising seas, retreating snow caps...), the snow line held at least
+    /// [`MIN_LAND`] of the land band at time 0 (`snow - sea`) above the sea: a sea that
+    /// rises past the snow line carries the caps up on a thin shore instead of refusing the
+    /// frame. Validate the result (a band empty at time 0 stays refused).
     pub fn at_time(&self, time: f64) -> Planet {
-        Planet { sea: self.sea + self.sea_rate * time, snow: self.snow + self.snow_rate * time, ..self.clone() }
+        let sea = self.sea + self.sea_rate * time;
+        let snow = (self.snow + self.snow_rate * time).max(sea + MIN_LAND * (self.snow - self.sea));
+        Planet { sea, snow, ..self.clone() }
     }
 
     pub fn validate(&self) -> Result<()> {
@@ -398,6 +406,7 @@ mod tests {
     #[test]
     fn the_planet_at_a_time_has_its_sea_and_snow_moved_by_their_rates() {
         let planet = Planet { sea_rate: 0.1, snow_rate: -0.05, ..Planet::default() };
+        let rgb = |c: [f32; 4]| Vec3::new(c[0], c[1], c[2]);
         let later = planet.at_time(2.0);
         assert!((later.sea - 0.2).abs() < 1e-12 && (later.snow - 0.5).abs() < 1e-12);
         let h = [0.1f32, 0.3, 0.55];
@@ -406,7 +415,16 @@ mod tests {
         // Flooded: a lowland at time 0 is sea at time 2.
         let (now, then) = (planet.colors(&[0.1], &[0.0]), later.colors(&[0.1], &[0.0]));
         assert!(now[0][1] > now[0][2] && then[0][2] > then[0][1], "green land, then blue sea: {now:?} {then:?}");
-        // The snow line may not sink under the sea.
-        assert!(planet.at_time(5.0).validate().is_err() && planet.at_time(3.0).validate().is_ok());
+        // A sea risen past the snow line (0.5 against 0.35 at time 5) carries the snow line
+        // up to a tenth of the land band (0.6) above it: the frame renders, sea below, a
+        // thin shore, snow above; a band empty at time 0 is still refused.
+        let flooded = planet.at_time(5.0);
+        assert!(flooded.validate().is_ok() && (flooded.sea - 0.5).abs() < 1e-12 && (flooded.snow - 0.56).abs() < 1e-12, "{flooded:?}");
+        let c = flooded.colors(&[0.4, 0.52, 0.7], &[0.0; 3]);
+        assert!(c.iter().flatten().all(|x| x.is_finite()));
+        assert!(c[0][2] > c[0][1] && rgb(c[2]).abs_diff_eq(Vec3::ONE, 1e-6) && c[1][1] > c[1][2], "sea, shore, snow: {c:?}");
+        let before = planet.at_time(3.0);
+        assert!((before.sea - 0.3).abs() < 1e-12 && (before.snow - 0.45).abs() < 1e-12, "not clamped before the sea reaches it");
+        assert!(Planet { snow: 0.0, ..Planet::default() }.at_time(2.0).validate().is_err());
     }
 }

@@ -27,7 +27,8 @@ pub struct Blend {
 /// What [`synthesize`] builds: `model` (random values from `seed`) adding detail at the
 /// levels `at` only (5: features "placed at one level or simultaneously at different
 /// scales"), optionally blended with a second model, then scaled by each local
-/// modification. `sculpt`, analysed detail ([`multires::Multires::details`] of this base),
+/// modification (a gain above 1 before the models' fold guards, so it stays within their
+/// limits). `sculpt`, analysed detail ([`multires::Multires::details`] of this base),
 /// is added at its levels first, in the frames of each level's subdivided mesh (section 2);
 /// the procedural detail of that level then acts on the sculpted surface, so it can go at
 /// any level, coarser or finer than the sculpt's, and the sculpt follows it.
@@ -141,15 +142,13 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
     let model = recipe.motion.at(&recipe.model, recipe.time);
     let other = recipe.blend.as_ref().map(|b| b.motion.at(&b.model, recipe.time));
     let mut first = model.initial_state(base);
-    let mut second = other.as_ref().map(|m| m.initial_state(base));
-    // Painted alpha: the weights carried level by level, linearly (the parent level's
-    // topology is kept for it).
-    let mut painted = match recipe.blend.as_ref().map(|b| &b.alpha.source) {
-        Some(AlphaSource::Painted { weights }) => Some((base.clone(), weights.clone())),
-        _ => None,
-    };
+    first.second = other.as_ref().map(|m| Box::new(m.initial_state(base)));
+    // Painted alpha: the weights, carried level by level by the synthesis.
+    if let Some(AlphaSource::Painted { weights }) = recipe.blend.as_ref().map(|b| &b.alpha.source) {
+        first.painted = weights.clone();
+    }
     let mut blend_out = Vec::new();
-    let detailed = detail::synthesize(base, levels, State::default(), |level, mesh, normals, _| {
+    let detailed = detail::synthesize_in(base, levels, &mut first, |level, mesh, normals, first| {
         // The sculpt's detail of this level, and the sculpted surface the models then see.
         let sculpted = sculpt.get(level as usize - 1).map(|local| {
             let w = multires::to_world(mesh, normals, local);
@@ -173,30 +172,38 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
             }
             d
         };
-        let mut d = displaced(&model, recipe.at, recipe.seed, &mut first);
-        if let (Some(b), Some(other), Some(state)) = (&recipe.blend, &other, second.as_mut()) {
+        // Local modifications: each vertex's gain (the product of their weights). Its
+        // part above 1 goes into each model's detail before the fold guard clamps it, so
+        // an enhancement cannot take the detail past the guard's limits; its part below 1
+        // scales the guarded detail (lowering detail within its limits folds nothing, and
+        // gain 0 removes it exactly).
+        let gain = (!recipe.local.is_empty()).then(|| {
+            let incidence = Incidence::faces(mesh);
+            let mut gain = vec![1.0; mesh.vertex_count()];
+            for local in &recipe.local {
+                gain.iter_mut().zip(local.weights(level, levels, mesh, &incidence)).for_each(|(g, w)| *g *= w);
+            }
+            gain
+        });
+        let above: Vec<f64> = match &gain {
+            Some(g) if g.iter().any(|&g| g > 1.0) => g.iter().map(|&g| g.max(1.0)).collect(),
+            _ => Vec::new(),
+        };
+        if let Some(second) = first.second.as_deref_mut() {
+            second.gain = above.clone();
+        }
+        first.gain = above;
+        let mut d = displaced(&model, recipe.at, recipe.seed, first);
+        if let (Some(b), Some(other), Some(state)) = (&recipe.blend, &other, first.second.as_deref_mut()) {
             let other = displaced(other, b.at, b.seed, state);
-            let carried = match painted.take() {
-                Some((parent, w)) => {
-                    let w = detail::linear_child_values(&parent, mesh, &w);
-                    if level < levels {
-                        painted = Some((mesh.clone(), w.clone())); // the next level's parent
-                    }
-                    w
-                }
-                None => Vec::new(),
-            };
-            let alpha = b.alpha.at(level, mesh.positions(), &carried, recipe.time);
+            let alpha = b.alpha.at(level, mesh.positions(), &first.painted, recipe.time);
             d = mixed(d, other, &alpha, normals);
             if level == levels {
                 blend_out = alpha.iter().map(|&a| a as f32).collect();
             }
         }
-        if !recipe.local.is_empty() {
-            let incidence = Incidence::faces(mesh);
-            for local in &recipe.local {
-                scaled(&mut d, &local.weights(level, levels, mesh, &incidence));
-            }
+        if let Some(gain) = gain {
+            scaled(&mut d, &gain.iter().map(|&g| g.min(1.0)).collect::<Vec<_>>());
         }
         match &sculpted {
             Some((w, _, _)) => Offsets::World(world(d, normals).iter().zip(w).map(|(d, w)| *d + *w).collect()),
@@ -207,7 +214,7 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
         blend_out = vec![0.0; detailed.mesh.vertex_count()];
     }
     let mut tally = first.tally;
-    if let Some(second) = second {
+    if let Some(second) = first.second {
         tally.placed += second.tally.placed;
         tally.limited += second.tally.limited;
     }

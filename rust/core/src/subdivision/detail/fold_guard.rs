@@ -80,6 +80,27 @@ pub struct Tally {
 }
 
 impl Tally {
+    /// Counts one level's detail once per vertex, however many guards acted on it:
+    /// `full[v]` what the model asked of vertex `v`, `kept[v]` what the guards left (placed
+    /// where `full` is not zero, limited where `kept` differs from it).
+    pub(crate) fn count<T: PartialEq + Default + Copy + Sync>(&mut self, full: &[T], kept: &[T]) {
+        self.count_with(full.len(), |v| (full[v], kept[v]));
+    }
+
+    /// [`Tally::count`] of the pairs (asked, kept) `at(v)` of vertices `0..n`.
+    pub(crate) fn count_with<T: PartialEq + Default>(&mut self, n: usize, at: impl Fn(usize) -> (T, T) + Sync) {
+        let (placed, limited) = (0..n)
+            .into_par_iter()
+            .map(|v| {
+                let (full, kept) = at(v);
+                let placed = full != T::default();
+                (placed as u64, (placed && kept != full) as u64)
+            })
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        self.placed += placed;
+        self.limited += limited;
+    }
+
     /// The share of placed detail that was limited (0 when none was placed).
     pub fn share(&self) -> f64 {
         if self.placed == 0 {
@@ -176,36 +197,12 @@ impl Limits {
         }
     }
 
-    /// Dome heights (the dome each vertex lies in, its height) scaled so each dome fits
-    /// under every one of its vertices' limits: a dome too tall for the curvature under
-    /// it is made flatter as a whole, never cut into a plateau (whose step would fold).
-    pub(crate) fn scale_domes(&self, heights: Vec<(u32, f64)>, tally: &mut Tally) -> Vec<f64> {
-        let domes = heights.iter().filter(|(k, _)| *k != u32::MAX).map(|(k, _)| *k as usize + 1).max().unwrap_or(0);
-        let mut factor = vec![1.0f64; domes];
-        for (v, &(k, h)) in heights.iter().enumerate() {
-            if k != u32::MAX && h > 0.0 {
-                let f = &mut factor[k as usize];
-                *f = f.min(self.out(v) / h);
-            }
-        }
-        for &(k, h) in &heights {
-            if k != u32::MAX && h > 0.0 {
-                tally.placed += 1;
-                tally.limited += (factor[k as usize] < 1.0) as u64;
-            }
-        }
-        heights.into_iter().map(|(k, h)| if k == u32::MAX { 0.0 } else { h * factor[k as usize] }).collect()
-    }
-
-    /// Random detail of `size` times `unit(v)` (in [-1, 1]) at every vertex, each at most
-    /// [`FOLD_SLOPE`] times its shortest edge and within its curvature limits.
-    pub(crate) fn random(&self, size: f64, unit: impl Fn(usize) -> f64 + Sync, tally: &mut Tally) -> Vec<f64> {
-        let wanted = |v: usize| size.abs().min(self.random_reach(v)).copysign(size);
+    /// Random detail of `size(v)` times `unit(v)` (in [-1, 1]) at every vertex, each at
+    /// most [`FOLD_SLOPE`] times its shortest edge and within its curvature limits.
+    pub(crate) fn random(&self, size: impl Fn(usize) -> f64 + Sync, unit: impl Fn(usize) -> f64 + Sync, tally: &mut Tally) -> Vec<f64> {
+        let wanted = |v: usize| size(v).abs().min(self.random_reach(v)).copysign(size(v));
         let out: Vec<f64> = (0..self.at.len()).into_par_iter().map(|v| self.clamp(v, wanted(v) * unit(v))).collect();
-        if size != 0.0 {
-            tally.placed += out.len() as u64;
-            tally.limited += out.par_iter().enumerate().filter(|&(v, &d)| wanted(v).abs() < size.abs() || d != wanted(v) * unit(v)).count() as u64;
-        }
+        tally.count_with(out.len(), |v| (size(v) * unit(v), out[v]));
         out
     }
 
@@ -214,6 +211,22 @@ impl Limits {
     fn random_reach(&self, v: usize) -> f64 {
         FOLD_SLOPE * self.shortest(v)
     }
+}
+
+/// Scales groups of vertices moved together (a berry dome, a growth seed's pull) each as a
+/// whole by the least factor any of its members needs, `need(v)` (at most 1): a group too
+/// large for its place is made smaller, never cut into a plateau whose step would fold.
+/// `group[v]` is the group of vertex `v`, `u32::MAX` for none. Returns each group's factor
+/// (the counting is [`Tally::count`]'s, once per level).
+pub(crate) fn scale_groups(group: &[u32], need: impl Fn(usize) -> f64 + Sync) -> Vec<f64> {
+    let groups = group.iter().filter(|&&g| g != u32::MAX).map(|&g| g as usize + 1).max().unwrap_or(0);
+    let needs: Vec<(u32, f64)> = group.par_iter().enumerate().filter(|(_, &g)| g != u32::MAX).map(|(v, &g)| (g, need(v))).filter(|&(_, f)| f < 1.0).collect();
+    let mut factor = vec![1.0f64; groups];
+    for (g, f) in needs {
+        let x = &mut factor[g as usize];
+        *x = x.min(f);
+    }
+    factor
 }
 
 impl Clearance {

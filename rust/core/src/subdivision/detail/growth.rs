@@ -130,20 +130,21 @@ pub fn half_extent(positions: &[Vec3], center: DVec3, axis: DVec3) -> f64 {
 
 /// The fuse's level `level`: each point moves away from the axis (through `center`, unit
 /// `axis`) by `amplitude * (profile(t, l) - profile(t, l - 1))`, `t = span * z / reach`,
-/// `z` its axial coordinate, so after `L` levels the radial offsets sum to `amplitude *
+/// `z` its axial coordinate, times `gain[v]` where given (a local modification's), so after `L` levels the radial offsets sum to `amplitude *
 /// profile(t, L)` (less what the subdivision in between smooths). Points on the axis stay,
 /// and a point moves towards the axis by at most [`FUSE_AXIS_SHARE`] of its distance to
 /// it (the fold guard's part for the fuse, counted in `tally`): `rho + step` stays
 /// positive and increasing in `rho`, so no face is carried across the axis.
 #[allow(clippy::too_many_arguments)]
-pub fn fuse(p: &[Vec3], level: u32, amplitude: f64, span: f64, center: DVec3, axis: DVec3, reach: f64, tally: &mut Tally) -> Vec<DVec3> {
+pub fn fuse(p: &[Vec3], level: u32, amplitude: f64, gain: &[f64], span: f64, center: DVec3, axis: DVec3, reach: f64, tally: &mut Tally) -> Vec<DVec3> {
     let moved: Vec<(DVec3, bool)> = p
         .par_iter()
-        .map(|q| {
+        .enumerate()
+        .map(|(v, q)| {
             let o = q.as_dvec3() - center;
             let z = o.dot(axis);
             let t = span * z / reach;
-            let step = amplitude * (fuse_profile(t, level) - fuse_profile(t, level - 1));
+            let step = amplitude * gain.get(v).copied().unwrap_or(1.0) * (fuse_profile(t, level) - fuse_profile(t, level - 1));
             let radial = o - z * axis;
             let floor = -FUSE_AXIS_SHARE * radial.length();
             radial.try_normalize().map_or((DVec3::ZERO, false), |e| (e * step.max(floor), step < floor))
@@ -168,7 +169,7 @@ mod tests {
         // A point 2 from the axis takes the whole step.
         let p = [Vec3::new(0.01, 0.0, -1.0), Vec3::new(0.0, 2.0, -1.0), Vec3::new(0.0, 0.0, -1.0)];
         let mut tally = Tally::default();
-        let w = fuse(&p, 1, 1.0, 1.5, DVec3::ZERO, DVec3::Z, 1.0, &mut tally);
+        let w = fuse(&p, 1, 1.0, &[], 1.5, DVec3::ZERO, DVec3::Z, 1.0, &mut tally);
         let step = (-1.5f64).sin().sin();
         assert!((w[0] - DVec3::new(-0.005, 0.0, 0.0)).length() < 1e-9, "{}", w[0]);
         assert!((w[1] - DVec3::new(0.0, step, 0.0)).length() < 1e-9, "{}", w[1]);

@@ -17,9 +17,8 @@
 //! bumps a hair away: scaling each ring by these limits left no mushroom on the bunny.
 //! The fuse has its own limit ([`super::growth::FUSE_AXIS_SHARE`]).
 
-use super::fold_guard::{Clearance, Limits, Tally, CLEAR_SHARE};
+use super::fold_guard::{scale_groups, Clearance, Limits, Tally, CLEAR_SHARE};
 use glam::{DVec3, Vec3};
-use rayon::prelude::*;
 
 /// Scales `offsets` group by group (`group[v]` the group vertex `v` moves with,
 /// `u32::MAX` for a vertex that does not move) to what every vertex of the group may
@@ -27,35 +26,29 @@ use rayon::prelude::*;
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn guard(offsets: &mut [DVec3], group: &[u32], p: &[Vec3], normals: &[Vec3], limits: &Limits, clearance: &Clearance, level: u32, tally: &mut Tally) {
     let share = CLEAR_SHARE * 0.5f64.powi(level as i32);
-    let need: Vec<f64> = (0..offsets.len())
-        .into_par_iter()
-        .map(|v| {
-            let w = offsets[v];
-            let length = w.length();
-            if group[v] == u32::MAX || length == 0.0 {
-                return 1.0;
-            }
-            let along = w.dot(normals[v].as_dvec3());
-            let focal = if along == 0.0 { 1.0 } else { (limits.clamp(v, along) / along).clamp(0.0, 1.0) };
-            let room = share * clearance.distance_along(p[v].as_dvec3(), w / length);
-            focal.min(room / length)
+    let need = |v: usize| {
+        let w = offsets[v];
+        let length = w.length();
+        if length == 0.0 {
+            return 1.0;
+        }
+        let along = w.dot(normals[v].as_dvec3());
+        let focal = if along == 0.0 { 1.0 } else { (limits.clamp(v, along) / along).clamp(0.0, 1.0) };
+        let room = share * clearance.distance_along(p[v].as_dvec3(), w / length);
+        focal.min(room / length)
+    };
+    let factor = scale_groups(group, need);
+    let full: Vec<DVec3> = group.iter().zip(offsets.iter()).filter(|(&g, _)| g != u32::MAX).map(|(_, &w)| w).collect();
+    let kept: Vec<DVec3> = group
+        .iter()
+        .zip(offsets.iter_mut())
+        .filter(|(&g, _)| g != u32::MAX)
+        .map(|(&g, w)| {
+            *w *= factor[g as usize];
+            *w
         })
         .collect();
-    let groups = group.iter().filter(|&&g| g != u32::MAX).map(|&g| g as usize + 1).max().unwrap_or(0);
-    let mut factor = vec![1.0f64; groups];
-    for (v, &f) in need.iter().enumerate() {
-        if group[v] != u32::MAX {
-            factor[group[v] as usize] = factor[group[v] as usize].min(f);
-        }
-    }
-    for (v, w) in offsets.iter_mut().enumerate() {
-        if group[v] != u32::MAX && *w != DVec3::ZERO {
-            let f = factor[group[v] as usize];
-            tally.placed += 1;
-            tally.limited += (f < 1.0) as u64;
-            *w *= f;
-        }
-    }
+    tally.count(&full, &kept);
 }
 
 #[cfg(test)]

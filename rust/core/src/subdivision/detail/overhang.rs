@@ -12,7 +12,7 @@
 //! a point's position) and flattens, as a whole, every dome that would tip a face of its
 //! past [`MAX_TILT_COS`] against the base's normal (or further than it already was).
 
-use crate::Mesh;
+use super::fold_guard::scale_groups;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -27,30 +27,6 @@ pub const MAX_TILT_COS: f64 = 0.1;
 
 /// Halvings of a dome before it is left out.
 const ROUNDS: u32 = 8;
-
-/// Per-vertex unit vectors of the level before `child` (its first `values.len()`
-/// vertices) carried to every vertex of `child` linearly: an edge point takes the mean of
-/// its edge's ends, a face point of its face's corners (each child quad is (vertex, edge
-/// point after it, face point, edge point before it)), then normalized.
-pub(crate) fn carried_normals(child: &Mesh, values: &[Vec3]) -> Vec<Vec3> {
-    let n = values.len();
-    let mut sum = vec![DVec3::ZERO; child.vertex_count()];
-    let mut count = vec![0u32; child.vertex_count()];
-    for quad in child.corners().chunks_exact(4) {
-        let v = values[quad[0] as usize].as_dvec3();
-        for &c in &quad[1..] {
-            sum[c as usize] += v;
-            count[c as usize] += 1;
-        }
-    }
-    (0..child.vertex_count())
-        .into_par_iter()
-        .map(|i| match i < n {
-            true => values[i],
-            false => (sum[i] / count[i].max(1) as f64).normalize_or_zero().as_vec3(),
-        })
-        .collect()
-}
 
 /// Dome displacements `d` (along `normals`; `dome[v]` the dome vertex `v` lies in,
 /// `u32::MAX` for none) with every dome that would lean a face past [`MAX_TILT_COS`]
@@ -73,20 +49,21 @@ pub(crate) fn upright(p: &[Vec3], normals: &[Vec3], corners: &[u32], reference: 
             u32::MAX => p[v].as_dvec3(),
             k => p[v].as_dvec3() + normals[v].as_dvec3() * d[v] * factor[k as usize],
         };
-        let mut tipped: Vec<u32> = corners
+        let tipped: Vec<u32> = corners
             .par_chunks_exact(4)
             .zip(&before)
             .filter(|(quad, &was)| quad.iter().any(|&v| dome[v as usize] != u32::MAX && d[v as usize] > 0.0) && cosine(&moved, quad) < was.min(MAX_TILT_COS))
-            .flat_map_iter(|(quad, _)| quad.iter().map(|&v| dome[v as usize]).filter(|&k| k != u32::MAX))
+            .flat_map_iter(|(quad, _)| quad.iter().copied())
             .collect();
         if tipped.is_empty() {
             break;
         }
-        tipped.sort_unstable();
-        tipped.dedup();
-        for k in tipped {
-            factor[k as usize] = if round == ROUNDS { 0.0 } else { 0.5 * factor[k as usize] };
-        }
+        // Every dome with a vertex on a tipped face is halved (left out after the last round).
+        let mut on_tipped = vec![false; p.len()];
+        tipped.into_iter().for_each(|v| on_tipped[v as usize] = true);
+        let cut = if round == ROUNDS { 0.0 } else { 0.5 };
+        let halved = scale_groups(dome, |v| if on_tipped[v] { cut } else { 1.0 });
+        factor.iter_mut().zip(halved).for_each(|(f, h)| *f *= h);
     }
     d.par_iter_mut().zip(dome).for_each(|(h, &k)| {
         if k != u32::MAX {
@@ -98,12 +75,14 @@ pub(crate) fn upright(p: &[Vec3], normals: &[Vec3], corners: &[u32], reference: 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::newell_normal;
     use crate::subdivision::detail::{procedural_detail, Model};
     use crate::subdivision::{subdivide, Boundary, Options};
     use crate::testmeshes;
 
+    /// Each quad's (Newell) normal, unnormalized.
     fn quad_normals(p: &[Vec3], corners: &[u32]) -> Vec<DVec3> {
-        corners.chunks_exact(4).map(|q| (p[q[2] as usize] - p[q[0] as usize]).cross(p[q[3] as usize] - p[q[1] as usize]).as_dvec3()).collect()
+        corners.chunks_exact(4).map(|q| newell_normal(&q.iter().map(|&v| p[v as usize]).collect::<Vec<_>>()).as_dvec3()).collect()
     }
 
     #[test]
@@ -140,18 +119,6 @@ mod tests {
         let f = d[wall[0]] / full[wall[0]];
         assert!(f > 0.0 && f < 1.0 && (f.log2() - f.log2().round()).abs() < 1e-9, "halved as a whole: {f}");
         assert!(wall.iter().all(|&v| (d[v] / full[v] - f).abs() < 1e-12) && flat.iter().all(|&v| d[v] == full[v]), "{kept:?}");
-    }
-
-    #[test]
-    fn carried_normals_are_the_plain_subdivisions_on_a_sphere() {
-        // Level 1's normals carried to level 2 stand within a few degrees of level 2's own.
-        let base = testmeshes::icosphere(1);
-        let options = |levels| Options { levels, limit: false, boundary: Boundary::SmoothAll };
-        let (one, two) = (subdivide(&base, &options(1)).unwrap().mesh, subdivide(&base, &options(2)).unwrap().mesh);
-        let carried = carried_normals(&two, &crate::mesh::vertex_normals(&one));
-        for (c, n) in carried.iter().zip(crate::mesh::vertex_normals(&two)) {
-            assert!(c.dot(n) > 0.99, "{c} {n}");
-        }
     }
 
     #[test]
