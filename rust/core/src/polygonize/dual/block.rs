@@ -239,12 +239,15 @@ impl Shared {
     /// Evaluates the points `indices` (among the keys) in parallel batches; a field
     /// that is not a number at one is an error.
     fn evaluate<F: ScalarField + ?Sized>(&mut self, field: &F, lattice: &Lattice, indices: &[usize]) -> Result<()> {
-        let points: Vec<Vec3> = indices.iter().map(|&i| lattice.point(self.at(self.keys[i]))).collect();
-        let mut values = vec![0.0; points.len()];
+        let point = |i: usize| lattice.point(self.at(self.keys[i]));
+        let mut values = vec![0.0; indices.len()];
         const CHUNK: usize = 4096;
-        values.par_chunks_mut(CHUNK).zip(points.par_chunks(CHUNK)).for_each(|(out, points)| field.values(points, out));
+        values.par_chunks_mut(CHUNK).zip(indices.par_chunks(CHUNK)).for_each(|(out, indices)| {
+            let points: Vec<Vec3> = indices.iter().map(|&i| point(i)).collect();
+            field.values(&points, out);
+        });
         if let Some(k) = values.iter().position(|v| v.is_nan()) {
-            return Err(Error::InvalidParameter(format!("the field is not a number at {}", points[k])));
+            return Err(Error::InvalidParameter(format!("the field is not a number at {}", point(indices[k]))));
         }
         for (&i, v) in indices.iter().zip(values) {
             self.values[i] = v;
@@ -396,12 +399,16 @@ fn find(lattice: &Lattice, origin: UVec3, shared: &Shared) -> Found {
         guesses: Vec::new(),
         edge: Vec::new(),
     };
+    let inside: Vec<u8> = values.iter().map(|&v| u8::from(v <= 0.0)).collect();
+    // Corner `c`'s point from its cell's lowest.
+    let offset: [usize; 8] = std::array::from_fn(|c| point_index(UVec3::new(c as u32 & 1, c as u32 >> 1 & 1, c as u32 >> 2 & 1)));
     for z in 0..size.z {
         for y in 0..size.y {
             for x in 0..size.x {
                 let cell = UVec3::new(x, y, z);
                 let corner = |c: usize| cell + UVec3::new(c as u32 & 1, c as u32 >> 1 & 1, c as u32 >> 2 & 1);
-                let config = (0..8).fold(0u8, |m, c| m | (u8::from(values[point_index(corner(c))] <= 0.0) << c));
+                let base = point_index(cell);
+                let config = (0..8).fold(0u8, |m, c| m | inside[base + offset[c]] << c);
                 found.block.config[cell_index(cell)] = config;
                 if config == 0 || config == 255 {
                     continue;
