@@ -96,7 +96,7 @@ fn may_hold<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, lipschitz: Op
     let drops = |b: &(UVec3, UVec3), l: f32, u: f32| l > lattice.eps || (u < -lattice.eps && !touches_faces(b));
     let mut open = vec![true; boxes.len()];
     if let Some(slope) = lipschitz {
-        let centres: Vec<Vec3> = boxes.iter().map(|b| corners(b)).map(|(a, b)| a.lerp(b, 0.5)).collect();
+        let centres: Vec<Vec3> = boxes.iter().map(corners).map(|(a, b)| a.lerp(b, 0.5)).collect();
         let mut values = vec![0.0; centres.len()];
         const CHUNK: usize = 4096;
         values.par_chunks_mut(CHUNK).zip(centres.par_chunks(CHUNK)).for_each(|(out, points)| field.values(points, out));
