@@ -49,6 +49,14 @@ pub trait ScalarField: Sync {
         None
     }
 
+    /// A Lipschitz bound `L`: `|f(x) - f(y)| <= L |x - y|` everywhere, so a value
+    /// `|f(x)| > L r` proves one sign over the ball of radius `r` around `x`. `None`
+    /// (the default): the field cannot bound its slope. Polygonizers skip samples
+    /// that such a proof decides ([`crate::polygonize::dual`]).
+    fn lipschitz(&self) -> Option<f32> {
+        None
+    }
+
     /// `f` at one point.
     fn value(&self, p: Vec3) -> f32 {
         let mut out = [0.0];

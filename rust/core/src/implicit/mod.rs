@@ -266,6 +266,14 @@ impl ScalarField for FieldTree {
         Some((if f64::from(l32) > l { l32.next_down() } else { l32 }, if f64::from(u32) < u { u32.next_up() } else { u32 }))
     }
 
+    /// [`FieldTree::lipschitz`] rounded up to single precision (`None` where it is not
+    /// a finite number).
+    fn lipschitz(&self) -> Option<f32> {
+        let l = FieldTree::lipschitz(self);
+        let l32 = l as f32;
+        (l.is_finite() && l32.is_finite()).then(|| if f64::from(l32) < l { l32.next_up() } else { l32 })
+    }
+
     /// Colour `[r, g, b, a]`, texture, primitive id per point.
     fn attributes(&self, points: &[Vec3], out: &mut [f32]) {
         for_blocks(&self.tape, points, out, ATTRIBUTE_COUNT, Need::ATTRIBUTES, |slot, n, out| {

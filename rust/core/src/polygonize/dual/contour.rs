@@ -22,22 +22,31 @@ const FALLBACK_ROUNDS: usize = 4;
 /// The quads of every block's owned edges, in block order; `offsets[b]` is block `b`'s
 /// first vertex.
 pub(super) fn quads(blocks: &[Block], offsets: &[u32]) -> Result<Vec<Quad>> {
-    // Blocks by their position (`z`, `y`, `x`), sorted: a binary search finds a cell's
-    // block (the default hash map's SipHash cost more than the search).
+    // Blocks by their position (`z`, `y`, `x`), sorted: a binary search finds each
+    // block's lower neighbours once (the default hash map's SipHash cost more).
     let key = |b: UVec3| [b.z, b.y, b.x];
     let mut index: Vec<([u32; 3], u32)> = blocks.iter().enumerate().map(|(i, b)| (key(b.origin / BLOCK), i as u32)).collect();
     index.sort_unstable();
     let table = cases();
-    let vertex = |cell: UVec3, e: usize| -> Option<u32> {
-        let b = index[index.binary_search_by_key(&key(cell / BLOCK), |&(k, _)| k).ok()?].1 as usize;
-        let local = cell_index(cell % BLOCK);
-        let first = blocks[b].first[local];
-        let piece = table[blocks[b].config[local] as usize].piece[e];
-        (first != u32::MAX && piece != super::cases::NONE).then(|| offsets[b] + first + u32::from(piece))
-    };
+    let find = |b: UVec3| index.binary_search_by_key(&key(b), |&(k, _)| k).ok().map(|i| index[i].1 as usize);
     let per_block: Vec<Result<Vec<Quad>>> = blocks
         .par_iter()
         .map(|block| {
+            // The cells around an owned edge lie in this block or the ones one step
+            // lower along some axes: `near[k]`, bit `a` of `k` set one lower along `a`.
+            let home = block.origin / BLOCK;
+            let near: [Option<usize>; 8] = std::array::from_fn(|k| {
+                let d = UVec3::new(k as u32 & 1, k as u32 >> 1 & 1, k as u32 >> 2 & 1);
+                home.cmpge(d).all().then(|| find(home - d)).flatten()
+            });
+            let vertex = |cell: UVec3, e: usize| -> Option<u32> {
+                // Below the lattice (a wrapped coordinate) nothing is near.
+                let b = near[(0..3).fold(0, |k, a| k | usize::from(cell[a] / BLOCK != home[a]) << a)]?;
+                let local = cell_index(cell % BLOCK);
+                let first = blocks[b].first[local];
+                let piece = table[blocks[b].config[local] as usize].piece[e];
+                (first != u32::MAX && piece != super::cases::NONE).then(|| offsets[b] + first + u32::from(piece))
+            };
             let mut out = Vec::with_capacity(block.edges.len());
             for e in &block.edges {
                 let a = e.axis as usize;
@@ -50,7 +59,7 @@ pub(super) fn quads(blocks: &[Block], offsets: &[u32]) -> Result<Vec<Quad>> {
                 });
                 let [Some(v0), Some(v1), Some(v2), Some(v3)] = around else {
                     return Err(Error::InvalidParameter(format!(
-                        "the field's interval bound ruled out a cell next to a crossing near lattice point {}: the field's enclosures do not hold",
+                        "the field's bounds ruled out a cell next to a crossing near lattice point {}: its interval or Lipschitz bound does not hold",
                         e.from
                     )));
                 };
