@@ -10,8 +10,8 @@ when done, only while the source and its stack still read as when the build star
 (`source_state`). A newer change cancels the build in flight and starts once that
 cancel has landed, so two builds of one source never run at once (the incremental
 shells, `pure.live_shells`, are updated by one at a time). Undo, redo, a file load
-and Regenerate drop the builds in flight. Background scripts, and renders (which
-need the frame's result before it renders), regenerate at once.
+and Regenerate drop the builds in flight. Background scripts, renders (which need
+the frame's result before it renders) and animation playback regenerate at once.
 """
 
 import bpy
@@ -50,8 +50,12 @@ def _failed(obj, exc) -> None:
 
 
 def _synchronous() -> bool:
-    """Background scripts (timers never run) and renders (the frame renders next)."""
-    return bpy.app.background or bpy.app.is_job_running("RENDER")
+    """Background scripts (timers never run), renders (the frame renders next) and
+    animation playback (each frame's result, as before: a build would be stale, so
+    dropped, by the next frame)."""
+    if bpy.app.background or bpy.app.is_job_running("RENDER"):
+        return True
+    return any(w.screen is not None and w.screen.is_animation_playing for w in bpy.context.window_manager.windows)
 
 
 def _regenerate(name: str) -> None:

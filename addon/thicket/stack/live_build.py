@@ -6,7 +6,7 @@ thread hands each finished build to its owner's `write`.
 Builds are keyed by their owner's `session_uid` (an object or a node tree: renaming
 it mid-build changes nothing). A result is written only while the owner still reads
 as it did when its build started (`Build.read` against `Build.state(owner)`): an
-undo, or a change nothing scheduled, drops it. Errors go to the owner's `fail`,
+undo, or a change nothing scheduled, drops it (and its error). Errors go to the owner's `fail`,
 cancels are dropped, and nothing is ever raised into Blender's event loop."""
 
 import bpy
@@ -109,12 +109,18 @@ class Builds:
             if owner is None:
                 continue  # it went (deleted, or another file loaded)
             try:
-                result = build.job.outcome()
-                if build.state(owner) != build.read:
-                    continue  # it changed since (an undo): what it shows stays as it is
-                self.write(owner, build, result)
+                result, error = build.job.outcome(), None
             except cancel_errors():
                 continue
+            except Exception as exc:  # noqa: BLE001 - the work's error, the owner's to show
+                result, error = None, exc
+            try:
+                if build.state(owner) != build.read:
+                    continue  # it changed since (an undo): what it shows stays as it is
+                if error is None:
+                    self.write(owner, build, result)
+                else:
+                    self.fail(owner, error)
             except Exception as exc:  # noqa: BLE001 - a timer that raises is unregistered by Blender
                 self.fail(owner, exc)
         if self.on_poll is not None:
