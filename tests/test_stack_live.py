@@ -141,3 +141,17 @@ def test_a_cancelled_build_leaves_the_kept_shells_whole(scene):
     differs = np.linalg.norm(live - fresh, axis=1)
     # As in test_shell: a few vertices may be given back their length in one only.
     assert np.median(differs) < 1e-4 * diag and np.count_nonzero(differs > 0.01 * diag) <= len(differs) // 100
+
+
+def test_regenerate_drops_the_build_in_flight(scene):
+    monkey = _monkey()
+    _edit(monkey, (0.0, 0.0, 0.2))
+    auto_update.start(monkey)
+    job = auto_update._live.builds[monkey.session_uid].job
+    bpy.context.view_layer.objects.active = monkey
+    assert bpy.ops.thicket.regenerate() == {"FINISHED"}
+    assert job.cancelled and not auto_update.running(monkey)
+    written = positions(monkey.thicket.result).copy()
+    auto_update.wait()
+    np.testing.assert_array_equal(positions(monkey.thicket.result), written)
+    np.testing.assert_array_equal(written, _synchronous(monkey))
