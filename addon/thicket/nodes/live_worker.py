@@ -16,31 +16,19 @@ build started."""
 import bpy
 
 from ..fields import field_mesh
-from ..operators.common import Job, cancel_errors, error_text, user_errors
+from ..operators.common import error_text, user_errors
 from ..stack.guard import suspended
-
-#: How often the main thread looks for finished builds (seconds).
-POLL_SECONDS = 0.05
+from ..stack.live_build import POLL_SECONDS, Build, Builds, by_uid
 
 
-class _Build:
-    """A tree's build in flight. Trees and objects are known by `session_uid`
-    (renaming one mid-build changes nothing); `state(tree)` is what the build read
-    from the tree (its JSON and settings): a result is written only while the tree
-    still reads the same (an undo, or a change nothing scheduled, drops it)."""
-
-    def __init__(self, tree, targets, distinct, state, still_shows, note):
-        self.tree_uid, self.targets, self.distinct = tree.session_uid, targets, distinct
-        self.state, self.read, self.still_shows, self.note = state, state(tree), still_shows, note
-
-        def work(job):
-            return [field_mesh.mesh_arrays(p, job.progress) for p in distinct]
-
-        self.job = Job(work)
+def _write(tree, build, arrays) -> None:
+    targets, distinct, still_shows, note = build.extra
+    set_status(tree, write_targets(tree, targets, distinct, arrays, still_shows) or note)
 
 
+_live = Builds(lambda uid: by_uid(bpy.data.node_groups, uid), _write, lambda tree, exc: set_status(tree, error_text(exc)))
 #: Builds in flight by their tree's session_uid.
-_builds: dict = {}
+_builds = _live.builds
 
 
 def start(tree, targets, distinct, state, still_shows, note="") -> None:
@@ -50,55 +38,27 @@ def start(tree, targets, distinct, state, still_shows, note="") -> None:
     the timer writes each mesh whose object `still_shows(obj, tree)`, if
     `state(tree)` has not changed since; `note` (an error met while reading the
     targets) is the tree's status then, or the first error of the writes."""
-    cancel(tree)
-    build = _Build(tree, targets, distinct, state, still_shows, note)
-    _builds[build.tree_uid] = build
-    build.job.start()
-    if not bpy.app.timers.is_registered(poll):
-        bpy.app.timers.register(poll, first_interval=POLL_SECONDS)
+
+    def work(job):
+        return [field_mesh.mesh_arrays(p, job.progress) for p in distinct]
+
+    _live.start(tree, lambda: Build(tree, state, work, (targets, distinct, still_shows, note)))
 
 
 def cancel(tree=None) -> None:
     """Cancels the build of `tree` in flight (every build for None); its result is
     never written."""
-    for key in list(_builds) if tree is None else [tree.session_uid]:
-        build = _builds.pop(key, None)
-        if build is not None:
-            build.job.cancel()
+    _live.cancel(tree)
 
 
 def running(tree) -> bool:
-    return tree.session_uid in _builds
-
-
-def _by_uid(collection, uid):
-    return next((item for item in collection if item.session_uid == uid), None)
+    return _live.running(tree)
 
 
 def poll():
     """Writes the builds that are done (main thread); the timer's next interval, or
-    None once nothing is in flight. One build's failure never strands the others."""
-    for uid, build in list(_builds.items()):
-        if not build.job.done:
-            continue
-        del _builds[uid]
-        tree = _by_uid(bpy.data.node_groups, uid)
-        if tree is None:
-            continue  # the tree went (deleted, or another file loaded)
-        try:
-            arrays = build.job.outcome()
-            if build.state(tree) != build.read:
-                continue  # the tree changed since (an undo): its meshes stay as they are
-            set_status(tree, _write(tree, build, arrays) or build.note)
-        except cancel_errors():
-            continue
-        except Exception as exc:  # noqa: BLE001 - a timer that raises is unregistered by Blender
-            set_status(tree, error_text(exc))
-    return POLL_SECONDS if _builds else None
-
-
-def _write(tree, build, arrays) -> str:
-    return write_targets(tree, build.targets, build.distinct, arrays, build.still_shows)
+    None once nothing is in flight."""
+    return _live.poll()
 
 
 def write_targets(tree, targets, distinct, arrays, still_shows) -> str:
@@ -108,7 +68,7 @@ def write_targets(tree, targets, distinct, arrays, still_shows) -> str:
     message = ""
     with suspended():
         for obj_uid, index in targets:
-            obj = _by_uid(bpy.data.objects, obj_uid)
+            obj = by_uid(bpy.data.objects, obj_uid)
             if arrays[index] is None or obj is None or not still_shows(obj, tree):
                 continue  # not meshed, or deleted or relinked while it meshed
             source = obj.get(field_mesh.TEXT_PROPERTY)
@@ -129,9 +89,7 @@ def set_status(tree, message) -> None:
 def wait(timeout=60.0) -> None:
     """Waits for every build in flight and writes them (tests and scripts that
     started a live build by hand)."""
-    for build in list(_builds.values()):
-        build.job.join(timeout)
-    poll()
+    _live.wait(timeout)
 
 
 __all__ = ["POLL_SECONDS", "cancel", "poll", "running", "set_status", "start", "wait", "write_targets"]

@@ -3,6 +3,7 @@ import bpy
 from ..pure import live_shells
 from ..pure.evaluate import evaluate_stack
 from ..pure.kinds.volumetric_texture import BakeNeedsConfirmation
+from ..stack import auto_update
 from ..stack.query import active_stack_source
 from ..stack.regenerate import read_source, write_result
 from .common import Job, JobWatch, StackOperator, WatchedOperator, error_text
@@ -56,6 +57,7 @@ def watched_regeneration(context, obj, ask, report, fresh=True):
     shells are built anew (not after a large-bake confirmation: the run that asked
     has just built them)."""
     name = obj.name
+    auto_update.cancel(obj)  # a live build in flight read an older state than this run
     try:
         arrays, items = read_source(obj, context.evaluated_depsgraph_get())
     except (KeyError, TypeError, ValueError) as exc:

@@ -3,14 +3,26 @@
 Debounced: changes are collected by object name and flushed once things are quiet
 (a timer in UI sessions; at once in background mode, where timers never run).
 Re-entrancy guarded: the writes a regeneration makes never schedule another one.
+
+In the interface the stack evaluates off Blender's main thread (`live_build`): the
+source is read here, `evaluate_stack` runs on a worker, and a timer writes the result
+when done, only while the source and its stack still read as when the build started
+(`source_state`). A newer change cancels the build in flight and starts once that
+cancel has landed, so two builds of one source never run at once (the incremental
+shells, `pure.live_shells`, are updated by one at a time). Undo, redo, a file load
+and Regenerate drop the builds in flight. Background scripts, renders (which need
+the frame's result before it renders) and animation playback regenerate at once.
 """
 
 import bpy
+import numpy as np
 from bpy.app.handlers import persistent
 
+from ..operators.common import error_text
 from ..pure import live_shells, native
 from .debounce import Debounced
 from .guard import busy, suspended
+from .live_build import Build, Builds, by_uid
 
 
 def _is_source(obj) -> bool:
@@ -24,25 +36,139 @@ def schedule(obj) -> None:
     _sources.add(obj.name)
 
 
-def _regenerate(name: str) -> None:
-    """Regenerates a pending source. Failures are kept on the stack (`last_error`,
-    shown in the panel), never raised into Blender's event loop."""
+def _errors():
     from ..pure.kinds.volumetric_texture import BakeNeedsConfirmation
+
+    return (KeyError, TypeError, ValueError, BakeNeedsConfirmation, *native.error_types())
+
+
+def _failed(obj, exc) -> None:
+    """Failures are kept on the stack (`last_error`, shown in the panel), never raised
+    into Blender's event loop; the previous result stays."""
+    with suspended():
+        obj.thicket.last_error = error_text(exc)
+
+
+def _synchronous() -> bool:
+    """Background scripts (timers never run), renders (the frame renders next) and
+    animation playback (each frame's result, as before: a build would be stale, so
+    dropped, by the next frame)."""
+    if bpy.app.background or bpy.app.is_job_running("RENDER"):
+        return True
+    return any(w.screen is not None and w.screen.is_animation_playing for w in bpy.context.window_manager.windows)
+
+
+def _regenerate(name: str) -> None:
+    """Regenerates a pending source: at once when `_synchronous()`, else as a live
+    build (`start`)."""
     from .regenerate import regenerate
 
     obj = bpy.data.objects.get(name)
     if not _is_source(obj):
         return
+    if not _synchronous():
+        start(obj)
+        return
+    cancel(obj)  # a build in flight read an older state than this
     try:
         # In the interface, very large bakes wait for the user (Regenerate asks).
         regenerate(obj, ask=not bpy.app.background)
-    except (KeyError, TypeError, ValueError, BakeNeedsConfirmation, *native.error_types()) as exc:
-        with suspended():
-            obj.thicket.last_error = str(exc)
+    except _errors() as exc:
+        _failed(obj, exc)
 
 
 _sources = Debounced(_regenerate)
 flush = _sources.flush
+
+#: Bumped for a stack's object by every depsgraph update that changes what its stack
+#: reads (`changed_sources`), scheduled or not (auto-update off): part of `source_state`.
+_versions: dict = {}
+
+
+def source_state(obj):
+    """What a live build of `obj` must still read for its result to be written: its
+    enabled items' settings, its own mesh's size and positions, and its depsgraph
+    changes (`_versions`: modifiers, watched objects, sculpts)."""
+    from .regenerate import enabled_settings
+
+    mesh = obj.data
+    positions = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", positions)
+    with suspended():
+        settings = repr(enabled_settings(obj))
+    counts = (len(mesh.vertices), len(mesh.edges), len(mesh.polygons), len(mesh.loops))
+    return mesh.session_uid, counts, hash(positions.tobytes()), _versions.get(obj.session_uid, 0), settings
+
+
+def _write(obj, build, result_arrays) -> None:
+    from .regenerate import write_result
+
+    write_result(obj, result_arrays)
+
+
+def _redraw() -> None:
+    """The stack panels (Properties editor, 3D View sidebar) show a build's progress."""
+    for window in getattr(bpy.context.window_manager, "windows", ()):
+        for area in window.screen.areas:
+            if area.type in {"PROPERTIES", "VIEW_3D"}:
+                area.tag_redraw()
+
+
+_live = Builds(lambda uid: by_uid(bpy.data.objects, uid), _write, _failed, exclusive=True, on_poll=_redraw)
+
+
+def start(obj) -> None:
+    """Regenerates `obj`'s result without holding the interface: the source read
+    here (when the build starts), `evaluate_stack` on a worker, the result written by
+    a timer when done (`poll`). Cancels `obj`'s build in flight; this one starts once
+    that cancel has landed. A source that cannot be read sets `last_error` at once.
+    Bakes over their item's Ask Above stop with `BakeNeedsConfirmation` in `last_error`
+    (Regenerate asks)."""
+    uid = obj.session_uid
+
+    def starter():
+        from ..pure.evaluate import evaluate_stack
+        from .regenerate import read_source
+        from .versioning import ensure_upgraded
+
+        source = by_uid(bpy.data.objects, uid)
+        if not _is_source(source):
+            return None
+        ensure_upgraded()
+        try:
+            arrays, items = read_source(source)
+        except Exception as exc:  # noqa: BLE001 - also run by the timer, which must never raise
+            _failed(source, exc)
+            return None
+        return Build(source, source_state, lambda job: evaluate_stack(arrays, items, job.progress, ask=True))
+
+    _live.start(obj, starter)
+
+
+def cancel(obj=None) -> None:
+    """Cancels `obj`'s live build (every one for None): its result is never written."""
+    _live.cancel(obj)
+
+
+def running(obj) -> bool:
+    """Whether `obj` has a live build in flight or waiting to start."""
+    return _live.running(obj)
+
+
+def progress(obj):
+    """How far `obj`'s live build is (0 to 1), None when none runs (the panel)."""
+    return _live.fraction(obj)
+
+
+def poll():
+    """What the timer calls: writes the finished builds, starts the waiting ones;
+    the next interval, or None when nothing is left in flight."""
+    return _live.poll()
+
+
+def wait(timeout=60.0) -> None:
+    """Waits for the builds in flight and writes them (tests, scripts)."""
+    _live.wait(timeout)
 
 
 def changed_sources(scene, depsgraph, is_source=_is_source):
@@ -81,7 +207,8 @@ def changed_sources(scene, depsgraph, is_source=_is_source):
 def on_depsgraph_update(scene, depsgraph):
     if busy():
         return
-    for obj in changed_sources(scene, depsgraph):
+    for obj in changed_sources(scene, depsgraph, is_source=lambda _obj: True):
+        _versions[obj.session_uid] = _versions.get(obj.session_uid, 0) + 1
         schedule(obj)
 
 
@@ -94,6 +221,17 @@ def on_frame_change(scene, depsgraph=None):
     for obj in scene.objects:
         if _is_source(obj) and (obj.animation_data is not None or any(i.follows_frame() for i in obj.thicket.items)):
             schedule(obj)
+    if bpy.app.is_job_running("RENDER"):
+        flush()  # the frame renders next: its results now, not after a debounce
+
+
+@persistent
+def on_undo_pre(*_args):
+    """An undo, a redo or a file load is about to replace the data: builds in flight
+    read the state it leaves, so they are dropped (with regenerations still waiting
+    for the debounce)."""
+    _live.cancel()
+    _sources.pending.clear()
 
 
 @persistent
@@ -110,6 +248,9 @@ HANDLERS = (
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
     (bpy.app.handlers.frame_change_post, on_frame_change),
     (bpy.app.handlers.load_post, on_load),
+    (bpy.app.handlers.load_pre, on_undo_pre),
+    (bpy.app.handlers.undo_pre, on_undo_pre),
+    (bpy.app.handlers.redo_pre, on_undo_pre),
 )
 
 
@@ -124,6 +265,7 @@ def unregister_handlers():
         if fn in handler_list:
             handler_list.remove(fn)
     _sources.pending.clear()
+    _live.cancel()
     live_shells.clear()
     from .. import sculpt
 

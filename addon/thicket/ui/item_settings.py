@@ -2,6 +2,7 @@
 
 from ..mesh_io import multires_modifier
 from ..pure.kinds.procedural_detail import API_NAMES, MODEL_SETTINGS
+from ..stack import auto_update
 
 
 def draw_item_settings(layout, obj, item):
@@ -159,6 +160,9 @@ def _draw_texture_settings(col, obj, item):
 
 def draw_status(layout, obj):
     stack = obj.thicket
+    done = auto_update.progress(obj)
+    if done is not None:
+        layout.label(text=f"Regenerating... {done:.0%}", icon="SORTTIME")
     if stack.last_error:
         box = layout.box()
         box.alert = True

@@ -1,0 +1,143 @@
+"""Builds off Blender's main thread, shared by the stack's auto-update and the node
+editor's live Field Meshes: what a build needs is read on the main thread, the work
+runs in a `operators.common.Job` (the core releases the GIL), and a timer on the main
+thread hands each finished build to its owner's `write`.
+
+Builds are keyed by their owner's `session_uid` (an object or a node tree: renaming
+it mid-build changes nothing). A result is written only while the owner still reads
+as it did when its build started (`Build.read` against `Build.state(owner)`): an
+undo, or a change nothing scheduled, drops it (and its error). Errors go to the owner's `fail`,
+cancels are dropped, and nothing is ever raised into Blender's event loop."""
+
+import bpy
+
+from ..operators.common import Job, cancel_errors
+
+#: How often the main thread looks for finished builds (seconds).
+POLL_SECONDS = 0.05
+
+
+class Build:
+    """One build in flight: `work(job)` on a worker thread (plain data, no bpy), and
+    `read`, the owner's `state(owner)` when it started: the result is written only
+    while the owner still reads the same. `extra` is whatever the owner's `write`
+    needs besides the work's result."""
+
+    def __init__(self, owner, state, work, extra=None):
+        self.state, self.read, self.extra = state, state(owner), extra
+        self.job = Job(work)
+
+
+class Builds:
+    """The builds in flight of one kind of owner, found again by `find(uid)` (None
+    once it is gone). `write(owner, build, result)` and `fail(owner, exc)` run on the main thread.
+
+    `on_poll()`: called after each look while something was in flight (the panel's
+    progress redraw).
+
+    `exclusive`: a newer build of an owner never runs beside the older one (work that
+    keeps state between builds, such as the incremental shells): the older is
+    cancelled and the newer waits for that cancel to land, `starter()` making it then
+    (so it reads the owner as it is by then)."""
+
+    def __init__(self, find, write, fail, exclusive=False, on_poll=None):
+        self.find, self.write, self.fail, self.exclusive, self.on_poll = find, write, fail, exclusive, on_poll
+        self.builds: dict = {}
+        #: Cancelled builds still running (exclusive), and what starts the next one once they end.
+        self._ending: dict = {}
+        self._next: dict = {}
+        self._tick = self.poll  # one object, so the timer is found registered
+
+    def start(self, owner, starter) -> None:
+        """Cancels `owner`'s build in flight and starts `starter()`'s `Build` (None:
+        nothing to build), or, when `exclusive` and the cancelled one is still running,
+        once it ended."""
+        uid = owner.session_uid
+        self.cancel(owner)
+        if uid in self._ending:
+            self._next[uid] = starter
+        else:
+            self._launch(uid, starter)
+        self._watch()
+
+    def _launch(self, uid, starter) -> None:
+        build = starter()
+        if build is not None:
+            self.builds[uid] = build
+            build.job.start()
+
+    def _watch(self) -> None:
+        if (self.builds or self._ending) and not bpy.app.timers.is_registered(self._tick):
+            bpy.app.timers.register(self._tick, first_interval=POLL_SECONDS)
+
+    def cancel(self, owner=None) -> None:
+        """Cancels `owner`'s build in flight (every build for None) and any waiting to
+        start; their results are never written."""
+        for uid in list(self.builds) if owner is None else [owner.session_uid]:
+            build = self.builds.pop(uid, None)
+            if build is not None:
+                build.job.cancel()
+                if self.exclusive and not build.job.done:
+                    self._ending[uid] = build
+            self._next.pop(uid, None)
+
+    def running(self, owner) -> bool:
+        """Whether `owner` has a build in flight or waiting to start."""
+        uid = owner.session_uid
+        return uid in self.builds or uid in self._next
+
+    def fraction(self, owner) -> float | None:
+        """How far `owner`'s build in flight is (0 to 1), None when none runs."""
+        build = self.builds.get(owner.session_uid)
+        return None if build is None else build.job.fraction
+
+    def poll(self):
+        """Writes the builds that are done and starts those that waited (main thread);
+        the timer's next interval, or None once nothing is in flight. One build's
+        failure never strands the others."""
+        for uid, build in list(self._ending.items()):
+            if build.job.done:
+                del self._ending[uid]
+                starter = self._next.pop(uid, None)
+                if starter is not None:
+                    self._launch(uid, starter)
+        for uid, build in list(self.builds.items()):
+            if not build.job.done:
+                continue
+            del self.builds[uid]
+            owner = self.find(uid)
+            if owner is None:
+                continue  # it went (deleted, or another file loaded)
+            try:
+                result, error = build.job.outcome(), None
+            except cancel_errors():
+                continue
+            except Exception as exc:  # noqa: BLE001 - the work's error, the owner's to show
+                result, error = None, exc
+            try:
+                if build.state(owner) != build.read:
+                    continue  # it changed since (an undo): what it shows stays as it is
+                if error is None:
+                    self.write(owner, build, result)
+                else:
+                    self.fail(owner, error)
+            except Exception as exc:  # noqa: BLE001 - a timer that raises is unregistered by Blender
+                self.fail(owner, exc)
+        if self.on_poll is not None:
+            self.on_poll()
+        return POLL_SECONDS if self.builds or self._ending else None
+
+    def wait(self, timeout=60.0) -> None:
+        """Waits for every build in flight (and those waiting to start) and writes
+        them (renders, tests and scripts)."""
+        while self.builds or self._ending:
+            builds = [*self.builds.values(), *self._ending.values()]
+            for build in builds:
+                build.job.join(timeout)
+            self.poll()
+            if not all(build.job.done for build in builds):
+                return  # timed out
+
+
+def by_uid(collection, uid):
+    return next((item for item in collection if item.session_uid == uid), None)
