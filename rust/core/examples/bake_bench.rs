@@ -4,7 +4,7 @@
 //! anchor's grid is sampled on all cores; the crate itself polygonizes on one.
 //! Also the bake's peak heap memory.
 //!
-//! `cargo run -p thicket-core --release --features test-support --example bake_bench`
+//! `cargo run -p thicket-core --release --features test-support --example bake_bench [-- --budget | --parts A.obj ...]`
 
 use std::time::Instant;
 
@@ -59,9 +59,42 @@ fn budget_case() {
     println!("  estimate:  {estimate:>9} triangles ({:.2}x the bake)", estimate as f64 / all_n as f64);
 }
 
+/// `--parts A.obj B.obj ...`: default bakes (no UVs: one tile per face, 5% exterior
+/// shell) of every pattern on the given meshes, their triangles against the budget
+/// (issue 15: CAD parts ran 2-6x over it).
+fn budget_parts(paths: &[String]) {
+    for path in paths {
+        let mesh = thicket_core::mesh::obj::parse_obj(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let t = Thickness::relative(0.05).per_vertex(&mesh, None).unwrap();
+        let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+        let params = BakeParams::default();
+        println!("{path}: {} faces, budget {}", mesh.face_count(), params.triangle_budget);
+        for p in Pattern::ALL {
+            let texture = Generator::new(p).generate([64, 64, 32]).unwrap();
+            let layers = [TextureLayer { texture, offset: Vec2::ZERO }];
+            let start = Instant::now();
+            let b = bake(&mesh, &shell, &layers, &params).unwrap();
+            println!(
+                "  {:11} {:>9} triangles ({:.2}x the budget{}), lattice {:?}, simplified within {:.3} steps, {:.1} s",
+                p.name(),
+                b.triangles.len(),
+                b.triangles.len() as f64 / params.triangle_budget as f64,
+                if b.over_budget { ", says over" } else { "" },
+                b.lattice,
+                b.simplify_error,
+                start.elapsed().as_secs_f64()
+            );
+        }
+    }
+}
+
 fn main() {
     if std::env::args().any(|a| a == "--budget") {
         return budget_case();
+    }
+    let args: Vec<String> = std::env::args().collect();
+    if let Some(i) = args.iter().position(|a| a == "--parts") {
+        return budget_parts(&args[i + 1..]);
     }
     let mesh = testmeshes::bumpy_head(4);
     let t = Thickness::relative(0.03).per_vertex(&mesh, None).unwrap();

@@ -10,6 +10,11 @@
 //! `alpha = 0.5` from below is then located exactly by safeguarded regula falsi
 //! (Illinois) on the ray parameter, re-inverting the cell map at every evaluation, so
 //! the surface found does not depend on the march step once the step resolves it.
+//! Features thinner than a step (a strand one texel wide, laterally a small share of
+//! the shell) are not left to the samples: between two samples outside the surface,
+//! an exact bound of the trilinear occupancy over the step's box in texture space
+//! says whether it may reach 0.5 there, and only then the step is halved and probed
+//! (thick surfaces, chapter 5: the texture is the trilinear interpolant of its grid).
 //!
 //! Shading is Lambert with an ambient term; the normal is the texture's `−∇alpha`
 //! carried to world space through the cell map, or, where `alpha` jumps (the texture
@@ -32,6 +37,10 @@ pub struct RenderParams {
     /// March step as a fraction of the mean shell thickness, in `[1e-4, 1]`. Features
     /// thinner than a step may be missed; the crossing itself is exact at any step.
     pub step: f32,
+    /// Halvings of each march step between two samples outside the surface where a
+    /// bound of the texture's occupancy along the step says it may reach 0.5 (a thin
+    /// strand stepped over), at most 16; 0: the samples alone decide.
+    pub probes: u32,
     /// Direction toward the light, world space (normalized here; must not be zero).
     pub light: Vec3,
     /// Ambient share of the light, in `[0, 1]`.
@@ -42,7 +51,7 @@ pub struct RenderParams {
 
 impl Default for RenderParams {
     fn default() -> Self {
-        Self { step: 0.05, light: Vec3::new(0.3, -0.5, 0.8), ambient: 0.25, albedo: Vec3::splat(0.8) }
+        Self { step: 0.05, probes: 6, light: Vec3::new(0.3, -0.5, 0.8), ambient: 0.25, albedo: Vec3::splat(0.8) }
     }
 }
 
@@ -51,6 +60,9 @@ impl RenderParams {
         let bad = |m: &str| Err(Error::InvalidParameter(m.into()));
         if !(self.step >= 1e-4 && self.step <= 1.0) {
             return bad("the march step must be between 0.0001 and 1 (a fraction of the shell thickness)");
+        }
+        if self.probes > 16 {
+            return bad("at most 16 halvings of a march step are probed");
         }
         if !self.light.is_finite() || self.light.length_squared() < 1e-20 {
             return bad("the light direction must be a finite, non-zero vector");
@@ -190,6 +202,27 @@ fn contains(count: usize, q: Vec3) -> bool {
     in01(q.z) && if count == 4 { in01(q.x) && in01(q.y) } else { q.x >= -INSIDE_EPS && q.y >= -INSIDE_EPS && q.x + q.y <= 1.0 + INSIDE_EPS }
 }
 
+/// How far along the straight parameter segment from `q0` (in the cell) to `q1` it
+/// stays in a cell with `count` corners, as a fraction in `[0, 1]`: every face of the
+/// cell is linear in the parameters.
+fn exit_fraction(count: usize, q0: Vec3, q1: Vec3) -> f32 {
+    let d = q1 - q0;
+    // Each face as `g(q) = k + n · q >= 0`.
+    let faces: &[(f32, Vec3)] = if count == 4 {
+        &[(0.0, Vec3::X), (1.0, Vec3::NEG_X), (0.0, Vec3::Y), (1.0, Vec3::NEG_Y), (0.0, Vec3::Z), (1.0, Vec3::NEG_Z)]
+    } else {
+        &[(0.0, Vec3::X), (0.0, Vec3::Y), (1.0, Vec3::new(-1.0, -1.0, 0.0)), (0.0, Vec3::Z), (1.0, Vec3::NEG_Z)]
+    };
+    faces.iter().fold(1.0f32, |f, (k, n)| {
+        let (g0, dg) = (k + n.dot(q0), n.dot(d));
+        if dg < 0.0 {
+            f.min((g0.max(0.0) / -dg).clamp(0.0, 1.0))
+        } else {
+            f
+        }
+    })
+}
+
 /// Parameters of a cell's centre.
 fn centre(count: usize) -> Vec3 {
     if count == 4 {
@@ -240,6 +273,8 @@ struct Marcher<'a> {
     bvh: Bvh,
     /// March step, world units.
     step: f64,
+    /// Halvings of a step probed ([`RenderParams::probes`]).
+    probes: u32,
     /// Root bracketing tolerance on the ray parameter, world units.
     tolerance: f64,
 }
@@ -284,7 +319,7 @@ impl<'a> Marcher<'a> {
         let size = (hi - lo).length() as f64;
         let prisms = scene.cells.par_iter().zip(&scene.bounds).map(|(c, (l, h))| (c.count == 3).then(|| Prism::new(c, (*h - *l).length()))).collect();
         let bvh = Bvh::from_boxes(finite.iter().map(|&i| (scene.bounds[i as usize].0.as_dvec3(), scene.bounds[i as usize].1.as_dvec3())).collect());
-        Ok(Self { scene, prisms, finite, bvh, step: params.step as f64 * thickness, tolerance: 1e-6 * size.max(1e-30) })
+        Ok(Self { scene, prisms, finite, bvh, step: params.step as f64 * thickness, probes: params.probes, tolerance: 1e-6 * size.max(1e-30) })
     }
 
     /// The parameters of `p` in cell `c`, from the warm start `q`.
@@ -363,6 +398,11 @@ impl<'a> Marcher<'a> {
                     return Some(self.bracket(origin, dir, (prev_t, lo), (t, here), active));
                 }
             } else {
+                if let Some(lo) = below.filter(|_| self.probes > 0) {
+                    if let Some((a, b)) = self.between(origin, dir, (prev_t, lo), (t, here), active) {
+                        return Some(self.bracket(origin, dir, a, b, active));
+                    }
+                }
                 below = Some(here);
             }
             if t >= t_end {
@@ -371,6 +411,174 @@ impl<'a> Marcher<'a> {
             prev_t = t;
             t = (t + self.step).min(t_end);
         }
+    }
+
+    /// Between two samples of the march below the iso-value, `a` and `b`, the first
+    /// sample found at or above it and the one below just before it, if any. The
+    /// segment's part in each end's cell (the other end's point inverted in that cell
+    /// and the straight parameter segment clipped to it) is probed
+    /// ([`Marcher::probe`]); where an inversion fails, the whole segment is.
+    fn between(&self, origin: DVec3, dir: DVec3, a: (f64, Sample), b: (f64, Sample), active: &mut [Active]) -> Option<((f64, Sample), (f64, Sample))> {
+        match (a.1.inside, b.1.inside) {
+            (None, None) => None,
+            (Some((ca, _)), Some((cb, _))) if ca == cb => self.probe(origin, dir, a, b, self.probes, active),
+            (sa, sb) => {
+                let point = |t: f64| origin + dir * t;
+                // The end of a piece inside cell `c` from parameters `q` toward `p`.
+                let piece = |c: u32, q: Vec3, p: DVec3| {
+                    let count = self.scene.cells[c as usize].count;
+                    self.invert(c as usize, p, q).map(|far| (exit_fraction(count, q, far), far))
+                };
+                let first = match sa {
+                    Some((ca, qa)) => match piece(ca, qa, point(b.0)) {
+                        Some((f, far)) => {
+                            let q = qa + (far - qa) * f;
+                            let end = Sample { alpha: self.scene.occupancy(ca as usize, q), inside: Some((ca, q)) };
+                            let end = (a.0 + (b.0 - a.0) * f as f64, end);
+                            if end.1.alpha >= 0.5 {
+                                return Some((a, end));
+                            }
+                            self.probe(origin, dir, a, end, self.probes, active)
+                        }
+                        None => return self.probe(origin, dir, a, b, self.probes, active),
+                    },
+                    None => None,
+                };
+                if first.is_some() {
+                    return first;
+                }
+                match sb {
+                    Some((cb, qb)) => match piece(cb, qb, point(a.0)) {
+                        Some((f, far)) => {
+                            let q = qb + (far - qb) * f;
+                            let t = b.0 + (a.0 - b.0) * f as f64;
+                            let start = Sample { alpha: self.scene.occupancy(cb as usize, q), inside: Some((cb, q)) };
+                            if start.alpha >= 0.5 {
+                                // The piece starts inside a feature: the march's own
+                                // bracket from `a` finds its crossing.
+                                return Some((a, (t, start)));
+                            }
+                            self.probe(origin, dir, (t, start), b, self.probes, active)
+                        }
+                        None => self.probe(origin, dir, a, b, self.probes, active),
+                    },
+                    None => None,
+                }
+            }
+        }
+    }
+
+    /// Between two samples below the iso-value, `a` and `b`, the first sample found at
+    /// or above it and the one below just before it, if any: where an upper bound of
+    /// the occupancy along the segment ([`Marcher::segment_bound`]) reaches 0.5, the
+    /// segment is halved and both halves probed in order, `depth` times at most. A
+    /// feature the samples stepped over is found unless the ray's chord through it is
+    /// shorter than `2^-depth` steps. Segments between two cells are halved too.
+    fn probe(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        a: (f64, Sample),
+        b: (f64, Sample),
+        depth: u32,
+        active: &mut [Active],
+    ) -> Option<((f64, Sample), (f64, Sample))> {
+        if depth == 0 {
+            return None;
+        }
+        let tm = 0.5 * (a.0 + b.0);
+        if tm <= a.0 || tm >= b.0 {
+            return None;
+        }
+        let m = match (a.1.inside, b.1.inside) {
+            (Some((ca, qa)), Some((cb, qb))) if ca == cb => {
+                if self.segment_bound(ca as usize, qa, qb) < 0.5 {
+                    return None;
+                }
+                // Within a cell the parameters are interpolated (a step bends little
+                // in a cell's parameters); the bracketing then inverts the map exactly.
+                let q = 0.5 * (qa + qb);
+                Sample { alpha: self.scene.occupancy(ca as usize, q), inside: Some((ca, q)) }
+            }
+            (None, None) => return None,
+            _ => self.sample(origin, dir, tm, active),
+        };
+        let m = (tm, m);
+        if m.1.alpha >= 0.5 {
+            return Some((a, m));
+        }
+        self.probe(origin, dir, a, m, depth - 1, active).or_else(|| self.probe(origin, dir, m, b, depth - 1, active))
+    }
+
+    /// An upper bound of the occupancy on the straight segment between parameters
+    /// `qa` and `qb` of cell `c` (in texture space; a step bends little there), or 1
+    /// where its box spans more than three texels along an axis (the probe halves it);
+    /// once it reaches 0.5, the value found there (all the probe asks). The trilinear interpolant is multilinear within each cube between
+    /// texel centres, so its largest value over the part of the segment's bounding box
+    /// in a cube is at one of that part's corners: exact for the box, and tight as the
+    /// segment shrinks. With the stack's effects, no bound (1).
+    fn segment_bound(&self, c: usize, qa: Vec3, qb: Vec3) -> f32 {
+        if !self.scene.effects.is_none() {
+            return 1.0;
+        }
+        let cell = &self.scene.cells[c];
+        let (ta, tb) = (cell.texture(qa), cell.texture(qb));
+        let mut bound = 0.0f32;
+        for l in &self.scene.textures {
+            let [nx, ny, nz] = l.texture.dims();
+            // Texel coordinates, texel centres at integers; `r` clamped to the shell.
+            let texel = |t: Vec3| {
+                let t = t + l.offset.extend(0.0);
+                Vec3::new(t.x * nx as f32 - 0.5, t.y * ny as f32 - 0.5, t.z.clamp(0.0, 1.0) * (nz.max(2) - 1) as f32)
+            };
+            let (pa, pb) = (texel(ta), texel(tb));
+            let (lo, hi) = (pa.min(pb) - 1e-3, pa.max(pb) + 1e-3);
+            let (i0, i1) = (lo.floor(), hi.floor());
+            if !(i0.is_finite() && i1.is_finite()) || (i1 - i0).max_element() > 2.0 || i0.abs().max_element() > 1e6 {
+                return 1.0;
+            }
+            let samples = l.texture.samples();
+            let wrap = |i: f32, n: usize| (i as i64).rem_euclid(n as i64) as usize;
+            for cz in i0.z as i64..=i1.z as i64 {
+                let z0 = cz.clamp(0, nz as i64 - 1) as usize;
+                let z1 = (cz + 1).clamp(0, nz as i64 - 1) as usize;
+                let (fz0, fz1) = ((lo.z - cz as f32).max(0.0), (hi.z - cz as f32).min(1.0));
+                for cy in i0.y as i64..=i1.y as i64 {
+                    let (y0, y1) = (wrap(cy as f32, ny), wrap(cy as f32 + 1.0, ny));
+                    let (fy0, fy1) = ((lo.y - cy as f32).max(0.0), (hi.y - cy as f32).min(1.0));
+                    for cx in i0.x as i64..=i1.x as i64 {
+                        let (x0, x1) = (wrap(cx as f32, nx), wrap(cx as f32 + 1.0, nx));
+                        let (fx0, fx1) = ((lo.x - cx as f32).max(0.0), (hi.x - cx as f32).min(1.0));
+                        let at = |x: usize, y: usize, z: usize| samples[(z * ny + y) * nx + x];
+                        // The cube's corners, [z][y][x].
+                        let v = [
+                            [[at(x0, y0, z0), at(x1, y0, z0)], [at(x0, y1, z0), at(x1, y1, z0)]],
+                            [[at(x0, y0, z1), at(x1, y0, z1)], [at(x0, y1, z1), at(x1, y1, z1)]],
+                        ];
+                        let top = v.iter().flatten().flatten().fold(0.0f32, |m, a| m.max(*a));
+                        if top <= bound {
+                            continue;
+                        }
+                        if top < 0.5 {
+                            bound = top;
+                            continue;
+                        }
+                        let lerp = |a: f32, b: f32, f: f32| a + (b - a) * f;
+                        for fz in [fz0, fz1] {
+                            for fy in [fy0, fy1] {
+                                let row = |x: usize| lerp(lerp(v[0][0][x], v[0][1][x], fy), lerp(v[1][0][x], v[1][1][x], fy), fz);
+                                let (r0, r1) = (row(0), row(1));
+                                bound = bound.max(lerp(r0, r1, fx0)).max(lerp(r0, r1, fx1));
+                            }
+                        }
+                        if bound >= 0.5 {
+                            return bound;
+                        }
+                    }
+                }
+            }
+        }
+        bound
     }
 
     /// Locates `alpha = 0.5` between `a` (below) and `b` (at or above) by Illinois
@@ -645,6 +853,7 @@ mod tests {
         for p in [
             RenderParams { step: 0.0, ..Default::default() },
             RenderParams { step: f32::NAN, ..Default::default() },
+            RenderParams { probes: 17, ..Default::default() },
             RenderParams { light: Vec3::ZERO, ..Default::default() },
             RenderParams { ambient: 2.0, ..Default::default() },
             RenderParams { albedo: Vec3::splat(f32::INFINITY), ..Default::default() },
@@ -705,6 +914,87 @@ mod tests {
         assert!(differ <= 16, "{differ} pixels differ");
         assert!((triangles.depth[i] - quads.depth[i]).abs() < 1e-5, "{} vs {}", triangles.depth[i], quads.depth[i]);
         assert!((triangles.normal[i] - quads.normal[i]).length() < 1e-3);
+    }
+
+    /// A sheet with UVs (tiling `tiling`) under `texture`, its shell 10% of the
+    /// diagonal, and a camera looking down at it from `(0, -2, 1)` away.
+    fn sheet_scene(texture: VolumeTexture, tiling: f32, size: u32) -> (ShellScene, Camera) {
+        let base = tm::plane(6);
+        let uvs: Vec<Vec2> = base.corners().iter().map(|&v| base.positions()[v as usize].truncate() * 0.5 + 0.5).collect();
+        let mesh = Mesh::new(base.positions().to_vec(), &base.face_sizes(), base.corners().to_vec(), Some(uvs)).unwrap();
+        let t = Thickness::relative(0.1).per_vertex(&mesh, None).unwrap();
+        let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
+        let scene = ShellScene::new(&mesh, &shell, layer(texture), tiling).unwrap();
+        let (lo, hi) = scene.bounds();
+        let centre = (lo + hi) * 0.5;
+        (scene, perspective(centre + Vec3::new(0.0, -2.0, 1.0), centre, size))
+    }
+
+    #[test]
+    fn reference_probes_find_strands_the_step_misses() {
+        use crate::silhouette::{frame_coverage, iou};
+        // One-texel strands every fourth texel, three quarters of the shell high, tiled
+        // so finely that a step of 5% of the shell spans about two texels.
+        let strands = VolumeTexture::from_fn([16, 16, 8], |c| {
+            let (x, y) = ((c.x * 16.0) as u32, (c.y * 16.0) as u32);
+            if x % 4 == 0 && y % 4 == 0 && c.z < 0.75 {
+                1.0
+            } else {
+                0.0
+            }
+        })
+        .unwrap();
+        let (scene, camera) = sheet_scene(strands, 16.0, 64);
+        let truth = frame_coverage(&render(&scene, &camera, &RenderParams { step: 0.001, probes: 0, ..Default::default() }).unwrap());
+        let unprobed = frame_coverage(&render(&scene, &camera, &RenderParams { probes: 0, ..Default::default() }).unwrap());
+        let probed = frame_coverage(&render(&scene, &camera, &RenderParams::default()).unwrap());
+        let covered = truth.iter().filter(|c| **c).count();
+        assert!(covered > 400, "the strands cover {covered} pixels");
+        let (before, now) = (iou(&truth, &unprobed), iou(&truth, &probed));
+        eprintln!("strands: IoU against the fine march {before:.3} unprobed, {now:.3} probed");
+        assert!(before < 0.9, "the coarse step alone should miss strands: IoU {before}");
+        assert!(now >= 0.97, "probed IoU {now}");
+    }
+
+    #[test]
+    fn segment_bound_bounds_the_occupancy_along_the_segment() {
+        use thicket_core::test_rng::Rng;
+        // A noisy texture, and segments of up to two texels in random cells: the bound
+        // is never below the occupancy densely sampled along the segment, and where a
+        // segment is short it is close to it.
+        let mut rng = Rng(7);
+        let noise: Vec<f32> = (0..16 * 16 * 8).map(|_| rng.uniform() as f32).collect();
+        let texture = VolumeTexture::new([16, 16, 8], noise).unwrap();
+        let (scene, _) = sheet_scene(texture, 3.0, 8);
+        let marcher = Marcher::new(&scene, &RenderParams::default()).unwrap();
+        let (mut checked, mut tight) = (0, 0);
+        for _ in 0..2000 {
+            let c = rng.pick(scene.cells.len());
+            let u = rng.range(0.0, 0.9) as f32;
+            let v = rng.range(0.0, 0.9 - u as f64) as f32;
+            let qa = Vec3::new(u, v, rng.uniform() as f32);
+            let qb = (qa + Vec3::new(rng.range(-0.05, 0.05) as f32, rng.range(-0.05, 0.05) as f32, rng.range(-0.2, 0.2) as f32)).clamp(Vec3::ZERO, Vec3::ONE);
+            let bound = marcher.segment_bound(c, qa, qb);
+            let largest = (0..=200).map(|k| scene.occupancy(c, qa + (qb - qa) * (k as f32 / 200.0))).fold(0.0f32, f32::max);
+            if bound < 1.0 {
+                // At 0.5 the search stops: the probe asks no more.
+                assert!(bound >= largest.min(0.5) - 1e-5, "bound {bound} under the occupancy {largest}");
+                checked += 1;
+                tight += usize::from(bound - largest < 0.2);
+            }
+        }
+        assert!(checked > 1000 && tight > checked / 2, "{checked} bounded, {tight} within 0.2");
+    }
+
+    #[test]
+    fn exit_fraction_stops_on_the_cell_boundary() {
+        let inside = Vec3::new(0.2, 0.3, 0.5);
+        // Out through u + v = 1, through r = 0, and not out at all.
+        assert!((exit_fraction(3, inside, Vec3::new(0.7, 0.8, 0.5)) - 0.5).abs() < 1e-6);
+        assert!((exit_fraction(3, inside, Vec3::new(0.2, 0.3, -0.5)) - 0.5).abs() < 1e-6);
+        assert_eq!(exit_fraction(3, inside, Vec3::new(0.3, 0.3, 0.6)), 1.0);
+        // A quad cell: out through u = 1.
+        assert!((exit_fraction(4, inside, Vec3::new(1.8, 0.3, 0.5)) - 0.5).abs() < 1e-6);
     }
 
     #[test]
