@@ -155,3 +155,21 @@ def test_regenerate_drops_the_build_in_flight(scene):
     auto_update.wait()
     np.testing.assert_array_equal(positions(monkey.thicket.result), written)
     np.testing.assert_array_equal(written, _synchronous(monkey))
+
+
+def test_animation_renders_regenerate_per_frame_only_with_the_interface_locked(scene):
+    """In the interface the frame-change handler runs on the render thread during an
+    animation render: results are regenerated there only with Lock Interface on, and
+    the panel says so for a source that changes with the frame."""
+    obj = add("cube")
+    assert auto_update.animation_render_hint(obj, scene, background=False) == ""  # no stack
+    item = api.add_detail_item(obj, detail_model="TENTACLE", levels=1)
+    assert auto_update.animation_render_hint(obj, scene, background=False) == ""  # still
+    item.follow_frame = True
+    item.detail_spin = 1.0
+    scene.render.use_lock_interface = False
+    assert "Lock Interface" in auto_update.animation_render_hint(obj, scene, background=False)
+    assert auto_update.animation_render_hint(obj, scene) == ""  # background: renders run here
+    scene.render.use_lock_interface = True
+    assert auto_update.animation_render_hint(obj, scene, background=False) == ""
+    assert not auto_update.renders_each_frame(scene)  # no render running

@@ -221,8 +221,29 @@ def on_frame_change(scene, depsgraph=None):
     for obj in scene.objects:
         if _is_source(obj) and (obj.animation_data is not None or any(i.follows_frame() for i in obj.thicket.items)):
             schedule(obj)
-    if bpy.app.is_job_running("RENDER"):
+    if renders_each_frame(scene):
         flush()  # the frame renders next: its results now, not after a debounce
+
+
+def renders_each_frame(scene) -> bool:
+    """Whether an animation render in progress can regenerate each frame's results in
+    the frame-change handler: in background renders, and in the interface only with
+    Render > Lock Interface, since the handler then runs on the render thread and the
+    interface must not touch the data it writes. Without the lock, results follow by
+    the debounce as before (the panel says so: `animation_render_hint`)."""
+    return bpy.app.is_job_running("RENDER") and (bpy.app.background or scene.render.use_lock_interface)
+
+
+def animation_render_hint(obj, scene, background=None) -> str:
+    """The panel's advice for a source whose result changes with the frame, when an
+    animation render in the interface would not get each frame's result (`background`:
+    whether Blender runs without one, `bpy.app.background` when None)."""
+    background = bpy.app.background if background is None else background
+    if background or scene is None or scene.render.use_lock_interface or not _is_source(obj):
+        return ""
+    if obj.animation_data is None and not any(i.follows_frame() for i in obj.thicket.items):
+        return ""
+    return "Animation renders get each frame's result with Render > Lock Interface on"
 
 
 @persistent

@@ -1,5 +1,7 @@
 """Draws one stack item's settings (shared by the Properties and sidebar panels)."""
 
+import bpy
+
 from ..mesh_io import multires_modifier
 from ..pure.kinds.procedural_detail import API_NAMES, MODEL_SETTINGS
 from ..stack import auto_update
@@ -175,6 +177,9 @@ def draw_status(layout, obj):
         box = layout.box()
         _wrapped(box.column(align=True), f"{stack.source_crossings:,} faces of the source cross the source itself; the shell keeps those crossings", "ERROR")
         box.operator("thicket.select_crossings", icon="RESTRICT_SELECT_OFF")
+    hint = auto_update.animation_render_hint(obj, bpy.context.scene)
+    if hint:
+        _wrapped(layout.column(align=True), hint, "RENDER_ANIMATION")
     if stack.result is not None:
         layout.label(text=f"Result: {stack.result.name}", icon="OUTLINER_OB_MESH")
 
