@@ -100,7 +100,8 @@ def crossing_faces(obj):
 def add_item(obj, kind="OFFSET_SHELL", **settings):
     """Appends a stack item of `kind` with the given settings (names of `ThicketItem`;
     a former name, e.g. `layers` or `texture_layers`, works with a DeprecationWarning
-    for one release)."""
+    for one release). A name that is no `ThicketItem` property raises TypeError and
+    adds nothing."""
     _require_mesh(obj)
     cls = S.KINDS[kind]
     from .stack.guard import suspended

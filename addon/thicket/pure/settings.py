@@ -174,9 +174,12 @@ class ProceduralDetail(_Item):
     risen by `sea_rate` and `snow_rate` times it.
 
     `use_sculpt`: the item starts from the source's Multires sculpt (section 2): the
-    stack reads the sculpt's fitted coarse mesh as the source and sets `sculpt` (the
-    analysis, `thicket_native.analyze`'s dict plus `levels`), whose details are added
-    at their levels under the model's; `sculpt_notes` are passed on to the user.
+    stack reads the object's own base mesh as the source and sets `sculpt`, the sculpt
+    as read from Blender (`procedural_detail_sculpt.Sculpt`, analysed in the
+    evaluation, or from its cache) or an analysis already made (`thicket_native.analyze`'s
+    dict plus `levels`); the analysis' fitted coarse mesh replaces the source and its
+    details are added at their levels under the model's; `sculpt_notes` are passed on
+    to the user.
     Without `sculpt` (no Multires on the source) the item works as without it.
     """
 
@@ -217,7 +220,7 @@ class ProceduralDetail(_Item):
     sea_rate: float = 0.0
     snow_rate: float = 0.0
     use_sculpt: bool = False
-    sculpt: dict | None = field(default=None, compare=False, repr=False)
+    sculpt: "Sculpt | dict | None" = field(default=None, compare=False, repr=False)  # noqa: F821 (pure.kinds.procedural_detail_sculpt)
     sculpt_notes: tuple = ()
 
     def vertex_groups(self):

@@ -157,6 +157,8 @@ class Sculpt:
             return self.ready
         tn = native.get()
         try:
+            if progress is not None and progress(0.0) is False:
+                raise tn.Cancelled("cancelled")  # before the match, which has no checks of its own
             order = self.order
             if order is None:
                 if self.numbering is None:

@@ -228,21 +228,32 @@ fn a_cancel_stops_the_analysis_at_its_next_check() {
     let base = testmeshes::icosphere(2);
     let levels = 4;
     let fine = sculpted(&base, levels, 0.005);
-    let progress = crate::progress::Progress::default();
-    let (result, at_cancel) = std::thread::scope(|s| {
-        let canceller = s.spawn(|| {
-            while progress.fraction() < 0.2 {
-                std::thread::yield_now();
-            }
-            progress.cancel();
-            progress.fraction()
+    // The canceller is another thread: on a loaded machine it may first run after the
+    // analysis ended (then nothing was cancelled, and the run is tried again).
+    let mut cancelled = 0;
+    for _ in 0..5 {
+        let progress = crate::progress::Progress::default();
+        let (result, at_cancel) = std::thread::scope(|s| {
+            let canceller = s.spawn(|| {
+                while progress.fraction() < 0.2 {
+                    std::thread::yield_now();
+                }
+                progress.cancel();
+                progress.fraction()
+            });
+            let result = analyze_positions_watched(fine.positions().to_vec(), &base, levels, Some(&progress));
+            (result, canceller.join().unwrap())
         });
-        let result = analyze_positions_watched(fine.positions().to_vec(), &base, levels, Some(&progress));
-        (result, canceller.join().unwrap())
-    });
-    assert_eq!(result.unwrap_err(), Error::Cancelled);
-    // At most the stage under way when it was asked (the finest fit: under half the work) goes on.
-    assert!(progress.fraction() < at_cancel + 0.5, "stopped at {}, cancelled at {at_cancel}", progress.fraction());
+        if result.is_ok() && at_cancel >= 1.0 {
+            continue; // asked after the end
+        }
+        assert_eq!(result.unwrap_err(), Error::Cancelled);
+        // At most the stage under way when it was asked (the finest fit: under half the work) goes on.
+        assert!(progress.fraction() < at_cancel + 0.5, "stopped at {}, cancelled at {at_cancel}", progress.fraction());
+        cancelled += 1;
+        break;
+    }
+    assert_eq!(cancelled, 1, "no run was cancelled while under way");
     // Cancelled before it starts: nothing done.
     let early = crate::progress::Progress::default();
     early.cancel();
