@@ -60,13 +60,24 @@ pub fn segment_meets_box(a: DVec3, b: DVec3, inv: DVec3, lo: DVec3, hi: DVec3) -
 }
 
 /// The span `[t0, t1]` of the ray `origin + t dir`, `t ∈ [0, t_far]`, inside the box
-/// `[lo, hi]` (slab test; `inv` is `1 / dir`), if it meets it.
+/// `[lo, hi]` (slab test; `inv` is `1 / dir`), if it meets it. An axis the ray runs
+/// parallel to is decided by the origin alone, as in [`segment_meets_box`]: the slab
+/// formula's `0 · ∞` would be NaN there, and a ray in a box's face plane (axis-aligned
+/// meshes) would miss the box.
 #[inline]
 fn ray_span(origin: DVec3, inv: DVec3, t_far: f64, lo: DVec3, hi: DVec3) -> Option<(f64, f64)> {
-    let a = (lo - origin) * inv;
-    let b = (hi - origin) * inv;
-    let t0 = a.min(b).max_element().max(0.0);
-    let t1 = a.max(b).min_element().min(t_far);
+    let (mut t0, mut t1) = (0.0f64, t_far);
+    for k in 0..3 {
+        if inv[k].is_infinite() {
+            if origin[k] < lo[k] || origin[k] > hi[k] {
+                return None;
+            }
+        } else {
+            let (a, b) = ((lo[k] - origin[k]) * inv[k], (hi[k] - origin[k]) * inv[k]);
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        }
+    }
     (t0 <= t1).then_some((t0, t1))
 }
 
@@ -627,6 +638,28 @@ mod tests {
         let empty = Bvh::from_boxes(Vec::new());
         assert!(empty.is_empty() && !empty.any(DVec3::ZERO, DVec3::ONE, |_| true));
         assert!(!empty.any_on_ray(DVec3::ZERO, DVec3::X, 1.0, |_, _, _| true));
+    }
+
+    #[test]
+    fn a_ray_in_a_box_face_plane_meets_the_box() {
+        // Boxes with a face in the plane x = 1 (an axis-aligned mesh's face; one box on
+        // each side of it): a ray along z in that plane crosses both.
+        let tris = [
+            [DVec3::new(1.0, -1.0, 2.0), DVec3::new(1.0, 1.0, 2.0), DVec3::new(2.0, 0.0, 3.0)],
+            [DVec3::new(1.0, -1.0, 5.0), DVec3::new(1.0, 1.0, 5.0), DVec3::new(0.0, 0.0, 6.0)],
+        ];
+        let boxes: Vec<_> = tris.iter().map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))).collect();
+        let tree = Bvh::from_boxes(boxes);
+        let (o, d) = (DVec3::new(1.0, 0.0, 0.0), DVec3::Z);
+        let mut found = Vec::new();
+        tree.query_ray(o, d, 10.0, |i, t0, t1| found.push((i, t0, t1)));
+        found.sort_by_key(|f| f.0);
+        assert_eq!(found, vec![(0, 2.0, 3.0), (1, 5.0, 6.0)]);
+        // Beside both boxes, nothing.
+        assert!(!tree.any_on_ray(DVec3::new(2.0 + 1e-6, 0.0, 0.0), d, 10.0, |_, _, _| true));
+        // The nearest hit: the ray enters triangle 0's box at t = 2 (a crossing on its edge).
+        let first = tree.first_on_ray(o, d, 10.0, |j| Some([2.0, 5.0][j as usize]));
+        assert_eq!(first, Some((0, 2.0)));
     }
 
     #[test]
