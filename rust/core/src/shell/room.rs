@@ -198,9 +198,9 @@ mod tests {
         let before = shell.clone();
         let stopped = stop_at_room(&checker, &mesh, &mut shell, None);
         let (mut left, mut right, mut pairs) = (0, 0, 0);
-        for v in 0..p.len() {
+        for (v, pv) in p.iter().enumerate() {
             let d = before.directors[v].as_dvec3();
-            let (o, dir, len) = (p[v].as_dvec3(), d.normalize(), d.length());
+            let (o, dir, len) = (pv.as_dvec3(), d.normalize(), d.length());
             let vi = v as u32;
             let hit = checker.base_bvh.first_on_ray(o, dir, 2.0 * len, |j| {
                 (!checker.tris[j as usize].contains(&vi)).then(|| ray_triangle(o, dir, &checker.base[j as usize])).flatten()
@@ -210,7 +210,7 @@ mod tests {
                 continue;
             }
             let (j, h) = hit.expect("a stopped director met the surface");
-            if p[v].x < 0.0 {
+            if pv.x < 0.0 {
                 left += 1;
                 assert!(now >= (0.5 * MARGIN * h).min(len) * (1.0 - 1e-5), "vertex {v}: {now} of {len}, gap {h}");
             } else {
