@@ -186,7 +186,7 @@ impl Tracked {
         for (&v, t) in dirty.iter().zip(fresh) {
             self.traces[v as usize] = t;
         }
-        let (mut seeds, held) = self.reset_repaired(&dirty);
+        let (mut seeds, held, traced) = self.reset_repaired(&dirty);
         let resettled = seeds.len();
         let reset = seeds.clone();
         let flipped = if retriangulated {
@@ -205,9 +205,10 @@ impl Tracked {
         let reach = self.shell.base_offset.iter().zip(&self.shell.directors).map(|(b, d)| (b.length() + d.length()) as f64).fold(0.0, f64::max);
         seeds.extend(self.checker.cells_near_probes(&self.mesh, &moved, &flipped, reach));
         if self.params.medial_stop && self.params.repair_rounds > 0 {
-            // The reset directors are bounded as a build bounds them (the others keep
-            // their bound or repair).
-            super::room::stop_at_room(&self.checker, &self.mesh, &mut self.shell, Some(&reset));
+            // The reset directors are bounded as a build bounds them, the facing
+            // sides' reach measured on their traced directors (the others keep their
+            // bound or repair).
+            super::room::stop_at_room(&self.checker, &self.mesh, &mut self.shell, Some((&reset, &traced)));
         }
         let repair = Repair { held: Some(&held), ..Repair::for_build(&self.checker, &self.mesh, &self.tracer.normals, self.params.repair_rounds, None) };
         self.shell.check = repair.settle(&mut self.outer_bvh, &mut self.shell, Some(&seeds));
@@ -349,7 +350,7 @@ impl Tracked {
     /// from 130 to 14-19 ms, but left Suzanne and bunny updates 6-7 vertices more than
     /// a quarter of the thickness from a rebuild's in the Python suite, where 3 are
     /// allowed.)
-    fn reset_repaired(&mut self, retraced: &[u32]) -> (Vec<u32>, Vec<bool>) {
+    fn reset_repaired(&mut self, retraced: &[u32]) -> (Vec<u32>, Vec<bool>, Vec<Vec3>) {
         let raw = assemble(&self.mesh, &self.thickness, self.side, &self.traces);
         let repaired = |v: usize| self.shell.directors[v] != raw.directors[v] || self.shell.base_offset[v] != raw.base_offset[v];
         let mut reset = vec![false; self.mesh.vertex_count()];
@@ -391,7 +392,7 @@ impl Tracked {
             self.shell.achieved[v] = raw.achieved[v];
         }
         self.shell.target = raw.target;
-        (seeds, held)
+        (seeds, held, raw.directors)
     }
 
     /// Moved base triangles can cross skin triangles no retraced director touches:
