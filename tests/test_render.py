@@ -174,11 +174,20 @@ def test_render_errors_are_clear(scene, tmp_path):
         api.render_preview(sphere, width=0, height=8)
 
 
+def _frame(overlay, handle, frame, settings, want="frame"):
+    """One frame of `handle` rendered for a view as the overlay's timer renders it (on
+    the worker machinery, `overlay.start_render`), waited for: the view."""
+    view = overlay.View(id(handle))
+    overlay._state["views"][view.session_uid] = view
+    view.want = want
+    overlay.start_render(view, handle, frame, settings)
+    overlay.wait()
+    return view
+
+
 def test_live_preview_worker_renders_off_the_main_thread(scene, tmp_path):
     # The overlay's own pieces (drawing needs a window): the cached preparation and
-    # the worker that calls the renderer with the GIL released.
-    import threading
-
+    # the render build that calls the renderer with the GIL released.
     from thicket.render import overlay
 
     sphere = slab_sphere(tmp_path)
@@ -186,17 +195,18 @@ def test_live_preview_worker_renders_off_the_main_thread(scene, tmp_path):
     key, handle = overlay._prepared(sphere)
     view = np.array(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, -6), (0, 0, 0, 1)), np.float32)  # looking along +y from y = -6
     projection = np.array(((2, 0, 0, 0), (0, 2, 0, 0), (0, 0, -1.02, -0.2), (0, 0, -1, 0)), np.float32)
-    camera, settings = (view, projection, 40, 30), dict(method="reference")
-    state = {"busy": True, "result": None, "want": "this render"}
-    worker = threading.Thread(target=overlay._work, args=(state, "this render", handle, camera, settings))
-    worker.start()
-    worker.join(60)
-    assert not state["busy"] and state["result"].shape == (30, 40, 4)
-    assert (state["result"][:, :, 3] > 0.5).mean() > 0.1
-    # A render the view no longer wants (it moved on) stops and leaves no image.
-    stale = {"busy": True, "result": None, "want": "the view moved", "key": "old"}
-    overlay._work(stale, "old", handle, camera, settings)
-    assert not stale["busy"] and stale["result"] is None and stale["key"] is None
+    frame, settings = (view, projection, 40, 30), dict(method="reference")
+    shown = _frame(overlay, handle, frame, settings, want="this render")
+    assert shown.key == "this render" and shown.result.shape == (30, 40, 4)
+    assert (shown.result[:, :, 3] > 0.5).mean() > 0.1
+    # A render the view no longer wants (it moved on) is dropped and leaves no image.
+    stale = overlay.View(-1)
+    overlay._state["views"][stale.session_uid] = stale
+    stale.want = "old"
+    overlay.start_render(stale, handle, frame, settings)
+    stale.want = "the view moved"
+    overlay.wait()
+    assert stale.result is None and stale.key is None
 
 
 def test_live_preview_keeps_one_native_handle_until_the_content_changes(scene, tmp_path):
@@ -216,9 +226,7 @@ def test_live_preview_keeps_one_native_handle_until_the_content_changes(scene, t
     for _ in range(2):  # frame after frame, the same handle
         again, same = overlay._prepared(sphere)
         assert again == key and same is handle, "unchanged content: the same handle"
-        state = {"busy": True, "result": None, "want": "frame"}
-        overlay._work(state, "frame", same, (view, projection, 40, 30), dict(method="reference"))
-        frames.append(state["result"])
+        frames.append(_frame(overlay, same, (view, projection, 40, 30), dict(method="reference")).result)
     np.testing.assert_array_equal(frames[0], frames[1])
     # What render_shell draws from the same arrays and settings, every frame anew.
     setup = render_setup_of(sphere)

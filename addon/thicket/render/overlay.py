@@ -3,22 +3,29 @@ native renderer from each 3D view's angle and drawn over it (chapter 5: seen wit
 baking). A timer watches the views and what is shown; when either changes (the view,
 the object's placement, its stack settings, or anything that changes its result: mesh
 edits, modifiers, vertex groups, a cutter object), it is rendered again (at most every
-THROTTLE seconds, at half resolution) on a worker thread — the native call releases
-the GIL — so the interface never waits for it."""
+THROTTLE seconds, at half resolution).
 
-import threading
+Only reading Blender and drawing run on the main thread. The heavy parts run on the
+stack's worker machinery (`stack.live_build`): the preparation (the stack's items
+before the drawn one, shells included, and the native handle: `prepare_work`) as one
+build per source, and each view's frame as one build per view. A newer change cancels
+the build in flight, a result is kept only while its source (or view) still reads as
+when its build started, `progress()` says how far the builds are (drawn in the view,
+shown on the sidebar's button) and the timer that writes the results redraws the 3D
+views."""
+
 import time
 
 import bpy
 import numpy as np
 
-from ..pure import native
+from ..stack.live_build import Build, Builds, by_uid
 from . import camera, lights
 
 THROTTLE = 0.25
 SCALE = 0.5
 
-_state = {"handle": None, "views": {}, "prepared": None, "error": "", "note": "", "generation": 0}
+_state = {"handle": None, "views": {}, "prepared": None, "error": "", "note": "", "generation": 0, "failed": None, "started": 0.0}
 
 
 def is_enabled():
@@ -37,7 +44,8 @@ def disable():
     if _state["handle"] is not None:
         bpy.types.SpaceView3D.draw_handler_remove(_state["handle"], "WINDOW")
     unwatch()
-    _state.update(handle=None, views={}, prepared=None, error="", note="")
+    cancel()
+    _state.update(handle=None, views={}, prepared=None, error="", note="", failed=None)
     if bpy.app.timers.is_registered(_tick):
         bpy.app.timers.unregister(_tick)
     _redraw_all()
@@ -56,15 +64,33 @@ def on_depsgraph_update(scene, depsgraph):
         _state["generation"] += 1
 
 
+@bpy.app.handlers.persistent
+def on_undo_pre(*_args):
+    """An undo, a redo or a file load replaces the data the builds in flight read:
+    they are dropped (the next tick prepares what the view shows then)."""
+    cancel()
+
+
+#: The handlers `watch` adds: the depsgraph's, and those that drop builds in flight.
+HANDLERS = (
+    (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
+    (bpy.app.handlers.undo_pre, on_undo_pre),
+    (bpy.app.handlers.redo_pre, on_undo_pre),
+    (bpy.app.handlers.load_pre, on_undo_pre),
+)
+
+
 def watch():
     """Follows changes of every stack's result (`generation`), for the preview."""
-    if on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
-        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
+    for handlers, fn in HANDLERS:
+        if fn not in handlers:
+            handlers.append(fn)
 
 
 def unwatch():
-    if on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
-        bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
+    for handlers, fn in HANDLERS:
+        if fn in handlers:
+            handlers.remove(fn)
 
 
 def generation():
@@ -95,7 +121,7 @@ def content_key(obj):
 def _redraw_all():
     for window in getattr(bpy.context.window_manager, "windows", ()):
         for area in window.screen.areas:
-            if area.type == "VIEW_3D":
+            if area.type in {"VIEW_3D", "PROPERTIES"}:
                 area.tag_redraw()
 
 
@@ -105,36 +131,192 @@ def _source():
     return active_stack_source(bpy.context)
 
 
-def _prepared(obj):
-    """(key, native handle) of `obj` (a `thicket_native.TexturedShell` for a Volumetric
-    Texture; the drawn kind's `draw_setup` says): one handle, rendered frame after
-    frame, made again only when its `content_key` changed (the shell, the native
-    read and checks, and the renderers' scene, which the handle makes on its first
-    frame and keeps, are the expensive parts)."""
-    from ..pure.evaluate import render_setup
+def _error_text(exc):
+    from ..operators.common import error_text
+
+    return error_text(exc)
+
+
+def _failed(owner, exc):
+    """A build's error, shown in the view; what it shows stays as it was."""
+    _state["error"] = _error_text(exc)
+
+
+# --- The preparation: one build per source -------------------------------------------
+
+
+def prepare_inputs(obj):
+    """What preparing `obj` reads from Blender (main thread): (content key, source
+    arrays, enabled items' settings), as a regeneration reads them (a Procedural
+    Detail's sculpt included)."""
     from ..stack.guard import suspended
     from ..stack.regenerate import enabled_settings, read_source
 
-    items = enabled_settings(obj)
+    key = content_key(obj)
+    with suspended():
+        source, items = read_source(obj, bpy.context.evaluated_depsgraph_get(), enabled_settings(obj))
+    return key, source, items
+
+
+def prepare_work(source, items, progress=None):
+    """The native handle the views render frame after frame (any thread, no bpy): a
+    `thicket_native.TexturedShell` for a Volumetric Texture (the drawn kind's
+    `draw_setup` says), after the items before it (their shells are the expensive part,
+    with the handle's checks of its arrays). `progress`: as `evaluate_stack`'s."""
+    from ..pure.evaluate import render_setup
+
+    return render_setup(source, items, progress).handle()
+
+
+def _prepared_lands(obj, build, handle):
+    _state["prepared"] = (build.extra, handle)
+    _state["error"] = ""
+
+
+def _preparation_failed(obj, exc):
+    """Shown in the view; not tried again until `obj`'s content changes (the build
+    only fails while it still reads as it did, so its content is the failed one)."""
+    _state["failed"] = content_key(obj)
+    _failed(obj, exc)
+
+
+_preparations = Builds(lambda uid: by_uid(bpy.data.objects, uid), _prepared_lands, _preparation_failed, exclusive=True, on_poll=_redraw_all)
+
+
+def start_prepare(obj):
+    """Prepares `obj` on a worker (`prepare_work`), its inputs read here; the timer
+    keeps the handle once it is done, while `obj`'s content still reads the same.
+    Cancels the preparation in flight (this one starts once that cancel landed). An
+    unreadable source shows its error at once."""
+    uid = obj.session_uid
+
+    def starter():
+        source_obj = by_uid(bpy.data.objects, uid)
+        if source_obj is None:
+            return None
+        try:
+            key, source, items = prepare_inputs(source_obj)
+        except Exception as exc:  # noqa: BLE001 - also run by the timer, which must never raise
+            _preparation_failed(source_obj, exc)
+            return None
+        return Build(source_obj, content_key, lambda job: prepare_work(source, items, job.progress), key)
+
+    _preparations.start(obj, starter)
+
+
+def _prepared(obj):
+    """(key, native handle) of `obj`, made now on this thread when its content changed
+    since the handle kept (scripts and tests; the interface uses `start_prepare`)."""
     key = content_key(obj)
     cached = _state["prepared"]
     if cached is None or cached[0] != key:
-        with suspended():
-            # As a regeneration reads it (a Procedural Detail's sculpt included).
-            source, items = read_source(obj, bpy.context.evaluated_depsgraph_get(), items)
-        _state["prepared"] = (key, render_setup(source, items).handle())
+        key, source, items = prepare_inputs(obj)
+        _state["prepared"] = (key, prepare_work(source, items))
     return _state["prepared"]
 
 
+# --- The frames: one build per view --------------------------------------------------
+
+
+class View:
+    """One 3D view's preview: the key it wants shown (`want`: view, size, placement,
+    content), the key of the image it shows (`key`), when its last render started, the
+    image waiting to be uploaded (`result`, rows from the top) and its GPU texture.
+    Named by its area's pointer (`session_uid`, as `Builds` names owners)."""
+
+    def __init__(self, uid):
+        self.session_uid = uid
+        self.want = self.key = self.result = self.texture = None
+        self.last = 0.0
+
+
+def _wanted(view):
+    return view.want
+
+
+def _rendered(view, build, out):
+    view.result, view.key = out["rgba"], build.extra
+    _state["error"], _state["note"] = "", out["fallback"]
+
+
+_renders = Builds(lambda uid: _state["views"].get(uid), _rendered, _failed, on_poll=_redraw_all)
+
+
+def start_render(view, handle, frame, settings):
+    """Renders `handle` for `view` from `frame` (view matrix, projection, width,
+    height) with the frame `settings` on a worker; the timer keeps the image once it is
+    done, while the view still wants the key it wanted at the start (`view.want`).
+    Cancels the view's render in flight."""
+    _renders.start(view, lambda: Build(view, _wanted, lambda job: handle.render(*frame, **settings, progress=job.progress), view.want))
+
+
+def refresh(obj, views, now=None):
+    """One look at `obj`'s preview from `views`, (uid, width, height, RegionView3D)
+    of each 3D view at its preview's size: prepares `obj` when its content changed
+    (the views keep showing their last images meanwhile), cancels the renders the
+    views no longer want, and starts one for each view whose image is not what it wants
+    (at most every THROTTLE seconds). Returns the `View`s, for their uploads."""
+    now = time.monotonic() if now is None else now
+    content, placed = content_key(obj), tuple(map(tuple, obj.matrix_world))
+    prepared = _state["prepared"]
+    ready = prepared is not None and prepared[0] == content
+    preparing = _preparations.builds.get(obj.session_uid)
+    if preparing is not None and preparing.extra != content:
+        _preparations.cancel(obj)  # a newer change: the next start prepares it
+    if not ready and not _preparations.running(obj) and _state["failed"] != content and now - _state["started"] >= THROTTLE:
+        _state.update(started=now, failed=None)
+        start_prepare(obj)
+    out = []
+    for uid, width, height, r3d in views:
+        view = _state["views"].get(uid)
+        if view is None:
+            view = _state["views"][uid] = View(uid)
+        view.want = (tuple(map(tuple, r3d.view_matrix)), tuple(map(tuple, r3d.window_matrix)), width, height, placed, content)
+        out.append(view)
+        rendering = _renders.builds.get(uid)
+        if rendering is not None and rendering.extra != view.want:
+            _renders.cancel(view)  # the view moved on: a newer render starts below
+        if not ready or view.key == view.want or _renders.running(view) or now - view.last < THROTTLE:
+            continue
+        try:
+            v, p = camera.viewport_camera(r3d, obj)
+            light = lights.scene_light(bpy.context.evaluated_depsgraph_get(), obj)
+        except Exception as exc:  # noqa: BLE001 - shown in the view; never raised into Blender's loop
+            _state["error"] = _error_text(exc)
+            continue
+        view.last = now
+        start_render(view, prepared[1], (v, p, width, height), dict(light=light))
+    return out
+
+
+def progress():
+    """How far the preview's builds in flight are (0 to 1; the preparation, else the
+    slowest frame), None when none runs (the view's text, the sidebar's button)."""
+    fractions = [b.job.fraction for b in _preparations.builds.values()] or [b.job.fraction for b in _renders.builds.values()]
+    return min(fractions) if fractions else None
+
+
+def cancel():
+    """Drops every build in flight: their results are never kept."""
+    _preparations.cancel()
+    _renders.cancel()
+
+
+def wait(timeout=60.0):
+    """Waits for the builds in flight and keeps their results (tests, scripts)."""
+    _preparations.wait(timeout)
+    _renders.wait(timeout)
+
+
 def _tick():
-    """Starts a render for every 3D view whose angle changed; returns the next delay."""
+    """The timer: `refresh` from every 3D view, uploading the images that landed;
+    returns the next delay."""
     if not is_enabled():
         return None
     obj = _source()
     if obj is None:
         return 0.5
-    now = time.monotonic()
-    placed, content = tuple(map(tuple, obj.matrix_world)), content_key(obj)
+    areas, views = {}, []
     for window in bpy.context.window_manager.windows:
         for area in window.screen.areas:
             if area.type != "VIEW_3D":
@@ -143,53 +325,35 @@ def _tick():
             r3d = area.spaces.active.region_3d
             if region is None or r3d is None or region.width < 2 or region.height < 2:
                 continue
-            view = _state["views"].setdefault(area.as_pointer(), {"key": None, "busy": False, "last": 0.0, "result": None, "texture": None})
-            width, height = max(1, int(region.width * SCALE)), max(1, int(region.height * SCALE))
-            key = (tuple(map(tuple, r3d.view_matrix)), tuple(map(tuple, r3d.window_matrix)), width, height, placed, content)
-            view["want"] = key  # a render for another key stops (see `_work`)
-            if view["result"] is not None:
-                _upload(view)
-                area.tag_redraw()
-            if view["busy"] or (key == view["key"] and _state["prepared"] is not None) or now - view["last"] < THROTTLE:
-                continue
-            try:
-                _, handle = _prepared(obj)
-                v, p = camera.viewport_camera(r3d, obj)
-                light = lights.scene_light(bpy.context.evaluated_depsgraph_get(), obj)
-            except Exception as exc:  # shown in the view; never raised into Blender's loop
-                _state["error"] = str(exc)
-                area.tag_redraw()
-                continue
-            view.update(key=key, busy=True, last=now)
-            threading.Thread(target=_work, args=(view, key, handle, (v, p, width, height), dict(light=light)), daemon=True).start()
-    return 0.1
-
-
-def _work(view, key, handle, camera, settings):
-    """Renders a frame of `handle` (a `thicket_native.TexturedShell`) for `key` from
-    `camera` (view, projection, width, height) with the frame `settings`; stops
-    (keeping the last image) once the view wants another."""
-    tn = native.get()
+            areas[area.as_pointer()] = area
+            views.append((area.as_pointer(), max(1, int(region.width * SCALE)), max(1, int(region.height * SCALE)), r3d))
     try:
-        out = handle.render(*camera, **settings, progress=lambda _: view.get("want") == key)
-        view["result"] = out["rgba"]
-        _state["error"], _state["note"] = "", out["fallback"]
-    except tn.Cancelled:
-        view["key"] = None  # rendered again for what the view wants now
-    except Exception as exc:  # reported in the view
-        _state["error"] = str(exc)
-    finally:
-        view["busy"] = False
+        for view in refresh(obj, views):
+            if view.result is not None:
+                _upload(view)
+                areas[view.session_uid].tag_redraw()
+    except Exception as exc:  # noqa: BLE001 - a timer that raises is unregistered by Blender
+        _state["error"] = _error_text(exc)
+    return 0.1
 
 
 def _upload(view):
     import gpu
 
-    rgba = view.pop("result")
-    view["result"] = None
+    rgba, view.result = view.result, None
     h, w = rgba.shape[:2]
     data = np.ascontiguousarray(rgba[::-1], dtype=np.float32).ravel()
-    view["texture"] = gpu.types.GPUTexture((w, h), format="RGBA16F", data=gpu.types.Buffer("FLOAT", data.size, data))
+    view.texture = gpu.types.GPUTexture((w, h), format="RGBA16F", data=gpu.types.Buffer("FLOAT", data.size, data))
+
+
+def status_line():
+    """The text drawn in the view: the error, else the progress, else the renderer's note."""
+    if _state["error"]:
+        return f"Thicket preview: {_state['error']}"
+    fraction = progress()
+    if fraction is not None:
+        return f"Thicket preview: {'preparing' if _preparations.builds else 'rendering'}... {fraction:.0%}"
+    return f"Thicket preview ({_state['note']})" if _state["note"] else ""
 
 
 def _draw():
@@ -200,17 +364,17 @@ def _draw():
     area = bpy.context.area
     view = _state["views"].get(area.as_pointer()) if area else None
     region = bpy.context.region
-    if view is not None and view.get("texture") is not None:
+    if view is not None and view.texture is not None:
         shader = gpu.shader.from_builtin("IMAGE")
         w, h = region.width, region.height
         batch = batch_for_shader(shader, "TRI_FAN", {"pos": ((0, 0), (w, 0), (w, h), (0, h)), "texCoord": ((0, 0), (1, 0), (1, 1), (0, 1))})
         gpu.state.blend_set("ALPHA")
         shader.bind()
-        shader.uniform_sampler("image", view["texture"])
+        shader.uniform_sampler("image", view.texture)
         batch.draw(shader)
         gpu.state.blend_set("NONE")
-    line = _state["error"] or _state["note"]
+    line = status_line()
     if line:
         blf.position(0, 20, 30, 0)
         blf.size(0, 13)
-        blf.draw(0, f"Thicket preview: {line}" if _state["error"] else f"Thicket preview ({line})")
+        blf.draw(0, line)

@@ -22,7 +22,9 @@ class THICKET_PT_sidebar(bpy.types.Panel):
             col.operator("thicket.render_preview", icon="RENDER_STILL")
             from ..render import overlay
 
-            col.operator("thicket.live_preview", icon="HIDE_OFF", depress=overlay.is_enabled())
+            fraction = overlay.progress() if overlay.is_enabled() else None
+            text = "Live Preview" if fraction is None else f"Live Preview ({fraction:.0%})"  # its builds in flight
+            col.operator("thicket.live_preview", text=text, icon="HIDE_OFF", depress=overlay.is_enabled())
             col.operator("thicket.apply", icon="CHECKMARK")
             col.operator("thicket.remove", icon="X")
             draw_status(layout, obj)
