@@ -2,6 +2,8 @@
 interface's path; background mode regenerates at once, so the tests drive the worker
 path by hand and call what its timer calls: `auto_update.poll`/`wait`)."""
 
+import json
+
 import bpy
 import numpy as np
 from conftest import add, positions
@@ -209,3 +211,26 @@ def test_the_stale_check_keys_on_item_properties_and_reads_no_mesh(scene, monkey
     assert not np.array_equal(live, before)
     np.testing.assert_array_equal(live, _synchronous(sphere))
     assert len(reads) == 3
+
+
+def test_a_field_tree_or_text_edited_behind_the_build_makes_it_stale(scene):
+    """Edits of a field node tree or of a Text reach no depsgraph counter: the state
+    holds what they hold (the tree's JSON, the Text's digest), still no mesh."""
+    tree = bpy.data.node_groups.new("Texture Field", "ThicketFieldTree")
+    ball = tree.nodes.new("ThicketNodeSphere")
+    ball.center, ball.radius = (0.5, 0.5, 0.5), 0.3
+    tree.links.new(ball.outputs[0], tree.nodes.new("ThicketNodeOutput").inputs[0])
+    settings = dict(shell_thickness=0.1, texture_size=16, resolution=4, depth_steps=6, follow_texture=False, triangle_budget=0)
+    by_nodes, by_text = add("cube", size=2.0), add("cube", size=2.0, location=(3, 0, 0))
+    api.add_volumetric_texture(by_nodes, field_tree_json=tree, **settings)
+    text = bpy.data.texts.new("field")
+    text.write(json.dumps({"op": "sphere", "center": [0.5, 0.5, 0.5], "radius": 0.3}))
+    api.add_volumetric_texture(by_text, field_tree_json=text, **settings)
+    assert by_text.thicket.items[-1].tree_text == text
+    states = [auto_update.source_state(obj) for obj in (by_nodes, by_text)]
+    for obj in (by_nodes, by_text):
+        obj.thicket.auto_update = False
+    ball.radius = 0.15
+    text.clear()
+    text.write(json.dumps({"op": "sphere", "center": [0.5, 0.5, 0.5], "radius": 0.2}))
+    assert [auto_update.source_state(obj) != state for obj, state in zip((by_nodes, by_text), states)] == [True, True]
