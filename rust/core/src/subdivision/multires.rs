@@ -144,6 +144,9 @@ pub fn analyze_watched(fine: &Mesh, base_topology: &Mesh, levels: u32, progress:
     analyze_on(fine.positions(), &topology, base_topology, levels, &stages)
 }
 
+/// Vectors per parallel part of the fit's dot products (a fixed split: deterministic).
+const DOT_CHUNK: usize = 4096;
+
 /// A quad's corners from its least vertex, its winding kept.
 fn oriented_quad(q: &[u32]) -> [u32; 4] {
     let k = (0..4).min_by_key(|&i| q[i]).expect("four corners");
@@ -419,7 +422,12 @@ impl Step {
     fn fit(&self, fine: &[DVec3], stages: &Stages, weight: usize) -> Result<Vec<DVec3>> {
         let nv = self.cols.start.len() - 1;
         let normal = |x: &[DVec3]| self.cols.apply(&self.rows.apply(x));
-        let dot = |a: &[DVec3], b: &[DVec3]| a.par_iter().zip(b).map(|(a, b)| a.dot(*b)).sum::<f64>();
+        // Fixed chunks summed in order: the same sums, so the same fit, at any load
+        // (rayon's `sum` adds in whatever split work stealing made).
+        let dot = |a: &[DVec3], b: &[DVec3]| -> f64 {
+            let parts: Vec<f64> = a.par_chunks(DOT_CHUNK).zip(b.par_chunks(DOT_CHUNK)).map(|(a, b)| a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()).collect();
+            parts.iter().sum()
+        };
         let rhs = self.cols.apply(fine);
         let mut x = fine[..nv].to_vec();
         let ax = normal(&x);
