@@ -136,11 +136,17 @@ def test_native_checks_the_fine_faces_when_given():
     for m in (tn.analyze(*base, fine, 2, fine_corners=corners), tn.analyze(*base, fine, 2, fine_face_sizes=sizes, fine_corners=corners)):
         np.testing.assert_array_equal(m["vertices"], want["vertices"])
         assert all(np.array_equal(a, b) for a, b in zip(m["details"], want["details"]))
-    # Another numbering of the same quads (each quad's corners rotated by one) is refused
-    # and named; so are faces that are not quads, and sizes without corners.
-    rotated = np.roll(corners.reshape(-1, 4), 1, axis=1).ravel()
-    with pytest.raises(tn.InvalidInput, match="corner 0 .*numbered otherwise"):
-        tn.analyze(*base, fine, 2, fine_corners=rotated)
+    # The same quads in another order, each from another first corner (as Blender's
+    # renumbered sculpt has them), pass and change nothing.
+    shuffled = np.roll(corners.reshape(-1, 4), 1, axis=1)[::-1].ravel()
+    m = tn.analyze(*base, fine, 2, fine_corners=shuffled)
+    np.testing.assert_array_equal(m["vertices"], want["vertices"])
+    # Another numbering of the vertices (two swapped in the faces) is refused and named;
+    # so are faces that are not quads, and sizes without corners.
+    a, b = corners[0], corners[1]
+    renumbered = np.where(corners == a, b, np.where(corners == b, a, corners)).astype(np.int32)
+    with pytest.raises(tn.InvalidInput, match="is none of theirs .*numbered otherwise"):
+        tn.analyze(*base, fine, 2, fine_corners=renumbered)
     triangles = np.concatenate([corners[:-4], corners[-4:-1], corners[-4:][[0, 2, 3]]])
     with pytest.raises(tn.InvalidInput, match="has 3 corners"):
         tn.analyze(*base, fine, 2, fine_face_sizes=np.r_[sizes[:-1], 3, 3], fine_corners=triangles)

@@ -23,6 +23,7 @@ from thicket import api, mesh_io, sculpt
 from thicket.operators.regenerate import watched_regeneration
 from thicket.pure.evaluate import evaluate_stack
 from thicket.pure.kinds.procedural_detail import ANALYSIS_SHARE
+from thicket.pure.kinds.procedural_detail_sculpt import MATCH_SHARE
 from thicket.stack.guard import suspended
 from thicket.stack.regenerate import read_source
 
@@ -434,9 +435,11 @@ def test_the_analysis_runs_in_the_evaluation_with_progress_and_cancel(scene):
     source, items = read_source(obj)
     # Blender is read (the cage, the sculpt, the numbering's positions), nothing analysed.
     assert sculpt.analyses == analysed and sculpt.numberings == numbered
+    assert items[0].sculpt.numbering is not None
     np.testing.assert_array_equal(source.vertices, mesh_io.read_mesh(obj.data).vertices)
     assert obj.session_uid not in sculpt._cache
-    # Cancelled at the first progress tick inside the analysis: Cancelled, nothing cached.
+    # The match has its share of the progress and a cancel lands after it, before the
+    # analysis: Cancelled, the matched numbering kept (no analysis).
     seen = []
 
     def cancel_inside(fraction):
@@ -445,20 +448,64 @@ def test_the_analysis_runs_in_the_evaluation_with_progress_and_cancel(scene):
 
     with pytest.raises(tn.Cancelled):
         evaluate_stack(source, items, cancel_inside)
+    assert seen[-1] == pytest.approx(MATCH_SHARE * ANALYSIS_SHARE) and rising(seen), seen
+    assert sculpt.analyses == analysed and sculpt.numberings == numbered + 1
+    entry = sculpt._cache[obj.session_uid]
+    assert entry.analysis is None and entry.fine_key is None
+    np.testing.assert_array_equal(entry.order, items[0].sculpt.order)
+    # Read again: the numbering comes from the cache (Blender's is not read, nothing
+    # matched) and the analysis has the whole share. Cancelled inside the analysis:
+    # nothing stored, the numbering stays.
+    source, items = read_source(obj)
+    assert items[0].sculpt.numbering is None and items[0].sculpt.order is entry.order
+    seen = []
+    with pytest.raises(tn.Cancelled):
+        evaluate_stack(source, items, cancel_inside)
     assert rising(seen) and 0.0 < seen[-1] < ANALYSIS_SHARE, seen
-    assert sculpt.analyses == analysed + 1 and obj.session_uid not in sculpt._cache
-    # Evaluated again (the same read): analysed again (matched once), the progress rising
-    # through it to 1.
+    assert sculpt.analyses == analysed + 1 and sculpt.numberings == numbered + 1
+    assert sculpt._cache[obj.session_uid] is entry
+    # Evaluated again (the same read): analysed again, the progress rising through it to 1.
     seen = []
     result = evaluate_stack(source, items, seen.append)
     assert sculpt.analyses == analysed + 2 and sculpt.numberings == numbered + 1
     assert rising(seen) and seen[-1] == 1.0 and any(0.0 < f < ANALYSIS_SHARE for f in seen), seen
-    assert obj.session_uid in sculpt._cache
+    assert sculpt._cache[obj.session_uid].analysis is not None
     written = api.regenerate(obj)  # from the cache: nothing analysed
     assert sculpt.analyses == analysed + 2
     np.testing.assert_array_equal(positions(written), result.vertices)
     blender = in_thicket_order(obj, written)
     assert np.linalg.norm(result.vertices - blender, axis=1).max() < 1e-5 * diagonal(blender)
+
+
+def test_a_numbering_that_does_not_carry_the_faces_is_refused_naming_the_object(scene, monkeypatch):
+    # Positions can match two close vertices the wrong way round: the core's check of the
+    # renumbered faces refuses it, with the message the user saw before, not an analysis
+    # of noise.
+    obj = add("cube", size=2)
+    sculpted(obj, 2, wavy)
+    obj.thicket.auto_update = False
+    api.add_detail_item(obj, detail_model="ROCK", detail_amplitude=0.0, levels=2)
+    before = snapshot(obj)
+    real = tn.match_subdivision
+
+    def swapped(*args, **kw):
+        order = real(*args, **kw)
+        order[[0, 1]] = order[[1, 0]]  # two vertices of the base's first face
+        return order
+
+    monkeypatch.setattr(tn, "match_subdivision", swapped)
+    analysed = sculpt.analyses
+    message = f"'{obj.name}' could not be matched face for face to Thicket's subdivision"
+    with pytest.raises(ValueError, match=f"Use Sculpt.*{message}"):
+        api.regenerate(obj)
+    assert obj.session_uid not in sculpt._cache and sculpt.analyses == analysed + 1
+    with pytest.raises(ValueError, match=message):
+        api.analyze_multires(obj)
+    assert_untouched(obj, before)
+    monkeypatch.setattr(tn, "match_subdivision", real)
+    result = api.regenerate(obj)
+    blender = in_thicket_order(obj, result)
+    assert np.linalg.norm(positions(result) - blender, axis=1).max() < 1e-5 * diagonal(blender)
 
 
 def test_the_regenerate_job_analyses_on_its_worker_and_esc_keeps_the_previous_result(scene):

@@ -2,11 +2,13 @@
 interface's path; background mode regenerates at once, so the tests drive the worker
 path by hand and call what its timer calls: `auto_update.poll`/`wait`)."""
 
+import json
+
 import bpy
 import numpy as np
 from conftest import add, positions
 
-from thicket import api
+from thicket import api, mesh_io
 from thicket.pure import live_shells
 from thicket.stack import auto_update
 
@@ -173,3 +175,62 @@ def test_animation_renders_regenerate_per_frame_only_with_the_interface_locked(s
     scene.render.use_lock_interface = True
     assert auto_update.animation_render_hint(obj, scene, background=False) == ""
     assert not auto_update.renders_each_frame(scene)  # no render running
+
+
+def test_the_stale_check_keys_on_item_properties_and_reads_no_mesh(scene, monkeypatch):
+    """`source_state` (taken when a build starts and again before it writes) reads
+    the items' own property values, not their evaluated settings: a Volumetric
+    Texture's cutter mesh is read once per build (by the source's read), not by the
+    check; a property changed in flight makes the build stale; a panel-only one
+    (Expanded) does not."""
+    sphere = add("ico_sphere", subdivisions=2)
+    api.add_volumetric_texture(sphere, "weave", resolution=4, depth_steps=8)
+    sphere.thicket.items[1].cutter = add("uv_sphere", segments=64, ring_count=32, radius=0.4, location=(0.8, 0.0, 0.0))
+    api.regenerate(sphere)
+    before = positions(sphere.thicket.result).copy()
+    reads = []
+    real = mesh_io.read_solid
+    monkeypatch.setattr(mesh_io, "read_solid", lambda *args: reads.append(args) or real(*args))
+    state = auto_update.source_state(sphere)
+    assert auto_update.source_state(sphere) == state and reads == []
+    # A property changed in flight (nothing scheduled it): stale, dropped.
+    auto_update.start(sphere)
+    assert len(reads) == 1, "the build's own read of the cutter"
+    sphere.thicket.auto_update = False
+    sphere.thicket.items[1].feature_thickness *= 1.5
+    sphere.thicket.auto_update = True
+    assert auto_update.source_state(sphere) != state
+    auto_update.wait()
+    np.testing.assert_array_equal(positions(sphere.thicket.result), before)
+    assert len(reads) == 1, "the check at the write read no mesh"
+    # A panel-only property changed in flight: written, as a synchronous regeneration.
+    auto_update.start(sphere)
+    sphere.thicket.items[1].show_expanded = not sphere.thicket.items[1].show_expanded
+    auto_update.wait()
+    live = positions(sphere.thicket.result).copy()
+    assert not np.array_equal(live, before)
+    np.testing.assert_array_equal(live, _synchronous(sphere))
+    assert len(reads) == 3
+
+
+def test_a_field_tree_or_text_edited_behind_the_build_makes_it_stale(scene):
+    """Edits of a field node tree or of a Text reach no depsgraph counter: the state
+    holds what they hold (the tree's JSON, the Text's digest), still no mesh."""
+    tree = bpy.data.node_groups.new("Texture Field", "ThicketFieldTree")
+    ball = tree.nodes.new("ThicketNodeSphere")
+    ball.center, ball.radius = (0.5, 0.5, 0.5), 0.3
+    tree.links.new(ball.outputs[0], tree.nodes.new("ThicketNodeOutput").inputs[0])
+    settings = dict(shell_thickness=0.1, texture_size=16, resolution=4, depth_steps=6, follow_texture=False, triangle_budget=0)
+    by_nodes, by_text = add("cube", size=2.0), add("cube", size=2.0, location=(3, 0, 0))
+    api.add_volumetric_texture(by_nodes, field_tree_json=tree, **settings)
+    text = bpy.data.texts.new("field")
+    text.write(json.dumps({"op": "sphere", "center": [0.5, 0.5, 0.5], "radius": 0.3}))
+    api.add_volumetric_texture(by_text, field_tree_json=text, **settings)
+    assert by_text.thicket.items[-1].tree_text == text
+    states = [auto_update.source_state(obj) for obj in (by_nodes, by_text)]
+    for obj in (by_nodes, by_text):
+        obj.thicket.auto_update = False
+    ball.radius = 0.15
+    text.clear()
+    text.write(json.dumps({"op": "sphere", "center": [0.5, 0.5, 0.5], "radius": 0.2}))
+    assert [auto_update.source_state(obj) != state for obj, state in zip((by_nodes, by_text), states)] == [True, True]

@@ -385,12 +385,13 @@ def analyze_multires(obj):
     must be the dict's own fitted coarse mesh, or an edit of it, not `obj.data`). The
     object is not modified; an object in Sculpt Mode is refused."""
     from . import mesh_io
+    from .pure.kinds.procedural_detail_sculpt import analyse
     from .stack.guard import suspended
 
     _require_mesh(obj)
     with suspended():
-        base, levels, fine, order = mesh_io.read_multires(obj)
-    out = native.get().analyze(base.vertices, base.face_sizes, base.corners, fine, levels)
+        base, levels, sculpted, order = mesh_io.read_multires(obj)
+    out = analyse(base, levels, sculpted, order, obj.name)
     out["levels"] = levels
     out["order"] = order
     return out

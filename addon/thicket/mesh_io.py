@@ -339,19 +339,19 @@ def multires_numbering(obj: bpy.types.Object, levels: int) -> np.ndarray:
 
 
 def read_multires(obj: bpy.types.Object):
-    """An object's Multires sculpt in Thicket's numbering: `(base, levels, fine, order)`,
+    """An object's Multires sculpt and its numbering: `(base, levels, sculpted, order)`,
     `base` the object's own mesh (MeshArrays), `levels` the modifier's total levels,
-    `fine` float32 (m, 3) the modifier's evaluated positions at those levels (the modifier
-    alone, before any other) in the numbering `thicket_native.analyze` takes, and `order`
-    (int32) the permutation: Thicket's vertex i is the Multires mesh's vertex `order[i]`
-    (`read_sculpt`, `multires_order`). Both are evaluated on temporary objects; the
+    `sculpted` (MeshArrays) the modifier's evaluated mesh at those levels (the modifier
+    alone, before any other) in Blender's numbering, and `order` (int32) the
+    permutation to the numbering `thicket_native.analyze` takes: Thicket's vertex i is
+    the Multires mesh's vertex `order[i]` (`read_sculpt`, `multires_order`;
+    `procedural_detail_sculpt.analyse` checks it and analyses). Both are evaluated on temporary objects; the
     user's object, its modifiers and its sculpt are not modified. Call it with
     auto-update suspended."""
     _, levels = _checked_multires(obj)
     base = read_own_mesh(obj)
     sculpted = read_sculpt(obj)
-    order = multires_order(obj, base, levels, sculpted)
-    return base, levels, np.ascontiguousarray(sculpted.vertices[order]), order
+    return base, levels, sculpted, multires_order(obj, base, levels, sculpted)
 
 
 def _original_selection(obj, arrays: MeshArrays, what):

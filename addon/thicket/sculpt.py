@@ -8,7 +8,8 @@ viewport overlay; they and their cache are `pure.kinds.procedural_detail_sculpt`
 Changing an item's own settings reads the sculpt again (Blender's Multires
 evaluation, a copy) but neither matches the numbering nor analyses; editing the base
 (topology or positions) reads Blender's numbering here, and it and the sculpt are
-matched and analysed in the evaluation. Entries of objects gone are dropped at every
+matched and analysed in the evaluation (a numbering matched before a cancel is kept:
+the next read of that base skips both). Entries of objects gone are dropped at every
 read, and all of them when a file is loaded (`clear`).
 """
 

@@ -85,17 +85,50 @@ flush = _sources.flush
 _versions: dict = {}
 
 
+#: Item properties the result does not depend on (the panel's, the label): a change
+#: of them leaves a live build's result current.
+_NOT_READ = frozenset({"rna_type", "name", "show_expanded"})
+
+
+def _value(value):
+    """A property value as plain data that compares by content: an ID by its
+    `session_uid` (a Text or a field node tree by what it holds as well, as their
+    edits reach no depsgraph counter), arrays as tuples, enum flags as sorted tuples."""
+    if isinstance(value, bpy.types.ID):
+        if isinstance(value, bpy.types.Text):
+            return value.session_uid, hash(value.as_string())
+        if isinstance(value, bpy.types.NodeTree):
+            from ..nodes.graph import tree_json
+
+            return value.session_uid, tree_json(value)
+        return value.session_uid
+    if isinstance(value, (set, frozenset)):
+        return tuple(sorted(value))
+    if isinstance(value, (str, int, float, bool)) or value is None:
+        return value
+    return tuple(value)
+
+
+def item_values(item) -> tuple:
+    """The values of an item's own properties (`bl_rna`) that its result depends on:
+    no evaluated settings, so no mesh (a cutter's) is read."""
+    return tuple(_value(getattr(item, p.identifier)) for p in item.bl_rna.properties if p.identifier not in _NOT_READ)
+
+
 def source_state(obj):
     """What a live build of `obj` must still read for its result to be written: its
-    enabled items' settings, its own mesh's size and positions, and its depsgraph
-    changes (`_versions`: modifiers, watched objects, sculpts)."""
-    from .regenerate import enabled_settings
-
+    enabled items' property values (`item_values`; the scene's frame and frame rate
+    where one follows the frame), its own mesh's size and positions, and its
+    depsgraph changes (`_versions`: modifiers, watched objects such as a cutter or a
+    local center, sculpts)."""
     mesh = obj.data
     positions = np.empty(len(mesh.vertices) * 3, np.float32)
     mesh.vertices.foreach_get("co", positions)
-    with suspended():
-        settings = repr(enabled_settings(obj))
+    enabled = [item for item in obj.thicket.items if item.show_viewport]
+    settings = tuple((item.kind, item_values(item)) for item in enabled)
+    scene = bpy.context.scene
+    if scene is not None and any(item.follow_frame for item in enabled):
+        settings += ((scene.frame_current, scene.render.fps, scene.render.fps_base),)
     counts = (len(mesh.vertices), len(mesh.edges), len(mesh.polygons), len(mesh.loops))
     return mesh.session_uid, counts, hash(positions.tobytes()), _versions.get(obj.session_uid, 0), settings
 

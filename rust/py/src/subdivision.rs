@@ -187,7 +187,8 @@ pub fn procedural_detail<'py>(
 /// subdivisions of the base faces (`vertices` gives the base's vertex count; its positions
 /// are not read) in `procedural_detail`'s numbering. With `fine_corners` (and
 /// `fine_face_sizes`, all 4 when left out) the fine mesh's faces are checked against that
-/// numbering, and a mesh numbered otherwise is refused instead of analysed as noise.
+/// numbering (in any order, each from any first corner, winding kept), and a mesh
+/// numbered otherwise is refused instead of analysed as noise.
 /// Refused with OverLimit where the analysis would need more memory than allowed
 /// (`budget::ANALYSIS_BYTES_PER_FACE` per fine face). Returns the coarse mesh (vertices,
 /// face_sizes, corners) and `details`, a list of float64 (n_l, 3) arrays, one per level,

@@ -15,7 +15,8 @@ guards the cache, as evaluations run on the main thread and on workers at once. 
 evaluation stores its analysis only if its keys are still the ones Blender was read
 with last for that source (a later read for a newer sculpt wins) and the source was
 not forgotten meanwhile; a cancelled analysis stores nothing and the entry before it
-stays.
+stays, except a numbering it matched, kept (with no analysis) in place of an entry of
+another base.
 """
 
 import hashlib
@@ -31,13 +32,19 @@ from ..arrays import MeshArrays
 analyses = 0
 #: Numberings matched (misses of the base part of the key).
 numberings = 0
+#: The share of a sculpt's analysis progress the numbering match takes when it runs
+#: (after a base edit): timed against the analysis on a 126k-vertex sculpt (README).
+MATCH_SHARE = 0.25
 
 
 class Entry(NamedTuple):
+    """A source's numbering (`order`, of the base `base_key`) and the analysis of its
+    sculpt `fine_key`; both None where the analysis was cancelled after the match."""
+
     base_key: tuple
     order: np.ndarray
-    fine_key: bytes
-    analysis: dict
+    fine_key: bytes | None
+    analysis: dict | None
 
 
 # source key -> Entry
@@ -84,31 +91,41 @@ def match_numbering(base, levels: int, sculpted, numbering, name: str) -> np.nda
     `numbering` is Blender's Subdivision Surface (Use Limit Surface) of the same base at
     as many levels, which numbers the vertices as Multires does and whose positions
     Thicket's limit positions match (`thicket_native.match_subdivision`, nearest
-    position); `sculpted` the sculpt (MeshArrays, Blender's numbering). `name` (the
-    object's) goes in the messages."""
+    position); `sculpted` the sculpt (MeshArrays, Blender's numbering). Matched
+    positions could still swap two close vertices: `analyse` checks the renumbered
+    faces. `name` (the object's) goes in the messages."""
     if len(sculpted.vertices) != len(numbering):
         raise ValueError(f"the Multires of '{name}' has {len(sculpted.vertices)} vertices at {levels} levels where a Subdivision Surface has {len(numbering)}")
     # Blender puts an open mesh's corners (Boundary Smooth "All") short of the limit, by
     # up to 5.5e-4 of the size at Quality 3: matched within 1e-3, one to one (checked).
+    return native.get().match_subdivision(base.vertices, base.face_sizes, base.corners, levels, numbering, tolerance=1e-3)
+
+
+def analyse(base, levels: int, sculpted, order, name: str, progress=None) -> dict:
+    """`thicket_native.analyze` of the sculpt `sculpted` (MeshArrays, Blender's
+    numbering) renumbered by `order` (`match_numbering`) over `base` at `levels`, its
+    renumbered faces checked in the core to be Thicket's subdivision's (a wrong match
+    is refused, not analysed as noise: ValueError naming the object `name`).
+    `progress` as `analyze`'s."""
     tn = native.get()
-    order = tn.match_subdivision(base.vertices, base.face_sizes, base.corners, levels, numbering, tolerance=1e-3)
-    # Matched positions could still swap two close vertices: the sculpt's faces, renumbered,
-    # must be exactly Thicket's faces of those levels.
     ours = np.empty_like(order)
     ours[order] = np.arange(len(order), dtype=order.dtype)
-    made = tn.procedural_detail(base.vertices, base.face_sizes, base.corners, "rock", levels, params={"amplitude": 0.0})
-    if not np.array_equal(_canonical_quads(ours[sculpted.corners]), _canonical_quads(made["corners"])):
-        raise ValueError(f"the Multires of '{name}' could not be matched face for face to Thicket's subdivision (vertices too close to tell apart)")
-    return order
-
-
-def _canonical_quads(corners) -> np.ndarray:
-    """Quads (rows of 4 vertex indices) each rotated to start at its smallest index, and
-    sorted: equal arrays for the same oriented faces in any order."""
-    quads = np.asarray(corners, dtype=np.int64).reshape(-1, 4)
-    start = np.argmin(quads, axis=1)
-    rotated = quads[np.arange(len(quads))[:, None], (start[:, None] + np.arange(4)) % 4]
-    return rotated[np.lexsort(rotated.T[::-1])]
+    fine = np.ascontiguousarray(sculpted.vertices[order])
+    try:
+        return tn.analyze(
+            base.vertices,
+            base.face_sizes,
+            base.corners,
+            fine,
+            levels,
+            fine_face_sizes=sculpted.face_sizes,
+            fine_corners=ours[sculpted.corners],
+            progress=progress,
+        )
+    except tn.InvalidInput as exc:
+        if "in Thicket's numbering" not in str(exc):
+            raise
+        raise ValueError(f"the Multires of '{name}' could not be matched face for face to Thicket's subdivision (vertices too close to tell apart)") from None
 
 
 class Sculpt:
@@ -147,18 +164,26 @@ class Sculpt:
     def analysis(self, progress=None) -> dict:
         """`thicket_native.analyze`'s dict plus `levels` and `order` (what
         `procedural_detail` takes as `sculpt`): the cache's (costs nothing), else
-        matched (when the base changed) and analysed now, `progress` as
-        `evaluate_stack`'s (False cancels: `Cancelled`, nothing stored). Errors name the
-        item (`label`)."""
+        matched (when the base changed; the first `MATCH_SHARE` of the progress) and
+        analysed now, `progress` as `evaluate_stack`'s (False cancels: `Cancelled`,
+        checked before and after the match; a numbering matched before the cancel is
+        kept in the cache, the analysis before it dropped only if of another base).
+        Errors name the item (`label`)."""
         global analyses, numberings
         if self.ready is None:
             self._take_cached()  # another evaluation may have analysed it meanwhile
         if self.ready is not None:
             return self.ready
         tn = native.get()
+        matched = False
+        share = 0.0
+
+        def check(fraction):
+            if progress is not None and progress(fraction) is False:
+                raise tn.Cancelled("cancelled")
+
         try:
-            if progress is not None and progress(0.0) is False:
-                raise tn.Cancelled("cancelled")  # before the match, which has no checks of its own
+            check(0.0)  # before the match, which has no checks of its own
             order = self.order
             if order is None:
                 if self.numbering is None:
@@ -166,16 +191,18 @@ class Sculpt:
                 with _lock:
                     numberings += 1
                 order = self.order = match_numbering(self.base, self.levels, self.sculpted, self.numbering, self.name)
-            if progress is not None and progress(0.0) is False:
-                raise tn.Cancelled("cancelled")
+                matched, share = True, MATCH_SHARE
+                check(share)
             with _lock:
                 analyses += 1
-            fine = np.ascontiguousarray(self.sculpted.vertices[order])
-            analysis = tn.analyze(self.base.vertices, self.base.face_sizes, self.base.corners, fine, self.levels, progress=progress)
+            inside = None if progress is None else (lambda f: progress(share + (1.0 - share) * f))
+            analysis = analyse(self.base, self.levels, self.sculpted, order, self.name, progress=inside)
             if not np.array_equal(np.asarray(analysis["corners"]), self.base.corners):
                 raise ValueError("the analysed sculpt's faces are not the base mesh's")
         except tn.Cancelled:
-            raise  # nothing stored: the entry before stays
+            if matched:
+                self._keep_numbering()
+            raise
         except (ValueError, *native.error_types()) as exc:
             with _lock:
                 if _wanted.get(self.key) == (self.base_key, self.fine_key):
@@ -188,6 +215,17 @@ class Sculpt:
                 _cache[self.key] = Entry(self.base_key, order, self.fine_key, analysis)
         self.ready = analysis
         return analysis
+
+    def _keep_numbering(self):
+        """Stores the numbering this evaluation matched (its analysis was cancelled) with
+        no analysis, if Blender's latest read of the source has this base and the cache
+        has no entry of it: the next read of this base takes it and skips Blender's
+        numbering and the match. Keyed on the base alone (`base_key`: the levels and the
+        base's positions and faces), all the numbering depends on."""
+        with _lock:
+            wanted, entry = _wanted.get(self.key), _cache.get(self.key)
+            if wanted is not None and wanted[0] == self.base_key and (entry is None or entry.base_key != self.base_key):
+                _cache[self.key] = Entry(self.base_key, self.order, None, None)
 
     def coarse(self, analysis):
         """The base with the analysis' fitted coarse positions (its UV maps, material

@@ -92,7 +92,8 @@ pub fn synthesize(m: &Multires) -> Result<Mesh> {
 
 /// Multiresolution analysis (section 2, Figure 1): `fine` must be `levels` Catmull-Clark
 /// subdivisions of `base_topology` (its faces; its positions are not read) in
-/// [`super::subdivide`]'s numbering. Each coarser level is the least-squares fit of the
+/// [`super::subdivide`]'s vertex numbering (its faces in any order, each from any first
+/// corner, winding kept). Each coarser level is the least-squares fit of the
 /// finer one (see the module's note); the details are then taken level by level against
 /// the subdivision of the rebuilt coarser level, exactly as [`synthesize`] adds them, so
 /// rounding does not build up: `synthesize(&analyze(..))` is `fine` to float precision.
@@ -130,15 +131,34 @@ pub fn analyze_watched(fine: &Mesh, base_topology: &Mesh, levels: u32, progress:
     if fine.face_count() != finest.face_count() {
         return not_ours(format!("those have {} quads", finest.face_count()));
     }
-    if let Some(c) = fine.corners().iter().zip(finest.corners()).position(|(a, b)| a != b) {
-        return not_ours(format!(
-            "its corner {c} (face {}) is vertex {} where theirs is vertex {} (a mesh numbered otherwise, such as Blender's: match_subdivision gives the order)",
-            c / 4,
-            fine.corners()[c],
-            finest.corners()[c]
-        ));
+    // The analysis reads positions by vertex number alone: the faces may come in any
+    // order and from any first corner (Blender's renumbered sculpt does), not otherwise.
+    let ours = oriented_quads(finest.corners());
+    if oriented_quads(fine.corners()) != ours {
+        let why = match fine.faces().position(|q| ours.binary_search(&oriented_quad(q)).is_err()) {
+            Some(f) => format!("its face {f} {:?} is none of theirs", fine.face(f)),
+            None => "it repeats a face".to_string(),
+        };
+        return not_ours(format!("{why} (a mesh numbered otherwise, such as Blender's: match_subdivision gives the order)"));
     }
     analyze_on(fine.positions(), &topology, base_topology, levels, &stages)
+}
+
+/// Vectors per parallel part of the fit's dot products (a fixed split: deterministic).
+const DOT_CHUNK: usize = 4096;
+
+/// A quad's corners from its least vertex, its winding kept.
+fn oriented_quad(q: &[u32]) -> [u32; 4] {
+    let k = (0..4).min_by_key(|&i| q[i]).expect("four corners");
+    [q[k], q[(k + 1) % 4], q[(k + 2) % 4], q[(k + 3) % 4]]
+}
+
+/// All quads of `corners` as [`oriented_quad`]s, sorted: equal for the same oriented
+/// faces in any order and from any first corner.
+fn oriented_quads(corners: &[u32]) -> Vec<[u32; 4]> {
+    let mut quads: Vec<[u32; 4]> = corners.par_chunks_exact(4).map(oriented_quad).collect();
+    quads.par_sort_unstable();
+    quads
 }
 
 /// [`analyze`] once the fine positions are known to be those of `topology` (the plain
@@ -402,7 +422,12 @@ impl Step {
     fn fit(&self, fine: &[DVec3], stages: &Stages, weight: usize) -> Result<Vec<DVec3>> {
         let nv = self.cols.start.len() - 1;
         let normal = |x: &[DVec3]| self.cols.apply(&self.rows.apply(x));
-        let dot = |a: &[DVec3], b: &[DVec3]| a.par_iter().zip(b).map(|(a, b)| a.dot(*b)).sum::<f64>();
+        // Fixed chunks summed in order: the same sums, so the same fit, at any load
+        // (rayon's `sum` adds in whatever split work stealing made).
+        let dot = |a: &[DVec3], b: &[DVec3]| -> f64 {
+            let parts: Vec<f64> = a.par_chunks(DOT_CHUNK).zip(b.par_chunks(DOT_CHUNK)).map(|(a, b)| a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()).collect();
+            parts.iter().sum()
+        };
         let rhs = self.cols.apply(fine);
         let mut x = fine[..nv].to_vec();
         let ax = normal(&x);

@@ -128,6 +128,46 @@ fn details_follow_the_base_when_it_moves() {
 }
 
 #[test]
+fn the_fine_faces_may_come_in_any_order_from_any_corner_but_not_renumbered() {
+    // Blender's Multires, renumbered by match_subdivision, has Thicket's vertices and
+    // faces, but its faces in its own order and from its own first corners.
+    let base = fixtures::grid(3);
+    let fine = sculpted(&base, 2, 0.01);
+    let want = analyze(&fine, &base, 2).unwrap();
+    let mut quads: Vec<[u32; 4]> = fine.corners().chunks_exact(4).map(|q| [q[0], q[1], q[2], q[3]]).collect();
+    let mut rng = Rng(5);
+    for (i, q) in quads.iter_mut().enumerate() {
+        q.rotate_left(i % 4);
+    }
+    for i in (1..quads.len()).rev() {
+        quads.swap(i, (rng.range(0.0, i as f64 + 1.0) as usize).min(i));
+    }
+    let shuffled = |quads: &[[u32; 4]]| Mesh::new(fine.positions().to_vec(), &fine.face_sizes(), quads.concat(), None).unwrap();
+    assert!(analyze(&shuffled(&quads), &base, 2).unwrap() == want);
+    // Two vertices' numbers swapped in the faces (positions as they were): refused.
+    let (a, b) = (fine.corners()[0], fine.corners()[1]);
+    let swapped: Vec<[u32; 4]> = quads
+        .iter()
+        .map(|q| {
+            q.map(|v| {
+                if v == a {
+                    b
+                } else if v == b {
+                    a
+                } else {
+                    v
+                }
+            })
+        })
+        .collect();
+    assert!(matches!(analyze(&shuffled(&swapped), &base, 2), Err(Error::InvalidMesh(m)) if m.contains("is none of theirs")));
+    // A face repeated in place of another: refused.
+    let mut repeated = quads.clone();
+    repeated[0] = repeated[1];
+    assert!(matches!(analyze(&shuffled(&repeated), &base, 2), Err(Error::InvalidMesh(m)) if m.contains("numbered otherwise")));
+}
+
+#[test]
 fn bad_input_is_refused_with_a_message() {
     let base = fixtures::cube();
     let fine = plain(&base, 2);
