@@ -59,31 +59,69 @@ fn budget_case() {
     println!("  estimate:  {estimate:>9} triangles ({:.2}x the bake)", estimate as f64 / all_n as f64);
 }
 
-/// `--parts A.obj B.obj ...`: default bakes (no UVs: one tile per face, 5% exterior
-/// shell) of every pattern on the given meshes, their triangles against the budget
-/// (issue 15: CAD parts ran 2-6x over it).
+/// `--parts A.obj B.obj ...`: default bakes (5% exterior shell, budget 1 M) of every
+/// pattern on the given meshes without UVs, their triangles against the budget (issue
+/// 15: CAD parts ran 2-12x over it), in the modes `BAKE_MODES` names (default all):
+/// `face` one tile per face, `world` World-Size Tiles of 1/32 of the diagonal, `fitted`
+/// World-Size Tiles grown to the budget ([`budget_tile_size`] from 1/32), each with the
+/// estimate, closed-manifold check and crossing triangle pairs. `BAKE_PATTERNS`:
+/// only those patterns (comma-separated names).
 fn budget_parts(paths: &[String]) {
+    use thicket_core::hard_meshes::self_intersections;
+    use thicket_core::mesh::Mesh;
+    use thicket_core::polygonize::SurfaceCheck;
+    use thicket_core::texture::bake::estimate_triangles;
+    use thicket_core::texture::charts::{budget_tile_size, with_world_size_uvs};
+    let only = std::env::var("BAKE_PATTERNS").ok();
+    let modes = std::env::var("BAKE_MODES").unwrap_or_else(|_| "face,world,fitted".into());
     for path in paths {
         let mesh = thicket_core::mesh::obj::parse_obj(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let mesh = Mesh::new(mesh.positions().to_vec(), &mesh.face_sizes(), mesh.corners().to_vec(), None).unwrap();
         let t = Thickness::relative(0.05).per_vertex(&mesh, None).unwrap();
         let shell = build_shell(&mesh, &t, Side::Exterior, &ShellParams::default()).unwrap();
         let params = BakeParams::default();
+        let auto = mesh.bbox_diagonal() / 32.0;
         println!("{path}: {} faces, budget {}", mesh.face_count(), params.triangle_budget);
-        for p in Pattern::ALL {
+        for p in Pattern::ALL.into_iter().filter(|p| only.as_deref().is_none_or(|o| o.split(',').any(|n| n == p.name()))) {
             let texture = Generator::new(p).generate([64, 64, 32]).unwrap();
             let layers = [TextureLayer { texture, offset: Vec2::ZERO }];
-            let start = Instant::now();
-            let b = bake(&mesh, &shell, &layers, &params).unwrap();
-            println!(
-                "  {:11} {:>9} triangles ({:.2}x the budget{}), lattice {:?}, simplified within {:.3} steps, {:.1} s",
-                p.name(),
-                b.triangles.len(),
-                b.triangles.len() as f64 / params.triangle_budget as f64,
-                if b.over_budget { ", says over" } else { "" },
-                b.lattice,
-                b.simplify_error,
-                start.elapsed().as_secs_f64()
-            );
+            for mode in modes.split(',') {
+                let start = Instant::now();
+                let (baked_on, what) = match mode {
+                    "face" => (mesh.clone(), "one tile per face".to_string()),
+                    "world" => (with_world_size_uvs(&mesh, auto).unwrap(), "world 1/32".to_string()),
+                    _ => {
+                        let (size, _) = budget_tile_size(&mesh, &shell, &layers, &params, auto).unwrap();
+                        (with_world_size_uvs(&mesh, size).unwrap(), format!("fitted 1/{:.1}", mesh.bbox_diagonal() / size))
+                    }
+                };
+                let fit_s = start.elapsed().as_secs_f64();
+                let estimate = estimate_triangles(&baked_on, &shell, &layers, &params);
+                let start = Instant::now();
+                match bake(&baked_on, &shell, &layers, &params) {
+                    Ok(b) => {
+                        let secs = start.elapsed().as_secs_f64();
+                        let check = SurfaceCheck::of(&b.positions, &b.triangles);
+                        let sizes = vec![3u32; b.triangles.len()];
+                        let out = Mesh::new(b.positions.clone(), &sizes, b.triangles.iter().flatten().copied().collect(), None).unwrap();
+                        println!(
+                            "  {:11} {:18} {:>9} triangles ({:.2}x the budget{}), estimate {:.2}x, lattice {:?}, {}, {} crossing pairs, bake {:.1} s (fit {:.1} s)",
+                            p.name(),
+                            what,
+                            b.triangles.len(),
+                            b.triangles.len() as f64 / params.triangle_budget as f64,
+                            if b.over_budget { ", says over" } else { "" },
+                            estimate.map_or(f64::NAN, |e| e as f64 / b.triangles.len().max(1) as f64),
+                            b.lattice,
+                            if check.is_closed_manifold() { "closed manifold".to_string() } else { format!("{check:?}") },
+                            self_intersections(&out),
+                            secs,
+                            fit_s
+                        );
+                    }
+                    Err(e) => println!("  {:11} {:18} refused: {e}", p.name(), what),
+                }
+            }
         }
     }
 }

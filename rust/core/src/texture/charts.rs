@@ -202,6 +202,25 @@ pub fn with_world_size_uvs(mesh: &Mesh, tile_size: f32) -> Result<Mesh> {
     Mesh::new(mesh.positions().to_vec(), &mesh.face_sizes(), mesh.corners().to_vec(), Some(charts.corner_st))
 }
 
+/// The World-Size tile size, `start` or larger, at which a bake of `params` on `mesh`
+/// (without a UV map) with generated coordinates is estimated within its triangle
+/// budget ([`crate::texture::bake::budget_scale`]: the charts scale with the tile
+/// size, so the tiles grow by its factor), and that estimate. `shell` is the shell
+/// over `mesh` (the generated UVs change no vertex). For a mesh whose one tile per
+/// face holds more texture than the budget has room for, this is the fix: the
+/// texture keeps its features, the tiles follow the surface's size, not its faces'.
+pub fn budget_tile_size(
+    mesh: &Mesh,
+    shell: &crate::shell::Shell,
+    textures: &[super::TextureLayer],
+    params: &super::BakeParams,
+    start: f32,
+) -> Result<(f32, super::bake::Estimate)> {
+    let charted = with_world_size_uvs(mesh, start)?;
+    let (scale, estimate) = super::bake::budget_scale(&charted, shell, textures, params)?;
+    Ok((start * scale, estimate))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -635,3 +635,34 @@ fn cells_spanning_more_texels_than_a_lattice_holds_are_split_and_keep_thin_stran
     assert!(b.source_face.iter().all(|&f| f < 4));
     assert_eq!(b.source_face.iter().copied().collect::<std::collections::BTreeSet<u32>>().len(), 4);
 }
+
+#[test]
+fn tiles_grown_to_the_budget_bake_within_it() {
+    // The many small cells above, a third of the budget their error could meet
+    // (124 k triangles for 60 k): tiles grown by `budget_scale` (the UV map's tiling
+    // divided by it) bake within the budget, still closed 2-manifolds without crossing
+    // pairs, and the estimate agrees; a bake already within its budget keeps its
+    // tiles; a mesh without a UV map is refused (World-Size Tiles grow instead).
+    let sphere = tm::icosphere(3);
+    let mesh = with_world_size_uvs(&sphere, sphere.bbox_diagonal() / 4.0).unwrap();
+    let s = shell(&mesh, 0.05);
+    let tex = layer(Generator::new(Pattern::ChainMail).generate([32, 32, 16]).unwrap());
+    let params = BakeParams { triangle_budget: 60_000, ..Default::default() };
+    let (scale, estimate) = bake::budget_scale(&mesh, &s, &tex, &params).unwrap();
+    assert!(scale > 1.0 && estimate.triangles <= 60_000, "{scale} {estimate:?}");
+    let grown = BakeParams { tiling: params.tiling / scale, ..params.clone() };
+    let b = bake(&mesh, &s, &tex, &grown).unwrap();
+    let made = b.triangles.len();
+    assert!(made as f64 <= 60_000.0 * 1.05 && !b.over_budget, "{made} triangles at {scale} times the tile size");
+    assert!((estimate.triangles as f64) < made as f64 * 1.5 && estimate.triangles as f64 > made as f64 / 1.5, "estimate {estimate:?}, made {made}");
+    let check = crate::polygonize::SurfaceCheck::of(&b.positions, &b.triangles);
+    assert!(check.is_closed_manifold() && check.pinched_vertices == 0, "{check:?}");
+    assert_eq!(crate::hard_meshes::self_intersections(&as_mesh(&b)), 0);
+    // The same through generated World-Size Tiles: the tile size grows by the scale.
+    let (size, _) = charts::budget_tile_size(&sphere, &s, &tex, &params, sphere.bbox_diagonal() / 4.0).unwrap();
+    assert!((size / (sphere.bbox_diagonal() / 4.0) / scale - 1.0).abs() < 1e-3, "{size} {scale}");
+    // Within the budget already: unchanged. No UV map: refused.
+    let roomy = BakeParams { triangle_budget: 10_000_000, ..Default::default() };
+    assert_eq!(bake::budget_scale(&mesh, &s, &tex, &roomy).unwrap().0, 1.0);
+    assert!(bake::budget_scale(&sphere, &s, &tex, &params).is_err());
+}

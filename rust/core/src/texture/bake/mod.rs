@@ -860,6 +860,57 @@ pub fn estimate_triangles(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
     Ok(estimate_bake(mesh, shell, textures, params)?.triangles)
 }
 
+/// Estimates [`budget_scale`] makes at most: each rescales by the power law its last
+/// two estimates show, so two to four suffice.
+const BUDGET_ROUNDS: usize = 8;
+
+/// How many times larger the tiles must be (the UV map's `tiling` divided by it) for
+/// a bake of `params` to be estimated within its triangle budget, and that estimate
+/// (1 where it already is, or there is no budget). Needs a UV map: for a mesh without
+/// one, [`super::charts::budget_tile_size`] grows generated World-Size Tiles instead.
+///
+/// Not from the paper. On a mesh whose cells are small next to the texture (one tile
+/// per face on a dense CAD part; small World-Size Tiles), a bake is over its budget
+/// because the surface holds more texture than the budget has triangles for, and
+/// each cell's rim (locked, with its one-ring, by the cell pass) holds a floor of
+/// triangles no error within a lattice step removes (fandisk's chain mail, one tile
+/// per face: 3.22 M triangles for a budget of 1 M within a quarter step, still 1.46 M
+/// within eight steps, a whole cell edge). Larger tiles keep every feature as sampled
+/// and make fewer of them. The count falls as a power of the scale (the square where
+/// features dominate, less where rims do), so each round rescales by the power its last
+/// two estimates show (the square to begin, at least 5% more each round). A scale at
+/// which the lattice is over `max_triangles` is doubled. The result can still be over
+/// the budget where `BUDGET_ROUNDS` ran out: the estimate returned says so.
+pub fn budget_scale(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<(f32, Estimate)> {
+    if mesh.uvs().is_none() {
+        return Err(Error::InvalidParameter("scaling tiles to the budget needs a UV map (without one: budget_tile_size)".into()));
+    }
+    let budget = params.triangle_budget as f64;
+    let estimate = |scale: f64| estimate_bake(mesh, shell, textures, &BakeParams { tiling: params.tiling / scale as f32, progress: None, ..params.clone() });
+    let mut scale = 1.0f64;
+    let mut last: Option<(f64, Estimate)> = None;
+    for round in 0..=BUDGET_ROUNDS {
+        match estimate(scale) {
+            Ok(e) if params.triangle_budget == 0 || e.triangles as f64 <= budget || round == BUDGET_ROUNDS => return Ok((scale as f32, e)),
+            Ok(e) => {
+                let over = e.triangles as f64 / budget;
+                // The count's power of the scale between the last two estimates.
+                let power = match last {
+                    Some((s0, e0)) if e0.triangles > e.triangles && scale > s0 => {
+                        ((e0.triangles as f64 / e.triangles as f64).ln() / (scale / s0).ln()).clamp(0.5, 2.0)
+                    }
+                    _ => 2.0,
+                };
+                last = Some((scale, e));
+                scale *= over.powf(1.0 / power).max(1.05);
+            }
+            Err(Error::OverLimit(_)) if round < BUDGET_ROUNDS => scale *= 2.0,
+            Err(e) => return Err(e),
+        }
+    }
+    unreachable!("the last round returns")
+}
+
 #[cfg(test)]
 mod layer_tests {
     use super::*;
