@@ -324,7 +324,8 @@ def procedural_detail(
     `sculpt`: a dict from analyze() of this base (its details are added at their levels, in local frames, before each level's procedural detail).
     `uvs` (one float32 (corners, 2) map or a list of them) go through the levels by `uv_smooth` as subdivide's without the limit.
     Returns the finest level's vertices, face_sizes, corners (all quads), source_face, scalar (float32 per vertex: the detail added), blend (float32 per vertex),
-    limited (float: the share of placed rock/berry detail the fold guard reduced so the surface cannot fold), with a shader, colors ((n, 4) float32) and,
+    limited (float: the share of placed rock/berry detail the fold guard reduced so the surface cannot fold), shrunk
+    (float: the share of it reduced by over a tenth), with a shader, colors ((n, 4) float32) and,
     with uvs, uvs per corner of the result (a list when a list was given)."""
 
 def subdivision_estimate(face_sizes: Indices, levels: int) -> dict[str, int]:

@@ -106,7 +106,9 @@ pub fn subdivide<'py>(
 /// `limited` (the share of the vertices given rock or berry detail whose detail the fold
 /// guard made smaller so the surface does not fold: a quarter of the local edge, half the
 /// radius of curvature, domes clear of other parts; 0.0 when the model's sizes fit the
-/// mesh; a local modification's gain above 1 scales the detail after the guard) and, with a shader, `colors` (float32 (n, 4)
+/// mesh; a local modification's gain above 1 scales the detail after the guard), `shrunk`
+/// (the share of them whose detail lost more than a tenth of its size, a reduction one
+/// sees) and, with a shader, `colors` (float32 (n, 4)
 /// RGBA). `uvs`, one float32 (corners, 2) UV map or a list of them, are carried through
 /// the levels by `uv_smooth` as `subdivide` does without the limit (the levels are control
 /// meshes): `uvs` comes back in the same form, one UV per corner of the result. Levels
@@ -167,6 +169,7 @@ pub fn procedural_detail<'py>(
     d.set_item("scalar", out.detailed.scalar.into_pyarray(py))?;
     d.set_item("blend", out.blend.into_pyarray(py))?;
     d.set_item("limited", out.tally.share())?;
+    d.set_item("shrunk", out.tally.shrunk_share())?;
     if let Some(c) = colors {
         let n = c.len();
         d.set_item("colors", c.into_flattened().into_pyarray(py).reshape([n, 4])?)?;

@@ -98,9 +98,12 @@ def api_values(settings: dict) -> dict:
     return out
 
 
-#: The share of fold-guarded detail (`procedural_detail`'s `limited`) above which the
-#: user is told the model's size was reduced.
-LIMITED_NOTE = 0.01
+#: The share of visibly shrunk detail (`procedural_detail`'s `shrunk`: vertices whose
+#: detail the fold guard cut by more than a tenth) above which the user is told the
+#: model's size was reduced. Not `limited`, every vertex the guard touched at all: a dome
+#: kept at 95% of its height looks as asked, and a note about it would only send the user
+#: after a setting that changes nothing one sees.
+SHRUNK_NOTE = 0.01
 
 
 def seed_vertices(state: State, item: S.ProceduralDetail):
@@ -286,11 +289,11 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False, progres
     if mesh.material_index is not None:
         result.material_index = mesh.material_index[out["source_face"]]
     result.point_attributes = {DETAIL_ATTRIBUTE: np.asarray(out["scalar"], dtype=np.float32)}
-    limited = float(out.get("limited", 0.0))
-    if limited > LIMITED_NOTE:
+    shrunk = float(out["shrunk"])
+    if shrunk > SHRUNK_NOTE:
         result.notes.append(
-            f"'{item.label}': the {item.model} detail was made smaller at {limited:.0%} of its vertices so the surface does not fold"
-            " (rock: at most a quarter of the local edge and half the radius of curvature; berry domes: flattened under the"
+            f"'{item.label}': the {item.model} detail was made visibly smaller (by over a tenth) at {shrunk:.0%} of its vertices so"
+            " the surface does not fold (rock: at most a quarter of the local edge and half the radius of curvature; berry domes: flattened under the"
             " curvature, clear of other parts and lowered where a face would overhang; tentacles and spurs: shortened likewise); a"
             " smaller amplitude, radius or length, or a coarser base, keeps it as set"
         )

@@ -215,8 +215,7 @@ pub fn synthesize(base: &Mesh, levels: u32, recipe: &Recipe) -> Result<Synthesiz
     }
     let mut tally = first.tally;
     if let Some(second) = first.second {
-        tally.placed += second.tally.placed;
-        tally.limited += second.tally.limited;
+        tally.add(second.tally);
     }
     Ok(Synthesized { detailed, blend: blend_out, tally })
 }

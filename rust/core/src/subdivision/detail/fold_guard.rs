@@ -77,28 +77,59 @@ impl Clearance {
 pub struct Tally {
     pub placed: u64,
     pub limited: u64,
+    /// Those of them whose detail lost more than [`SHRUNK_SHARE`] of its size.
+    pub shrunk: u64,
+}
+
+/// The loss of size above which a reduced vertex counts as visibly shrunk: a dome kept
+/// at 95% of its height reads as the dome asked for, one halved does not.
+pub const SHRUNK_SHARE: f64 = 0.1;
+
+/// The size of a vertex's detail, for [`Tally`].
+pub(crate) trait Size {
+    fn size(&self) -> f64;
+}
+
+impl Size for f64 {
+    fn size(&self) -> f64 {
+        self.abs()
+    }
+}
+
+impl Size for DVec3 {
+    fn size(&self) -> f64 {
+        self.length()
+    }
 }
 
 impl Tally {
     /// Counts one level's detail once per vertex, however many guards acted on it:
     /// `full[v]` what the model asked of vertex `v`, `kept[v]` what the guards left (placed
-    /// where `full` is not zero, limited where `kept` differs from it).
-    pub(crate) fn count<T: PartialEq + Default + Copy + Sync>(&mut self, full: &[T], kept: &[T]) {
+    /// where `full` is not zero, limited where `kept` differs from it, shrunk where it is
+    /// under `1 - SHRUNK_SHARE` of its size).
+    pub(crate) fn count<T: PartialEq + Default + Size + Copy + Sync>(&mut self, full: &[T], kept: &[T]) {
         self.count_with(full.len(), |v| (full[v], kept[v]));
     }
 
     /// [`Tally::count`] of the pairs (asked, kept) `at(v)` of vertices `0..n`.
-    pub(crate) fn count_with<T: PartialEq + Default>(&mut self, n: usize, at: impl Fn(usize) -> (T, T) + Sync) {
-        let (placed, limited) = (0..n)
+    pub(crate) fn count_with<T: PartialEq + Default + Size>(&mut self, n: usize, at: impl Fn(usize) -> (T, T) + Sync) {
+        let (placed, limited, shrunk) = (0..n)
             .into_par_iter()
             .map(|v| {
                 let (full, kept) = at(v);
                 let placed = full != T::default();
-                (placed as u64, (placed && kept != full) as u64)
+                let shrunk = placed && kept.size() < (1.0 - SHRUNK_SHARE) * full.size();
+                (placed as u64, (placed && kept != full) as u64, shrunk as u64)
             })
-            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-        self.placed += placed;
-        self.limited += limited;
+            .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+        self.add(Tally { placed, limited, shrunk });
+    }
+
+    /// Adds `other`'s counts (a blend's second model, another level).
+    pub fn add(&mut self, other: Tally) {
+        self.placed += other.placed;
+        self.limited += other.limited;
+        self.shrunk += other.shrunk;
     }
 
     /// The share of placed detail that was limited (0 when none was placed).
@@ -107,6 +138,15 @@ impl Tally {
             0.0
         } else {
             self.limited as f64 / self.placed as f64
+        }
+    }
+
+    /// The share of placed detail that was visibly shrunk (0 when none was placed).
+    pub fn shrunk_share(&self) -> f64 {
+        if self.placed == 0 {
+            0.0
+        } else {
+            self.shrunk as f64 / self.placed as f64
         }
     }
 }

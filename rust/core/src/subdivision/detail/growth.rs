@@ -137,7 +137,7 @@ pub fn half_extent(positions: &[Vec3], center: DVec3, axis: DVec3) -> f64 {
 /// positive and increasing in `rho`, so no face is carried across the axis.
 #[allow(clippy::too_many_arguments)]
 pub fn fuse(p: &[Vec3], level: u32, amplitude: f64, gain: &[f64], span: f64, center: DVec3, axis: DVec3, reach: f64, tally: &mut Tally) -> Vec<DVec3> {
-    let moved: Vec<(DVec3, bool)> = p
+    let moved: Vec<(DVec3, DVec3)> = p
         .par_iter()
         .enumerate()
         .map(|(v, q)| {
@@ -147,12 +147,11 @@ pub fn fuse(p: &[Vec3], level: u32, amplitude: f64, gain: &[f64], span: f64, cen
             let step = amplitude * gain.get(v).copied().unwrap_or(1.0) * (fuse_profile(t, level) - fuse_profile(t, level - 1));
             let radial = o - z * axis;
             let floor = -FUSE_AXIS_SHARE * radial.length();
-            radial.try_normalize().map_or((DVec3::ZERO, false), |e| (e * step.max(floor), step < floor))
+            radial.try_normalize().map_or((DVec3::ZERO, DVec3::ZERO), |e| (e * step.max(floor), e * step))
         })
         .collect();
     if amplitude != 0.0 {
-        tally.placed += moved.iter().filter(|(w, _)| *w != DVec3::ZERO).count() as u64;
-        tally.limited += moved.iter().filter(|(_, limited)| *limited).count() as u64;
+        tally.count_with(moved.len(), |v| (moved[v].1, moved[v].0));
     }
     moved.into_iter().map(|(w, _)| w).collect()
 }
@@ -174,7 +173,7 @@ mod tests {
         assert!((w[0] - DVec3::new(-0.005, 0.0, 0.0)).length() < 1e-9, "{}", w[0]);
         assert!((w[1] - DVec3::new(0.0, step, 0.0)).length() < 1e-9, "{}", w[1]);
         assert_eq!(w[2], DVec3::ZERO);
-        assert_eq!(tally, Tally { placed: 2, limited: 1 });
+        assert_eq!(tally, Tally { placed: 2, limited: 1, shrunk: 1 });
     }
 
     #[test]

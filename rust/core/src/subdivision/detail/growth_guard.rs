@@ -88,7 +88,7 @@ mod tests {
         };
         let (tip, tally) = run(gap as f64);
         assert!(tip > 0.05 * gap && tip < 0.4 * gap, "tip at {tip}");
-        assert_eq!(tally, Tally { placed: 2, limited: 2 });
+        assert_eq!(tally, Tally { placed: 2, limited: 2, shrunk: 2 });
         let (tip, tally) = run(0.005);
         assert!(tip > 0.009 && tally.limited == 0, "tip at {tip}, {tally:?}");
     }

@@ -13,6 +13,8 @@
 //! past [`MAX_TILT_COS`] against the base's normal (or further than it already was).
 
 use super::fold_guard::scale_groups;
+use crate::mesh::Incidence;
+use crate::Mesh;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -38,11 +40,7 @@ pub(crate) fn upright(p: &[Vec3], normals: &[Vec3], corners: &[u32], reference: 
         return;
     }
     let mut factor = vec![1.0f64; domes];
-    let cosine = |q: &dyn Fn(usize) -> DVec3, quad: &[u32]| {
-        let m = (q(quad[2] as usize) - q(quad[0] as usize)).cross(q(quad[3] as usize) - q(quad[1] as usize));
-        let r: DVec3 = quad.iter().map(|&v| reference[v as usize].as_dvec3()).sum();
-        m.dot(r) / (m.length() * r.length()).max(f64::MIN_POSITIVE)
-    };
+    let cosine = |q: &dyn Fn(usize) -> DVec3, quad: &[u32]| tilt(q, quad, reference);
     let before: Vec<f64> = corners.par_chunks_exact(4).map(|quad| cosine(&|v| p[v].as_dvec3(), quad)).collect();
     for round in 0..=ROUNDS {
         let moved = |v: usize| match dome[v] {
@@ -70,6 +68,45 @@ pub(crate) fn upright(p: &[Vec3], normals: &[Vec3], corners: &[u32], reference: 
             *h *= factor[k as usize];
         }
     });
+}
+
+/// The cosine between quad `quad`'s normal (its diagonals' cross product, corners at
+/// `q`) and the mean of its corners' `reference` normals.
+fn tilt(q: &dyn Fn(usize) -> DVec3, quad: &[u32], reference: &[Vec3]) -> f64 {
+    let m = (q(quad[2] as usize) - q(quad[0] as usize)).cross(q(quad[3] as usize) - q(quad[1] as usize));
+    let r: DVec3 = quad.iter().map(|&v| reference[v as usize].as_dvec3()).sum();
+    m.dot(r) / (m.length() * r.length()).max(f64::MIN_POSITIVE)
+}
+
+/// [`upright`]'s test for one dome alone, before it is placed (a berry child is placed
+/// only where its dome stands).
+pub(crate) struct Stand<'a> {
+    p: &'a [Vec3],
+    normals: &'a [Vec3],
+    corners: &'a [u32],
+    reference: &'a [Vec3],
+    faces: Incidence,
+}
+
+impl<'a> Stand<'a> {
+    /// For the quads of `mesh` (a level's control mesh) with its vertex `normals` and the
+    /// base's carried normals `reference`.
+    pub(crate) fn new(mesh: &'a Mesh, normals: &'a [Vec3], reference: &'a [Vec3]) -> Self {
+        Stand { p: mesh.positions(), normals, corners: mesh.corners(), reference, faces: Incidence::faces(mesh) }
+    }
+
+    /// Whether the dome `dome` ((vertex, height along its normal), sorted by vertex), at
+    /// full height and alone, tips no quad around it past [`MAX_TILT_COS`] against the
+    /// reference (or further than it was).
+    pub(crate) fn stands(&self, dome: &[(u32, f64)]) -> bool {
+        let height = |v: usize| dome.binary_search_by_key(&(v as u32), |&(u, _)| u).map_or(0.0, |i| dome[i].1);
+        let at = |v: usize| self.p[v].as_dvec3();
+        let moved = |v: usize| at(v) + self.normals[v].as_dvec3() * height(v);
+        dome.iter().flat_map(|&(v, _)| self.faces.of(v as usize)).all(|&f| {
+            let quad = &self.corners[4 * f as usize..4 * f as usize + 4];
+            tilt(&moved, quad, self.reference) >= tilt(&at, quad, self.reference).min(MAX_TILT_COS)
+        })
+    }
 }
 
 #[cfg(test)]
