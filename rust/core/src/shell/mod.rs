@@ -39,4 +39,6 @@ mod tests;
 #[cfg(test)]
 mod tests_find_star;
 #[cfg(test)]
+mod tests_room_rule;
+#[cfg(test)]
 mod tests_split_seams;
