@@ -324,6 +324,17 @@ FOLD_CASES = [
     ("torus_knot", "berry", {"radius": 0.12, "children": 3}),
     ("torus_knot", "rock", {"amplitude": 0.03}),
     ("two_spheres", "rock", {"amplitude": 0.03}),
+    # Gaps under half an edge: the rock crossed the blade's other side in 179 pairs, the
+    # next card across in 7,560, the second box in 654, before it measured how far
+    # another part of the base is.
+    ("blade", "rock", {"amplitude": 0.03}),
+    ("cards", "rock", {"amplitude": 0.03}),
+    ("touching_cubes", "rock", {"amplitude": 0.03}),
+    # The mushroom cloud's flow thinned those gaps under its caps until faces crossed
+    # them (blade 54 pairs, cards 995, touching cubes 296): rings over them are weakened.
+    ("blade", "mushroom", {"radius": 0.1, "length": 0.04}),
+    ("cards", "mushroom", {"radius": 0.1, "length": 0.04}),
+    ("touching_cubes", "mushroom", {"radius": 0.1, "length": 0.04}),
     # Small domes: clusters drawn apart only within each overlapped their neighbours',
     # and child domes on their parents' walls leaned past vertical.
     ("uv_sphere", "berry", {"radius": 0.12, "children": 3}),
@@ -336,7 +347,13 @@ FOLD_CASES = [
 ]
 
 #: Parameters that leave each model's surface the plain subdivision's.
-PLAIN = {"rock": {"amplitude": 0.0}, "berry": {"radius": 1e-3}, "tentacle": {"length": 0.0}, "fuse": {"amplitude": 0.0}}
+PLAIN = {
+    "rock": {"amplitude": 0.0},
+    "berry": {"radius": 1e-3},
+    "tentacle": {"length": 0.0},
+    "fuse": {"amplitude": 0.0},
+    "mushroom": {"length": 0.0},
+}
 
 
 @pytest.mark.parametrize("name, model, params", FOLD_CASES)
