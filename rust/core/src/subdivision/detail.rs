@@ -178,9 +178,8 @@ impl Model {
             state.clearance = Some(fold_guard::Clearance::of(base));
         }
         // How far each base vertex is from another part, searched as far as any level's
-        // rock could be limited by it (see `gaps`); the mushroom's rings over a narrow gap
-        // are weakened by it.
-        if let Model::Rock { .. } | Model::Mushroom { .. } = self {
+        // rock could be limited by it (see `gaps`).
+        if let Model::Rock { .. } = self {
             state.gaps = gaps::Gaps::of(base, |edge| 3.0 * edge);
         }
         state
@@ -198,7 +197,7 @@ pub(crate) struct State {
     pub tally: Tally,
     /// The base, for the room domes have before meeting another part of it.
     clearance: Option<fold_guard::Clearance>,
-    /// The distances to other parts of the base, for the rock and the mushroom.
+    /// The distances to other parts of the base, for the rock.
     gaps: Option<gaps::Gaps>,
     /// The base's normals at the level's vertices, for domes' overhangs.
     reference: Vec<Vec3>,
@@ -506,9 +505,7 @@ impl Model {
                     state.seeds = first_seeds(given, 2.0 * radius);
                     state.rings = state.seeds.iter().map(|&s| growth::Ring::over(p[s as usize], normals[s as usize], *radius)).collect();
                 }
-                let time = length * level as f64;
-                let strength = state.gaps.as_ref().map_or_else(Vec::new, |g| g.ring_strengths(level, mesh, &state.rings, time));
-                let mut offsets = growth::advect(p, &state.rings, &strength, time);
+                let mut offsets = growth::advect(p, &state.rings, length * level as f64);
                 if !state.gain.is_empty() {
                     offsets.par_iter_mut().zip(&state.gain).for_each(|(w, g)| *w *= *g);
                 }

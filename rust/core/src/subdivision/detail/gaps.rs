@@ -1,8 +1,7 @@
-//! The room the rock and the mushroom cloud have before a vertex meets another part of
-//! the base (a thin part's other side, the next card across a narrow gap, a second box a
-//! hair away). The berry and the growth models cast a ray per moved vertex; the rock
-//! moves every vertex at every level, where a ray per vertex would cost more than the
-//! synthesis, and the mushroom's flow runs along the surface. Instead the
+//! The room the rock has before a vertex meets another part of the base (a thin part's
+//! other side, the next card across a narrow gap, a second box a hair away). The berry
+//! and the growth models cast a ray per moved vertex; the rock moves every vertex at
+//! every level, where a ray per vertex would cost more than the synthesis. Instead the
 //! base is measured once: each base vertex's distance to the nearest base triangle of
 //! another part (of another connected piece, or facing against the vertex's normal: a
 //! thin part's other side, a card across a gap met from either side; the vertex's own
@@ -19,13 +18,11 @@
 //! at most [`CLEAR_SHARE`] of the gap towards another. The rock asks at most a quarter of
 //! a vertex's shortest edge at level `l` (about `2^-l` of the base's), and the room
 //! exceeds that from about 1.6 base edges on: the reach of three keeps the limit
-//! continuous. The mushroom's rings over such a gap are weakened as wholes
-//! ([`Gaps::ring_strengths`]).
+//! continuous.
 
 use super::fold_guard::{Clearance, CLEAR_SHARE};
-use super::growth::Ring;
-use super::{Carried, Grid};
-use crate::mesh::vertex_normals;
+use super::Carried;
+use crate::mesh::{vertex_normals, vertex_parts};
 use crate::shell::intersect::point_triangle_distance2;
 use crate::Mesh;
 use rayon::prelude::*;
@@ -53,7 +50,7 @@ impl Gaps {
     pub(crate) fn of(base: &Mesh, reach: impl Fn(f64) -> f64 + Sync) -> Option<Gaps> {
         let clearance = Clearance::of(base);
         let triangles = base.triangulate().triangles;
-        let piece = pieces(base.vertex_count(), &triangles);
+        let piece = vertex_parts(base).of;
         let normals = vertex_normals(base);
         let p = base.positions();
         let longest = longest_edges(base, |_| true);
@@ -88,34 +85,6 @@ impl Gaps {
         self.clear(mesh).into_iter().map(|c| share * c).collect()
     }
 
-    /// The mushroom's ring strengths at level `level`, whose flow runs for `time`: a ring
-    /// with a vertex of the level within its radius and another part near it is scaled as
-    /// a whole, so its flow (at most 1 fast) moves no point by more than the level's
-    /// share, [`CLEAR_SHARE`] `2^-l`, of the least room of those vertices. Its flow
-    /// keeps volume, so where it spreads a cap it thins a gap beneath, and faces longer
-    /// than the thinned gap crossed it (the cards, the touching boxes, the blade's edge);
-    /// a whole ring scaled is still a flow that carries the surface without crossing it.
-    pub(crate) fn ring_strengths(&self, level: u32, mesh: &Mesh, rings: &[Ring], time: f64) -> Vec<f64> {
-        let mut least = vec![f64::INFINITY; rings.len()];
-        let Some(reach) = rings.iter().map(|r| r.radius).reduce(f64::max) else {
-            return Vec::new();
-        };
-        if time <= 0.0 {
-            return Vec::new();
-        }
-        let grid = Grid::new(rings.iter().map(|r| r.center), reach);
-        let p = mesh.positions();
-        for (v, c) in self.clear(mesh).into_iter().enumerate().filter(|(_, c)| c.is_finite()) {
-            for (k, d) in grid.within(p[v].as_dvec3(), reach) {
-                if d < rings[k].radius {
-                    least[k] = least[k].min(c);
-                }
-            }
-        }
-        let share = CLEAR_SHARE * 0.5f64.powi(level as i32);
-        least.into_iter().map(|c| (share * c / time).min(1.0)).collect()
-    }
-
     /// Carries the distances to `parent`'s child level.
     pub(super) fn carry(&mut self, parent: &super::Level) {
         self.gap = super::carried(parent, &self.gap);
@@ -138,25 +107,6 @@ fn longest_edges(mesh: &Mesh, wanted: impl Fn(usize) -> bool) -> Vec<f64> {
         }
     }
     longest
-}
-
-/// The connected piece of each vertex (union-find over the triangles' edges).
-fn pieces(n: usize, triangles: &[[u32; 3]]) -> Vec<u32> {
-    let mut up: Vec<u32> = (0..n as u32).collect();
-    fn root(up: &mut [u32], mut v: u32) -> u32 {
-        while up[v as usize] != v {
-            up[v as usize] = up[up[v as usize] as usize];
-            v = up[v as usize];
-        }
-        v
-    }
-    for t in triangles {
-        for k in 0..2 {
-            let (a, b) = (root(&mut up, t[k]), root(&mut up, t[k + 1]));
-            up[a.max(b) as usize] = a.min(b);
-        }
-    }
-    (0..n as u32).map(|v| root(&mut up, v)).collect()
 }
 
 #[cfg(test)]
@@ -187,29 +137,6 @@ mod tests {
     }
 
     #[test]
-    fn the_mushroom_crosses_no_other_part() {
-        // The mushroom preset (radius 0.1, length 0.04 of the diagonal) crossed the
-        // blade's edge in 18 pairs, the touching boxes in 104, 300 cards in hundreds: its
-        // rings over a narrow gap are weakened as wholes, and rings elsewhere keep
-        // their whole flow.
-        for (name, base) in [("blade", hard_meshes::blade()), ("touching cubes", hard_meshes::touching_cubes()), ("cards", hard_meshes::cards(300, 3))] {
-            let d = base.bbox_diagonal() as f64;
-            let model = Model::Mushroom { radius: 0.1 * d, length: 0.04 * d, seeds: vec![] };
-            let (mut weakened, mut whole) = (0, 0);
-            let out = synthesize(&base, 2, model.initial_state(&base), |level, mesh, normals, state| {
-                let offsets = model.displacements(level, mesh, normals, 0, state);
-                let strength = state.gaps.as_ref().unwrap().ring_strengths(level, mesh, &state.rings, 0.04 * d * level as f64);
-                weakened += strength.iter().filter(|&&s| s < 1.0).count();
-                whole += strength.iter().filter(|&&s| s == 1.0).count();
-                offsets
-            })
-            .unwrap();
-            assert_eq!(self_intersections(&out.mesh), 0, "{name}");
-            assert!(weakened > 0, "{name}: {weakened} rings weakened, {whole} whole");
-        }
-    }
-
-    #[test]
     fn distances_are_the_nearest_other_parts_by_brute_force() {
         // Each base vertex's gap against every triangle of the base: the nearest one of
         // another piece or facing against the vertex's normal, not the vertex's own,
@@ -218,8 +145,8 @@ mod tests {
         let reach = 0.3;
         let gaps = Gaps::of(&base, |_| reach).expect("the boxes are 0.3% of the diagonal apart");
         let triangles = base.triangulate().triangles;
-        let piece = pieces(base.vertex_count(), &triangles);
-        assert_eq!(piece.iter().collect::<std::collections::HashSet<_>>().len(), 2);
+        let piece = vertex_parts(&base).of;
+        assert_eq!(vertex_parts(&base).count, 2);
         let (p, normals) = (base.positions(), vertex_normals(&base));
         let corners = |t: &[u32; 3]| t.map(|v| p[v as usize].as_dvec3());
         let mut finite = 0;
@@ -243,11 +170,11 @@ mod tests {
     #[test]
     fn meshes_without_close_parts_are_not_measured_further() {
         // No base vertex of a sphere or a torus has another part within three edges: the
-        // rock and the mushroom there are exactly the unguarded ones (nothing computed).
+        // rock there is exactly the unguarded one (nothing computed).
         for (name, base) in [("sphere", testmeshes::icosphere(3)), ("torus", torus())] {
             assert!(Gaps::of(&base, |edge| 3.0 * edge).is_none(), "{name}");
             let d = base.bbox_diagonal() as f64;
-            for model in [Model::Rock { amplitude: 0.02 * d }, Model::Mushroom { radius: 0.1 * d, length: 0.04 * d, seeds: vec![] }] {
+            for model in [Model::Rock { amplitude: 0.02 * d }] {
                 let guarded = procedural_detail(&base, 2, &model, 3).unwrap();
                 let unguarded =
                     synthesize(&base, 2, State::default(), |level, mesh, normals, state| model.displacements(level, mesh, normals, 3, state)).unwrap();

@@ -80,17 +80,14 @@ impl Ring {
     }
 }
 
-/// Offsets carrying each point for a time `time` along the summed flow of `rings`, ring
-/// `k`'s scaled by `strength[k]` (1 where not given; the fold guard's, see `gaps`; a
-/// scaled ring's flow still keeps volume and carries the surface without crossing it),
-/// by the midpoint rule, steps short against the radius. A point no ring reaches stays
-/// put.
-pub fn advect(p: &[Vec3], rings: &[Ring], strength: &[f64], time: f64) -> Vec<DVec3> {
+/// Offsets carrying each point for a time `time` along the summed flow of `rings` (the
+/// midpoint rule, steps short against the radius). A point no ring reaches stays put.
+pub fn advect(p: &[Vec3], rings: &[Ring], time: f64) -> Vec<DVec3> {
     let Some(reach) = rings.iter().map(|r| r.radius).reduce(f64::max) else {
         return vec![DVec3::ZERO; p.len()];
     };
     let grid = Grid::new(rings.iter().map(|r| r.center), reach);
-    let velocity = |q: DVec3| grid.within(q, reach).map(|(k, _)| rings[k].velocity(q) * strength.get(k).copied().unwrap_or(1.0)).sum::<DVec3>();
+    let velocity = |q: DVec3| grid.within(q, reach).map(|(k, _)| rings[k].velocity(q)).sum::<DVec3>();
     let min_radius = rings.iter().map(|r| r.radius).reduce(f64::min).unwrap_or(reach);
     // Speeds are at most about 1: steps of at most 1/8 of the smallest ring.
     let steps = (8.0 * time.abs() / min_radius).ceil().clamp(1.0, 256.0) as usize;

@@ -13,9 +13,8 @@
 //!
 //! Not the mushroom cloud: its flow is divergence-free and smooth, so it carries the
 //! surface without crossing it (what crossings it makes come from faces longer than the
-//! gaps it thins), and its offsets run along the surface, where rays meet a scan's
+//! gaps they span), and its offsets run along the surface, where rays meet a scan's
 //! bumps a hair away: scaling each ring by these limits left no mushroom on the bunny.
-//! Its rings over a narrow gap are weakened by the distances of [`super::gaps`] instead.
 //! The fuse has its own limit ([`super::growth::FUSE_AXIS_SHARE`]).
 
 use super::fold_guard::{scale_groups, Clearance, Limits, Tally, CLEAR_SHARE};
