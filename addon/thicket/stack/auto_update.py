@@ -113,23 +113,22 @@ def _value(value, contents=False):
     return tuple(value)
 
 
-def _contents_read(item) -> frozenset:
+def contents_read(item) -> frozenset:
     """The item's pointers whose contents its result reads: its field node tree or
     Text only while its source is that (a tree left set under another source is not
-    read, and its edits leave the result current)."""
-    from .text_watch import reads_text
-
-    read = {"tree_text"} if reads_text(item) else set()
+    read, and its edits leave the result current; `text_watch` follows the same Texts)."""
+    if item.kind == "SOLID_TEXTURE" or (item.kind == "VOLUMETRIC_TEXTURE" and item.source == "FIELD_JSON"):
+        return frozenset({"tree_text"})
     if item.kind == "VOLUMETRIC_TEXTURE" and item.source == "FIELD_NODES":
-        read.add("field_nodes")
-    return frozenset(read)
+        return frozenset({"field_nodes"})
+    return frozenset()
 
 
 def item_values(item) -> tuple:
     """The values of an item's own properties (`bl_rna`) that its result depends on:
     no evaluated settings, so no mesh (a cutter's) is read; the contents of the field
-    node tree or Text its source reads (`_contents_read`)."""
-    read = _contents_read(item)
+    node tree or Text its source reads (`contents_read`)."""
+    read = contents_read(item)
     return tuple(_value(getattr(item, p.identifier), p.identifier in read) for p in item.bl_rna.properties if p.identifier not in _NOT_READ)
 
 
