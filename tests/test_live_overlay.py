@@ -12,6 +12,7 @@ import bpy
 import numpy as np
 import pytest
 from conftest import add
+from test_stack_live import field_tree
 
 from thicket import api
 from thicket.render import lights, overlay
@@ -24,11 +25,11 @@ REFERENCE = dict(method="reference")
 @pytest.fixture
 def clean(scene):
     overlay.cancel()
-    overlay._state.update(views={}, prepared=None, error="", note="", failed=None, started=-1e9)
+    overlay._state.update(views={}, prepared=None, error="", note="", failed=None, started=-1e9, shown=None)
     yield scene
     overlay.cancel()
     overlay.wait()
-    overlay._state.update(views={}, prepared=None, error="", note="", failed=None, started=-1e9)
+    overlay._state.update(views={}, prepared=None, error="", note="", failed=None, started=-1e9, shown=None)
 
 
 def _sphere(pattern="chain_mail"):
@@ -163,3 +164,154 @@ def test_refresh_prepares_then_renders_each_view_and_keeps_the_last_image(clean)
     overlay.wait()
     assert view.key == view.want and view.result is not None
     assert not np.array_equal(view.result, first), "the new tiling shows"
+
+
+def test_switching_objects_cancels_the_other_preparation_and_drops_its_result(clean):
+    """Another object made active while one is prepared: the first preparation is
+    cancelled, and a result or error of an object no longer shown is not kept (it
+    would take the single prepared slot, or show the old object's error)."""
+    first, second = _sphere(), _sphere("rivets")
+    overlay.refresh(first, [(1, 40, 30, _region())], now=0.0)
+    job = overlay._preparations.builds[first.session_uid].job
+    overlay.refresh(second, [(1, 40, 30, _region())], now=1.0)
+    assert job.cancelled and overlay._preparations.running(second)
+    overlay.wait()
+    assert overlay._state["prepared"][0] == overlay.content_key(second)
+    kept = overlay._state["prepared"]
+    build = types.SimpleNamespace(read=overlay.content_key(first))
+    overlay._preparations.write(first, build, object())  # what a late landing of the first calls
+    overlay._preparations.fail(first, ValueError("the first object's error"))
+    assert overlay._state["prepared"] is kept and overlay._state["error"] == ""
+
+
+def test_the_content_key_follows_the_field_tree_and_not_the_panel(clean):
+    """The preview keys on what the stale check reads: a field node tree's edit (no
+    depsgraph counter sees it) prepares again; renaming or expanding an item does not."""
+    tree, ball = field_tree()
+    cube = add("cube", size=2.0)
+    api.add_volumetric_texture(
+        cube, field_tree_json=tree, shell_thickness=0.1, texture_size=16, resolution=4, depth_steps=6, follow_texture=False, triangle_budget=0
+    )
+    cube.thicket.auto_update = False
+    key = overlay.content_key(cube)
+    item = cube.thicket.items[-1]
+    item.show_expanded = not item.show_expanded
+    item.name = "Renamed"
+    assert overlay.content_key(cube) == key
+    ball.radius = 0.15
+    assert overlay.content_key(cube) != key
+
+
+def test_a_file_load_turns_the_preview_off(clean):
+    """Blender drops the preview's timer on a file load: the load ends the preview
+    (draw handler, images, native handle), so it does not show as on while dead."""
+    overlay.watch()
+    assert overlay.on_load_pre in bpy.app.handlers.load_pre
+    overlay._state.update(handle=bpy.types.SpaceView3D.draw_handler_add(overlay._draw, (), "WINDOW", "POST_PIXEL"), prepared=("key", object()))
+    overlay._state["views"][1] = overlay.View(1)
+    assert overlay.is_enabled()
+    overlay.on_load_pre()
+    assert not overlay.is_enabled() and overlay._state["prepared"] is None and overlay._state["views"] == {}
+    overlay.unwatch()
+
+
+def test_another_objects_change_leaves_the_preparation_running(clean):
+    """Changes are counted per object: editing another stack's mesh does not cancel
+    the shown object's preparation (steady changes elsewhere, such as drivers, would
+    keep it preparing for ever)."""
+    shown = _sphere()
+    other = add("cube", size=1.0, location=(4, 0, 0))
+    api.add_thick_surface(other, kind="OFFSET_SHELL")
+    other.thicket.auto_update = False
+    bpy.context.view_layer.objects.active = shown
+    overlay.watch()
+    try:
+        bpy.context.evaluated_depsgraph_get()
+        key = overlay.content_key(shown)
+        overlay.refresh(shown, [(1, 40, 30, _region())], now=0.0)
+        job = overlay._preparations.builds[shown.session_uid].job
+        other.data.vertices[0].co.x += 0.1
+        other.data.update()
+        bpy.context.evaluated_depsgraph_get().update()
+        assert overlay.generation(other) > 0 and overlay.content_key(shown) == key
+        overlay.refresh(shown, [(1, 40, 30, _region())], now=0.1)
+        assert not job.cancelled
+        shown.data.vertices[0].co.x += 0.1  # its own change still counts
+        shown.data.update()
+        bpy.context.evaluated_depsgraph_get().update()
+        assert overlay.content_key(shown) != key
+    finally:
+        overlay.unwatch()
+
+
+def test_closed_views_are_dropped_with_their_renders(clean):
+    sphere = _sphere()
+    overlay.refresh(sphere, [(1, 40, 30, _region())], now=0.0)
+    overlay.wait()
+    (view,) = overlay.refresh(sphere, [(1, 40, 30, _region())], now=1.0)
+    job = overlay._renders.builds[1].job
+    overlay.refresh(sphere, [(2, 40, 30, _region())], now=2.0)  # area 1 closed, another opened
+    assert set(overlay._state["views"]) == {2} and job.cancelled
+    overlay.wait()
+    assert view.result is None, "the closed view's render is dropped"
+
+
+def test_the_preparation_key_is_taken_after_its_read(clean, monkeypatch):
+    """A read that itself counted a change (temporary objects of a sculpt's read)
+    still lands a key equal to the content after it: nothing prepares again."""
+    from thicket.stack import regenerate
+
+    sphere = _sphere()
+    real = regenerate.read_source
+
+    def counting_read(obj, *args, **kwargs):
+        generations = overlay._state["generations"]
+        generations[obj.session_uid] = generations.get(obj.session_uid, 0) + 1
+        return real(obj, *args, **kwargs)
+
+    monkeypatch.setattr(regenerate, "read_source", counting_read)
+    overlay.refresh(sphere, [(1, 40, 30, _region())], now=0.0)
+    overlay.wait()
+    assert overlay._state["prepared"] is not None and overlay._state["prepared"][0] == overlay.content_key(sphere)
+    overlay.refresh(sphere, [(1, 40, 30, _region())], now=10.0)
+    assert not overlay._preparations.running(sphere)
+
+
+EXIT_SCRIPT = """
+import atexit, os, sys
+sys.path.insert(0, {tests!r})
+import bpy
+from conftest import add
+from thicket import api
+from thicket.render import overlay
+import test_live_overlay as t
+
+s = add("uv_sphere", segments=48, ring_count=24)
+api.add_volumetric_texture(s, "chain_mail", shell_thickness=0.08, resolution=8, depth_steps=16)
+s.thicket.auto_update = False
+overlay._state["started"] = -1e9  # no throttle at the first look
+overlay.refresh(s, [(1, 800, 600, t._region())], now=0.0)
+overlay.wait()
+overlay.refresh(s, [(1, 800, 600, t._region())], now=1.0)
+assert overlay._renders.running(overlay._state["views"][1])
+overlay.cancel()  # left running: the exit must wait for it
+print("exiting")
+if bpy.app.version < (4, 3, 0):  # that module crashes in teardown (see conftest): exit as the tests do
+    sys.stdout.flush()
+    atexit._run_exitfuncs()
+    os._exit(0)
+"""
+
+
+def test_a_cancelled_render_is_waited_for_at_exit(tmp_path):
+    """A cancelled frame still running when Python ends would call back into Python
+    (its progress) after it ended, which aborts the process: the exit waits for it."""
+    import pathlib
+    import subprocess
+    import sys
+
+    script = tmp_path / "exit_while_rendering.py"
+    script.write_text(EXIT_SCRIPT.format(tests=str(pathlib.Path(__file__).parent)))
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+    assert "exiting" in proc.stdout, proc.stderr[-2000:]
+    assert proc.returncode == 0, proc.stderr[-2000:]

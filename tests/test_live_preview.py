@@ -79,10 +79,10 @@ def test_the_preview_key_follows_the_source_and_ignores_the_rest(watched):
 def test_watching_stops(watched):
     obj = _source()
     overlay.unwatch()
-    start = overlay.generation()
+    start = overlay.generation(obj)
     obj.modifiers.new("twist", "SIMPLE_DEFORM")
     bpy.context.view_layer.update()
-    assert overlay.generation() == start
+    assert overlay.generation(obj) == start
 
 
 def test_an_object_made_again_under_the_same_name_is_a_new_preview(scene):

@@ -213,13 +213,20 @@ def test_the_stale_check_keys_on_item_properties_and_reads_no_mesh(scene, monkey
     assert len(reads) == 3
 
 
-def test_a_field_tree_or_text_edited_behind_the_build_makes_it_stale(scene):
-    """Edits of a field node tree or of a Text reach no depsgraph counter: the state
-    holds what they hold (the tree's JSON, the Text's digest), still no mesh."""
+def field_tree(with_output=True):
+    """A field node tree of one ball (`ball`, returned with it), its Output linked unless not `with_output`."""
     tree = bpy.data.node_groups.new("Texture Field", "ThicketFieldTree")
     ball = tree.nodes.new("ThicketNodeSphere")
     ball.center, ball.radius = (0.5, 0.5, 0.5), 0.3
-    tree.links.new(ball.outputs[0], tree.nodes.new("ThicketNodeOutput").inputs[0])
+    if with_output:
+        tree.links.new(ball.outputs[0], tree.nodes.new("ThicketNodeOutput").inputs[0])
+    return tree, ball
+
+
+def test_a_field_tree_or_text_edited_behind_the_build_makes_it_stale(scene):
+    """Edits of a field node tree or of a Text reach no depsgraph counter: the state
+    holds what they hold (the tree's JSON, the Text's digest)."""
+    tree, ball = field_tree()
     settings = dict(shell_thickness=0.1, texture_size=16, resolution=4, depth_steps=6, follow_texture=False, triangle_budget=0)
     by_nodes, by_text = add("cube", size=2.0), add("cube", size=2.0, location=(3, 0, 0))
     api.add_volumetric_texture(by_nodes, field_tree_json=tree, **settings)
@@ -234,3 +241,68 @@ def test_a_field_tree_or_text_edited_behind_the_build_makes_it_stale(scene):
     text.clear()
     text.write(json.dumps({"op": "sphere", "center": [0.5, 0.5, 0.5], "radius": 0.2}))
     assert [auto_update.source_state(obj) != state for obj, state in zip((by_nodes, by_text), states)] == [True, True]
+
+
+def test_a_tree_the_item_no_longer_reads_leaves_its_build_current(scene):
+    """A pattern texture still pointing at a field node tree (left from when it was
+    the source) does not read it: an edit of that tree behind a mesh edit's build
+    leaves the build current (nothing else would redo it: only items whose source is
+    the tree follow its edits), and the mesh edit's result is written."""
+    sphere = add("ico_sphere", subdivisions=2)
+    api.add_volumetric_texture(sphere, "weave", resolution=4, depth_steps=8)
+    tree, ball = field_tree()
+    item = sphere.thicket.items[-1]
+    item.field_nodes = tree
+    assert item.source == "PATTERN"
+    api.regenerate(sphere)
+    before = positions(sphere.thicket.result).copy()
+    _edit(sphere, (0.0, 0.0, 0.2))
+    auto_update.start(sphere)
+    ball.radius = 0.2
+    auto_update.wait()
+    live = positions(sphere.thicket.result).copy()
+    assert not np.array_equal(live, before), "the mesh edit's result is written"
+    np.testing.assert_array_equal(live, _synchronous(sphere))
+
+
+def test_an_unreadable_tree_never_raises_out_of_a_build_start(scene):
+    """A field node tree without an Output: left on a pattern item, it is not read
+    (the build writes); as the item's source, the build's error is the item's
+    `last_error`, never raised into the timer that starts builds."""
+    sphere = add("ico_sphere", subdivisions=2)
+    api.add_volumetric_texture(sphere, "weave", resolution=4, depth_steps=8)
+    tree, _ball = field_tree(with_output=False)
+    item = sphere.thicket.items[-1]
+    sphere.thicket.auto_update = False
+    item.field_nodes = tree
+    sphere.thicket.auto_update = True
+    auto_update.source_state(sphere)  # does not raise
+    _edit(sphere, (0.0, 0.0, 0.2))
+    auto_update.start(sphere)
+    auto_update.wait()
+    assert sphere.thicket.last_error == ""
+    sphere.thicket.auto_update = False
+    item.source = "FIELD_NODES"
+    sphere.thicket.auto_update = True
+    auto_update.source_state(sphere)  # does not raise either
+    auto_update.start(sphere)
+    auto_update.wait()
+    assert sphere.thicket.last_error != ""
+
+
+def test_moving_the_source_makes_a_build_with_a_cutter_stale(scene):
+    """A cutter is read in the source's space: the source moved behind the build
+    changes its result, so the build is dropped (no depsgraph counter names it: a
+    move is no geometry change)."""
+    sphere = add("ico_sphere", subdivisions=2)
+    api.add_volumetric_texture(sphere, "weave", resolution=4, depth_steps=8)
+    state = auto_update.source_state(sphere)
+    sphere.location.x += 0.5
+    bpy.context.view_layer.update()
+    assert auto_update.source_state(sphere) == state, "no cutter: the placement is not read"
+    sphere.thicket.items[1].cutter = add("uv_sphere", segments=16, ring_count=8, radius=0.4, location=(0.8, 0.0, 0.0))
+    bpy.context.view_layer.update()
+    state = auto_update.source_state(sphere)
+    sphere.location.x += 0.5
+    bpy.context.view_layer.update()
+    assert auto_update.source_state(sphere) != state

@@ -1,9 +1,9 @@
 """An artist's Multires sculpt as the base of a Procedural Detail item (Use Sculpt):
 what Blender must give, read on its main thread. The numbering match and the analysis
 (Velho, Perlin, Ying and Biermann, section 2) run in the stack's evaluation, with
-progress and cancel: on a worker in the interface (Regenerate and the live
-auto-update), at once in scripts (`thicket.api`), background sessions and the
-viewport overlay; they and their cache are `pure.kinds.procedural_detail_sculpt`'s.
+progress and cancel: on a worker in the interface (Regenerate, the live
+auto-update and the viewport overlay's preparation), at once in scripts
+(`thicket.api`) and background sessions; they and their cache are `pure.kinds.procedural_detail_sculpt`'s.
 
 Changing an item's own settings reads the sculpt again (Blender's Multires
 evaluation, a copy) but neither matches the numbering nor analyses; editing the base

@@ -19,13 +19,13 @@ import time
 import bpy
 import numpy as np
 
-from ..stack.live_build import Build, Builds, by_uid
+from ..stack.live_build import Build, Builds, by_uid, redraw_panels
 from . import camera, lights
 
 THROTTLE = 0.25
 SCALE = 0.5
 
-_state = {"handle": None, "views": {}, "prepared": None, "error": "", "note": "", "generation": 0, "failed": None, "started": 0.0}
+_state = {"handle": None, "views": {}, "prepared": None, "error": "", "note": "", "generations": {}, "failed": None, "started": 0.0, "shown": None}
 
 
 def is_enabled():
@@ -41,14 +41,19 @@ def enable():
 
 
 def disable():
+    _stop()
+    unwatch()
+
+
+def _stop():
+    """Ends the preview (its draw handler, timer, builds and images), its handlers kept."""
     if _state["handle"] is not None:
         bpy.types.SpaceView3D.draw_handler_remove(_state["handle"], "WINDOW")
-    unwatch()
     cancel()
-    _state.update(handle=None, views={}, prepared=None, error="", note="", failed=None)
+    _state.update(handle=None, views={}, prepared=None, error="", note="", failed=None, shown=None)
     if bpy.app.timers.is_registered(_tick):
         bpy.app.timers.unregister(_tick)
-    _redraw_all()
+    redraw_panels()
 
 
 def _has_stack(obj):
@@ -57,18 +62,27 @@ def _has_stack(obj):
 
 @bpy.app.handlers.persistent
 def on_depsgraph_update(scene, depsgraph):
-    """Counts the updates that change what a preview shows (see `generation`)."""
+    """Counts, per object, the updates that change what its preview shows (see
+    `generation`)."""
     from ..stack.auto_update import changed_sources
 
-    if changed_sources(scene, depsgraph, _has_stack):
-        _state["generation"] += 1
+    generations = _state["generations"]
+    for obj in changed_sources(scene, depsgraph, _has_stack):
+        generations[obj.session_uid] = generations.get(obj.session_uid, 0) + 1
 
 
 @bpy.app.handlers.persistent
 def on_undo_pre(*_args):
-    """An undo, a redo or a file load replaces the data the builds in flight read:
-    they are dropped (the next tick prepares what the view shows then)."""
+    """An undo or a redo replaces the data the builds in flight read: they are dropped
+    (the next tick prepares what the view shows then)."""
     cancel()
+
+
+@bpy.app.handlers.persistent
+def on_load_pre(*_args):
+    """A file load ends the preview (Blender drops its timer; the images and native
+    handle are the old file's): the button shows it off, and turning it on starts anew."""
+    _stop()
 
 
 #: The handlers `watch` adds: the depsgraph's, and those that drop builds in flight.
@@ -76,7 +90,7 @@ HANDLERS = (
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
     (bpy.app.handlers.undo_pre, on_undo_pre),
     (bpy.app.handlers.redo_pre, on_undo_pre),
-    (bpy.app.handlers.load_pre, on_undo_pre),
+    (bpy.app.handlers.load_pre, on_load_pre),
 )
 
 
@@ -93,36 +107,22 @@ def unwatch():
             handlers.remove(fn)
 
 
-def generation():
-    """How many changes of a stack source's result were seen since watching began."""
-    return _state["generation"]
-
-
-def _plain(value):
-    """A property value as plain, comparable data (an ID, such as a cutter, by its
-    session id: another object of the same name is another content)."""
-    if isinstance(value, bpy.types.ID):
-        return ("ID", value.session_uid)
-    if hasattr(value, "__len__") and not isinstance(value, str):
-        return tuple(value)
-    return value
+def generation(obj):
+    """How many changes of `obj`'s result were seen since watching began."""
+    return _state["generations"].get(obj.session_uid, 0)
 
 
 def content_key(obj):
     """What `obj`'s preview shows, besides the view and the object's placement: its
-    stack items' properties (read as stored, without reading a cutter's mesh: its
-    changes count in `generation`) and the changes of its result seen so far. The
-    object is named by its session id, which a file loaded anew or an object made
-    again under the same name does not share."""
-    items = tuple(tuple((name, _plain(getattr(item, name))) for name in item.bl_rna.properties.keys() if name != "rna_type") for item in obj.thicket.items)
-    return (obj.session_uid, obj.data.session_uid, items, _state["generation"])
+    stack items' values as the stale check reads them (`auto_update.item_values`: no
+    mesh read, a cutter's changes count in `generation`; the field node tree or Text
+    an item reads by its contents; no panel-only property) and the changes of its
+    result seen so far. The object is named by its session id, which a file loaded
+    anew or an object made again under the same name does not share."""
+    from ..stack.auto_update import item_values
 
-
-def _redraw_all():
-    for window in getattr(bpy.context.window_manager, "windows", ()):
-        for area in window.screen.areas:
-            if area.type in {"VIEW_3D", "PROPERTIES"}:
-                area.tag_redraw()
+    items = tuple(item_values(item) for item in obj.thicket.items)
+    return (obj.session_uid, obj.data.session_uid, items, generation(obj))
 
 
 def _source():
@@ -148,14 +148,13 @@ def _failed(owner, exc):
 def prepare_inputs(obj):
     """What preparing `obj` reads from Blender (main thread): (content key, source
     arrays, enabled items' settings), as a regeneration reads them (a Procedural
-    Detail's sculpt included)."""
+    Detail's sculpt included); the key taken after the read, as the stale check's."""
     from ..stack.guard import suspended
     from ..stack.regenerate import enabled_settings, read_source
 
-    key = content_key(obj)
     with suspended():
         source, items = read_source(obj, bpy.context.evaluated_depsgraph_get(), enabled_settings(obj))
-    return key, source, items
+    return content_key(obj), source, items
 
 
 def prepare_work(source, items, progress=None):
@@ -168,38 +167,50 @@ def prepare_work(source, items, progress=None):
     return render_setup(source, items, progress).handle()
 
 
+def _shown(obj):
+    """Whether `obj` is the object the views show (the last `refresh`'s)."""
+    return _state["shown"] == obj.session_uid
+
+
 def _prepared_lands(obj, build, handle):
-    _state["prepared"] = (build.extra, handle)
-    _state["error"] = ""
+    """Kept when `obj` is still the one shown; its key is the one its stale check read
+    (`build.read`, after the read of its inputs)."""
+    if _shown(obj):
+        _state["prepared"] = (build.read, handle)
+        _state["error"] = ""
 
 
 def _preparation_failed(obj, exc):
-    """Shown in the view; not tried again until `obj`'s content changes (the build
-    only fails while it still reads as it did, so its content is the failed one)."""
-    _state["failed"] = content_key(obj)
-    _failed(obj, exc)
+    """Shown in the view (when `obj` is still the one shown); not tried again until
+    `obj`'s content changes (the build only fails while it still reads as it did, so
+    its content is the failed one)."""
+    if _shown(obj):
+        _state["failed"] = content_key(obj)
+        _failed(obj, exc)
 
 
-_preparations = Builds(lambda uid: by_uid(bpy.data.objects, uid), _prepared_lands, _preparation_failed, exclusive=True, on_poll=_redraw_all)
+_preparations = Builds(lambda uid: by_uid(bpy.data.objects, uid), _prepared_lands, _preparation_failed, exclusive=True, on_poll=redraw_panels)
 
 
 def start_prepare(obj):
     """Prepares `obj` on a worker (`prepare_work`), its inputs read here; the timer
     keeps the handle once it is done, while `obj`'s content still reads the same.
-    Cancels the preparation in flight (this one starts once that cancel landed). An
-    unreadable source shows its error at once."""
-    uid = obj.session_uid
+    Cancels the preparation in flight (this one starts once that cancel landed) and
+    those of other objects: `obj` is the one shown now. An unreadable source shows its
+    error at once."""
+    uid = _state["shown"] = obj.session_uid
+    _preparations.cancel_others(obj)  # another object was shown: its result is not wanted
 
     def starter():
         source_obj = by_uid(bpy.data.objects, uid)
         if source_obj is None:
             return None
         try:
-            key, source, items = prepare_inputs(source_obj)
+            _key, source, items = prepare_inputs(source_obj)
+            return Build(source_obj, content_key, lambda job: prepare_work(source, items, job.progress))
         except Exception as exc:  # noqa: BLE001 - also run by the timer, which must never raise
             _preparation_failed(source_obj, exc)
             return None
-        return Build(source_obj, content_key, lambda job: prepare_work(source, items, job.progress), key)
 
     _preparations.start(obj, starter)
 
@@ -239,7 +250,7 @@ def _rendered(view, build, out):
     _state["error"], _state["note"] = "", out["fallback"]
 
 
-_renders = Builds(lambda uid: _state["views"].get(uid), _rendered, _failed, on_poll=_redraw_all)
+_renders = Builds(lambda uid: _state["views"].get(uid), _rendered, _failed, on_poll=redraw_panels)
 
 
 def start_render(view, handle, frame, settings):
@@ -253,19 +264,24 @@ def start_render(view, handle, frame, settings):
 def refresh(obj, views, now=None):
     """One look at `obj`'s preview from `views`, (uid, width, height, RegionView3D)
     of each 3D view at its preview's size: prepares `obj` when its content changed
-    (the views keep showing their last images meanwhile), cancels the renders the
-    views no longer want, and starts one for each view whose image is not what it wants
+    (the views keep showing their last images meanwhile; another object's preparation
+    is cancelled), drops the views not among `views` (areas closed), cancels the
+    renders the views no longer want, and starts one for each view whose image is not what it wants
     (at most every THROTTLE seconds). Returns the `View`s, for their uploads."""
     now = time.monotonic() if now is None else now
     content, placed = content_key(obj), tuple(map(tuple, obj.matrix_world))
+    _state["shown"] = obj.session_uid
+    _preparations.cancel_others(obj)  # another object was shown: its result is not wanted
     prepared = _state["prepared"]
     ready = prepared is not None and prepared[0] == content
     preparing = _preparations.builds.get(obj.session_uid)
-    if preparing is not None and preparing.extra != content:
+    if preparing is not None and preparing.read != content:
         _preparations.cancel(obj)  # a newer change: the next start prepares it
     if not ready and not _preparations.running(obj) and _state["failed"] != content and now - _state["started"] >= THROTTLE:
         _state.update(started=now, failed=None)
         start_prepare(obj)
+    for uid in set(_state["views"]) - {uid for uid, *_rest in views}:
+        _renders.cancel(_state["views"].pop(uid))  # its area closed: its image and texture go
     out = []
     for uid, width, height, r3d in views:
         view = _state["views"].get(uid)

@@ -22,7 +22,7 @@ from ..operators.common import error_text
 from ..pure import live_shells, native
 from .debounce import Debounced
 from .guard import busy, suspended
-from .live_build import Build, Builds, by_uid
+from .live_build import Build, Builds, by_uid, redraw_panels
 
 
 def _is_source(obj) -> bool:
@@ -90,17 +90,21 @@ _versions: dict = {}
 _NOT_READ = frozenset({"rna_type", "name", "show_expanded"})
 
 
-def _value(value):
+def _value(value, contents=False):
     """A property value as plain data that compares by content: an ID by its
-    `session_uid` (a Text or a field node tree by what it holds as well, as their
-    edits reach no depsgraph counter), arrays as tuples, enum flags as sorted tuples."""
+    `session_uid` (with `contents`, a Text or a field node tree by what it holds as
+    well, as their edits reach no depsgraph counter; a tree that cannot be read by its
+    error, which the build reports), arrays as tuples, enum flags as sorted tuples."""
     if isinstance(value, bpy.types.ID):
-        if isinstance(value, bpy.types.Text):
+        if contents and isinstance(value, bpy.types.Text):
             return value.session_uid, hash(value.as_string())
-        if isinstance(value, bpy.types.NodeTree):
+        if contents and isinstance(value, bpy.types.NodeTree):
             from ..nodes.graph import tree_json
 
-            return value.session_uid, tree_json(value)
+            try:
+                return value.session_uid, tree_json(value)
+            except Exception as exc:  # noqa: BLE001 - the build reading it reports it; a state never raises
+                return value.session_uid, error_text(exc)
         return value.session_uid
     if isinstance(value, (set, frozenset)):
         return tuple(sorted(value))
@@ -109,10 +113,23 @@ def _value(value):
     return tuple(value)
 
 
+def contents_read(item) -> frozenset:
+    """The item's pointers whose contents its result reads: its field node tree or
+    Text only while its source is that (a tree left set under another source is not
+    read, and its edits leave the result current; `text_watch` follows the same Texts)."""
+    if item.kind == "SOLID_TEXTURE" or (item.kind == "VOLUMETRIC_TEXTURE" and item.source == "FIELD_JSON"):
+        return frozenset({"tree_text"})
+    if item.kind == "VOLUMETRIC_TEXTURE" and item.source == "FIELD_NODES":
+        return frozenset({"field_nodes"})
+    return frozenset()
+
+
 def item_values(item) -> tuple:
     """The values of an item's own properties (`bl_rna`) that its result depends on:
-    no evaluated settings, so no mesh (a cutter's) is read."""
-    return tuple(_value(getattr(item, p.identifier)) for p in item.bl_rna.properties if p.identifier not in _NOT_READ)
+    no evaluated settings, so no mesh (a cutter's) is read; the contents of the field
+    node tree or Text its source reads (`contents_read`)."""
+    read = contents_read(item)
+    return tuple(_value(getattr(item, p.identifier), p.identifier in read) for p in item.bl_rna.properties if p.identifier not in _NOT_READ)
 
 
 def source_state(obj):
@@ -120,7 +137,8 @@ def source_state(obj):
     enabled items' property values (`item_values`; the scene's frame and frame rate
     where one follows the frame), its own mesh's size and positions, and its
     depsgraph changes (`_versions`: modifiers, watched objects such as a cutter or a
-    local center, sculpts)."""
+    local center, sculpts), and its placement where an item watches another object
+    (a cutter, a local center: read in the source's space)."""
     mesh = obj.data
     positions = np.empty(len(mesh.vertices) * 3, np.float32)
     mesh.vertices.foreach_get("co", positions)
@@ -129,6 +147,9 @@ def source_state(obj):
     scene = bpy.context.scene
     if scene is not None and any(item.follow_frame for item in enabled):
         settings += ((scene.frame_current, scene.render.fps, scene.render.fps_base),)
+    if any(item.watched_objects() for item in enabled):
+        # A cutter or local center is read in the source's space: moving the source changes the result.
+        settings += (tuple(map(tuple, obj.matrix_world)),)
     counts = (len(mesh.vertices), len(mesh.edges), len(mesh.polygons), len(mesh.loops))
     return mesh.session_uid, counts, hash(positions.tobytes()), _versions.get(obj.session_uid, 0), settings
 
@@ -139,15 +160,7 @@ def _write(obj, build, result_arrays) -> None:
     write_result(obj, result_arrays)
 
 
-def _redraw() -> None:
-    """The stack panels (Properties editor, 3D View sidebar) show a build's progress."""
-    for window in getattr(bpy.context.window_manager, "windows", ()):
-        for area in window.screen.areas:
-            if area.type in {"PROPERTIES", "VIEW_3D"}:
-                area.tag_redraw()
-
-
-_live = Builds(lambda uid: by_uid(bpy.data.objects, uid), _write, _failed, exclusive=True, on_poll=_redraw)
+_live = Builds(lambda uid: by_uid(bpy.data.objects, uid), _write, _failed, exclusive=True, on_poll=redraw_panels)
 
 
 def start(obj) -> None:
@@ -170,10 +183,10 @@ def start(obj) -> None:
         ensure_upgraded()
         try:
             arrays, items = read_source(source)
+            return Build(source, source_state, lambda job: evaluate_stack(arrays, items, job.progress, ask=True))
         except Exception as exc:  # noqa: BLE001 - also run by the timer, which must never raise
             _failed(source, exc)
             return None
-        return Build(source, source_state, lambda job: evaluate_stack(arrays, items, job.progress, ask=True))
 
     _live.start(obj, starter)
 

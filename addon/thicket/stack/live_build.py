@@ -9,6 +9,9 @@ as it did when its build started (`Build.read` against `Build.state(owner)`): an
 undo, or a change nothing scheduled, drops it (and its error). Errors go to the owner's `fail`,
 cancels are dropped, and nothing is ever raised into Blender's event loop."""
 
+import atexit
+import weakref
+
 import bpy
 
 from ..operators.common import Job, cancel_errors
@@ -46,7 +49,10 @@ class Builds:
         #: Cancelled builds still running (exclusive), and what starts the next one once they end.
         self._ending: dict = {}
         self._next: dict = {}
+        #: Cancelled builds of the others, still running until their work sees the cancel.
+        self._cancelled: list = []
         self._tick = self.poll  # one object, so the timer is found registered
+        _every.add(self)
 
     def start(self, owner, starter) -> None:
         """Cancels `owner`'s build in flight and starts `starter()`'s `Build` (None:
@@ -67,19 +73,28 @@ class Builds:
             build.job.start()
 
     def _watch(self) -> None:
-        if (self.builds or self._ending) and not bpy.app.timers.is_registered(self._tick):
+        if (self.builds or self._ending or self._cancelled) and not bpy.app.timers.is_registered(self._tick):
             bpy.app.timers.register(self._tick, first_interval=POLL_SECONDS)
 
     def cancel(self, owner=None) -> None:
         """Cancels `owner`'s build in flight (every build for None) and any waiting to
-        start; their results are never written."""
+        start; their results are never written. One still running is kept until its
+        work ends, for `wait` and for the exit (`_end_all`)."""
         for uid in list(self.builds) if owner is None else [owner.session_uid]:
             build = self.builds.pop(uid, None)
             if build is not None:
                 build.job.cancel()
-                if self.exclusive and not build.job.done:
-                    self._ending[uid] = build
+                if not build.job.done:
+                    if self.exclusive:
+                        self._ending[uid] = build
+                    else:
+                        self._cancelled.append(build)
             self._next.pop(uid, None)
+
+    def cancel_others(self, owner) -> None:
+        """Cancels the builds of every owner but `owner` (the one a view shows now)."""
+        for uid in [uid for uid in (*self.builds, *self._next) if uid != owner.session_uid]:
+            self.cancel(_Named(uid))
 
     def running(self, owner) -> bool:
         """Whether `owner` has a build in flight or waiting to start."""
@@ -95,6 +110,7 @@ class Builds:
         """Writes the builds that are done and starts those that waited (main thread);
         the timer's next interval, or None once nothing is in flight. One build's
         failure never strands the others."""
+        self._cancelled = [build for build in self._cancelled if not build.job.done]
         for uid, build in list(self._ending.items()):
             if build.job.done:
                 del self._ending[uid]
@@ -125,13 +141,13 @@ class Builds:
                 self.fail(owner, exc)
         if self.on_poll is not None:
             self.on_poll()
-        return POLL_SECONDS if self.builds or self._ending else None
+        return POLL_SECONDS if self.builds or self._ending or self._cancelled else None
 
     def wait(self, timeout=60.0) -> None:
         """Waits for every build in flight (and those waiting to start) and writes
         them (renders, tests and scripts)."""
-        while self.builds or self._ending:
-            builds = [*self.builds.values(), *self._ending.values()]
+        while self.builds or self._ending or self._cancelled:
+            builds = [*self.builds.values(), *self._ending.values(), *self._cancelled]
             for build in builds:
                 build.job.join(timeout)
             self.poll()
@@ -141,3 +157,34 @@ class Builds:
 
 def by_uid(collection, uid):
     return next((item for item in collection if item.session_uid == uid), None)
+
+
+class _Named:
+    """An owner known by its `session_uid` only (one gone, or another's)."""
+
+    def __init__(self, uid):
+        self.session_uid = uid
+
+
+#: Every `Builds`, for `_end_all`.
+_every: "weakref.WeakSet[Builds]" = weakref.WeakSet()
+
+
+def redraw_panels() -> None:
+    """Redraws the views that show builds' progress and results (Properties editor,
+    3D views: the stack panels, the sidebar, the live preview)."""
+    for window in getattr(bpy.context.window_manager, "windows", ()):
+        for area in window.screen.areas:
+            if area.type in {"PROPERTIES", "VIEW_3D"}:
+                area.tag_redraw()
+
+
+@atexit.register
+def _end_all(timeout=10.0) -> None:
+    """At exit, cancels every build and waits for its worker: a native call still
+    running would call back into Python (its progress) after Python ended, which aborts
+    the process."""
+    for builds in list(_every):
+        builds.cancel()
+        for build in [*builds._ending.values(), *builds._cancelled]:
+            build.job.join(timeout)

@@ -22,7 +22,7 @@ _seen: dict[int, int] = {}
 
 def reads_text(item) -> bool:
     """Whether the stack item's result comes from its Tree Text (when one is set)."""
-    return item.tree_text is not None and (item.kind == "SOLID_TEXTURE" or (item.kind == "VOLUMETRIC_TEXTURE" and item.source == "FIELD_JSON"))
+    return item.tree_text is not None and "tree_text" in auto_update.contents_read(item)
 
 
 def _read_texts():
