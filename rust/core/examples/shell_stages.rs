@@ -2,10 +2,11 @@
 //! 26k-vertex scan with thin parts in 0.5 s on 2 cores), with the machine's load:
 //! `cargo run --release -p thicket-core --example shell_stages -- [mesh.obj ...]
 //! [--runs N] [--cases exterior:0.1,interior:0.05] [--no-medial-stop]` (default /tmp/pub/{beast,homer,spot,cheburashka,fandisk}.obj),
-//! exterior 10% and interior 5% of the bounding-box diagonal. Prints the build time,
-//! its stages ([`thicket_core::shell::timing`]; the tracing and the checker run
-//! side by side, the untangle's sub-stages are inside it), the repair's rounds and
-//! the shell report (defects, thickness ratios), timed apart.
+//! exterior 10% and interior 5% of the bounding-box diagonal. Prints the build time
+//! (wall and the process's CPU seconds, which a loaded machine disturbs less), its
+//! stages ([`thicket_core::shell::timing`]; the tracing and the checker run side by
+//! side, the untangle's sub-stages are inside it) with their work counters (`#`),
+//! the repair's rounds and the shell report (defects, thickness ratios), timed apart.
 
 use std::time::Instant;
 use thicket_core::shell::report::shell_report;
@@ -61,16 +62,18 @@ fn main() {
             let t = Thickness::relative(fraction).per_vertex(&mesh, None).unwrap();
             for run in 0..runs {
                 timing::take();
-                let start = Instant::now();
+                timing::take_cpu();
+                let (start, cpu_start) = (Instant::now(), timing::cpu_seconds());
                 let shell = build_shell(&mesh, &t, side, &params).unwrap();
-                let seconds = start.elapsed().as_secs_f64();
+                let (seconds, cpu_seconds) = (start.elapsed().as_secs_f64(), timing::cpu_seconds() - cpu_start);
                 let stages = timing::summed(&timing::take());
+                let cpu = timing::summed(&timing::take_cpu());
                 let start = Instant::now();
                 let r = shell_report(&mesh, &shell);
                 let report = start.elapsed().as_secs_f64();
                 let name = std::path::Path::new(path).file_stem().unwrap().to_string_lossy();
                 println!(
-                    "{name} ({} v) {side:?} {:.0}% run {run}: {seconds:.3} s [load {}]; rounds {} + check {}; defects {:?}; ratio min {:.3} mean {:.4}; compressed {}; normal room {} at 95%: {:.3}; report {report:.3} s",
+                    "{name} ({} v) {side:?} {:.0}% run {run}: {seconds:.3} s, cpu {cpu_seconds:.2} s [load {}]; rounds {} + check {}; defects {:?}; ratio min {:.3} mean {:.4}; compressed {}; normal room {} at 95%: {:.3}; report {report:.3} s",
                     mesh.vertex_count(),
                     100.0 * fraction,
                     load(),
@@ -84,7 +87,10 @@ fn main() {
                     r.normal_valid_at_95,
                 );
                 for (stage, s, n) in stages {
-                    println!("    {stage:<28} {s:8.3} s  ({n}x)");
+                    match cpu.iter().find(|c| c.0 == stage) {
+                        Some(c) => println!("    {stage:<28} {s:8.3} s, cpu {:7.2} s  ({n}x)", c.1),
+                        None => println!("    {stage:<28} {s:8.0}              ({n}x)"),
+                    }
                 }
             }
         }

@@ -507,6 +507,10 @@ impl Checker {
         // 2 an inherited pair of either kind.
         let many = dirty.is_none_or(|d| d.tri_list.len() * JOIN_SHARE >= self.tris.len());
         let timer = super::timing::Stage::start(if many { "find: pairs (tree join)" } else { "find: pairs (per triangle)" });
+        super::timing::count(
+            if many { "# find: tris (tree join)" } else { "# find: tris (per triangle)" },
+            dirty.map_or(self.tris.len(), |d| d.tri_list.len()),
+        );
         let hits: Vec<(u8, u32, u32)> = match outer_tree {
             // Everything, or much: each tree traversed against itself and against the
             // base's, which visits each pair of overlapping nodes once.

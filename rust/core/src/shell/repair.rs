@@ -164,6 +164,8 @@ impl Repair<'_> {
                 let _t = super::timing::Stage::start(if round == 0 { "untangle: find (round 0)" } else { "untangle: find (later)" });
                 checker.find(mesh, shell, dirty.as_ref(), Some(&outer))
             };
+            super::timing::count("# untangle: flagged tris", dirty.as_ref().map_or(checker.tris.len(), |d| d.tri_list.len()));
+            super::timing::count("# untangle: defects", found.self_pairs.len() + found.base_pairs.len() + found.inverted.len() + found.enclosing.len());
             if found.is_clean() {
                 done.clean = true;
                 break;
@@ -202,10 +204,11 @@ impl Repair<'_> {
         let mut folded: Vec<u32> = found.inverted.iter().flat_map(|&c| checker.cells[c as usize].base()).copied().collect();
         folded.sort_unstable();
         let corners = self.corners_to_shorten(found, &shell.achieved);
-        let (aims, _) = {
+        let (aims, tests) = {
             let _t = super::timing::Stage::start("untangle: crossing scales");
             self.crossing_scales(found, shell, &corners, None, true)
         };
+        super::timing::count("# crossing scales: exact tests", tests);
         let mut any = false;
         for (v, aim) in corners.into_iter().zip(aims) {
             let folds = folded.binary_search(&v).is_ok();
