@@ -5,6 +5,7 @@ import threading
 from contextlib import contextmanager
 
 from ..pure import native
+from ..pure.native import error_text  # noqa: F401 (the operators' shared name for it)
 from ..stack.query import active_stack_source
 
 #: Exceptions that mean bad input or settings; reported, never raised into Blender.
@@ -13,11 +14,6 @@ USER_ERRORS = (TypeError, KeyError, ValueError, RuntimeError)
 
 def user_errors():
     return USER_ERRORS + native.error_types()
-
-
-def error_text(exc) -> str:
-    text = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
-    return str(text) or type(exc).__name__
 
 
 def cancel_errors():

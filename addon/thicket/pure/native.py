@@ -27,3 +27,10 @@ def error_types():
     if _native is None:
         return (NativeMissing,)
     return (_native.ThicketError, NativeMissing)
+
+
+def error_text(exc) -> str:
+    """What the user reads for an exception: its message (a KeyError's key without the
+    quotes `str` adds), or its type's name when it has none."""
+    text = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+    return str(text) or type(exc).__name__

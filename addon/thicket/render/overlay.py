@@ -132,7 +132,7 @@ def _source():
 
 
 def _error_text(exc):
-    from ..operators.common import error_text
+    from ..pure.native import error_text
 
     return error_text(exc)
 
