@@ -7,7 +7,6 @@
 
 mod fold_guard;
 pub(crate) mod frames;
-mod gaps;
 mod growth;
 mod growth_guard;
 mod overhang;
@@ -177,11 +176,6 @@ impl Model {
         if let Model::Berry { .. } | Model::Tentacle { .. } | Model::Spur { .. } = self {
             state.clearance = Some(fold_guard::Clearance::of(base));
         }
-        // How far each base vertex is from another part, searched as far as any level's
-        // rock could be limited by it (see `gaps`).
-        if let Model::Rock { .. } = self {
-            state.gaps = gaps::Gaps::of(base, |edge| 3.0 * edge);
-        }
         state
     }
 }
@@ -197,8 +191,6 @@ pub(crate) struct State {
     pub tally: Tally,
     /// The base, for the room domes have before meeting another part of it.
     clearance: Option<fold_guard::Clearance>,
-    /// The distances to other parts of the base, for the rock.
-    gaps: Option<gaps::Gaps>,
     /// The base's normals at the level's vertices, for domes' overhangs.
     reference: Vec<Vec3>,
     /// Per-vertex factors on the level's detail before the guard (a local modification's
@@ -228,9 +220,6 @@ impl State {
         if !self.reference.is_empty() {
             self.reference = carried(parent, &self.reference);
         }
-        if let Some(gaps) = &mut self.gaps {
-            gaps.carry(parent);
-        }
         if let Some(second) = &mut self.second {
             second.carry(parent);
         }
@@ -251,6 +240,13 @@ impl State {
 pub(crate) enum Offsets {
     Normal(Vec<f64>),
     World(Vec<DVec3>),
+}
+
+/// Per-vertex values of `parent` carried to its subdivision (one level, numbered as
+/// [`subdivide`](super::subdivide) numbers it) by [`carried`].
+#[cfg(test)]
+pub(crate) fn linear_child_values<T: Carried>(parent: &Mesh, values: &[T]) -> Vec<T> {
+    carried(&Level::base(parent).expect("a mesh that subdivides"), values)
 }
 
 /// The synthesis loop: subdivide one level, displace by `detail(level, mesh, normals,
@@ -450,10 +446,7 @@ impl Model {
         match self {
             Model::Rock { amplitude } => {
                 let key = mix(seed ^ (level as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-                let mut limits = fold_guard::Limits::of(mesh, normals);
-                if let Some(gaps) = &state.gaps {
-                    limits.near(gaps.rock_room(level, mesh));
-                }
+                let limits = fold_guard::Limits::of(mesh, normals);
                 let size = amplitude * octave;
                 let gain = &state.gain;
                 let size = |v: usize| size * gain.get(v).copied().unwrap_or(1.0);
@@ -675,12 +668,6 @@ mod tests {
 
     fn sphere() -> Mesh {
         testmeshes::icosphere(2)
-    }
-
-    /// Per-vertex values of `parent` carried to its subdivision (one level, numbered as
-    /// [`subdivide`] numbers it) by [`carried`].
-    fn linear_child_values<T: Carried>(parent: &Mesh, values: &[T]) -> Vec<T> {
-        carried(&Level::base(parent).expect("a mesh that subdivides"), values)
     }
 
     #[test]
