@@ -306,3 +306,21 @@ def test_moving_the_source_makes_a_build_with_a_cutter_stale(scene):
     sphere.location.x += 0.5
     bpy.context.view_layer.update()
     assert auto_update.source_state(sphere) != state
+
+
+def test_moving_the_source_with_a_cutter_regenerates_it(scene):
+    """The cut is read in the source's space, so moving the source moves it: the move
+    schedules a regeneration (background: at once), not only a stale check that drops
+    a build in flight with nothing to redo it."""
+    sphere = add("ico_sphere", subdivisions=2)
+    api.add_volumetric_texture(sphere, "weave", resolution=4, depth_steps=8)
+    sphere.thicket.items[1].cutter = add("uv_sphere", segments=16, ring_count=8, radius=0.4, location=(0.8, 0.0, 0.0))
+    bpy.context.view_layer.update()
+    api.regenerate(sphere)
+    before = positions(sphere.thicket.result).copy()
+    sphere.location.x += 0.5
+    bpy.context.view_layer.update()  # the depsgraph update the handler sees
+    auto_update.wait()
+    moved = positions(sphere.thicket.result).copy()
+    assert moved.shape != before.shape or not np.array_equal(moved, before), "the cut followed the move"
+    np.testing.assert_array_equal(moved, _synchronous(sphere))

@@ -608,7 +608,8 @@ class ThicketItem(bpy.types.PropertyGroup):
             # The center is read in the source's space: moving either moves it.
             return [self.local_object, self.id_data]
         found = self.cutter if self.kind == "VOLUMETRIC_TEXTURE" else None
-        return [found] if found is not None and found != self.id_data else []
+        # The cutter is read in the source's space too: moving either moves the cut.
+        return [found, self.id_data] if found is not None and found != self.id_data else []
 
     def _cutter_arrays(self, depsgraph):
         if self.cutter is None:
