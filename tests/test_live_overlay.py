@@ -215,6 +215,78 @@ def test_a_file_load_turns_the_preview_off(clean):
     overlay.unwatch()
 
 
+def test_a_file_load_stops_the_depsgraph_scan_until_the_preview_restarts(clean):
+    """The load's stop takes the preview's depsgraph (and undo) handlers with it: the
+    new file's updates are not scanned for a preview that is off. Its own `load_pre`
+    handler stays (Blender is running that list); watching again (`enable`) adds the
+    rest back."""
+    overlay.watch()
+    try:
+        overlay._state["generations"][123] = 4
+        overlay.on_load_pre()
+        assert overlay.on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post
+        assert overlay.on_undo_pre not in bpy.app.handlers.undo_pre and overlay.on_undo_pre not in bpy.app.handlers.redo_pre
+        assert overlay.on_load_pre in bpy.app.handlers.load_pre and overlay._state["generations"] == {}
+        sphere = _sphere()
+        sphere.data.vertices[0].co.x += 0.1
+        sphere.data.update()
+        bpy.context.evaluated_depsgraph_get().update()
+        assert overlay.generation(sphere) == 0, "nothing scanned while off"
+        overlay.watch()
+        assert overlay.on_depsgraph_update in bpy.app.handlers.depsgraph_update_post
+        sphere.data.vertices[0].co.x += 0.1
+        sphere.data.update()
+        bpy.context.evaluated_depsgraph_get().update()
+        assert overlay.generation(sphere) == 1
+    finally:
+        overlay.unwatch()
+
+
+def _field_cube():
+    tree, ball = field_tree()
+    cube = add("cube", size=2.0)
+    api.add_volumetric_texture(
+        cube, field_tree_json=tree, shell_thickness=0.1, texture_size=16, resolution=4, depth_steps=6, follow_texture=False, triangle_budget=0
+    )
+    cube.thicket.auto_update = False
+    bpy.context.view_layer.objects.active = cube
+    return cube, ball
+
+
+def test_the_timer_reads_a_field_trees_contents_only_when_they_may_have_changed(clean, monkeypatch):
+    """A field node tree's JSON is what the timer's key cost: read on every tick (and
+    three times per preparation: its inputs, its start, its landing). Now the key is
+    kept while the object's changes (`generation`) and item values stay the same, the
+    tree read again at most every CONTENTS_SECONDS; once per preparation."""
+    cube, ball = _field_cube()
+    clock = [100.0]
+    monkeypatch.setattr(overlay, "_clock", lambda: clock[0])
+    real, reads = overlay.content_key, []
+    monkeypatch.setattr(overlay, "content_key", lambda obj: reads.append(obj) or real(obj))
+    overlay.refresh(cube, [], now=clock[0])
+    assert overlay._preparations.running(cube)
+    overlay.wait()
+    assert overlay._state["prepared"] is not None and overlay._state["error"] == ""
+    assert len(reads) == 2, "the tick's look, then the preparation's read: nothing at its start or landing"
+    reads.clear()
+    for _ in range(20):  # two seconds of ticks, nothing changed
+        clock[0] += 0.1
+        overlay.refresh(cube, [], now=clock[0])
+    assert 1 <= len(reads) <= 2.0 / overlay.CONTENTS_SECONDS + 1
+    assert not overlay._preparations.running(cube)
+    # An item's value counts at once; a tree's edit within CONTENTS_SECONDS.
+    cube.thicket.items[-1].tiling = 2.0
+    overlay.refresh(cube, [], now=clock[0])
+    assert overlay._preparations.running(cube)
+    overlay.wait()
+    ball.radius = 0.15
+    clock[0] += overlay.CONTENTS_SECONDS
+    overlay.refresh(cube, [], now=clock[0])
+    assert overlay._preparations.running(cube)
+    overlay.wait()
+    assert overlay._state["prepared"][0] == real(cube)
+
+
 def test_another_objects_change_leaves_the_preparation_running(clean):
     """Changes are counted per object: editing another stack's mesh does not cancel
     the shown object's preparation (steady changes elsewhere, such as drivers, would

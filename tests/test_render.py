@@ -174,14 +174,30 @@ def test_render_errors_are_clear(scene, tmp_path):
         api.render_preview(sphere, width=0, height=8)
 
 
+@pytest.fixture(autouse=True)
+def no_views_left():
+    """Each test leaves the live overlay's views as it found them (none): a stand-in
+    view left there would be taken for a 3D view's by later tests."""
+    from thicket.render import overlay
+
+    yield
+    left = dict(overlay._state["views"])
+    overlay._state["views"].clear()
+    assert left == {}, "a test left views in the overlay"
+
+
 def _frame(overlay, handle, frame, settings, want="frame"):
     """One frame of `handle` rendered for a view as the overlay's timer renders it (on
-    the worker machinery, `overlay.start_render`), waited for: the view."""
+    the worker machinery, `overlay.start_render`), waited for: the view, no longer
+    among the overlay's."""
     view = overlay.View(id(handle))
     overlay._state["views"][view.session_uid] = view
-    view.want = want
-    overlay.start_render(view, handle, frame, settings)
-    overlay.wait()
+    try:
+        view.want = want
+        overlay.start_render(view, handle, frame, settings)
+        overlay.wait()
+    finally:
+        overlay._state["views"].pop(view.session_uid, None)
     return view
 
 
@@ -202,10 +218,13 @@ def test_live_preview_worker_renders_off_the_main_thread(scene, tmp_path):
     # A render the view no longer wants (it moved on) is dropped and leaves no image.
     stale = overlay.View(-1)
     overlay._state["views"][stale.session_uid] = stale
-    stale.want = "old"
-    overlay.start_render(stale, handle, frame, settings)
-    stale.want = "the view moved"
-    overlay.wait()
+    try:
+        stale.want = "old"
+        overlay.start_render(stale, handle, frame, settings)
+        stale.want = "the view moved"
+        overlay.wait()
+    finally:
+        overlay._state["views"].pop(stale.session_uid, None)
     assert stale.result is None and stale.key is None
 
 

@@ -3,6 +3,9 @@ interface's path; background mode regenerates at once, so the tests drive the wo
 path by hand and call what its timer calls: `auto_update.poll`/`wait`)."""
 
 import json
+import math
+import threading
+import types
 
 import bpy
 import numpy as np
@@ -10,7 +13,8 @@ from conftest import add, positions
 
 from thicket import api, mesh_io
 from thicket.pure import live_shells
-from thicket.stack import auto_update
+from thicket.stack import auto_update, live_build
+from thicket.stack.guard import suspended
 
 
 def _edit(obj, offset):
@@ -324,3 +328,144 @@ def test_moving_the_source_with_a_cutter_regenerates_it(scene):
     moved = positions(sphere.thicket.result).copy()
     assert moved.shape != before.shape or not np.array_equal(moved, before), "the cut followed the move"
     np.testing.assert_array_equal(moved, _synchronous(sphere))
+
+
+def test_an_unchanged_nan_setting_leaves_the_build_current(scene):
+    """NaN != NaN: a state holding a NaN read as it was must still equal itself, or
+    every build of that stack is stale and its result is never written."""
+    monkey = _monkey()
+    with suspended():
+        monkey.thicket.items[-1].time = math.nan  # a setting the shell does not read, still compared
+    assert math.isnan(monkey.thicket.items[-1].time)
+    assert auto_update.source_state(monkey) == auto_update.source_state(monkey)
+    _edit(monkey, (0.0, 0.0, 0.2))
+    auto_update.start(monkey)
+    auto_update.wait()
+    live = positions(monkey.thicket.result).copy()
+    np.testing.assert_array_equal(live, _synchronous(monkey))
+    with suspended():
+        monkey.thicket.items[-1].time = 1.0  # a NaN that changes still makes the build stale
+    state = auto_update.source_state(monkey)
+    with suspended():
+        monkey.thicket.items[-1].time = math.nan
+    assert auto_update.source_state(monkey) != state
+
+
+def _in_flight(monkey):
+    """A live build of `monkey` started after an edit, and what it must write."""
+    _edit(monkey, (0.0, 0.0, 0.2))
+    expected = _synchronous(monkey)
+    _edit(monkey, (0.0, 0.0, -0.2))
+    before = _synchronous(monkey)
+    assert not np.array_equal(before, expected)
+    _edit(monkey, (0.0, 0.0, 0.2))
+    auto_update.start(monkey)
+    assert auto_update.running(monkey)
+    return before, expected
+
+
+def test_a_render_starting_during_a_build_renders_its_result(scene):
+    """F12 while a live build runs: the render's handler (`render_init`) lands the
+    build before the render reads the scene. Locked interface (and background): the
+    handler writes it itself."""
+    monkey = _monkey()
+    assert auto_update.on_render_init in bpy.app.handlers.render_init
+    before, expected = _in_flight(monkey)
+    np.testing.assert_array_equal(positions(monkey.thicket.result), before)
+    auto_update.on_render_init(bpy.context.scene)
+    assert not auto_update.running(monkey)
+    np.testing.assert_array_equal(positions(monkey.thicket.result), expected)
+
+
+def test_an_unlocked_render_waits_for_the_interface_to_write_the_build(scene, capsys):
+    """Without Lock Interface the handler runs on the render's thread while the
+    interface's timer writes the build: it returns once that write happened; past its
+    bound it lets the render go on with the previous result and says so."""
+    monkey = _monkey()
+    before, expected = _in_flight(monkey)
+    outcome = {}
+
+    def render_thread():
+        outcome["current"] = auto_update.finish_for_render(locked=False, timeout=120.0)
+        outcome["running"] = auto_update.running(monkey)
+
+    thread = threading.Thread(target=render_thread)
+    thread.start()
+    while thread.is_alive():  # the interface's timer
+        auto_update.poll()
+        thread.join(0.02)
+    assert outcome == {"current": True, "running": False}
+    np.testing.assert_array_equal(positions(monkey.thicket.result), expected)
+    # Nobody writes it (the interface busy): the render does not wait for ever.
+    before, _ = _in_flight(monkey)
+    assert auto_update.finish_for_render(locked=False, timeout=0.0) is False
+    assert "previous result" in capsys.readouterr().out
+    np.testing.assert_array_equal(positions(monkey.thicket.result), before)
+    auto_update.wait()
+
+
+def test_the_views_redraw_only_when_a_build_changes(monkeypatch):
+    """The builds' timer looks every POLL_SECONDS; it redraws the panels and views
+    only when a build started, landed or ended, and for progress alone at most every
+    PROGRESS_SECONDS (it tagged every view 20 times a second per kind of build)."""
+    clock = [0.0]
+    monkeypatch.setattr(live_build, "_clock", lambda: clock[0])
+    release, redraws, written = threading.Event(), [], []
+    owner = types.SimpleNamespace(session_uid=-7)
+    builds = live_build.Builds(lambda uid: owner, lambda o, b, result: written.append(result), None, on_poll=lambda: redraws.append(clock[0]))
+    builds.start(owner, lambda: live_build.Build(owner, lambda o: "state", lambda job: release.wait(60) and "done"))
+    try:
+        job = builds.builds[owner.session_uid].job
+
+        def look():
+            clock[0] += live_build.POLL_SECONDS
+            return builds.poll()
+
+        for _ in range(20):  # a second of nothing new
+            look()
+        assert len(redraws) == 1, "the start only"
+        for step in range(40):  # two seconds of moving progress
+            job.progress(step / 100)
+            look()
+        assert 2 <= len(redraws) - 1 <= 2.0 / live_build.PROGRESS_SECONDS + 1
+        assert all(b - a >= live_build.PROGRESS_SECONDS - 1e-9 for a, b in zip(redraws[1:], redraws[2:]))
+        count = len(redraws)
+        release.set()
+        job.join(60)
+        assert look() is None and written == ["done"]
+        assert len(redraws) == count + 1, "the landing redraws at once"
+    finally:
+        release.set()
+        if bpy.app.timers.is_registered(builds._tick):
+            bpy.app.timers.unregister(builds._tick)
+
+
+def test_the_exit_tells_every_build_first_then_waits_within_one_deadline(monkeypatch):
+    """At exit every build is cancelled before any is joined, and the joins share one
+    deadline (they took up to the timeout each, in turn)."""
+    clock, events = [0.0], []
+    monkeypatch.setattr(live_build, "_clock", lambda: clock[0])
+
+    class Stuck:
+        """A worker that never ends."""
+
+        done = cancelled = False
+
+        def __init__(self, name):
+            self.name = name
+
+        def cancel(self):
+            events.append(("cancel", self.name))
+
+        def join(self, timeout=None):
+            events.append(("join", self.name, timeout))
+            clock[0] += timeout
+
+    kinds = [live_build.Builds(None, None, None, exclusive=True), live_build.Builds(None, None, None)]
+    for i, builds in enumerate(kinds):
+        for j in range(2):
+            builds.builds[(i, j)] = types.SimpleNamespace(job=Stuck((i, j)))
+    live_build._end_all(timeout=4.0)
+    mine = [e for e in events if isinstance(e[1], tuple)]
+    assert [e[0] for e in mine] == ["cancel"] * 4 + ["join"] * 4
+    assert sum(e[2] for e in mine if e[0] == "join") <= 4.0

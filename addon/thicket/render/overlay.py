@@ -81,8 +81,17 @@ def on_undo_pre(*_args):
 @bpy.app.handlers.persistent
 def on_load_pre(*_args):
     """A file load ends the preview (Blender drops its timer; the images and native
-    handle are the old file's): the button shows it off, and turning it on starts anew."""
+    handle are the old file's): the button shows it off, and turning it on starts anew
+    (`enable` watches again). Its other handlers go with it, so no depsgraph update of
+    the new file is scanned for a preview that is off; this one stays (Blender is
+    running the `load_pre` list, which must not change under it) and does nothing more
+    until then."""
     _stop()
+    for handlers, fn in HANDLERS:
+        if fn is not on_load_pre and fn in handlers:
+            handlers.remove(fn)
+    _state["generations"].clear()  # the old file's objects
+    _keys.clear()
 
 
 #: The handlers `watch` adds: the depsgraph's, and those that drop builds in flight.
@@ -118,11 +127,52 @@ def content_key(obj):
     mesh read, a cutter's changes count in `generation`; the field node tree or Text
     an item reads by its contents; no panel-only property) and the changes of its
     result seen so far. The object is named by its session id, which a file loaded
-    anew or an object made again under the same name does not share."""
+    anew or an object made again under the same name does not share. Read anew (the
+    preparation's read); `current_key` is what the timer looks at."""
     from ..stack.auto_update import item_values
 
     items = tuple(item_values(item) for item in obj.thicket.items)
-    return (obj.session_uid, obj.data.session_uid, items, generation(obj))
+    key = (obj.session_uid, obj.data.session_uid, items, generation(obj))
+    _keys[obj.session_uid] = (_stamp(obj), _clock(), key)
+    return key
+
+
+#: How long `current_key` keeps the contents of a field node tree or a Text that the
+#: items read (seconds): their edits reach no change counter, so they are read again
+#: this often (the stack's Text watcher looks as often), not on every tick.
+CONTENTS_SECONDS = 0.5
+
+#: The clock of `CONTENTS_SECONDS` (tests replace it).
+_clock = time.monotonic
+
+#: Each object's last `content_key`: (stamp, when, key), by session id.
+_keys: dict = {}
+
+
+def _stamp(obj):
+    """What `content_key` reads but its contents (a field node tree's JSON, a Text's
+    digest): cheap, read on every tick."""
+    from ..stack.auto_update import item_values
+
+    items = tuple(item_values(item, contents=False) for item in obj.thicket.items)
+    return (obj.data.session_uid, generation(obj), items)
+
+
+def current_key(obj):
+    """`content_key(obj)` as the timer and the stale checks look at it: the last one
+    read while `obj`'s changes (`generation`) and items' own values are unchanged,
+    its field tree or Text contents read again at most every `CONTENTS_SECONDS`
+    (serialising a tree on every tick and twice per preparation was the tick's cost)."""
+    kept = _keys.get(obj.session_uid)
+    if kept is not None and kept[0] == _stamp(obj) and (_clock() - kept[1] < CONTENTS_SECONDS or not _reads_contents(obj)):
+        return kept[2]
+    return content_key(obj)
+
+
+def _reads_contents(obj):
+    from ..stack.auto_update import contents_read
+
+    return any(getattr(item, name) is not None for item in obj.thicket.items for name in contents_read(item))
 
 
 def _source():
@@ -185,7 +235,7 @@ def _preparation_failed(obj, exc):
     `obj`'s content changes (the build only fails while it still reads as it did, so
     its content is the failed one)."""
     if _shown(obj):
-        _state["failed"] = content_key(obj)
+        _state["failed"] = current_key(obj)
         _failed(obj, exc)
 
 
@@ -207,7 +257,7 @@ def start_prepare(obj):
             return None
         try:
             _key, source, items = prepare_inputs(source_obj)
-            return Build(source_obj, content_key, lambda job: prepare_work(source, items, job.progress))
+            return Build(source_obj, current_key, lambda job: prepare_work(source, items, job.progress))
         except Exception as exc:  # noqa: BLE001 - also run by the timer, which must never raise
             _preparation_failed(source_obj, exc)
             return None
@@ -269,7 +319,7 @@ def refresh(obj, views, now=None):
     renders the views no longer want, and starts one for each view whose image is not what it wants
     (at most every THROTTLE seconds). Returns the `View`s, for their uploads."""
     now = time.monotonic() if now is None else now
-    content, placed = content_key(obj), tuple(map(tuple, obj.matrix_world))
+    content, placed = current_key(obj), tuple(map(tuple, obj.matrix_world))
     _state["shown"] = obj.session_uid
     _preparations.cancel_others(obj)  # another object was shown: its result is not wanted
     prepared = _state["prepared"]

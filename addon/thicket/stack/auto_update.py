@@ -11,8 +11,12 @@ when done, only while the source and its stack still read as when the build star
 cancel has landed, so two builds of one source never run at once (the incremental
 shells, `pure.live_shells`, are updated by one at a time). Undo, redo, a file load
 and Regenerate drop the builds in flight. Background scripts, renders (which need
-the frame's result before it renders) and animation playback regenerate at once.
+the frame's result before it renders) and animation playback regenerate at once; a
+render starting while builds are in flight waits for them (`on_render_init`).
 """
+
+import threading
+import time
 
 import bpy
 import numpy as np
@@ -22,7 +26,7 @@ from ..operators.common import error_text
 from ..pure import live_shells, native
 from .debounce import Debounced
 from .guard import busy, suspended
-from .live_build import Build, Builds, by_uid, redraw_panels
+from .live_build import POLL_SECONDS, Build, Builds, by_uid, redraw_panels
 
 
 def _is_source(obj) -> bool:
@@ -94,7 +98,8 @@ def _value(value, contents=False):
     """A property value as plain data that compares by content: an ID by its
     `session_uid` (with `contents`, a Text or a field node tree by what it holds as
     well, as their edits reach no depsgraph counter; a tree that cannot be read by its
-    error, which the build reports), arrays as tuples, enum flags as sorted tuples."""
+    error, which the build reports), arrays as tuples, enum flags as sorted tuples, a
+    NaN as `_NAN` (equal to itself, so an unchanged NaN leaves a build current)."""
     if isinstance(value, bpy.types.ID):
         if contents and isinstance(value, bpy.types.Text):
             return value.session_uid, hash(value.as_string())
@@ -108,9 +113,31 @@ def _value(value, contents=False):
         return value.session_uid
     if isinstance(value, (set, frozenset)):
         return tuple(sorted(value))
-    if isinstance(value, (str, int, float, bool)) or value is None:
+    if isinstance(value, float):
+        return _float(value)
+    if isinstance(value, (str, int, bool)) or value is None:
         return value
-    return tuple(value)
+    return tuple(_element(v) for v in value)
+
+
+def _element(value):
+    """An element of an array or a collection as `_value` reads arrays: a float
+    through `_float`, a row of a matrix as a tuple, anything else (an item) as it is."""
+    if isinstance(value, float):
+        return _float(value)
+    if isinstance(value, (str, bpy.types.bpy_struct)) or not hasattr(value, "__iter__"):
+        return value
+    return tuple(map(_element, value))
+
+
+#: What a NaN reads as in a state: NaN != NaN, so an unchanged NaN setting would make
+#: every build stale (its result never written).
+_NAN = ("nan",)
+
+
+def _float(value: float):
+    """`value`, or `_NAN` for a NaN (of any bits: none of them means anything else)."""
+    return _NAN if value != value else value
 
 
 def contents_read(item) -> frozenset:
@@ -124,11 +151,12 @@ def contents_read(item) -> frozenset:
     return frozenset()
 
 
-def item_values(item) -> tuple:
+def item_values(item, contents=True) -> tuple:
     """The values of an item's own properties (`bl_rna`) that its result depends on:
     no evaluated settings, so no mesh (a cutter's) is read; the contents of the field
-    node tree or Text its source reads (`contents_read`)."""
-    read = contents_read(item)
+    node tree or Text its source reads (`contents_read`; with `contents` False, those
+    pointers by their ID only)."""
+    read = contents_read(item) if contents else frozenset()
     return tuple(_value(getattr(item, p.identifier), p.identifier in read) for p in item.bl_rna.properties if p.identifier not in _NOT_READ)
 
 
@@ -149,7 +177,7 @@ def source_state(obj):
         settings += ((scene.frame_current, scene.render.fps, scene.render.fps_base),)
     if any(item.watched_objects() for item in enabled):
         # A cutter or local center is read in the source's space: moving the source changes the result.
-        settings += (tuple(map(tuple, obj.matrix_world)),)
+        settings += (tuple(tuple(map(_float, row)) for row in obj.matrix_world),)
     counts = (len(mesh.vertices), len(mesh.edges), len(mesh.polygons), len(mesh.loops))
     return mesh.session_uid, counts, hash(positions.tobytes()), _versions.get(obj.session_uid, 0), settings
 
@@ -301,6 +329,48 @@ def on_undo_pre(*_args):
     _sources.pending.clear()
 
 
+#: How long a render waits for the live builds in flight when it starts (seconds).
+RENDER_WAIT_SECONDS = 30.0
+
+
+def _in_flight() -> bool:
+    return bool(_sources.pending or _live.builds or _live._next or _live._ending)
+
+
+@persistent
+def on_render_init(scene, *_args):
+    """A render (F12) renders the current results: the live builds in flight, and the
+    changes still waiting for the debounce, land before it reads the scene, within
+    `RENDER_WAIT_SECONDS` (`finish_for_render`). Blender runs this on the render's
+    thread, or on the main thread for a render that holds it (a script's
+    `bpy.ops.render.render()`), whose timers then cannot write anything."""
+    main = threading.current_thread() is threading.main_thread()
+    finish_for_render(main or bpy.app.background or scene is None or scene.render.use_lock_interface)
+
+
+def finish_for_render(locked, timeout=None) -> bool:
+    """Makes the results current for a render starting now; whether they are. With the
+    interface locked (`locked`; background renders too) nothing else touches the data,
+    so the builds are waited for and written here. Otherwise the interface runs on:
+    its own timers write the builds (and regenerate what waits for the debounce, at
+    once while rendering: `_synchronous`), and this waits until they have. A render
+    that would wait longer renders the previous result and says so on the console."""
+    if not _in_flight():
+        return True
+    timeout = RENDER_WAIT_SECONDS if timeout is None else timeout
+    deadline = time.monotonic() + timeout
+    if locked:
+        flush()
+        _live.wait(timeout)
+    else:
+        while _in_flight() and time.monotonic() < deadline:
+            time.sleep(POLL_SECONDS)
+    if _in_flight():
+        print(f"Thicket: a stack was still regenerating after {timeout:.0f} s; this render shows its previous result")
+        return False
+    return True
+
+
 @persistent
 def on_load(*_args):
     """Shells kept for incremental updates and analysed sculpts belong to the file that
@@ -318,6 +388,7 @@ HANDLERS = (
     (bpy.app.handlers.load_pre, on_undo_pre),
     (bpy.app.handlers.undo_pre, on_undo_pre),
     (bpy.app.handlers.redo_pre, on_undo_pre),
+    (bpy.app.handlers.render_init, on_render_init),
 )
 
 

@@ -10,6 +10,7 @@ undo, or a change nothing scheduled, drops it (and its error). Errors go to the 
 cancels are dropped, and nothing is ever raised into Blender's event loop."""
 
 import atexit
+import time
 import weakref
 
 import bpy
@@ -18,6 +19,13 @@ from ..operators.common import Job, cancel_errors
 
 #: How often the main thread looks for finished builds (seconds).
 POLL_SECONDS = 0.05
+
+#: A build's progress alone redraws the views at most this often (seconds); a build
+#: that starts, lands or ends redraws them at the next look.
+PROGRESS_SECONDS = 0.25
+
+#: The clock of the redraw throttle and of `_end_all`'s deadline (tests replace it).
+_clock = time.monotonic
 
 
 class Build:
@@ -35,8 +43,10 @@ class Builds:
     """The builds in flight of one kind of owner, found again by `find(uid)` (None
     once it is gone). `write(owner, build, result)` and `fail(owner, exc)` run on the main thread.
 
-    `on_poll()`: called after each look while something was in flight (the panel's
-    progress redraw).
+    `on_poll()`: called after a look that saw something change (the panel's and the
+    views' redraw): a build started, landed or was dropped, or, at most every
+    `PROGRESS_SECONDS`, a build's progress moved. Nothing changed, nothing is redrawn
+    (the timer looks every `POLL_SECONDS`).
 
     `exclusive`: a newer build of an owner never runs beside the older one (work that
     keeps state between builds, such as the incremental shells): the older is
@@ -51,6 +61,9 @@ class Builds:
         self._next: dict = {}
         #: Cancelled builds of the others, still running until their work sees the cancel.
         self._cancelled: list = []
+        #: The builds' progress as last redrawn (by job), and when.
+        self._shown: dict = {}
+        self._redrawn = float("-inf")
         self._tick = self.poll  # one object, so the timer is found registered
         _every.add(self)
 
@@ -139,9 +152,21 @@ class Builds:
                     self.fail(owner, error)
             except Exception as exc:  # noqa: BLE001 - a timer that raises is unregistered by Blender
                 self.fail(owner, exc)
-        if self.on_poll is not None:
+        if self.on_poll is not None and self._changed():
             self.on_poll()
         return POLL_SECONDS if self.builds or self._ending or self._cancelled else None
+
+    def _changed(self) -> bool:
+        """Whether the views show something else than at the last redraw: another set
+        of builds in flight (one started, landed or was dropped), or, `PROGRESS_SECONDS`
+        after the last redraw, a build's progress (in whole percent) moved. Remembers
+        what it said changed as shown."""
+        now = _clock()
+        shown = {id(build.job): round(build.job.fraction, 2) for build in self.builds.values()}
+        if shown.keys() == self._shown.keys() and (shown == self._shown or now - self._redrawn < PROGRESS_SECONDS):
+            return False
+        self._shown, self._redrawn = shown, now
+        return True
 
     def wait(self, timeout=60.0) -> None:
         """Waits for every build in flight (and those waiting to start) and writes
@@ -183,8 +208,12 @@ def redraw_panels() -> None:
 def _end_all(timeout=10.0) -> None:
     """At exit, cancels every build and waits for its worker: a native call still
     running would call back into Python (its progress) after Python ended, which aborts
-    the process."""
-    for builds in list(_every):
+    the process. Every build is told first, so all of them wind down together, then
+    joined within one `timeout` in all (not each in turn)."""
+    every = list(_every)
+    for builds in every:
         builds.cancel()
+    deadline = _clock() + timeout
+    for builds in every:
         for build in [*builds._ending.values(), *builds._cancelled]:
-            build.job.join(timeout)
+            build.job.join(max(0.0, deadline - _clock()))

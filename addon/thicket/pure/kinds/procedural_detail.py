@@ -289,7 +289,7 @@ def procedural_detail(state: State, item: S.ProceduralDetail, ask=False, progres
     if mesh.material_index is not None:
         result.material_index = mesh.material_index[out["source_face"]]
     result.point_attributes = {DETAIL_ATTRIBUTE: np.asarray(out["scalar"], dtype=np.float32)}
-    shrunk = float(out["shrunk"])
+    shrunk = float(out.get("shrunk", 0.0))  # an older thicket_native has no such count
     if shrunk > SHRUNK_NOTE:
         result.notes.append(
             f"'{item.label}': the {item.model} detail was made visibly smaller (by over a tenth) at {shrunk:.0%} of its vertices so"
