@@ -132,6 +132,9 @@ fn mesher(adaptive: bool) -> Mesher {
 /// dual contouring (thicket_core::polygonize::dual) on the cells that the tree's
 /// interval bounds cannot rule out: quads, one vertex per piece of the surface in a
 /// cell, placed on the tree's creases and corners from its analytic gradients.
+/// Adaptive in where it works (an octree skips the space the surface does not
+/// cross), not yet in cell size: every cell the surface crosses is of the finest
+/// size, flat parts included.
 /// `adaptive=False`: marching prisms on the whole grid (triangles, iso-vertices on
 /// the lattice edges).
 ///

@@ -53,13 +53,12 @@ pub(super) fn cell_index(local: UVec3) -> usize {
     (local.x + BLOCK * (local.y + BLOCK * local.z)) as usize
 }
 
-/// The lattice points of the block at `origin` (in cells), `x` fastest: where they are,
-/// their lattice coordinates, and the cut field's samples there ([`Lattice::sample`]).
+/// The lattice points of the block at `origin` (in cells), `x` fastest: the cut
+/// field's samples there ([`Lattice::sample`]). Where a point lies and its lattice
+/// coordinates follow from its place (`origin` plus its local coordinates).
 pub(super) struct Samples {
     /// Cells of the block (fewer than [`BLOCK`] where it reaches the lattice's end).
     pub size: UVec3,
-    pub points: Vec<Vec3>,
-    pub at: Vec<UVec3>,
     pub values: Vec<f32>,
 }
 
@@ -91,31 +90,33 @@ impl Samples {
         for (v, g) in values.iter_mut().zip(&at) {
             *v = lattice.sample(*v, *g);
         }
-        Ok(Self { size, points, at, values })
+        Ok(Self { size, values })
     }
 
     /// The block's lattice points looked up in `shared`, which holds them all.
     pub(super) fn from_shared(lattice: &Lattice, origin: UVec3, shared: &Shared) -> Self {
         let size = (lattice.cells - origin).min(UVec3::splat(BLOCK));
         let n = size + 1;
-        let count = (n.x * n.y * n.z) as usize;
-        let mut points = Vec::with_capacity(count);
-        let mut at = Vec::with_capacity(count);
-        let mut values = Vec::with_capacity(count);
+        let mut values = Vec::with_capacity((n.x * n.y * n.z) as usize);
         for z in 0..n.z {
             for y in 0..n.y {
                 // A row's keys are consecutive: one search per row.
-                let row = shared.find(origin + UVec3::new(0, y, z));
-                for x in 0..n.x {
-                    let g = origin + UVec3::new(x, y, z);
-                    let p = lattice.point(g);
-                    at.push(g);
-                    points.push(p);
-                    values.push(lattice.sample(shared.values[row + x as usize], g));
-                }
+                let first = origin + UVec3::new(0, y, z);
+                let row = &shared.values[shared.find(first)..][..n.x as usize];
+                // [`Lattice::sample`] with the row's part of the face test made once.
+                let row_on_face = first.y == 0 || first.z == 0 || first.y == lattice.cells.y || first.z == lattice.cells.z;
+                values.extend((0..n.x).zip(row).map(|(x, &v)| {
+                    let g = first + UVec3::new(x, 0, 0);
+                    let cut = lattice.cut(v, lattice.point(g));
+                    if row_on_face || g.x == 0 || g.x == lattice.cells.x {
+                        cut.max(lattice.eps)
+                    } else {
+                        cut
+                    }
+                }));
             }
         }
-        Self { size, points, at, values }
+        Self { size, values }
     }
 
     /// The index of local lattice point `p`.
@@ -138,6 +139,8 @@ pub(super) struct Shared {
     /// Lattice points along x and y (for the keys).
     n: UVec3,
     keys: Vec<u64>,
+    /// Per key: its lattice point (kept, not divided out of the key per evaluation).
+    at: Vec<UVec3>,
     values: Vec<f32>,
     /// Points evaluated (the others' signs proven by the Lipschitz bound).
     evaluated: usize,
@@ -161,6 +164,7 @@ impl Shared {
         let mut shared = Self {
             n: lattice.cells + 1,
             keys: Vec::new(),
+            at: Vec::new(),
             values: Vec::new(),
             evaluated: 0,
             #[cfg(test)]
@@ -191,7 +195,9 @@ impl Shared {
                         let i = (x + side.x * (y + side.y * z)) as usize;
                         if index[i] == 0 {
                             index[i] = shared.keys.len() as u32;
-                            shared.keys.push(shared.key(lo + UVec3::new(x, y, z)));
+                            let g = lo + UVec3::new(x, y, z);
+                            shared.keys.push(shared.key(g));
+                            shared.at.push(g);
                         }
                     }
                 }
@@ -209,6 +215,7 @@ impl Shared {
             }
             shared.keys.par_sort_unstable();
             shared.keys.dedup();
+            shared.at = shared.keys.iter().map(|&k| shared.at(k)).collect();
         }
         shared.values = vec![0.0; shared.keys.len()];
         match field.lipschitz() {
@@ -239,7 +246,7 @@ impl Shared {
     /// Evaluates the points `indices` (among the keys) in parallel batches; a field
     /// that is not a number at one is an error.
     fn evaluate<F: ScalarField + ?Sized>(&mut self, field: &F, lattice: &Lattice, indices: &[usize]) -> Result<()> {
-        let point = |i: usize| lattice.point(self.at(self.keys[i]));
+        let point = |i: usize| lattice.point(self.at[i]);
         let mut values = vec![0.0; indices.len()];
         const CHUNK: usize = 4096;
         values.par_chunks_mut(CHUNK).zip(indices.par_chunks(CHUNK)).for_each(|(out, indices)| {
@@ -383,7 +390,7 @@ struct Found {
 /// The block at `origin`: corner signs per cell and one crossing per sign-changing
 /// edge, from the lattice samples in `shared`.
 fn find(lattice: &Lattice, origin: UVec3, shared: &Shared) -> Found {
-    let Samples { size, points, at, values } = Samples::from_shared(lattice, origin, shared);
+    let Samples { size, values } = Samples::from_shared(lattice, origin, shared);
     let n = size + 1;
     let point_index = |p: UVec3| (p.x + n.x * (p.y + n.y * p.z)) as usize;
     let count = (n.x * n.y * n.z) as usize;
@@ -406,26 +413,36 @@ fn find(lattice: &Lattice, origin: UVec3, shared: &Shared) -> Found {
         for y in 0..size.y {
             for x in 0..size.x {
                 let cell = UVec3::new(x, y, z);
-                let corner = |c: usize| cell + UVec3::new(c as u32 & 1, c as u32 >> 1 & 1, c as u32 >> 2 & 1);
                 let base = point_index(cell);
                 let config = (0..8).fold(0u8, |m, c| m | inside[base + offset[c]] << c);
                 found.block.config[cell_index(cell)] = config;
-                if config == 0 || config == 255 {
-                    continue;
+                if config != 0 && config != 255 {
+                    found.active.push(cell);
                 }
-                found.active.push(cell);
-                for e in (0..12).filter(|&e| table[config as usize].piece[e] != NONE) {
-                    let (a, b) = ends(e);
-                    let (pa, pb) = (point_index(corner(a)), point_index(corner(b)));
-                    let s = pa * 3 + e / 4;
-                    if found.slot[s] == u32::MAX {
-                        found.slot[s] = found.guesses.len() as u32;
-                        found.ends.push((points[pa], points[pb]));
-                        found.on_face.push((lattice.on_face(at[pa]), lattice.on_face(at[pb])));
-                        found.guesses.push(Crossing::new(values[pa], values[pb], 0.0));
-                        found.edge.push(shared.find(at[pa]) * 3 + e / 4);
-                    }
-                }
+            }
+        }
+    }
+    // About one and a half crossings per active cell (three to six crossing edges a
+    // cell, each shared by four cells): room for three reserved once, not grown.
+    let guess = found.active.len() * 3;
+    found.ends.reserve(guess);
+    found.on_face.reserve(guess);
+    found.guesses.reserve(guess);
+    found.edge.reserve(guess);
+    for &cell in &found.active {
+        let config = found.block.config[cell_index(cell)];
+        let corner = |c: usize| cell + UVec3::new(c as u32 & 1, c as u32 >> 1 & 1, c as u32 >> 2 & 1);
+        for e in (0..12).filter(|&e| table[config as usize].piece[e] != NONE) {
+            let (a, b) = ends(e);
+            let (pa, pb) = (point_index(corner(a)), point_index(corner(b)));
+            let s = pa * 3 + e / 4;
+            if found.slot[s] == u32::MAX {
+                let (ga, gb) = (origin + corner(a), origin + corner(b));
+                found.slot[s] = found.guesses.len() as u32;
+                found.ends.push((lattice.point(ga), lattice.point(gb)));
+                found.on_face.push((lattice.on_face(ga), lattice.on_face(gb)));
+                found.guesses.push(Crossing::new(values[pa], values[pb], 0.0));
+                found.edge.push(shared.find(ga) * 3 + e / 4);
             }
         }
     }
@@ -504,6 +521,11 @@ pub(super) fn process<F: ScalarField + ?Sized>(field: &F, lattice: &Lattice, ori
             let point_index = |p: UVec3| (p.x + n.x * (p.y + n.y * p.z)) as usize;
             let table = cases();
             let origin = block.origin;
+            // Most active cells hold one piece.
+            block.qef.reserve(active.len());
+            block.mass.reserve(active.len());
+            block.cell.reserve(active.len());
+            block.edges.reserve(active.len());
             for cell in active {
                 let config = block.config[cell_index(cell)];
                 let case = &table[config as usize];

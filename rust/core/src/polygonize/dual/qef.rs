@@ -11,20 +11,31 @@ use glam::{DMat3, DVec3, Vec3};
 /// depend on how many crossings a piece has.
 const TRUNCATE: f64 = 0.1;
 
-/// Sums of the planes of one piece.
+/// Sums of the planes of one piece: `AᵀA` (symmetric, its six entries), `Aᵀb` with the
+/// planes' offsets `b_i = n_i · p_i`, and the crossings' sum and count. Ju et al.
+/// keep the same sums (section 2.3 solves from `AᵀA`, `Aᵀb` and `bᵀb`); about the
+/// mass point `c` the right side is `Aᵀb - AᵀA c`, in double precision far below a
+/// float's rounding for points of a few units and a dozen planes. Kept as sums rather
+/// than the planes themselves: no array of planes to clear per cell.
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Qef {
+    /// `xx, xy, xz, yy, yz, zz`.
+    ata: [f64; 6],
+    atb: DVec3,
     mass: DVec3,
     n: u32,
-    points: [DVec3; 12],
-    normals: [DVec3; 12],
 }
 
 impl Qef {
     pub fn add(&mut self, p: Vec3, normal: Vec3) {
         let (p, n) = (p.as_dvec3(), normal.as_dvec3());
-        self.points[self.n as usize] = p;
-        self.normals[self.n as usize] = n;
+        self.ata[0] += n.x * n.x;
+        self.ata[1] += n.x * n.y;
+        self.ata[2] += n.x * n.z;
+        self.ata[3] += n.y * n.y;
+        self.ata[4] += n.y * n.z;
+        self.ata[5] += n.z * n.z;
+        self.atb += n * n.dot(p);
         self.mass += p;
         self.n += 1;
     }
@@ -37,12 +48,9 @@ impl Qef {
     /// The minimizer, clamped to the cell `[lo, hi]`.
     pub fn solve(&self, lo: Vec3, hi: Vec3) -> Vec3 {
         let c = self.mass / f64::from(self.n.max(1));
-        let mut a = DMat3::ZERO;
-        let mut b = DVec3::ZERO;
-        for (p, n) in self.points.iter().zip(&self.normals).take(self.n as usize) {
-            a += DMat3::from_cols(*n * n.x, *n * n.y, *n * n.z);
-            b += *n * n.dot(*p - c);
-        }
+        let [xx, xy, xz, yy, yz, zz] = self.ata;
+        let a = DMat3::from_cols(DVec3::new(xx, xy, xz), DVec3::new(xy, yy, yz), DVec3::new(xz, yz, zz));
+        let b = self.atb - a * c;
         let (values, vectors) = eigen(a);
         let top = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let mut y = DVec3::ZERO;
