@@ -47,7 +47,7 @@
 //! the enclosure test only for the parts that its own face crosses.
 
 use super::geometry::{prisms, Cell};
-use super::intersect::{segment_crosses_triangle, tri_box, triangles_intersect, TriBvh};
+use super::intersect::{segment_crosses_triangle, tri_box, triangles_intersect, Prepared, TriBvh};
 use super::{Shell, Side};
 use crate::mesh::Incidence;
 use crate::Mesh;
@@ -100,6 +100,8 @@ pub(crate) struct Checker {
     first_other: usize,
     pub cells: Vec<Cell>,
     pub base: Vec<[DVec3; 3]>,
+    /// The base triangles with their planes, for the skin/base tests.
+    base_prepared: Vec<Prepared>,
     pub base_bvh: TriBvh,
     /// Base triangles that cross another base triangle (sharing no vertex): the
     /// input intersects itself there.
@@ -218,6 +220,7 @@ impl Checker {
         let probes = if parts.count > 1 { parts.first.clone() } else { Vec::new() };
         let part_of = if parts.count > 1 { parts.of } else { Vec::new() };
         let mut me = Self {
+            base_prepared: base.par_iter().map(Prepared::new).collect(),
             base_bvh,
             diag: mesh.bbox_diagonal() as f64,
             own: Vec::new(),
@@ -277,7 +280,7 @@ impl Checker {
     /// Whether base triangles `t` and `j` cross, sharing no vertex.
     fn bases_cross(&self, t: u32, j: u32) -> bool {
         let (t, j) = (t as usize, j as usize);
-        !shares(&self.tris[t], &self.tris[j]) && triangles_intersect(&self.base[t], &self.base[j])
+        !shares(&self.tris[t], &self.tris[j]) && self.base_prepared[t].crosses_prepared(&self.base_prepared[j])
     }
 
     /// The base triangles that cross base triangle `t`, sharing no vertex with it.
@@ -331,6 +334,7 @@ impl Checker {
         touched.iter().for_each(|&t| around(tri_box(&self.base[t as usize])));
         for &t in &touched {
             self.base[t as usize] = self.tris[t as usize].map(|i| p[i as usize].as_dvec3());
+            self.base_prepared[t as usize] = Prepared::new(&self.base[t as usize]);
         }
         self.base_bvh.refit_items(touched.iter().map(|&t| (t, tri_box(&self.base[t as usize]))));
         let probe_box = |v: u32| (p[v as usize].as_dvec3(), p[v as usize].as_dvec3());
@@ -444,9 +448,10 @@ impl Checker {
     /// candidates are skipped untested. Crossings inherited from the base do not count.
     pub fn outer_crosses(&self, mesh: &Mesh, shell: &Shell, t: u32, tree: &TriBvh) -> bool {
         self.items_of(t, shell.side).any(|i| {
-            let mine = self.skin_tri(mesh, shell, i);
-            let (lo, hi) = tri_box(&mine);
-            tree.any(lo, hi, |j| !self.inherited(t, self.item_tri(j)) && self.skins_cross(shell, i, || mine, j, || self.skin_tri(mesh, shell, j)))
+            let mine = Prepared::new(&self.skin_tri(mesh, shell, i));
+            tree.any_where(near(&mine), |j| {
+                !self.inherited(t, self.item_tri(j)) && self.skins_may_cross(shell, i, j) && mine.crosses(&self.skin_tri(mesh, shell, j))
+            })
         })
     }
 
@@ -516,12 +521,13 @@ impl Checker {
             // base's, which visits each pair of overlapping nodes once.
             Some(tree) if many => {
                 debug_assert_eq!(tree.len(), self.items(shell.side), "the skin tree must hold every skin triangle");
-                // Every skin triangle once (each is met in dozens of candidate pairs).
-                let all: Vec<[DVec3; 3]> = (0..self.items(shell.side) as u32).into_par_iter().map(|i| self.skin_tri(mesh, shell, i)).collect();
-                let skin = |i: u32| all[i as usize];
+                // Every skin triangle once, with its plane (each is met in dozens of
+                // candidate pairs).
+                let all: Vec<Prepared> = (0..self.items(shell.side) as u32).into_par_iter().map(|i| Prepared::new(&self.skin_tri(mesh, shell, i))).collect();
+                let skin = |i: u32| &all[i as usize];
                 let flagged = |i: u32| dirty.is_none_or(|d| d.tris[self.item_tri(i) as usize]);
-                let skin_pair = |i, j| (flagged(i) || flagged(j)) && self.skins_cross(shell, i, || skin(i), j, || skin(j));
-                let base_pair = |i, j| flagged(i) && self.skin_crosses_base(mesh, shell, i, || skin(i), j);
+                let skin_pair = |i, j| (flagged(i) || flagged(j)) && self.skins_may_cross(shell, i, j) && skin(i).crosses_prepared(skin(j));
+                let base_pair = |i, j| flagged(i) && self.skin_crosses_base(mesh, shell, i, skin(i), j);
                 let (skin, base) = rayon::join(|| tree.overlapping_pairs(&skin_pair), || tree.overlapping_pairs_with(&self.base_bvh, &base_pair));
                 let kind = |t: u32, u: u32, k: u8| if self.inherited(t, u) { 2 } else { k };
                 let skin = skin.into_iter().map(|(i, j)| (kind(self.item_tri(i), self.item_tri(j), 0), i, j));
@@ -576,7 +582,7 @@ impl Checker {
             .par_iter()
             .flat_map_iter(|&t| self.items_of(t, shell.side).map(move |i| (t, i)))
             .flat_map_iter(|(t, i)| {
-                let mine = self.skin_tri(mesh, shell, i);
+                let mine = Prepared::new(&self.skin_tri(mesh, shell, i));
                 // A triangle of `back` with a moved corner was checked in full above.
                 self.skin_pairs(&|j| self.skin_tri(mesh, shell, j), shell, (t, i), &mine, outer_tree, |_, u| !back.tris[u as usize] && tri_moved(u))
             })
@@ -659,10 +665,15 @@ impl Checker {
     /// once the pair is not ruled out by topology: most candidate pairs are
     /// neighbours) cross, sharing no base vertex. A flat wall counts for nothing ([`flat_wall`](Self::flat_wall)).
     fn skins_cross(&self, shell: &Shell, i: u32, mine: impl FnOnce() -> [DVec3; 3], j: u32, theirs: impl FnOnce() -> [DVec3; 3]) -> bool {
-        !shares(self.item_vertices(i), self.item_vertices(j))
-            && !self.flat_wall(shell, i)
-            && !self.flat_wall(shell, j)
-            && triangles_intersect(&mine(), &theirs())
+        self.skins_may_cross(shell, i, j) && triangles_intersect(&mine(), &theirs())
+    }
+
+    /// Whether [`skins_cross`](Self::skins_cross) tests skin items `i` and `j` at all
+    /// (they share no base vertex, neither is a flat wall); the searches then test a
+    /// [`Prepared`] query triangle against them.
+    #[inline]
+    fn skins_may_cross(&self, shell: &Shell, i: u32, j: u32) -> bool {
+        !shares(self.item_vertices(i), self.item_vertices(j)) && !self.flat_wall(shell, i) && !self.flat_wall(shell, j)
     }
 
     /// Whether item `i` is a wall of no height (both ends' directors zero): it is
@@ -678,20 +689,20 @@ impl Checker {
     /// checked against its own face's base in the same split only; and not against a
     /// base triangle it shares a vertex with whose skin point coincides with the base
     /// point.
-    fn skin_crosses_base(&self, mesh: &Mesh, shell: &Shell, i: u32, mine: impl FnOnce() -> [DVec3; 3], j: u32) -> bool {
+    fn skin_crosses_base(&self, mesh: &Mesh, shell: &Shell, i: u32, mine: &Prepared, j: u32) -> bool {
         let (p, tris) = (mesh.positions(), &self.tris);
         let (t, r) = match self.item(i) {
             Item::Layer { tri, r } => (tri, r),
             // A wall stands on its edge: base triangles at either end touch it.
             Item::Wall { .. } => {
-                return !shares(self.item_vertices(i), &tris[j as usize]) && !self.flat_wall(shell, i) && triangles_intersect(&mine(), &self.base[j as usize])
+                return !shares(self.item_vertices(i), &tris[j as usize]) && !self.flat_wall(shell, i) && mine.crosses_prepared(&self.base_prepared[j as usize])
             }
         };
         let (t, j) = (t as usize, j as usize);
         let coincide = |v: u32| (shell.point(p, v as usize, r).as_dvec3() - p[v as usize].as_dvec3()).length() <= 1e-6 * self.diag;
         let other_split = self.face_of[j] == self.face_of[t] && (t < self.first_other) != (j < self.first_other);
         let touching = tris[t].iter().any(|v| tris[j].contains(v) && coincide(*v));
-        !other_split && !touching && triangles_intersect(&mine(), &self.base[j])
+        !other_split && !touching && mine.crosses_prepared(&self.base_prepared[j])
     }
 
     /// [`find`](Self::find)'s pairs the skin and base tests above leave out by
@@ -853,7 +864,7 @@ impl Checker {
         let halves = |w: u32| (0..WALL_TRIS).map(move |h| n + w * WALL_TRIS + h);
         let layers = |u: u32| skins(shell.side).iter().map(move |&r| if r == 1.0 { u } else { n + WALL_TRIS * self.walls.len() as u32 + u });
         let flat = |w: u32| self.flat_wall(shell, n + w * WALL_TRIS);
-        let kind = |a: u32, b: u32, k: u8| if a != b && triangles_intersect(&self.base[a as usize], &self.base[b as usize]) { 2 } else { k };
+        let kind = |a: u32, b: u32, k: u8| if a != b && self.base_prepared[a as usize].crosses_prepared(&self.base_prepared[b as usize]) { 2 } else { k };
         let test = |hits: &mut Vec<(u8, u32, u32)>, i: u32, mine: &[DVec3; 3], j: u32, other: &[DVec3; 3], k: u8| {
             if triangles_intersect(mine, other) {
                 hits.push((k, i, j));
@@ -909,15 +920,14 @@ impl Checker {
         skin: &impl Fn(u32) -> [DVec3; 3],
         shell: &Shell,
         (t, i): (u32, u32),
-        mine: &[DVec3; 3],
+        mine: &Prepared,
         tree: &TriBvh,
         keep: impl Fn(u32, u32) -> bool,
     ) -> Vec<(u8, u32, u32)> {
-        let (lo, hi) = tri_box(mine);
         let mut hits = Vec::new();
-        tree.query(lo, hi, |j| {
+        tree.query_where(near(mine), |j| {
             let u = self.item_tri(j);
-            if keep(j, u) && self.skins_cross(shell, i, || *mine, j, || skin(j)) {
+            if keep(j, u) && self.skins_may_cross(shell, i, j) && mine.crosses(&skin(j)) {
                 hits.push((if self.inherited(t, u) { 2 } else { 0 }, i, j));
             }
         });
@@ -936,15 +946,14 @@ impl Checker {
             .par_iter()
             .flat_map_iter(|&t| self.items_of(t, shell.side).map(move |i| (t, i)))
             .flat_map_iter(|(t, i)| {
-                let mine = skin(i);
-                let (lo, hi) = tri_box(&mine);
+                let mine = Prepared::new(&skin(i));
                 let mut hits = match outer_tree {
                     // Each pair once: by the lower item, unless only the higher is flagged.
                     Some(tree) => self.skin_pairs(&skin, shell, (t, i), &mine, tree, |j, u| j > i || !tri_flagged(u as usize)),
                     None => Vec::new(),
                 };
-                self.base_bvh.query(lo, hi, |j| {
-                    if self.skin_crosses_base(mesh, shell, i, || mine, j) {
+                self.base_bvh.query_where(near(&mine), |j| {
+                    if self.skin_crosses_base(mesh, shell, i, &mine, j) {
                         hits.push((if self.inherited(t, j) { 2 } else { 1 }, i, j));
                     }
                 });
@@ -961,7 +970,7 @@ impl Checker {
         let mine = || self.skin_tri(mesh, shell, i);
         match self_pair {
             true => self.skins_cross(shell, i, mine, j, || self.skin_tri(mesh, shell, j)),
-            false => self.skin_crosses_base(mesh, shell, i, mine, j),
+            false => self.skin_crosses_base(mesh, shell, i, &Prepared::new(&mine()), j),
         }
     }
 
@@ -997,6 +1006,14 @@ pub(crate) fn through_base_point(half: &[DVec3; 3], ends: [DVec3; 2], x: DVec3, 
         }
         _ => triangles_intersect(half, base),
     }
+}
+
+/// A search's test of tree boxes for query triangle `mine`: they overlap its box
+/// and straddle its plane ([`Prepared::box_straddles`]); a box that fails holds no
+/// triangle crossing `mine`, nor does a node above only such boxes.
+fn near(mine: &Prepared) -> impl Fn(DVec3, DVec3) -> bool + '_ {
+    let (lo, hi) = tri_box(mine.corners());
+    move |l: DVec3, h: DVec3| !(l.cmpgt(hi).any() || h.cmplt(lo).any()) && mine.box_straddles(l, h)
 }
 
 /// Whether the boxes of segment `p q` and of triangle `t` meet, as closed intervals

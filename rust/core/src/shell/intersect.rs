@@ -8,7 +8,9 @@
 //! determinants are rounding noise, are told apart exactly. Pairs that merely touch,
 //! and coplanar pairs (overlapping or not: every determinant is zero), are not counted
 //! by [`triangles_intersect`]; [`triangles_meet`] counts touching and overlapping pairs
-//! too, from point-triangle and segment-segment distances.
+//! too, from point-triangle and segment-segment distances. A [`Prepared`] triangle
+//! keeps its plane for a search's many tests, and tells the search which tree boxes
+//! lie wholly beyond that plane (none of their triangles can cross it).
 
 use glam::DVec3;
 use robust::{orient2d, orient3d, Coord, Coord3D};
@@ -21,6 +23,7 @@ use crate::spatial::Bvh;
 /// Shewchuk's forward error bound for this very evaluation (the orient3d filter,
 /// `(7 + 56ε) ε` times the permanent, here 8ε), and Shewchuk's adaptive `orient3d`
 /// decides the rest (nearly coplanar points) exactly.
+#[derive(Debug, Clone)]
 struct Plane {
     t: [DVec3; 3],
     normal: DVec3,
@@ -112,6 +115,7 @@ fn one_side(s: [f64; 3]) -> bool {
 /// proper triangle, has no crossing either way, and the pair ends after three
 /// determinants: most pairs, and coplanar ones, which do not count.
 pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
+    super::timing::exact_test();
     let plane_b = Plane::new(b);
     let of_a = a.map(|p| plane_b.side(p));
     if one_side(of_a) || (of_a == [0.0; 3] && !degenerate(b)) {
@@ -122,8 +126,109 @@ pub fn triangles_intersect(a: &[DVec3; 3], b: &[DVec3; 3]) -> bool {
     if one_side(of_b) {
         return false;
     }
+    crossing_edges(a, b, of_a, of_b)
+}
+
+/// [`triangles_intersect`]'s last step: whether an edge of either triangle properly
+/// crosses the other, given each corner's side of the other's plane.
+#[inline]
+fn crossing_edges(a: &[DVec3; 3], b: &[DVec3; 3], of_a: [f64; 3], of_b: [f64; 3]) -> bool {
     (0..3).any(|i| crosses_inside(a[i], a[(i + 1) % 3], of_a[i], of_a[(i + 1) % 3], b))
         || (0..3).any(|i| crosses_inside(b[i], b[(i + 1) % 3], of_b[i], of_b[(i + 1) % 3], a))
+}
+
+/// A triangle with its plane (normal and the filter's permanent) computed once, for
+/// tests against many others: a search's query triangle against its candidates, a
+/// fixed base triangle against every skin triangle near it (issue 14: the searches'
+/// exact tests are most of a build). [`Prepared::crosses`] answers exactly as
+/// [`triangles_intersect`] with this triangle first: the signs are the same exact
+/// signs, and only the order of the early exits differs (the other triangle's
+/// corners against this plane first: most candidates lie on one side of it and end
+/// there, without their own plane).
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    plane: Plane,
+}
+
+impl Prepared {
+    #[inline]
+    pub fn new(t: &[DVec3; 3]) -> Self {
+        Self { plane: Plane::new(t) }
+    }
+
+    /// The triangle's corners.
+    #[inline]
+    pub fn corners(&self) -> &[DVec3; 3] {
+        &self.plane.t
+    }
+
+    /// Whether the box `[lo, hi]` may hold a point on this triangle's plane or on
+    /// both sides of it; false only where every point of the box lies strictly on one
+    /// side, by exact signs: then no triangle inside the box crosses this one (its
+    /// corners' sides are all of one sign, [`crosses`](Self::crosses)' first exit),
+    /// and a search skips it, and any node of its tree whose box does the same,
+    /// before computing it (issue 14: most of a skin triangle's box neighbours lie
+    /// beyond its plane). The least and greatest of `n · (p - t0)` over the box are
+    /// taken at corners chosen per axis by the normal's signs; the rounding of those
+    /// sums and of the normal itself is below `8 u` times the permanent times the
+    /// box's reach from `t0` (`u = 2^-53`), the same terms that bound
+    /// [`Plane::side`]'s filter; 64 of them are the guard band. A degenerate
+    /// triangle (all its exact sides zero) is never separated; NaN neither.
+    #[inline]
+    pub fn box_straddles(&self, lo: DVec3, hi: DVec3) -> bool {
+        let Plane { t, normal: n, permanent } = &self.plane;
+        let (a, b) = (lo - t[0], hi - t[0]);
+        let positive = n.cmpge(DVec3::ZERO);
+        let least = n.dot(DVec3::select(positive, a, b));
+        let most = n.dot(DVec3::select(positive, b, a));
+        let margin = 8.0 * ORIENT_BOUND * permanent.dot(a.abs().max(b.abs()));
+        !(least > margin || most < -margin)
+    }
+
+    /// [`triangles_intersect`]`(self, b)`.
+    #[inline]
+    pub fn crosses(&self, b: &[DVec3; 3]) -> bool {
+        self.crosses_with(b, None)
+    }
+
+    /// [`triangles_intersect`]`(self, b)` with `b` prepared too (neither plane is
+    /// computed again).
+    #[inline]
+    pub fn crosses_prepared(&self, b: &Prepared) -> bool {
+        self.crosses_with(&b.plane.t, Some(&b.plane))
+    }
+
+    /// Why the answers are [`triangles_intersect`]'s: that test returns true only at
+    /// its last step, [`crossing_edges`], given the same exact sides; every exit here
+    /// returns false where it does. `b` on one side of this plane: its exit. `b` in
+    /// the plane of this proper triangle: every corner of `b` has side zero, so no
+    /// edge of `b` crosses, and an edge of this triangle crosses only with corners
+    /// strictly on either side of `b`'s plane, which is this plane (`b` proper) or
+    /// gives every point side zero (`b` degenerate: `orient3d` of collinear points);
+    /// so `crossing_edges` is false. (A degenerate triangle gives every point side
+    /// zero, and may still pierce `b`: it goes on.)
+    #[inline]
+    fn crosses_with(&self, b: &[DVec3; 3], plane_b: Option<&Plane>) -> bool {
+        super::timing::exact_test();
+        let a = &self.plane.t;
+        let of_b = b.map(|p| self.plane.side(p));
+        if one_side(of_b) || (of_b == [0.0; 3] && !degenerate(a)) {
+            return false;
+        }
+        let made;
+        let plane_b = match plane_b {
+            Some(p) => p,
+            None => {
+                made = Plane::new(b);
+                &made
+            }
+        };
+        let of_a = a.map(|p| plane_b.side(p));
+        if one_side(of_a) || (of_a == [0.0; 3] && !degenerate(b)) {
+            return false;
+        }
+        crossing_edges(a, b, of_a, of_b)
+    }
 }
 
 /// Squared distance from `p` to the closed triangle `t` (closest point by Voronoi
@@ -398,6 +503,111 @@ mod tests {
             }
         }
         assert!(crossing > pairs / 10 && crossing < pairs * 9 / 10, "{crossing} of {pairs}");
+    }
+
+    /// A prepared triangle answers as [`triangles_intersect`] does, with the other
+    /// triangle plain or prepared, either way round: on random pairs, grid points
+    /// (exact zeros), shared corners and edges, coplanar pairs (tilted, so rounded),
+    /// and degenerate triangles (collinear, coincident corners, a needle through the
+    /// other), of which some cross.
+    #[test]
+    fn prepared_triangles_answer_as_the_plain_test() {
+        let mut rnd = uniform(4242);
+        let (mut crossing, mut coplanar, mut degenerate_crossing, mut pairs) = (0, 0, 0, 0);
+        for k in 0..30000 {
+            let mut point = || match k % 3 {
+                0 => DVec3::new((rnd() * 2.0).round(), (rnd() * 2.0).round(), (rnd() * 2.0).round()),
+                _ => DVec3::new(rnd(), rnd(), rnd()),
+            };
+            let a = [point(), point(), point()];
+            let mut b = [point(), point(), point()];
+            match k % 11 {
+                1 => b[0] = a[0].lerp(a[1], 0.5),
+                2 => (b[0], b[1]) = (a[1], a[2]),
+                // In a's plane (rounded: a tilted plane).
+                3 => b = [a[0].lerp(a[1], 0.3), a[1].lerp(a[2], 0.6), a[2] + (a[2] - a[0]) * 0.4],
+                4 => b = [a[0], a[1].lerp(a[2], 0.3), a[0].lerp(a[2], 0.7) + (a[1] - a[0]) * 0.2],
+                // Collinear and coincident corners (exactly, for grid points).
+                5 => b[2] = b[0] + (b[1] - b[0]) * 2.0,
+                6 => b[1] = b[0],
+                7 => b = [b[0]; 3],
+                // A needle through a's centre.
+                8 => {
+                    let c = (a[0] + a[1] + a[2]) / 3.0;
+                    let n = (a[1] - a[0]).cross(a[2] - a[0]);
+                    b = [c - n, c + n, c + n * 3.0];
+                }
+                9 => b[1] = b[0] + DVec3::splat(1e-12),
+                _ => {}
+            }
+            for (x, y) in [(a, b), (b, a)] {
+                let plain = triangles_intersect(&x, &y);
+                let (px, py) = (Prepared::new(&x), Prepared::new(&y));
+                assert_eq!(px.crosses(&y), plain, "{x:?} {y:?}");
+                assert_eq!(px.crosses_prepared(&py), plain, "{x:?} {y:?}");
+                assert_eq!(px.corners(), &x);
+                pairs += 1;
+                crossing += usize::from(plain);
+                coplanar += usize::from(y.iter().all(|&p| Plane::new(&x).side(p) == 0.0) && !degenerate(&x));
+                degenerate_crossing += usize::from(plain && (degenerate(&x) || degenerate(&y)));
+            }
+        }
+        assert!(
+            crossing > pairs / 10 && coplanar > 500 && degenerate_crossing > 100,
+            "{crossing} crossing, {coplanar} coplanar, {degenerate_crossing} degenerate crossing of {pairs}"
+        );
+    }
+
+    /// A box is separated from a triangle's plane only where each of its corners
+    /// (and so every point in it) lies strictly on one side by the exact sign, and
+    /// then no triangle inside it crosses: random boxes around random and tilted
+    /// triangles, boxes touching the plane at a corner (exact zeros on grid points)
+    /// or lifted off it by 1e-13 .. 1e-3 of their size; many are separated.
+    #[test]
+    fn boxes_are_separated_from_a_plane_only_by_exact_signs() {
+        let mut rnd = uniform(515);
+        let c = |v: DVec3| Coord3D { x: v.x, y: v.y, z: v.z };
+        let (mut separated, mut near) = (0, 0);
+        for k in 0..20000 {
+            let (q, origin) = (rotation(&mut rnd), DVec3::new(rnd(), rnd(), rnd()) * 10.0);
+            let t = match k % 4 {
+                0 => [0, 1, 2].map(|_| DVec3::new((rnd() * 3.0).round(), (rnd() * 3.0).round(), (rnd() * 3.0).round())),
+                _ => [0, 1, 2].map(|_| origin + q * DVec3::new(rnd(), rnd(), 0.0)),
+            };
+            let prepared = Prepared::new(&t);
+            // A box around a point at some height over the plane, or with a corner on
+            // it (grid triangles: a grid corner).
+            let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+            let size = DVec3::new(rnd().abs(), rnd().abs(), rnd().abs()) * 0.5;
+            let (lo, hi) = match k % 4 {
+                0 => {
+                    let p = DVec3::new((rnd() * 3.0).round(), (rnd() * 3.0).round(), (rnd() * 3.0).round());
+                    (p, p + size)
+                }
+                _ => {
+                    // The box's lowest corner along the normal (or its highest, below
+                    // the plane) at `lift` from a point of the plane.
+                    let lift = rnd() * 10f64.powi(-(k % 11) - 3);
+                    let m = t[0] + (t[1] - t[0]) * rnd() + (t[2] - t[0]) * rnd() + n * lift;
+                    let lo = m - size * DVec3::select((n * lift.signum()).cmplt(DVec3::ZERO), DVec3::ONE, DVec3::ZERO);
+                    (lo, lo + size)
+                }
+            };
+            if prepared.box_straddles(lo, hi) {
+                continue;
+            }
+            separated += 1;
+            let corners: Vec<DVec3> = (0..8).map(|b| DVec3::select(glam::BVec3::new(b & 1 != 0, b & 2 != 0, b & 4 != 0), hi, lo)).collect();
+            let sides: Vec<f64> = corners.iter().map(|&p| -orient3d(c(t[0]), c(t[1]), c(t[2]), c(p))).collect();
+            assert!(sides.iter().all(|&s| s > 0.0) || sides.iter().all(|&s| s < 0.0), "{t:?} {lo:?} {hi:?} {sides:?}");
+            near += usize::from(sides.iter().map(|s| s.abs()).fold(f64::MAX, f64::min) < 1e-6);
+            let inside = [0, 1, 2].map(|_| lo + (hi - lo) * DVec3::new((rnd() + 1.0) / 2.0, (rnd() + 1.0) / 2.0, (rnd() + 1.0) / 2.0));
+            assert!(!triangles_intersect(&t, &inside) && !prepared.crosses(&inside));
+        }
+        assert!(separated > 5000 && near > 100, "{separated} separated, {near} within 1e-6");
+        // A degenerate triangle separates nothing.
+        let needle = Prepared::new(&[DVec3::ZERO, DVec3::X, DVec3::X * 2.0]);
+        assert!(needle.box_straddles(DVec3::new(0.0, 1.0, 1.0), DVec3::new(1.0, 2.0, 2.0)));
     }
 
     /// A uniform random rotation (Shoemake) from three numbers in `[-1, 1)`.

@@ -1079,6 +1079,7 @@ fn incremental_update_of_a_sliver_part_refits_its_pieces_and_matches_a_rebuild()
 fn stage_times_cover_a_build() {
     let m = tm::comb(1);
     let t = Thickness::relative(0.1).per_vertex(&m, None).unwrap();
+    let _serial = timing::SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     timing::enable(true);
     let s = build_shell(&m, &t, Side::Exterior, &ShellParams::default()).unwrap();
     timing::enable(false);

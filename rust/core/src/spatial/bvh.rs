@@ -243,6 +243,21 @@ impl Bvh {
         self.walk(meets, |i, b| meets(b.0, b.1) && found(i))
     }
 
+    /// Whether `found` holds for an item whose box `meets` accepts; stops at the
+    /// first. `meets` prunes whole nodes, so it must accept every box that contains
+    /// a box it accepts (a box overlap, a plane the box straddles).
+    pub fn any_where(&self, meets: impl Fn(DVec3, DVec3) -> bool, mut found: impl FnMut(u32) -> bool) -> bool {
+        self.walk(&meets, |i, b| meets(b.0, b.1) && found(i))
+    }
+
+    /// Calls `f` with every item whose box `meets` accepts ([`any_where`](Self::any_where)).
+    pub fn query_where(&self, meets: impl Fn(DVec3, DVec3) -> bool, mut f: impl FnMut(u32)) {
+        self.any_where(meets, |i| {
+            f(i);
+            false
+        });
+    }
+
     /// Calls `f` with every item whose box the segment `a`-`b` meets
     /// ([`segment_meets_box`] per node: a long slanted segment visits far fewer nodes
     /// than its box would).
