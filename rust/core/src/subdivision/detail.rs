@@ -7,6 +7,7 @@
 
 mod fold_guard;
 pub(crate) mod frames;
+mod gaps;
 mod growth;
 mod growth_guard;
 mod overhang;
@@ -176,6 +177,11 @@ impl Model {
         if let Model::Berry { .. } | Model::Tentacle { .. } | Model::Spur { .. } = self {
             state.clearance = Some(fold_guard::Clearance::of(base));
         }
+        // How far each base vertex is from another part, searched as far as any level's
+        // rock could be limited by it (see `gaps`).
+        if let Model::Rock { .. } = self {
+            state.gaps = gaps::Gaps::of(base, |edge| 3.0 * edge);
+        }
         state
     }
 }
@@ -191,6 +197,8 @@ pub(crate) struct State {
     pub tally: Tally,
     /// The base, for the room domes have before meeting another part of it.
     clearance: Option<fold_guard::Clearance>,
+    /// The distances to other parts of the base, for the rock.
+    gaps: Option<gaps::Gaps>,
     /// The base's normals at the level's vertices, for domes' overhangs.
     reference: Vec<Vec3>,
     /// Per-vertex factors on the level's detail before the guard (a local modification's
@@ -220,6 +228,9 @@ impl State {
         if !self.reference.is_empty() {
             self.reference = carried(parent, &self.reference);
         }
+        if let Some(gaps) = &mut self.gaps {
+            gaps.carry(parent);
+        }
         if let Some(second) = &mut self.second {
             second.carry(parent);
         }
@@ -240,13 +251,6 @@ impl State {
 pub(crate) enum Offsets {
     Normal(Vec<f64>),
     World(Vec<DVec3>),
-}
-
-/// Per-vertex values of `parent` carried to its subdivision (one level, numbered as
-/// [`subdivide`](super::subdivide) numbers it) by [`carried`].
-#[cfg(test)]
-pub(crate) fn linear_child_values<T: Carried>(parent: &Mesh, values: &[T]) -> Vec<T> {
-    carried(&Level::base(parent).expect("a mesh that subdivides"), values)
 }
 
 /// The synthesis loop: subdivide one level, displace by `detail(level, mesh, normals,
@@ -446,7 +450,10 @@ impl Model {
         match self {
             Model::Rock { amplitude } => {
                 let key = mix(seed ^ (level as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-                let limits = fold_guard::Limits::of(mesh, normals);
+                let mut limits = fold_guard::Limits::of(mesh, normals);
+                if let Some(gaps) = &state.gaps {
+                    limits.near(gaps.rock_room(level, mesh));
+                }
                 let size = amplitude * octave;
                 let gain = &state.gain;
                 let size = |v: usize| size * gain.get(v).copied().unwrap_or(1.0);
@@ -668,6 +675,12 @@ mod tests {
 
     fn sphere() -> Mesh {
         testmeshes::icosphere(2)
+    }
+
+    /// Per-vertex values of `parent` carried to its subdivision (one level, numbered as
+    /// [`subdivide`] numbers it) by [`carried`].
+    fn linear_child_values<T: Carried>(parent: &Mesh, values: &[T]) -> Vec<T> {
+        carried(&Level::base(parent).expect("a mesh that subdivides"), values)
     }
 
     #[test]
