@@ -177,10 +177,10 @@ impl Model {
         if let Model::Berry { .. } | Model::Tentacle { .. } | Model::Spur { .. } = self {
             state.clearance = Some(fold_guard::Clearance::of(base));
         }
-        // How far each base vertex is from another part, searched as far as any level's
+        // How far each base face is from another part, searched as far as any level's
         // rock could be limited by it (see `gaps`).
-        if let Model::Rock { .. } = self {
-            state.gaps = gaps::Gaps::of(base, |edge| 3.0 * edge);
+        if let Model::Rock { amplitude } = self {
+            state.gaps = gaps::Gaps::of(base, |edge| gaps::rock_reach(*amplitude, edge));
         }
         state
     }
