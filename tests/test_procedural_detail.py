@@ -324,6 +324,12 @@ FOLD_CASES = [
     ("torus_knot", "berry", {"radius": 0.12, "children": 3}),
     ("torus_knot", "rock", {"amplitude": 0.03}),
     ("two_spheres", "rock", {"amplitude": 0.03}),
+    # Gaps under half an edge: the rock crossed the blade's other side in 179 pairs, the
+    # next card across in 7,560, the second box in 654, before it measured how far
+    # another part of the base is.
+    ("blade", "rock", {"amplitude": 0.03}),
+    ("cards", "rock", {"amplitude": 0.03}),
+    ("touching_cubes", "rock", {"amplitude": 0.03}),
     # Small domes: clusters drawn apart only within each overlapped their neighbours',
     # and child domes on their parents' walls leaned past vertical.
     ("uv_sphere", "berry", {"radius": 0.12, "children": 3}),

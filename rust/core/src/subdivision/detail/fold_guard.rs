@@ -21,9 +21,9 @@
 //!   rising towards each other close at most 0.8 of it. Rays go from the level's
 //!   vertices to the base's triangles, counting only a part met from its front, so the
 //!   vertex's own stretch of base, which the smoothed level lies just inside of, never
-//!   counts. The rock's random detail, under a quarter edge, is not cast for (a ray per
-//!   vertex at every level would cost more than the synthesis): surfaces closer than half
-//!   an edge can still meet.
+//!   counts. The rock's random detail is not cast for (a ray per vertex at every level
+//!   would cost more than the synthesis): its room from other parts comes from distances
+//!   measured once on the base ([`super::gaps`], set by [`Limits::near`]).
 
 use crate::shell::lp_distance::mesh_triangles;
 use crate::spatial::{ray_triangle, Bvh};
@@ -170,6 +170,8 @@ pub(crate) struct Limits {
     at: Vec<[f64; 3]>,
     /// Outward limits [`Limits::clear_of`] lowered (empty until then).
     room: Vec<f64>,
+    /// Limits both ways from the distance to other parts ([`Limits::near`]; empty for none).
+    near: Vec<f64>,
 }
 
 impl Limits {
@@ -195,19 +197,26 @@ impl Limits {
                 }
             }
         }
-        Self { at, room: Vec::new() }
+        Self { at, room: Vec::new(), near: Vec::new() }
     }
 
     /// How far vertex `v` may move out along its normal: [`FOCAL_SHARE`] of its radius of
     /// curvature towards that side, and its room from [`Limits::clear_of`].
     pub(crate) fn out(&self, v: usize) -> f64 {
         let focal = reach(self.at[v][1]);
+        let focal = self.near.get(v).map_or(focal, |&r| focal.min(r));
         self.room.get(v).map_or(focal, |&r| focal.min(r))
     }
 
     /// How far vertex `v` may move in.
     pub(crate) fn inward(&self, v: usize) -> f64 {
-        reach(self.at[v][0])
+        let focal = reach(self.at[v][0]);
+        self.near.get(v).map_or(focal, |&r| focal.min(r))
+    }
+
+    /// Lowers both limits of every vertex to `room` (from [`super::gaps::Gaps`]).
+    pub(crate) fn near(&mut self, room: Vec<f64>) {
+        self.near = room;
     }
 
     /// Vertex `v`'s shortest edge (infinite when it has none of nonzero length).
@@ -270,6 +279,17 @@ pub(crate) fn scale_groups(group: &[u32], need: impl Fn(usize) -> f64 + Sync) ->
 }
 
 impl Clearance {
+    /// The base's triangles' tree, triangle `t` and its unit normal (for [`super::gaps`]).
+    pub(crate) fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+    pub(crate) fn triangle(&self, t: u32) -> &[DVec3; 3] {
+        &self.triangles[t as usize]
+    }
+    pub(crate) fn normal(&self, t: u32) -> DVec3 {
+        self.normals[t as usize]
+    }
+
     /// The distance from `o` along the unit `dir` to the first base triangle met from
     /// its front, for the growth models' offsets (see `growth_guard`).
     pub(crate) fn distance_along(&self, o: DVec3, dir: DVec3) -> f64 {
