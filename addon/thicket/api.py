@@ -51,6 +51,7 @@ __all__ = [
     "render_preview",
     "render_frames",
     "regenerate",
+    "fit_bake_tiles",
     "apply",
     "remove",
     "process_file",
@@ -535,6 +536,51 @@ def regenerate(obj, progress=None, ask=False, fresh=False):
     if fresh:
         live_shells.clear()
     return _regenerate(obj, progress=progress, ask=ask)
+
+
+def texture_item_index(obj, index=-1, label=""):
+    """The stack index of `obj`'s Volumetric Texture item to fit to its budget:
+    `index` where it is one; else the enabled one named `label`; else the active item
+    where it is an enabled one; else the last enabled one (None without any)."""
+    items = obj.thicket.items
+    if 0 <= index < len(items) and items[index].kind == "VOLUMETRIC_TEXTURE":
+        return index
+    textures = [i for i, item in enumerate(items) if item.kind == "VOLUMETRIC_TEXTURE" and item.show_viewport]
+    named = [i for i in textures if items[i].name == label]
+    if named:
+        return named[0]
+    if obj.thicket.active_index in textures:
+        return obj.thicket.active_index
+    return textures[-1] if textures else None
+
+
+def fit_bake_tiles(obj, index=None, progress=None, regenerate=True):
+    """Grows the tiles of `obj`'s Volumetric Texture item (`index`, or the last
+    enabled one) to the smallest size (within 5%) at which its bake is estimated
+    within its Triangle Budget, and sets them on the item: with a UV map a smaller
+    `tiling`; without one `no_uv_tiles="WORLD"` and a larger `tile_size` (one tile per
+    face turns into World-Size Tiles grown from the automatic size). Then regenerates
+    the result (`regenerate`). Returns the search's dict (`thicket_native.fit_bake_tiles`:
+    scale, triangles, fits, below, estimates) with `settings`, what was set.
+    `progress`: see the module docs (the shells, then the search); a cancel changes
+    nothing."""
+    from .pure.evaluate import fit_texture_budget
+    from .stack.guard import suspended
+    from .stack.regenerate import read_source
+
+    _require_mesh(obj)
+    at = texture_item_index(obj, -1 if index is None else index)
+    if at is None or (index is not None and at != index):
+        raise ValueError(f"'{obj.name}' has no enabled Volumetric Texture item" + ("" if index is None else f" at {index}"))
+    arrays, items = read_source(obj)
+    enabled = sum(item.show_viewport for item in obj.thicket.items[:at])
+    fit = fit_texture_budget(arrays, items, enabled, progress)
+    with suspended():
+        for key, value in fit.settings.items():
+            setattr(obj.thicket.items[at], key, value)
+    if regenerate:
+        _regenerate(obj)
+    return dict(fit.found, settings=dict(fit.settings))
 
 
 def result_of(obj):

@@ -177,6 +177,18 @@ def bake_texture(
 def estimate_bake(
     vertices: Floats, face_sizes: Indices, corners: Indices, base_offset: Floats, directors: Floats, textures: PlacedTextures, **settings: Unpack[_BakeSettings]
 ) -> int: ...
+def fit_bake_tiles(
+    vertices: Floats,
+    face_sizes: Indices,
+    corners: Indices,
+    base_offset: Floats,
+    directors: Floats,
+    textures: PlacedTextures,
+    *,
+    tile_size: float | None = None,
+    progress: Progress = None,
+    **settings: Unpack[_BakeSettings],
+) -> dict[str, Any]: ...
 
 class TexturedShell:
     """A textured shell read and checked once; baked, estimated and rendered many times."""
@@ -193,6 +205,7 @@ class TexturedShell:
     ) -> None: ...
     def bake(self, progress: Progress = None) -> dict[str, Any]: ...
     def estimate(self) -> int: ...
+    def fit_budget(self, progress: Progress = None) -> dict[str, Any]: ...
     def render(
         self, view: Floats, projection: Floats, width: int, height: int, *, progress: Progress = None, **settings: Unpack[_FrameSettings]
     ) -> dict[str, Any]: ...

@@ -6,6 +6,7 @@ from .export_texture import THICKET_OT_export_texture
 from .field_mesh_add import THICKET_OT_field_mesh_add
 from .field_mesh_regenerate import THICKET_OT_field_mesh_regenerate
 from .field_nodes_add import THICKET_OT_field_nodes_add
+from .fit_bake_budget import THICKET_OT_fit_bake_budget
 from .item_add import THICKET_OT_item_add
 from .item_move import THICKET_OT_item_move
 from .item_remove import THICKET_OT_item_remove
@@ -19,6 +20,7 @@ from .select_crossings import THICKET_OT_select_crossings
 CLASSES = (
     THICKET_OT_add_thick_surface,
     THICKET_OT_regenerate,
+    THICKET_OT_fit_bake_budget,
     THICKET_OT_apply,
     THICKET_OT_remove,
     THICKET_OT_item_add,

@@ -19,6 +19,12 @@ class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):
     estimate: bpy.props.IntProperty(options={"HIDDEN", "SKIP_SAVE"})
     budget: bpy.props.IntProperty(options={"HIDDEN", "SKIP_SAVE"})
     making: bpy.props.StringProperty(default="bake", options={"HIDDEN", "SKIP_SAVE"})
+    label: bpy.props.StringProperty(options={"HIDDEN", "SKIP_SAVE"})
+    fit_budget: bpy.props.BoolProperty(
+        name="Fit Tiles to Budget First",
+        description="Grow the texture's tiles to the smallest size at which its bake is estimated within its Triangle Budget, then bake",
+        options={"SKIP_SAVE"},
+    )
     confirmed: bpy.props.BoolProperty(options={"HIDDEN", "SKIP_SAVE"})
 
     def invoke(self, context, event):
@@ -34,14 +40,21 @@ class THICKET_OT_regenerate(StackOperator, WatchedOperator, bpy.types.Operator):
 
     def draw(self, context):
         self.layout.label(text=f"This {self.making} makes about {self.estimate:,} triangles.", icon="ERROR")
+        over = self.making == "bake" and self.budget and self.estimate > self.budget
         if self.budget and self.estimate > self.budget:
             self.layout.label(text=f"That is {self.estimate / self.budget:.1f} times its Triangle Budget of {self.budget:,}.")
         self.layout.label(text="It may take a while and a lot of memory. Make it?")
+        if over:
+            self.layout.prop(self, "fit_budget")
 
     def execute(self, context):
         if self.estimate and context.window is not None:
-            # "Bake" in the dialog: run it watched, with progress and Esc.
-            bpy.ops.thicket.regenerate("INVOKE_DEFAULT", confirmed=True)
+            # "Bake" in the dialog: run it watched, with progress and Esc (the tiles
+            # fitted to the budget first where asked, watched alike).
+            if self.fit_budget:
+                bpy.ops.thicket.fit_bake_budget("INVOKE_DEFAULT", label=self.label, regenerate=True)
+            else:
+                bpy.ops.thicket.regenerate("INVOKE_DEFAULT", confirmed=True)
             return {"CANCELLED"}  # the run it started makes the undo step
         watch = self._watch(context, ask=False)
         return {"CANCELLED"} if watch is None else watch.run_blocking(context)
@@ -78,7 +91,7 @@ def watched_regeneration(context, obj, ask, report, fresh=True):
     def fail(exc):
         if isinstance(exc, BakeNeedsConfirmation):
             if bpy.context.window is not None:  # ask, then bake watched (see invoke)
-                bpy.ops.thicket.regenerate("INVOKE_DEFAULT", estimate=exc.estimate, budget=exc.budget, making=exc.making)
+                bpy.ops.thicket.regenerate("INVOKE_DEFAULT", estimate=exc.estimate, budget=exc.budget, making=exc.making, label=str(exc.label))
             return {"CANCELLED"}
         return _failed(bpy.data.objects.get(name), exc, report)
 

@@ -45,7 +45,7 @@ class NeedsConfirmation(Exception):
     def __init__(self, label, estimate, limit, budget=0, making="bake"):
         over = f", {estimate / budget:.1f} times the Triangle Budget of {budget:,}" if budget and estimate > budget else ""
         super().__init__(f"'{label}' would make about {estimate:,} triangles (over {limit:,}{over}): click Regenerate to confirm")
-        self.estimate, self.budget, self.making = estimate, budget, making
+        self.label, self.estimate, self.budget, self.making = label, estimate, budget, making
 
 
 class StackError(ValueError):

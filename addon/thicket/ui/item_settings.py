@@ -140,7 +140,10 @@ def _draw_texture_settings(col, obj, item):
     col.prop(item, "follow_texture")
     col.prop(item, "resolution")
     col.prop(item, "depth_steps")
-    col.prop(item, "triangle_budget")
+    row = col.row(align=True)
+    row.prop(item, "triangle_budget")
+    index = next((i for i, it in enumerate(obj.thicket.items) if it.as_pointer() == item.as_pointer()), -1)
+    row.operator("thicket.fit_bake_budget", text="", icon="FULLSCREEN_EXIT").index = index
     col.prop(item, "face_selection")
     _group(col, obj, item, "vertex_group", "REGION", "Region")
     col.prop(item, "combine")
@@ -171,6 +174,8 @@ def draw_status(layout, obj):
         box.label(text=stack.last_error, icon="ERROR")
     if stack.last_note:
         layout.label(text=stack.last_note, icon="INFO")
+        if "times the Triangle Budget" in stack.last_note:
+            layout.operator("thicket.fit_bake_budget", icon="FULLSCREEN_EXIT")
     for line in filter(None, stack.last_report.split("\n")):
         _wrapped(layout.column(align=True), line, "ERROR" if "defects left" in line else "CHECKMARK")
     if stack.source_crossings:

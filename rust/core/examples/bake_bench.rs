@@ -63,9 +63,11 @@ fn budget_case() {
 /// pattern on the given meshes without UVs, their triangles against the budget (issue
 /// 15: CAD parts ran 2-12x over it), in the modes `BAKE_MODES` names (default all):
 /// `face` one tile per face, `world` World-Size Tiles of 1/32 of the diagonal, `fitted`
-/// World-Size Tiles grown to the budget ([`budget_tile_size`] from 1/32), each with the
-/// estimate, closed-manifold check and crossing triangle pairs. `BAKE_PATTERNS`:
-/// only those patterns (comma-separated names).
+/// World-Size Tiles grown to the budget ([`budget_tile_size`] from 1/32, its estimate
+/// the search's own), each with the estimate, closed-manifold check and crossing
+/// triangle pairs; `search` only the search (tile size, estimate, estimates made,
+/// wall and CPU seconds), no bake. `BAKE_PATTERNS`: only those patterns
+/// (comma-separated names).
 fn budget_parts(paths: &[String]) {
     use thicket_core::hard_meshes::self_intersections;
     use thicket_core::mesh::Mesh;
@@ -86,17 +88,39 @@ fn budget_parts(paths: &[String]) {
             let texture = Generator::new(p).generate([64, 64, 32]).unwrap();
             let layers = [TextureLayer { texture, offset: Vec2::ZERO }];
             for mode in modes.split(',') {
-                let start = Instant::now();
-                let (baked_on, what) = match mode {
-                    "face" => (mesh.clone(), "one tile per face".to_string()),
-                    "world" => (with_world_size_uvs(&mesh, auto).unwrap(), "world 1/32".to_string()),
+                let (start, cpu) = (Instant::now(), cpu_seconds());
+                let (baked_on, what, found) = match mode {
+                    "face" => (mesh.clone(), "one tile per face".to_string(), None),
+                    "world" => (with_world_size_uvs(&mesh, auto).unwrap(), "world 1/32".to_string(), None),
                     _ => {
-                        let (size, _) = budget_tile_size(&mesh, &shell, &layers, &params, auto).unwrap();
-                        (with_world_size_uvs(&mesh, size).unwrap(), format!("fitted 1/{:.1}", mesh.bbox_diagonal() / size))
+                        let (size, fit) = budget_tile_size(&mesh, &shell, &layers, &params, auto).unwrap();
+                        (with_world_size_uvs(&mesh, size).unwrap(), format!("fitted 1/{:.1}", mesh.bbox_diagonal() / size), Some(fit))
                     }
                 };
-                let fit_s = start.elapsed().as_secs_f64();
-                let estimate = estimate_triangles(&baked_on, &shell, &layers, &params);
+                let (fit_s, fit_cpu) = (start.elapsed().as_secs_f64(), cpu_seconds() - cpu);
+                if mode == "search" {
+                    let fit = found.unwrap();
+                    println!(
+                        "  {:11} {:18} estimate {:>9} ({:.2}x the budget{}), scale {:.2} (over at {:.2}), estimates {} quick + {} full, {:.1} s ({:.1} s CPU)",
+                        p.name(),
+                        what,
+                        fit.estimate.triangles,
+                        fit.estimate.triangles as f64 / params.triangle_budget as f64,
+                        if fit.fits { "" } else { ", does not fit" },
+                        fit.scale,
+                        fit.below.unwrap_or(f32::NAN),
+                        fit.estimates[0],
+                        fit.estimates[1],
+                        fit_s,
+                        fit_cpu
+                    );
+                    continue;
+                }
+                // The search's estimate is the bake's own at those tiles: not made again.
+                let estimate = match found {
+                    Some(fit) => Ok(fit.estimate.triangles),
+                    None => estimate_triangles(&baked_on, &shell, &layers, &params),
+                };
                 let start = Instant::now();
                 match bake(&baked_on, &shell, &layers, &params) {
                     Ok(b) => {
@@ -105,7 +129,7 @@ fn budget_parts(paths: &[String]) {
                         let sizes = vec![3u32; b.triangles.len()];
                         let out = Mesh::new(b.positions.clone(), &sizes, b.triangles.iter().flatten().copied().collect(), None).unwrap();
                         println!(
-                            "  {:11} {:18} {:>9} triangles ({:.2}x the budget{}), estimate {:.2}x, lattice {:?}, {}, {} crossing pairs, bake {:.1} s (fit {:.1} s)",
+                            "  {:11} {:18} {:>9} triangles ({:.2}x the budget{}), estimate {:.2}x, lattice {:?}, {}, {} crossing pairs, bake {:.1} s (fit {:.1} s, {:.1} s CPU)",
                             p.name(),
                             what,
                             b.triangles.len(),
@@ -116,7 +140,8 @@ fn budget_parts(paths: &[String]) {
                             if check.is_closed_manifold() { "closed manifold".to_string() } else { format!("{check:?}") },
                             self_intersections(&out),
                             secs,
-                            fit_s
+                            fit_s,
+                            fit_cpu
                         );
                     }
                     Err(e) => println!("  {:11} {:18} refused: {e}", p.name(), what),
@@ -124,6 +149,14 @@ fn budget_parts(paths: &[String]) {
             }
         }
     }
+}
+
+/// CPU seconds this process has used (user and system, all threads; Linux).
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let fields: Vec<&str> = stat.rsplit(')').next().unwrap_or("").split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok()).unwrap_or(0.0);
+    (ticks(11) + ticks(12)) / 100.0
 }
 
 fn main() {

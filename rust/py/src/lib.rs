@@ -8,6 +8,7 @@
 //! with the GIL released.
 
 mod arrays;
+mod bake_budget;
 mod errors;
 mod field;
 mod field_render;
@@ -48,6 +49,7 @@ fn thicket_native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(texture::texture, m)?)?;
     m.add_function(wrap_pyfunction!(texture::bake_texture, m)?)?;
     m.add_function(wrap_pyfunction!(texture::estimate_bake, m)?)?;
+    m.add_function(wrap_pyfunction!(bake_budget::fit_bake_tiles, m)?)?;
     m.add_class::<textured_shell::TexturedShell>()?;
     m.add_function(wrap_pyfunction!(texture_io::load_texture, m)?)?;
     m.add_function(wrap_pyfunction!(texture_io::save_texture, m)?)?;

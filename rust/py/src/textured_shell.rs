@@ -76,6 +76,16 @@ impl TexturedShell {
         run_detached(py, move || Ok(inner.estimate()?.triangles))
     }
 
+    /// fit_budget(progress=None) -> dict: `fit_bake_tiles`'s result for this shell,
+    /// whose mesh must have UVs (its own, or generated World-Size Tiles: their tile
+    /// size grows by `scale` too); `tile_size` is None.
+    #[pyo3(signature = (progress=None))]
+    fn fit_budget<'py>(&self, py: Python<'py>, progress: Option<Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+        let inner = self.inner.clone();
+        let fit = crate::bake_budget::watched(py, progress, move |watch| inner.budget_fit(watch))?;
+        crate::bake_budget::fit_dict(py, fit, None)
+    }
+
     /// render(view, projection, width, height, *, progress=None, **settings) -> dict:
     /// `render_shell`'s frame of this shell. `settings`: how to draw (keywords),
     /// method="auto", slices=16, light=(0.3, -0.5, 0.8), ambient=0.25, step=0.05,

@@ -217,6 +217,33 @@ def bake(shell: ShellContext, item: S.VolumetricTexture, weights, ask=False, pro
     return result, notes
 
 
+class BudgetFit(NamedTuple):
+    """Tiles grown to an item's Triangle Budget (`fit_budget`): the item settings that
+    give them (`tiling` for a UV map; `no_uv_tiles` and `tile_size` for World-Size
+    Tiles) and the search's result (`thicket_native.TexturedShell.fit_budget`: scale,
+    triangles, fits...)."""
+
+    settings: dict
+    found: dict
+
+
+def fit_budget(shell: ShellContext, item: S.VolumetricTexture, weights, progress=None) -> BudgetFit:
+    """The smallest tiles (within 5%) at which the item's bake over `shell` is
+    estimated within its Triangle Budget, from its tiles now: a UV map's Tiling
+    shrinks, World-Size Tiles grow, and one tile per face turns into World-Size Tiles
+    grown from the automatic size (per-face tiles cannot grow). `weights`: as
+    `bake`'s; `progress`: the search's callback (False cancels)."""
+    settings = dict(texture_settings(shell, item, weights), triangle_budget=int(item.triangle_budget), max_triangles=int(item.max_triangles))
+    tile = settings["world_tile_size"]
+    if shell.base.uvs is None and tile is None:
+        tile = auto_tile_size(shell.base)
+        settings.update(world_tile_size=tile, uvs=shell.world_size(tile)[1])
+    found = native_shell(shell, placed_textures(item), settings).fit_budget(progress=progress)
+    if tile is None:
+        return BudgetFit({"tiling": float(item.tiling) / found["scale"]}, found)
+    return BudgetFit({"no_uv_tiles": "WORLD", "tile_size": tile * found["scale"]}, found)
+
+
 def texture_weights(state: State, item: S.VolumetricTexture):
     """The item's per-vertex region, holes and move weights at the shell's base vertices."""
     at, group = state.shell.origin, lambda name: group_weights(state.source, name, at)

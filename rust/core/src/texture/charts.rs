@@ -25,6 +25,7 @@
 //! Seams between charts are UV seams: the bake welds across them as across a real UV
 //! map's seams (the texture is discontinuous there, the geometry closed).
 
+use super::bake::BudgetFit;
 use crate::mesh::{EdgeMap, Triangulation};
 use crate::{Error, Mesh, Result};
 use glam::{DVec3, Vec2};
@@ -204,10 +205,10 @@ pub fn with_world_size_uvs(mesh: &Mesh, tile_size: f32) -> Result<Mesh> {
 
 /// The World-Size tile size, `start` or larger, at which a bake of `params` on `mesh`
 /// (without a UV map) with generated coordinates is estimated within its triangle
-/// budget ([`crate::texture::bake::budget_scale`]: the charts scale with the tile
-/// size, so the tiles grow by its factor), and that estimate. `shell` is the shell
-/// over `mesh` (the generated UVs change no vertex). For a mesh whose one tile per
-/// face holds more texture than the budget has room for, this is the fix: the
+/// budget, and the search's [`BudgetFit`] ([`crate::texture::bake::budget_scale`]: the
+/// charts scale with the tile size, so the tiles grow by its factor). `shell` is the
+/// shell over `mesh` (the generated UVs change no vertex). For a mesh whose one tile
+/// per face holds more texture than the budget has room for, this is the fix: the
 /// texture keeps its features, the tiles follow the surface's size, not its faces'.
 pub fn budget_tile_size(
     mesh: &Mesh,
@@ -215,10 +216,10 @@ pub fn budget_tile_size(
     textures: &[super::TextureLayer],
     params: &super::BakeParams,
     start: f32,
-) -> Result<(f32, super::bake::Estimate)> {
+) -> Result<(f32, BudgetFit)> {
     let charted = with_world_size_uvs(mesh, start)?;
-    let (scale, estimate) = super::bake::budget_scale(&charted, shell, textures, params)?;
-    Ok((start * scale, estimate))
+    let fit = super::bake::budget_scale(&charted, shell, textures, params)?;
+    Ok((start * fit.scale, fit))
 }
 
 #[cfg(test)]

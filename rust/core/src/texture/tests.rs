@@ -648,9 +648,12 @@ fn tiles_grown_to_the_budget_bake_within_it() {
     let s = shell(&mesh, 0.05);
     let tex = layer(Generator::new(Pattern::ChainMail).generate([32, 32, 16]).unwrap());
     let params = BakeParams { triangle_budget: 60_000, ..Default::default() };
-    let (scale, estimate) = bake::budget_scale(&mesh, &s, &tex, &params).unwrap();
-    assert!(scale > 1.0 && estimate.triangles <= 60_000, "{scale} {estimate:?}");
+    let fit = bake::budget_scale(&mesh, &s, &tex, &params).unwrap();
+    let (scale, estimate) = (fit.scale, fit.estimate);
+    assert!(fit.fits && scale > 1.0 && estimate.triangles as f64 <= 60_000.0 * 1.05, "{fit:?}");
+    // What it returns is the estimate's own at that scale.
     let grown = BakeParams { tiling: params.tiling / scale, ..params.clone() };
+    assert_eq!(bake::estimate_bake(&mesh, &s, &tex, &grown).unwrap(), estimate);
     let b = bake(&mesh, &s, &tex, &grown).unwrap();
     let made = b.triangles.len();
     assert!(made as f64 <= 60_000.0 * 1.05 && !b.over_budget, "{made} triangles at {scale} times the tile size");
@@ -663,6 +666,50 @@ fn tiles_grown_to_the_budget_bake_within_it() {
     assert!((size / (sphere.bbox_diagonal() / 4.0) / scale - 1.0).abs() < 1e-3, "{size} {scale}");
     // Within the budget already: unchanged. No UV map: refused.
     let roomy = BakeParams { triangle_budget: 10_000_000, ..Default::default() };
-    assert_eq!(bake::budget_scale(&mesh, &s, &tex, &roomy).unwrap().0, 1.0);
+    let kept = bake::budget_scale(&mesh, &s, &tex, &roomy).unwrap();
+    assert!(kept.scale == 1.0 && kept.below.is_none() && kept.fits, "{kept:?}");
     assert!(bake::budget_scale(&sphere, &s, &tex, &params).is_err());
+}
+
+#[test]
+fn the_budget_search_finds_the_smallest_scale_that_fits() {
+    // 80 cells, every one in the quick sample and the estimate's alike (tiles about a
+    // face's size, a 16-texel texture: a few thousand lattice samples a cell): the
+    // scale found fits, and the scale below it, at most 5% smaller, is over the
+    // budget by the bake's own estimate (not the search's word for it). The first
+    // search took the first scale that fit, up to the square of how far over it was.
+    let mesh = with_world_size_uvs(&tm::icosphere(1), 1.0).unwrap();
+    let s = shell(&mesh, 0.05);
+    let tex = layer(Generator::new(Pattern::Weave).generate([16, 16, 8]).unwrap());
+    let all = bake::estimate_bake(&mesh, &s, &tex, &BakeParams { triangle_budget: 0, ..Default::default() }).unwrap().triangles;
+    // The largest of these budgets the bake cannot meet as it is (simplification alone
+    // meets a sixth of the lattice's triangles here).
+    let over = |budget: usize| {
+        let p = BakeParams { triangle_budget: budget, ..Default::default() };
+        bake::estimate_bake(&mesh, &s, &tex, &p).unwrap().triangles as f64 > budget as f64 * 1.05
+    };
+    let budget = [8, 16, 32, 64, 128].map(|d| all / d).into_iter().find(|&b| over(b)).expect("a budget the bake is over");
+    let params = BakeParams { triangle_budget: budget, ..Default::default() };
+    let fit = bake::budget_scale(&mesh, &s, &tex, &params).unwrap();
+    let below = fit.below.expect("over the budget at first");
+    assert!(fit.fits && below < fit.scale && fit.scale as f64 <= below as f64 * (1.0 + bake::BUDGET_STEP) * 1.0001, "{fit:?}");
+    let at = |scale: f32| bake::estimate_bake(&mesh, &s, &tex, &BakeParams { tiling: params.tiling / scale, ..params.clone() }).unwrap().triangles as f64;
+    let limit = params.triangle_budget as f64 * 1.05;
+    assert!(at(fit.scale) <= limit, "{} over {limit} at {}", at(fit.scale), fit.scale);
+    assert!(at(below) > limit, "{} within {limit} at {below}: a smaller scale fits", at(below));
+}
+
+#[test]
+fn a_cancelled_budget_search_stops_and_counts_its_estimates() {
+    let mesh = with_world_size_uvs(&tm::icosphere(2), 0.4).unwrap();
+    let s = shell(&mesh, 0.05);
+    let tex = layer(Generator::new(Pattern::ChainMail).generate([32, 32, 16]).unwrap());
+    let progress = std::sync::Arc::new(crate::progress::Progress::default());
+    let params = BakeParams { triangle_budget: 20_000, progress: Some(progress.clone()), ..Default::default() };
+    let fit = bake::budget_scale(&mesh, &s, &tex, &params).unwrap();
+    assert!(fit.fits && fit.scale > 1.0 && progress.fraction() == 1.0, "{fit:?}");
+    assert!(fit.estimates[0] >= 2 && fit.estimates[1] >= 1, "{fit:?}");
+    progress.cancel();
+    assert_eq!(bake::budget_scale(&mesh, &s, &tex, &params).unwrap_err(), crate::Error::Cancelled);
+    assert_eq!(bake::estimate_bake(&mesh, &s, &tex, &params).unwrap_err(), crate::Error::Cancelled);
 }

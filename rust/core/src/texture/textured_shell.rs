@@ -4,7 +4,7 @@
 //! bake, its estimate and both renderers take what they show, so a preview and the
 //! bake of the same object cannot disagree about their inputs.
 
-use super::bake::{self, BakeParams, BakedMesh, Effects, Estimate};
+use super::bake::{self, BakeParams, BakedMesh, BudgetFit, Effects, Estimate};
 use super::TextureLayer;
 use crate::shell::Shell;
 use crate::{Mesh, Result};
@@ -42,6 +42,13 @@ impl TexturedShell {
 
     pub fn estimate(&self) -> Result<Estimate> {
         bake::estimate_bake(&self.mesh, &self.shell, &self.layers, &self.params)
+    }
+
+    /// How many times larger its tiles must be for the bake to fit its triangle budget
+    /// ([`bake::budget_scale`]; needs a UV map, generated ones included), watched by
+    /// `progress` (estimates made, a cancel flag).
+    pub fn budget_fit(&self, progress: Option<std::sync::Arc<crate::progress::Progress>>) -> Result<BudgetFit> {
+        bake::budget_scale(&self.mesh, &self.shell, &self.layers, &BakeParams { progress, ..self.params.clone() })
     }
 
     /// The stack's effects as the bake applies them, for the renderers

@@ -345,7 +345,8 @@ fn split_base(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &Ba
     if wanted <= MAX_STEPS as f64 {
         return Ok(None);
     }
-    let (setup, sampled) = fitted_setup(mesh, shell, textures, params)?;
+    let (setup, sample) = fitted_setup(mesh, shell, textures, params, FULL)?;
+    let sampled = sample.sampled();
     let room = setup.lattice.n as f64 * (params.max_triangles as f64 / sampled.max(1) as f64).sqrt();
     let steps = wanted.min(room);
     let levels = (0..8).find(|&k| steps <= (MAX_STEPS << k) as f64).unwrap_or(8);
@@ -511,6 +512,44 @@ pub(super) fn cell_flips(mesh: &Mesh, shell: &Shell, triangles: &[[u32; 3]], fac
 /// Lattice samples the estimate may take: tens of milliseconds, far below a bake.
 const ESTIMATE_SAMPLES: usize = 4_000_000;
 
+/// How many cells an estimate samples ([`Setup::picked`]): lattice samples at most,
+/// and cells at most (at least 16 either way).
+#[derive(Debug, Clone, Copy)]
+struct Sampling {
+    samples: usize,
+    cells: usize,
+}
+
+/// The estimate's sampling ([`estimate_bake`]).
+const FULL: Sampling = Sampling { samples: ESTIMATE_SAMPLES, cells: 512 };
+
+/// The budget search's sampling ([`budget_scale`]): a quarter of the samples and
+/// cells, about a quarter of the time. Not from the paper: fandisk (12,946 faces,
+/// World-Size Tiles, 5% shell, budget 1 M) at tiles 1.5 to 6 times 1/32 of the
+/// diagonal, against [`FULL`]: chain mail 0.97-1.06x its estimate, weave 0.99-1.04x,
+/// in 0.25-0.35 of its CPU time.
+const QUICK: Sampling = Sampling { samples: ESTIMATE_SAMPLES / 4, cells: 128 };
+
+/// The cells an estimate samples (spread evenly over the mesh) and their pieces as
+/// the lattice makes them, of `count` cells in all.
+struct Sample {
+    chosen: Vec<usize>,
+    pieces: Vec<Piece>,
+    count: usize,
+}
+
+impl Sample {
+    /// The lattice's triangles over all cells, scaled from the sample's ([`Estimate::sampled`]).
+    fn sampled(&self) -> usize {
+        self.scaled(self.pieces.iter().map(|p| p.tris.len()).sum())
+    }
+
+    /// `made` triangles on the sample, scaled to all cells.
+    fn scaled(&self, made: usize) -> usize {
+        (made as f64 * self.count as f64 / self.chosen.len().max(1) as f64).ceil() as usize
+    }
+}
+
 /// Patches of neighbouring cells, at least, that the estimate of a bake over its budget
 /// after the cell pass simplifies as the bake's [`hierarchy`] does ([`Setup::patches`]).
 const PATCHES: usize = 2;
@@ -534,42 +573,44 @@ pub struct Estimate {
 }
 
 impl Setup {
-    /// The cells' triangles before simplification (see [`Estimate::sampled`]).
-    fn sampled(&self, cells: &Cells) -> usize {
-        let (count, picked) = self.picked(cells);
-        let made: usize = (0..picked).into_par_iter().map_init(Scratch::default, |s, p| cells.polygonize(s, p * count / picked).tris.len()).sum();
-        (made as f64 * count as f64 / picked.max(1) as f64).ceil() as usize
+    /// The cells `sampling` picks ([`Setup::picked`]) polygonized: the estimate's
+    /// sample. Cells are skipped once `cancelled`.
+    fn sample(&self, cells: &Cells, sampling: Sampling, cancelled: &(dyn Fn() -> bool + Sync)) -> Sample {
+        let (count, picked) = self.picked(cells, sampling);
+        let chosen: Vec<usize> = (0..picked).map(|p| p * count / picked).collect();
+        let pieces = chosen.par_iter().map_init(Scratch::default, |s, &t| if cancelled() { Piece::default() } else { cells.polygonize(s, t) }).collect();
+        Sample { chosen, pieces, count }
     }
 
-    /// How many cells the estimate samples, of how many.
-    fn picked(&self, cells: &Cells) -> (usize, usize) {
+    /// How many cells an estimate of `sampling` samples, of how many.
+    fn picked(&self, cells: &Cells, sampling: Sampling) -> (usize, usize) {
         let count = cells.lattice.tris.len();
         let n = cells.lattice.n as usize;
         let per_cell = (n + 1) * (n + 2) / 2 * cells.heights.len();
-        (count, (ESTIMATE_SAMPLES / per_cell).clamp(16, 512).min(count))
+        (count, (sampling.samples / per_cell).clamp(16, sampling.cells.max(16)).min(count))
     }
 
-    /// Both counts of [`Estimate`]: the sampled cells polygonized, then simplified as
-    /// the bake simplifies them; where that leaves the bake over `budget`, the
-    /// hierarchy's further share ([`Setup::hierarchy_share`]).
-    fn estimate(&self, mesh: &Mesh, shell: &Shell, cells: &Cells, budget: usize) -> Estimate {
-        let (count, picked) = self.picked(cells);
-        if picked == 0 {
+    /// Both counts of [`Estimate`]: the sample's cells (as the lattice made them),
+    /// simplified as the bake simplifies them; where that leaves the bake over
+    /// `budget`, the hierarchy's further share ([`Setup::hierarchy_share`]). Stops
+    /// early once `cancelled` (the count is then meaningless).
+    fn estimate(&self, mesh: &Mesh, shell: &Shell, cells: &Cells, budget: usize, sample: Sample, cancelled: &(dyn Fn() -> bool + Sync)) -> Estimate {
+        let sampled = sample.sampled();
+        if sample.chosen.is_empty() {
             return Estimate { sampled: 0, triangles: 0 };
         }
-        let chosen: Vec<usize> = (0..picked).map(|p| p * count / picked).collect();
-        let pieces: Vec<Piece> = chosen.par_iter().map_init(Scratch::default, |s, &t| cells.polygonize(s, t)).collect();
-        let scale = |made: usize| (made as f64 * count as f64 / picked as f64).ceil() as usize;
-        let sampled = scale(pieces.iter().map(|p| p.tris.len()).sum());
         let share = share_of(budget, sampled);
+        let Sample { chosen, pieces, count } = sample;
         let simplified = self.cell_pass(mesh, shell, &chosen, pieces, share);
-        let triangles = scale(simplified.pieces.iter().map(|p| p.tris.len()).sum());
-        if share >= 1.0 || !self.groups_free(mesh) || triangles as f64 <= budget as f64 * (1.0 + SHARE_TOLERANCE) {
+        let sample = Sample { chosen, pieces: Vec::new(), count };
+        let triangles = sample.scaled(simplified.pieces.iter().map(|p| p.tris.len()).sum());
+        if share >= 1.0 || !self.groups_free(mesh) || triangles as f64 <= budget as f64 * (1.0 + SHARE_TOLERANCE) || cancelled() {
             return Estimate { sampled, triangles };
         }
         // Every cell sampled: the sample is the bake's own cell pass.
-        let patches = if picked == count { simplified } else { self.patches(mesh, shell, cells, picked, share) };
-        let kept = self.hierarchy_share(patches, share, budget as f64 / triangles as f64);
+        let picked = sample.chosen.len();
+        let patches = if picked == sample.count { simplified } else { self.patches(mesh, shell, cells, picked, share) };
+        let kept = self.hierarchy_share(patches, share, budget as f64 / triangles as f64, cancelled);
         Estimate { sampled, triangles: (triangles as f64 * kept).ceil() as usize }
     }
 
@@ -637,14 +678,14 @@ impl Setup {
     /// The share of its triangles the bake's [`hierarchy`] leaves, run on the cell
     /// pass `pass` (patches of neighbouring cells) with the budget the same fraction
     /// `goal` of the pass's triangles as the bake's budget is of its estimated pass.
-    fn hierarchy_share(&self, pass: CellPass, share: f64, goal: f64) -> f64 {
+    fn hierarchy_share(&self, pass: CellPass, share: f64, goal: f64, cancelled: &(dyn Fn() -> bool + Sync)) -> f64 {
         let CellPass { mut pieces, made, moved } = pass;
         let before: usize = pieces.iter().map(|p| p.tris.len()).sum();
         if before == 0 {
             return 1.0;
         }
         let budget = (before as f64 * goal).ceil() as usize;
-        hierarchy::rounds(&mut pieces, &hierarchy::Cells { sampled: &made, error: &moved }, share, budget, SHARE_TOLERANCE, || false);
+        hierarchy::rounds(&mut pieces, &hierarchy::Cells { sampled: &made, error: &moved }, share, budget, SHARE_TOLERANCE, cancelled);
         pieces.iter().map(|p| p.tris.len()).sum::<usize>() as f64 / before as f64
     }
 
@@ -718,16 +759,29 @@ fn share_of(budget: usize, sampled: usize) -> f64 {
     }
 }
 
+/// Whether `params`' progress asks to stop (never without one).
+fn cancelled(params: &BakeParams) -> impl Fn() -> bool + Sync + '_ {
+    || params.progress.as_deref().is_some_and(Progress::is_cancelled)
+}
+
+/// `Err(Cancelled)` where `params`' progress asks to stop.
+fn check_cancelled(params: &BakeParams) -> Result<()> {
+    params.progress.as_deref().map_or(Ok(()), Progress::check)
+}
+
 /// The setup whose lattice samples at most `params.max_triangles` triangles: the
 /// texture-following lattice, coarsened (fewer steps per cell edge, down to
-/// `resolution`) where it would sample more; an error when even that would.
-fn fitted_setup(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<(Setup, usize)> {
+/// `resolution`) where it would sample more; an error when even that would. With the
+/// sample that decided it (`sampling`'s cells), which an estimate goes on from.
+fn fitted_setup(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams, sampling: Sampling) -> Result<(Setup, Sample)> {
     let mut setup = Setup::new(mesh, shell, textures, params)?;
     loop {
         let field = setup.field(textures);
-        let sampled = setup.sampled(&setup.cells(mesh, shell, &field, true));
+        let sample = setup.sample(&setup.cells(mesh, shell, &field, true), sampling, &cancelled(params));
+        check_cancelled(params)?;
+        let sampled = sample.sampled();
         if sampled <= params.max_triangles {
-            return Ok((setup, sampled));
+            return Ok((setup, sample));
         }
         if setup.block == 1 {
             return Err(Error::OverLimit(format!(
@@ -771,7 +825,9 @@ pub(super) fn bake_culled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
 
 /// [`bake_culled`] on the cells of `mesh` as they are.
 fn bake_cells(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams, cull: bool) -> Result<BakedMesh> {
-    let (setup, sampled) = fitted_setup(mesh, shell, textures, params)?;
+    let (setup, sample) = fitted_setup(mesh, shell, textures, params, FULL)?;
+    let sampled = sample.sampled();
+    drop(sample);
     let field = setup.field(textures);
     let cells = setup.cells(mesh, shell, &field, cull);
     let share = share_of(params.triangle_budget, sampled);
@@ -839,20 +895,28 @@ fn bake_cells(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &Ba
 }
 
 /// What [`bake`] is expected to make with the same arguments (checked alike): the
-/// bake's own lattice, field and simplification on a sample of its cells.
+/// bake's own lattice, field and simplification on a sample of its cells. Stops with
+/// [`Error::Cancelled`] once `params`' progress is cancelled (its counts are left alone).
 pub fn estimate_bake(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Estimate> {
+    estimate_sampled(mesh, shell, textures, params, FULL)
+}
+
+/// [`estimate_bake`] on the cells `sampling` picks.
+fn estimate_sampled(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams, sampling: Sampling) -> Result<Estimate> {
     match split_base(mesh, shell, textures, params)? {
         // The split bake's cells as they are: split once, as `bake_culled` does.
-        Some(split) => estimate_cells(&split.mesh, &split.shell, textures, &split.params),
-        None => estimate_cells(mesh, shell, textures, params),
+        Some(split) => estimate_cells(&split.mesh, &split.shell, textures, &split.params, sampling),
+        None => estimate_cells(mesh, shell, textures, params, sampling),
     }
 }
 
 /// [`estimate_bake`] on the cells of `mesh` as they are.
-fn estimate_cells(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<Estimate> {
-    let (setup, _) = fitted_setup(mesh, shell, textures, params)?;
+fn estimate_cells(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams, sampling: Sampling) -> Result<Estimate> {
+    let (setup, sample) = fitted_setup(mesh, shell, textures, params, sampling)?;
     let field = setup.field(textures);
-    Ok(setup.estimate(mesh, shell, &setup.cells(mesh, shell, &field, true), params.triangle_budget))
+    let estimate = setup.estimate(mesh, shell, &setup.cells(mesh, shell, &field, true), params.triangle_budget, sample, &cancelled(params));
+    check_cancelled(params)?;
+    Ok(estimate)
 }
 
 /// The triangle count [`bake`] is expected to make ([`estimate_bake`]'s `triangles`).
@@ -860,14 +924,48 @@ pub fn estimate_triangles(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer],
     Ok(estimate_bake(mesh, shell, textures, params)?.triangles)
 }
 
-/// Estimates [`budget_scale`] makes at most: each rescales by the power law its last
-/// two estimates show, so two to four suffice.
+/// How close the budget search brackets the smallest scale that fits: the scale it
+/// returns is at most this much larger than one it found over the budget.
+pub const BUDGET_STEP: f64 = 0.05;
+
+/// Rounds of growth each phase of [`budget_scale`] tries before it gives up (each at
+/// least [`BUDGET_MIN_GROWTH`], at most [`BUDGET_MAX_GROWTH`]).
 const BUDGET_ROUNDS: usize = 8;
 
+/// The least and most a growth round of [`budget_scale`] multiplies the scale by.
+const BUDGET_MIN_GROWTH: f64 = 1.25;
+const BUDGET_MAX_GROWTH: f64 = 16.0;
+
+/// Estimates the progress of [`budget_scale`] counts on (a bracket of three rounds,
+/// bisection to [`BUDGET_STEP`] and the check); more hold the bar near its end.
+const BUDGET_EXPECTED: usize = 12;
+
+/// Tiles grown to a bake's triangle budget ([`budget_scale`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BudgetFit {
+    /// How many times larger the tiles are (a UV map's tiling divided by it; World-Size
+    /// Tiles' size times it); 1 where the bake already fits.
+    pub scale: f32,
+    /// [`estimate_bake`]'s estimate at that scale.
+    pub estimate: Estimate,
+    /// The largest scale the search found over the budget (`scale / below` is at most
+    /// `1 +` [`BUDGET_STEP`] where the bake fits); `None` where `scale` is 1.
+    pub below: Option<f32>,
+    /// Whether `estimate` fits the budget (false: still over it at the largest scale
+    /// the rounds reached, which `scale` then is).
+    pub fits: bool,
+    /// Estimates made: quick ones (a quarter of the cells) and [`estimate_bake`]'s own.
+    pub estimates: [usize; 2],
+}
+
 /// How many times larger the tiles must be (the UV map's `tiling` divided by it) for
-/// a bake of `params` to be estimated within its triangle budget, and that estimate
-/// (1 where it already is, or there is no budget). Needs a UV map: for a mesh without
-/// one, [`super::charts::budget_tile_size`] grows generated World-Size Tiles instead.
+/// a bake of `params` to be estimated within its triangle budget: the smallest such
+/// scale to within [`BUDGET_STEP`], its estimate and the scale below it that did not
+/// fit ([`BudgetFit`]). An estimate fits where the bake would not say it is over
+/// ([`BakedMesh::over_budget`]: at most [`SHARE_TOLERANCE`] above the budget). Needs
+/// a UV map: for a mesh without one, [`super::charts::budget_tile_size`] grows
+/// generated World-Size Tiles instead. `params.progress` counts the estimates and
+/// stops the search (and the estimate under way) when cancelled: [`Error::Cancelled`].
 ///
 /// Not from the paper. On a mesh whose cells are small next to the texture (one tile
 /// per face on a dense CAD part; small World-Size Tiles), a bake is over its budget
@@ -876,39 +974,145 @@ const BUDGET_ROUNDS: usize = 8;
 /// triangles no error within a lattice step removes (fandisk's chain mail, one tile
 /// per face: 3.22 M triangles for a budget of 1 M within a quarter step, still 1.46 M
 /// within eight steps, a whole cell edge). Larger tiles keep every feature as sampled
-/// and make fewer of them. The count falls as a power of the scale (the square where
-/// features dominate, less where rims do), so each round rescales by the power its last
-/// two estimates show (the square to begin, at least 5% more each round). A scale at
-/// which the lattice is over `max_triangles` is doubled. The result can still be over
-/// the budget where `BUDGET_ROUNDS` ran out: the estimate returned says so.
-pub fn budget_scale(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<(f32, Estimate)> {
+/// and make fewer of them.
+///
+/// The search: estimates on a quarter of the estimate's cells (`QUICK`), first
+/// growing the scale by the power of the scale the count falls with between the last
+/// two estimates (the square to begin; between [`BUDGET_MIN_GROWTH`] and
+/// [`BUDGET_MAX_GROWTH`] a round; a scale whose lattice is over `max_triangles` is
+/// doubled) until one fits, then bisecting (geometrically) between the last scale
+/// over the budget and the first that fits until they are within [`BUDGET_STEP`];
+/// the count is not monotone in the scale everywhere (the lattice's steps change in
+/// whole blocks), so the result is the smallest within that bracket, not of all
+/// scales. [`estimate_bake`] then checks the scale found; where it is over (the quick
+/// sample was optimistic), the search goes on from there with its estimates.
+pub fn budget_scale(mesh: &Mesh, shell: &Shell, textures: &[TextureLayer], params: &BakeParams) -> Result<BudgetFit> {
     if mesh.uvs().is_none() {
         return Err(Error::InvalidParameter("scaling tiles to the budget needs a UV map (without one: budget_tile_size)".into()));
     }
-    let budget = params.triangle_budget as f64;
-    let estimate = |scale: f64| estimate_bake(mesh, shell, textures, &BakeParams { tiling: params.tiling / scale as f32, progress: None, ..params.clone() });
-    let mut scale = 1.0f64;
-    let mut last: Option<(f64, Estimate)> = None;
-    for round in 0..=BUDGET_ROUNDS {
-        match estimate(scale) {
-            Ok(e) if params.triangle_budget == 0 || e.triangles as f64 <= budget || round == BUDGET_ROUNDS => return Ok((scale as f32, e)),
-            Ok(e) => {
-                let over = e.triangles as f64 / budget;
-                // The count's power of the scale between the last two estimates.
-                let power = match last {
-                    Some((s0, e0)) if e0.triangles > e.triangles && scale > s0 => {
-                        ((e0.triangles as f64 / e.triangles as f64).ln() / (scale / s0).ln()).clamp(0.5, 2.0)
-                    }
-                    _ => 2.0,
-                };
-                last = Some((scale, e));
-                scale *= over.powf(1.0 / power).max(1.05);
-            }
-            Err(Error::OverLimit(_)) if round < BUDGET_ROUNDS => scale *= 2.0,
+    params.check(mesh, shell, textures)?;
+    let progress = params.progress.as_deref();
+    if let Some(p) = progress {
+        p.start(BUDGET_EXPECTED);
+    }
+    // The most triangles that fit.
+    let limit = params.triangle_budget as f64 * (1.0 + SHARE_TOLERANCE);
+    let fits = |e: &Estimate| params.triangle_budget == 0 || e.triangles as f64 <= limit;
+    let made = std::cell::Cell::new([0usize; 2]);
+    // One estimate at `scale`: None where the lattice is over the sample limit.
+    let estimate = |scale: f64, sampling: Sampling| -> Result<Option<Estimate>> {
+        let mut counts = made.get();
+        counts[usize::from(sampling.cells == FULL.cells)] += 1;
+        made.set(counts);
+        // As a caller divides its tiling by the scale returned (an `f32`).
+        let grown = BakeParams { tiling: params.tiling / scale as f32, ..params.clone() };
+        let e = match estimate_sampled(mesh, shell, textures, &grown, sampling) {
+            Ok(e) => Some(e),
+            Err(Error::OverLimit(_)) => None,
             Err(e) => return Err(e),
+        };
+        if let Some(p) = progress {
+            p.step();
+        }
+        Ok(e)
+    };
+    let fit = |scale: f64, estimate: Estimate, below: Option<f64>| {
+        if let Some(p) = progress {
+            p.start(1);
+            p.step();
+        }
+        BudgetFit { scale: scale as f32, estimate, below: below.map(|b| b as f32), fits: fits(&estimate), estimates: made.get() }
+    };
+    if params.triangle_budget == 0 {
+        let e = estimate(1.0, FULL)?.ok_or_else(|| Error::OverLimit("this bake is over its sample limit".into()))?;
+        return Ok(fit(1.0, e, None));
+    }
+    let first = estimate(1.0, QUICK)?;
+    let found = match first {
+        Some(e) if fits(&e) => Search { below: None, fit: Some((1.0, e)), largest: 1.0 },
+        _ => search(1.0, first, |s| estimate(s, QUICK), limit)?,
+    };
+    let Some((scale, _)) = found.fit else {
+        let e = last_estimate(found.largest, |s| estimate(s, FULL))?;
+        return Ok(fit(found.largest, e, found.below));
+    };
+    // The check: the estimate's own sample at the scale found.
+    match estimate(scale, FULL)? {
+        Some(e) if fits(&e) => Ok(fit(scale, e, found.below)),
+        over => {
+            let more = search(scale, over, |s| estimate(s, FULL), limit)?;
+            match more.fit {
+                Some((s, e)) => Ok(fit(s, e, more.below)),
+                None => {
+                    let e = last_estimate(more.largest, |s| estimate(s, FULL))?;
+                    Ok(fit(more.largest, e, more.below))
+                }
+            }
         }
     }
-    unreachable!("the last round returns")
+}
+
+/// What [`search`] found: the largest scale over the budget, the smallest scale that
+/// fits (within [`BUDGET_STEP`] of it) with its estimate, and the largest scale tried.
+struct Search {
+    below: Option<f64>,
+    fit: Option<(f64, Estimate)>,
+    largest: f64,
+}
+
+/// [`budget_scale`]'s growth rounds from `scale` (whose estimate `over`, None where
+/// over the sample limit, is over `limit` triangles), then its bisection.
+fn search(scale: f64, over: Option<Estimate>, estimate: impl Fn(f64) -> Result<Option<Estimate>>, limit: f64) -> Result<Search> {
+    let fits = |e: &Estimate| e.triangles as f64 <= limit;
+    let (mut below, mut current) = (scale, over);
+    let mut previous: Option<(f64, Estimate)> = None;
+    let mut found = None;
+    for _ in 0..BUDGET_ROUNDS {
+        let growth = match current {
+            None => 2.0,
+            Some(e) => {
+                // How far over (against what fits) and the count's power of the scale
+                // between the last two estimates (the square to begin).
+                let over = e.triangles as f64 / limit;
+                let power = match previous {
+                    Some((s0, e0)) if e0.triangles > e.triangles => ((e0.triangles as f64 / e.triangles as f64).ln() / (below / s0).ln()).clamp(0.5, 2.0),
+                    Some(_) => 0.5,
+                    None => 2.0,
+                };
+                // A tenth beyond where the power law says it fits: bisection finds the edge.
+                (over.powf(1.0 / power) * 1.1).clamp(BUDGET_MIN_GROWTH, BUDGET_MAX_GROWTH)
+            }
+        };
+        let next = below * growth;
+        match estimate(next)? {
+            Some(e) if fits(&e) => {
+                found = Some((next, e));
+                break;
+            }
+            e => {
+                previous = current.map(|c| (below, c));
+                (below, current) = (next, e);
+            }
+        }
+    }
+    let Some((mut hi, mut at)) = found else {
+        return Ok(Search { below: Some(below), fit: None, largest: below });
+    };
+    let largest = hi;
+    while hi / below > 1.0 + BUDGET_STEP {
+        let mid = (hi * below).sqrt();
+        match estimate(mid)? {
+            Some(e) if fits(&e) => (hi, at) = (mid, e),
+            _ => below = mid,
+        }
+    }
+    Ok(Search { below: Some(below), fit: Some((hi, at)), largest })
+}
+
+/// The estimate at `scale`, the largest a search reached without a fit (over the
+/// sample limit there: refused, as the bake would be).
+fn last_estimate(scale: f64, estimate: impl FnOnce(f64) -> Result<Option<Estimate>>) -> Result<Estimate> {
+    estimate(scale)?.ok_or_else(|| Error::OverLimit(format!("even tiles {scale:.1} times larger are over the sample limit")))
 }
 
 #[cfg(test)]
