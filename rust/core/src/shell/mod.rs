@@ -28,6 +28,7 @@ pub(crate) mod restore;
 pub(crate) mod room;
 pub mod thickness;
 pub mod timing;
+pub(crate) mod trade;
 
 pub use directors::{build_shell, build_shell_watched, Shell, ShellParams, Side};
 pub use geometry::{build_geometry, prisms, shell_geometry, Cell, ShellMesh, ShellOutput};

@@ -8,10 +8,11 @@
 //! [`GOAL`] of its target where the normal-offset shell has no defect around it
 //! ([`NormalRoom`]), and for its short neighbours, this pass tries the [`ATTEMPTS`]
 //! in turn: the full target along its own direction (then 96% and just over 95% of
-//! it), then turned onto its normal alone, then with its neighbours towards their
-//! normals, in sweeps while one keeps something, and once more after the shares
-//! below (a try beside a neighbour still turned, short or flat often fits once that
-//! neighbour has moved: issue 14's 95% rule). Vertices still
+//! it), then turned onto its normal alone (whole, then just over 95%), then with its
+//! neighbours towards their normals, in sweeps while one keeps something (each sweep
+//! over the vertices beside a director the last one moved), and once more after the
+//! shares below (a try beside a neighbour still turned, short or flat often fits
+//! once that neighbour has moved: issue 14's 95% rule). Vertices still
 //! below [`FLAT`] of their target after that (pressed flat beside a base's own
 //! crossings) are then lifted alone to shares of it ([`PARTIAL`]), smallest first:
 //! a vertex goes on to the next share only while its last one fit, and a share is
@@ -20,7 +21,9 @@
 //! around it, so a clean shell stays clean;
 //! each check only undoes tries: first for what needs no skin tree (cells, skins
 //! against the base), then for the rest, and after that only around what it undid;
-//! the batches are bounded, so the pass always ends.
+//! the batches are bounded, so the pass always ends. Last, the vertices with room
+//! still short get the joint trade ([`super::trade`]): lifted to 95% while what
+//! blocks them turns or gives up length, the mean ratio kept.
 
 use super::defects::{Checker, Dirty, Findings};
 use super::intersect::TriBvh;
@@ -45,14 +48,17 @@ pub const GOAL: f32 = 0.95;
 /// torus knot). Just over 95% along its own direction ([`AT_GOAL`], alone and with
 /// its short neighbours) comes after 96%: on the torus knot at exterior 20% vertices
 /// with room fit at 95% where 96% crosses a neighbour's skin (issue 14).
-const ATTEMPTS: [(f32, u32, f32); 8] =
-    [(0.0, 0, 1.0), (0.0, 0, REACH), (0.0, 0, AT_GOAL), (1.0, 0, 1.0), (0.5, 1, 1.0), (1.0, 1, 1.0), (0.5, 1, REACH), (0.0, 1, AT_GOAL)];
+/// Turned alone onto its normal it is tried at just over 95% too, where the whole
+/// target crosses a facing skin (and the room-rule test's claim, that a short vertex
+/// with room fits neither way alone at 95%, is one the restore checks).
+const ATTEMPTS: [(f32, u32, f32); 9] =
+    [(0.0, 0, 1.0), (0.0, 0, REACH), (0.0, 0, AT_GOAL), (1.0, 0, 1.0), (1.0, 0, AT_GOAL), (0.5, 1, 1.0), (1.0, 1, 1.0), (0.5, 1, REACH), (0.0, 1, AT_GOAL)];
 
 /// The share of the target the last attempts settle for.
 const REACH: f32 = 0.96;
 
 /// Just above [`GOAL`]: the least length that meets it.
-const AT_GOAL: f32 = 0.951;
+pub(super) const AT_GOAL: f32 = 0.951;
 
 /// Most sweeps over [`ATTEMPTS`].
 const SWEEPS: usize = 4;
@@ -63,7 +69,7 @@ const NEIGHBOUR_ATTEMPTS: usize = 1;
 const NEIGHBOUR_RINGS: u32 = 2;
 
 /// A director's shape: its base offset and director.
-type Shape = (Vec3, Vec3);
+pub(super) type Shape = (Vec3, Vec3);
 
 /// What a try replaced: vertex, shape and length.
 type Saved = Vec<(u32, Shape, f32)>;
@@ -131,7 +137,8 @@ pub(crate) fn restore(
     // how the vertices are numbered (a kept shell and a fresh one agree).
     let code = crate::mesh::morton_codes(mesh.positions());
     tries.sort_unstable_by_key(|&v| (code[v as usize], v));
-    let mut attempt = Attempts { checker, outer, mesh, stamp: vec![0u32; checker.cells.len()], batch_id: 0, dirty: checker.clean(), cancel, tried: 0 };
+    let mut attempt =
+        Attempts { checker, outer, mesh, stamp: vec![0u32; checker.cells.len()], batch_id: 0, dirty: checker.clean(), cancel, tried: 0, moved: Vec::new() };
     let mut restored = 0;
     let timer = super::timing::Stage::start("restore: whole targets");
     // Sweeps over the attempts while one keeps something: a try that failed beside
@@ -140,6 +147,7 @@ pub(crate) fn restore(
         let mut restored = 0;
         for sweep in 0..SWEEPS {
             let mut kept_in_sweep = 0;
+            attempt.moved.clear();
             for (level, &(t, rings, reach)) in ATTEMPTS.iter().enumerate() {
                 if first && sweep == 0 && level == NEIGHBOUR_ATTEMPTS {
                     tries.retain(|c| with_room.binary_search(c).is_ok());
@@ -152,6 +160,12 @@ pub(crate) fn restore(
             if kept_in_sweep == 0 || tries.is_empty() {
                 break;
             }
+            // Only the vertices beside a director this sweep moved: the others'
+            // cells are as they were when their tries failed.
+            let moved = std::mem::take(&mut attempt.moved);
+            let mut near = vec![false; shell.target.len()];
+            moved.iter().flat_map(|&w| checker.cell_corners_around(w as usize)).chain(moved.iter().copied()).for_each(|w| near[w as usize] = true);
+            tries.retain(|&v| near[v as usize]);
             tries.sort_unstable_by_key(|&v| (code[v as usize], v));
         }
         restored
@@ -218,7 +232,16 @@ pub(crate) fn restore(
     if !again.is_empty() {
         restored += sweeps(&mut attempt, shell, again, false);
     }
-    Restored { kept: restored, tried: attempt.tried, partial }
+    // Last, the joint trade for the vertices with room still short.
+    drop(_timer);
+    let _timer = super::timing::Stage::start("restore: trades");
+    let left: Vec<u32> = {
+        let mut left: Vec<u32> = with_room.iter().copied().filter(|&v| shell.achieved[v as usize] < GOAL * shell.target[v as usize]).collect();
+        left.sort_unstable_by_key(|&v| (code[v as usize], v));
+        left
+    };
+    let traded = super::trade::trade(checker, attempt.outer, mesh, shell, &room.shell, &left, &mut attempt.dirty, cancel);
+    Restored { kept: restored, tried: attempt.tried, partial, traded }
 }
 
 /// What [`restore`] did: tries (groups of directors lengthened together) kept, made
@@ -228,6 +251,8 @@ pub(crate) struct Restored {
     pub kept: usize,
     pub tried: usize,
     pub partial: usize,
+    /// Vertices lifted by the joint trade ([`super::trade`]).
+    pub traded: usize,
 }
 
 /// Shares of the target tried, in turn, for the vertices still short after
@@ -263,6 +288,8 @@ struct Attempts<'a> {
     cancel: Option<&'a crate::progress::Progress>,
     /// Tries made so far.
     tried: usize,
+    /// The vertices of the groups kept since last cleared.
+    moved: Vec<u32>,
 }
 
 impl Attempts<'_> {
@@ -305,7 +332,10 @@ impl Attempts<'_> {
             let kept = keep_clean(checker, self.outer, self.mesh, shell, &saved, &mut self.dirty);
             for ((c, _), (outcome, saved)) in batch.into_iter().zip(kept.into_iter().zip(&saved)) {
                 match (outcome, saved.is_empty(), bulk) {
-                    (Outcome::Kept, false, _) => restored += 1,
+                    (Outcome::Kept, false, _) => {
+                        restored += 1;
+                        self.moved.extend(saved.iter().map(|s| s.0));
+                    }
                     (_, _, true) => pending.push(c),
                     (outcome, _, false) => failed.push(Failed { vertex: c, joint: outcome == Outcome::Joint }),
                 }
@@ -351,10 +381,6 @@ fn rings_around(checker: &Checker, c: u32, rings: u32) -> Vec<(u32, u32)> {
 /// its target where short of `enough` of it ([`GOAL`] or less); returns what the
 /// directors were.
 fn propose(shell: &mut Shell, normal: &Shell, members: &[(u32, f32)], (enough, reach): (f32, f32)) -> Saved {
-    let unit = |s: &Shell, v: usize| -> Option<Shape> {
-        let l = s.directors[v].length();
-        (l > 0.0 && l.is_finite()).then(|| (s.base_offset[v] / l, s.directors[v] / l))
-    };
     let mut saved = Vec::with_capacity(members.len());
     for &(w, t) in members {
         let w = w as usize;
@@ -370,6 +396,12 @@ fn propose(shell: &mut Shell, normal: &Shell, members: &[(u32, f32)], (enough, r
         set(shell, w, (b * length, d * length), length);
     }
     saved
+}
+
+/// The unit shape of `v`'s director in `s` (None where it has no length).
+pub(super) fn unit(s: &Shell, v: usize) -> Option<Shape> {
+    let l = s.directors[v].length();
+    (l > 0.0 && l.is_finite()).then(|| (s.base_offset[v] / l, s.directors[v] / l))
 }
 
 /// Checks the tried groups (`saved`: what each replaced) and undoes every group a
@@ -473,7 +505,7 @@ fn blame(checker: &Checker, found: &Findings, saved: &[Saved], live: &[usize]) -
 
 /// The unit shape `t` of the way from `from` towards `to`, scaled so its director has
 /// unit length (None where they cancel out).
-fn blend(from: Option<Shape>, to: Option<Shape>, t: f32) -> Option<Shape> {
+pub(super) fn blend(from: Option<Shape>, to: Option<Shape>, t: f32) -> Option<Shape> {
     match (from, to) {
         (Some(a), Some(b)) => {
             let d = a.1.lerp(b.1, t);
@@ -485,7 +517,7 @@ fn blend(from: Option<Shape>, to: Option<Shape>, t: f32) -> Option<Shape> {
     }
 }
 
-fn set(shell: &mut Shell, v: usize, shape: Shape, length: f32) {
+pub(super) fn set(shell: &mut Shell, v: usize, shape: Shape, length: f32) {
     (shell.base_offset[v], shell.directors[v]) = shape;
     shell.achieved[v] = length;
 }

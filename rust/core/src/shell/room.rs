@@ -267,10 +267,9 @@ mod tests {
 
     /// The stop on the hand (fingers 2% of the diagonal apart) subdivided twice (51k
     /// vertices, the resolution `bench_shell.py` measures) at exterior 20%. Measured
-    /// here it does not fire widely: it shortens 20 traced directors (on the hand at
-    /// its generated resolution 4, and the repair takes 15 rounds with it against 13
-    /// without), the repair takes 38 rounds either way. Asserted: it fires, both
-    /// shells are clean, the repair runs no more rounds, and the mean ratio and the
+    /// here it does not fire widely: it shortens 20 traced directors, and the repair
+    /// took 38 rounds either way. Asserted: it fires, both shells are clean, the
+    /// repair runs no more rounds with it than without, and the mean ratio and the
     /// share of vertices with room at 95% stay within rounding. Not asserted, as it
     /// does not hold: the least ratio among vertices with room, 0.0074 without the
     /// stop and 0.0053 with it (both far below issue 14's 95%).

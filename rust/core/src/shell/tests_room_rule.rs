@@ -1,8 +1,11 @@
 //! Issue 14's room rule: every vertex whose normal line has room (the report's
 //! normal-room test, [`NormalRoom`]) reaches 95% of its target, on the hard meshes,
-//! with no defect. Where a vertex does not, the test shows that no try the restore
-//! makes fits there on the finished shell: lengthened to 95% alone along its own
-//! direction, or turned onto its normal at 95% alone, it makes a defect.
+//! with no defect. Where a vertex does not, the test shows that neither of the
+//! restore's single-vertex tries at 95% fits there on the finished shell:
+//! lengthened to 95% alone along its own direction, or turned onto its normal at 95%
+//! alone (both among the restore's attempts, and the first step of its joint trade,
+//! [`super::trade`]), it makes a defect. The thresholds are what the restore reaches
+//! (so that a regression fails).
 
 use super::defects::Checker;
 use super::report::{shell_report, NormalRoom};
@@ -49,38 +52,43 @@ fn room_rule(name: &str, mesh: &Mesh, frac: f32) -> (f32, f32, f32) {
 }
 
 /// Two unit spheres 0.05 apart, exterior 20%: the vertices with room at the rim of
-/// the gap reach 0.93 (their chords cross the facing sphere's turned skin at 95%).
+/// the gap reach 0.93 (their chords cross the facing sphere's turned skin at 95%;
+/// the joint trade finds no clean share of the facing side's length within the
+/// mean's budget).
 #[test]
 fn nearly_touching_spheres_keep_room_vertices_near_their_target() {
     let (least, share, mean) = room_rule("two spheres", &hm::two_spheres(), 0.2);
-    assert!(least >= 0.93 && share >= 0.99 && mean >= 0.984, "{least} {share} {mean}");
+    assert!(least >= 0.93 && share >= 0.9905 && mean >= 0.984, "{least} {share} {mean}");
 }
 
 /// The torus knot with close strands: at exterior 20% the field turns and shortens
 /// most directors of the outer side; the restore's tries at exactly 95% and its
-/// sweeps after the shares lift flat neighbours raise the share at 95% from 0.31.
+/// sweeps after the shares lift flat neighbours raise the share at 95% from 0.31 to
+/// 0.37, the joint trade to 0.41 (mean ratio 0.6337 -> 0.6343).
 #[test]
 fn torus_knot_room_vertices_reach_their_target() {
     let knot = hm::torus_knot();
     let (least, share, _) = room_rule("torus knot", &knot, 0.1);
     assert!(least >= 0.88 && share >= 0.996, "{least} {share}");
     let (least, share, mean) = room_rule("torus knot", &knot, 0.2);
-    assert!(least >= 0.38 && share >= 0.36 && mean >= 0.633, "{least} {share} {mean}");
+    assert!(least >= 0.38 && share >= 0.41 && mean >= 0.634, "{least} {share} {mean}");
 }
 
 /// The open hand (fingers 2% of the diagonal apart), exterior 10% and 20%.
 #[test]
 fn hand_room_vertices_reach_their_target() {
     let hand = hm::hand();
-    let (least, share, _) = room_rule("hand", &hand, 0.1);
-    assert!(least >= 0.56 && share >= 0.999, "{least} {share}");
-    let (least, share, _) = room_rule("hand", &hand, 0.2);
-    assert!(least >= 0.82 && share >= 0.999, "{least} {share}");
+    let (least, share, mean) = room_rule("hand", &hand, 0.1);
+    assert!(least >= 0.56 && share >= 0.999 && mean >= 0.9509, "{least} {share} {mean}");
+    let (least, share, mean) = room_rule("hand", &hand, 0.2);
+    assert!(least >= 0.82 && share >= 0.9994 && mean >= 0.9078, "{least} {share} {mean}");
 }
 
-/// The blade (a thin sheet with a sharp edge), exterior 20%.
+/// The blade (a thin sheet with a sharp edge), exterior 20%: the joint trade raises
+/// the share at 95% from 0.955 to 0.983 and the mean ratio from 0.918 to 0.935. The
+/// least ratio stays 0 (a vertex at the sharp edge, pressed flat).
 #[test]
 fn blade_room_vertices_reach_their_target() {
-    let (_, share, _) = room_rule("blade", &hm::blade(), 0.2);
-    assert!(share >= 0.955, "{share}");
+    let (_, share, mean) = room_rule("blade", &hm::blade(), 0.2);
+    assert!(share >= 0.982 && mean >= 0.935, "{share} {mean}");
 }
