@@ -13,7 +13,7 @@ from test_bake_manifold import blender_defects
 
 import thicket_native as tn
 from thicket import api, mesh_io
-from thicket.pure.evaluate import FIT_SHELL_SHARE
+from thicket.pure.fit_budget import FIT_SHELL_SHARE
 
 BUDGET = 40_000
 #: Small and quick, but over the budget at the starting tiles (asserted).

@@ -186,6 +186,7 @@ def test_each_function_takes_exactly_the_keyword_settings_its_stub_names():
     calls = {
         "bake_texture": lambda **kw: tn.bake_texture(*args, **kw),
         "estimate_bake": lambda **kw: tn.estimate_bake(*args, **kw),
+        "fit_bake_tiles": lambda **kw: tn.fit_bake_tiles(*args, tile_size=0.5, **kw),
         "render_shell": lambda **kw: tn.render_shell(*args, *camera, **kw),
         "TexturedShell.__init__": lambda **kw: tn.TexturedShell(*args, **kw),
         "TexturedShell.render": lambda **kw: handle.render(*camera, **kw),

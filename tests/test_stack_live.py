@@ -5,6 +5,7 @@ path by hand and call what its timer calls: `auto_update.poll`/`wait`)."""
 import json
 import math
 import threading
+import time
 import types
 
 import bpy
@@ -365,9 +366,9 @@ def _in_flight(monkey):
 
 
 def test_a_render_starting_during_a_build_renders_its_result(scene):
-    """F12 while a live build runs: the render's handler (`render_init`) lands the
-    build before the render reads the scene. Locked interface (and background): the
-    handler writes it itself."""
+    """A render that holds the main thread (a script's, a background one) while a
+    live build runs: the render's handler (`render_init`) writes the build before the
+    render reads the scene."""
     monkey = _monkey()
     assert auto_update.on_render_init in bpy.app.handlers.render_init
     before, expected = _in_flight(monkey)
@@ -377,31 +378,47 @@ def test_a_render_starting_during_a_build_renders_its_result(scene):
     np.testing.assert_array_equal(positions(monkey.thicket.result), expected)
 
 
-def test_an_unlocked_render_waits_for_the_interface_to_write_the_build(scene, capsys):
-    """Without Lock Interface the handler runs on the render's thread while the
-    interface's timer writes the build: it returns once that write happened; past its
-    bound it lets the render go on with the previous result and says so."""
+def test_an_interface_render_touches_nothing_and_says_so(scene, capsys):
+    """F12 runs the handler on the render's thread: writing there would race the
+    interface's timers, and waiting for them could hold Blender at quit, so it writes
+    nothing, says the render shows the previous result, and the build lands later on
+    the interface's timer. A main-thread render that cannot wait that long says so too."""
     monkey = _monkey()
     before, expected = _in_flight(monkey)
-    outcome = {}
-
-    def render_thread():
-        outcome["current"] = auto_update.finish_for_render(locked=False, timeout=120.0)
-        outcome["running"] = auto_update.running(monkey)
-
-    thread = threading.Thread(target=render_thread)
+    thread = threading.Thread(target=auto_update.on_render_init, args=(bpy.context.scene,))
     thread.start()
-    while thread.is_alive():  # the interface's timer
-        auto_update.poll()
-        thread.join(0.02)
-    assert outcome == {"current": True, "running": False}
-    np.testing.assert_array_equal(positions(monkey.thicket.result), expected)
-    # Nobody writes it (the interface busy): the render does not wait for ever.
-    before, _ = _in_flight(monkey)
-    assert auto_update.finish_for_render(locked=False, timeout=0.0) is False
+    thread.join(60.0)
+    assert not thread.is_alive()
     assert "previous result" in capsys.readouterr().out
     np.testing.assert_array_equal(positions(monkey.thicket.result), before)
     auto_update.wait()
+    np.testing.assert_array_equal(positions(monkey.thicket.result), expected)
+    before, _ = _in_flight(monkey)
+    assert auto_update.finish_for_render(timeout=0.0) is False
+    assert "previous result" in capsys.readouterr().out
+    np.testing.assert_array_equal(positions(monkey.thicket.result), before)
+    auto_update.wait()
+
+
+def test_one_deadline_bounds_the_wait_for_all_builds(scene):
+    """`Builds.wait(timeout)` bounds the wait for every build together: three builds
+    that outlast it return after about `timeout` (it waited `timeout` for each build
+    in turn, 3x as long), and they are written once they end."""
+    from thicket.stack.live_build import Build, Builds, by_uid
+
+    release, written = threading.Event(), []
+    builds = Builds(lambda uid: by_uid(bpy.data.objects, uid), lambda owner, build, result: written.append(result), lambda owner, exc: None)
+    for k in range(3):
+        bpy.ops.mesh.primitive_cube_add(location=(3.0 * k, 0.0, 0.0))
+        builds.start(bpy.context.object, lambda k=k: Build(bpy.context.object, lambda owner: 0, lambda job, k=k: release.wait(60.0) and k))
+    started = time.monotonic()
+    builds.wait(2.0)
+    waited = time.monotonic() - started
+    assert not written
+    release.set()
+    builds.wait(60.0)
+    assert sorted(written) == [0, 1, 2]
+    assert waited < 4.5, waited
 
 
 def test_the_views_redraw_only_when_a_build_changes(monkeypatch):

@@ -564,7 +564,7 @@ def fit_bake_tiles(obj, index=None, progress=None, regenerate=True):
     scale, triangles, fits, below, estimates) with `settings`, what was set.
     `progress`: see the module docs (the shells, then the search); a cancel changes
     nothing."""
-    from .pure.evaluate import fit_texture_budget
+    from .pure.fit_budget import fit_texture_budget
     from .stack.guard import suspended
     from .stack.regenerate import read_source
 

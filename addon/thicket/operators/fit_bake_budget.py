@@ -1,7 +1,7 @@
 import bpy
 
 from ..api import texture_item_index
-from ..pure.evaluate import fit_texture_budget
+from ..pure.fit_budget import fit_texture_budget
 from ..stack.query import active_stack_source
 from ..stack.regenerate import read_source
 from .common import Job, JobWatch, StackOperator, WatchedOperator, error_text

@@ -7,7 +7,6 @@ Without Blender: the same function serves operators, the headless API and tests.
 import numpy as np
 
 from . import native
-from . import settings as S
 from .arrays import MeshArrays
 from .kinds import KINDS
 from .state import StackError, State
@@ -103,27 +102,18 @@ def _run(source: MeshArrays, items, progress=None, ask=False, stop=None):
     return state, None
 
 
-#: The share of `fit_texture_budget`'s progress the items before the texture take.
-FIT_SHELL_SHARE = 0.2
+def state_before(source: MeshArrays, items, index, progress=None) -> State:
+    """The stack's state just before `items[index]`: the items above it run as
+    `evaluate_stack` runs them (what a tool working on that one item reads, as
+    `pure.fit_budget` does). `progress`: as `evaluate_stack`'s."""
+    state, _ = _run(source, items[:index], progress)
+    return state
 
 
-def fit_texture_budget(source: MeshArrays, items, index, progress=None):
-    """Tiles grown to the Triangle Budget of the Volumetric Texture `items[index]`
-    (`volumetric_texture.fit_budget`: the item settings that give them, and the
-    search's result): the items before it run as `evaluate_stack` runs them (its
-    shell), then the search, nothing baked. `progress`: as `evaluate_stack`'s."""
-    from .kinds.volumetric_texture import fit_budget, texture_weights
-
-    item = items[index]
-    if not isinstance(item, S.VolumetricTexture):
-        raise StackError(f"'{item.label}' is no Volumetric Texture: only a bake has a Triangle Budget")
-    state, _ = _run(source, items[:index], _scaled(progress, 0.0, FIT_SHELL_SHARE))
-    if state.shell is None:
-        raise StackError(f"'{item.label}' needs a Shell or Offset Shell above it in the stack")
-    fit = fit_budget(state.shell, item, texture_weights(state, item), _scaled(progress, FIT_SHELL_SHARE, 1.0))
-    if progress is not None:
-        progress(1.0)
-    return fit
+def scaled_progress(progress, start, end):
+    """`progress` seen by one part of a longer piece of work: its fractions mapped into
+    [start, end]."""
+    return _scaled(progress, start, end)
 
 
 def evaluate_each(sources, progress=None, errors=(ValueError,)):

@@ -26,7 +26,7 @@ from ..operators.common import error_text
 from ..pure import live_shells, native
 from .debounce import Debounced
 from .guard import busy, suspended
-from .live_build import POLL_SECONDS, Build, Builds, by_uid, redraw_panels
+from .live_build import Build, Builds, by_uid, redraw_panels
 
 
 def _is_source(obj) -> bool:
@@ -339,34 +339,34 @@ def _in_flight() -> bool:
 
 @persistent
 def on_render_init(scene, *_args):
-    """A render (F12) renders the current results: the live builds in flight, and the
-    changes still waiting for the debounce, land before it reads the scene, within
-    `RENDER_WAIT_SECONDS` (`finish_for_render`). Blender runs this on the render's
-    thread, or on the main thread for a render that holds it (a script's
-    `bpy.ops.render.render()`), whose timers then cannot write anything."""
-    main = threading.current_thread() is threading.main_thread()
-    finish_for_render(main or bpy.app.background or scene is None or scene.render.use_lock_interface)
+    """A render renders the current results where that is safe. A render that holds
+    the main thread (a script's `bpy.ops.render.render()`, a background render) lands
+    the live builds in flight and the changes waiting for the debounce before it reads
+    the scene (`finish_for_render`). An interface render (F12) runs this on its own
+    thread: writing Blender data there races the interface's timers (which Blender
+    runs even with Lock Interface), and waiting for them can hold Blender for the
+    whole wait at quit or file load, so it only says that the render shows the
+    previous result."""
+    if threading.current_thread() is threading.main_thread():
+        finish_for_render()
+    elif _in_flight():
+        print("Thicket: a stack is still regenerating; this render shows its previous result (render again once it is done)")
 
 
-def finish_for_render(locked, timeout=None) -> bool:
-    """Makes the results current for a render starting now; whether they are. With the
-    interface locked (`locked`; background renders too) nothing else touches the data,
-    so the builds are waited for and written here. Otherwise the interface runs on:
-    its own timers write the builds (and regenerate what waits for the debounce, at
-    once while rendering: `_synchronous`), and this waits until they have. A render
-    that would wait longer renders the previous result and says so on the console."""
+def finish_for_render(timeout=None) -> bool:
+    """Makes the results current for a render starting now, on the main thread (whose
+    timers cannot run meanwhile): regenerates what waits for the debounce, then waits
+    for the builds in flight and writes them until `RENDER_WAIT_SECONDS` after it
+    began; whether they are current. Past it the render shows the previous result
+    and says so on the console."""
     if not _in_flight():
         return True
     timeout = RENDER_WAIT_SECONDS if timeout is None else timeout
-    deadline = time.monotonic() + timeout
-    if locked:
-        flush()
-        _live.wait(timeout)
-    else:
-        while _in_flight() and time.monotonic() < deadline:
-            time.sleep(POLL_SECONDS)
+    started = time.monotonic()
+    flush()
+    _live.wait(max(0.0, timeout - (time.monotonic() - started)))
     if _in_flight():
-        print(f"Thicket: a stack was still regenerating after {timeout:.0f} s; this render shows its previous result")
+        print(f"Thicket: a stack was still regenerating after {time.monotonic() - started:.1f} s; this render shows its previous result")
         return False
     return True
 

@@ -170,11 +170,12 @@ class Builds:
 
     def wait(self, timeout=60.0) -> None:
         """Waits for every build in flight (and those waiting to start) and writes
-        them (renders, tests and scripts)."""
+        them (renders, tests and scripts), within one `timeout` for all of them."""
+        deadline = time.monotonic() + timeout
         while self.builds or self._ending or self._cancelled:
             builds = [*self.builds.values(), *self._ending.values(), *self._cancelled]
             for build in builds:
-                build.job.join(timeout)
+                build.job.join(max(0.0, deadline - time.monotonic()))
             self.poll()
             if not all(build.job.done for build in builds):
                 return  # timed out

@@ -12,11 +12,13 @@ use glam::{DMat3, DVec3, Vec3};
 const TRUNCATE: f64 = 0.1;
 
 /// Sums of the planes of one piece: `AᵀA` (symmetric, its six entries), `Aᵀb` with the
-/// planes' offsets `b_i = n_i · p_i`, and the crossings' sum and count. Ju et al.
-/// keep the same sums (section 2.3 solves from `AᵀA`, `Aᵀb` and `bᵀb`); about the
-/// mass point `c` the right side is `Aᵀb - AᵀA c`, in double precision far below a
-/// float's rounding for points of a few units and a dozen planes. Kept as sums rather
-/// than the planes themselves: no array of planes to clear per cell.
+/// planes' offsets `b_i = n_i · p_i`, and the crossings' sum and count. This departs
+/// from Ju et al. (section 2.3 keeps a QR form, since the normal equations `AᵀA` lose
+/// half the digits): here they are summed in double precision and solved about the
+/// mass point `c` (right side `Aᵀb - AᵀA c`) with small singular values truncated,
+/// which for points of a few units and a dozen planes stays far below a float's
+/// rounding. Kept as sums rather than the planes themselves: no array of planes to
+/// clear per cell.
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Qef {
     /// `xx, xy, xz, yy, yz, zz`.
